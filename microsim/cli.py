@@ -1,0 +1,151 @@
+"""The command line: ``microsim <command> ...``.
+
+Exit statuses: 0 success, 1 internal failure, 2 bad input (one line on stderr that starts
+with ``error:`` and names the key or flag and what is allowed). Each command lives in
+``microsim/commands/<name>.py`` with ``register(subparsers)``; heavy modules (Embree,
+PyVista, matplotlib) are imported inside the command's ``run``, so ``microsim --help``
+and ``microsim check`` start fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import math
+import sys
+from collections.abc import Sequence
+from typing import Any, NoReturn
+
+from microsim import __version__
+from microsim.errors import InputError
+
+COMMANDS = ("check",)
+"""Command modules under ``microsim.commands``, in the order ``--help`` lists them."""
+
+
+class Parser(argparse.ArgumentParser):
+    """An ``ArgumentParser`` whose usage errors are one ``error:`` line and exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``error: <prog>: <message>`` and exit with status 2."""
+        raise InputError(f"{self.prog}: {message}")
+
+
+def add_recipe_args(p: argparse.ArgumentParser) -> None:
+    """Add the ``RECIPE`` argument and the repeatable ``--set section.key=value``."""
+    p.add_argument("recipe", metavar="RECIPE", help="recipe file (TOML), see docs/recipes.md")
+    p.add_argument("--set", dest="overrides", action="append", default=[],
+                   metavar="SECTION.KEY=VALUE",
+                   help="override a recipe value (repeatable), e.g. --set surface.alpha=0.3; "
+                        "angles in degrees")
+
+
+def add_json_arg(p: argparse.ArgumentParser) -> None:
+    """Add ``--json``: print machine-readable output instead of a table."""
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+
+
+def add_seed_arg(p: argparse.ArgumentParser, what: str) -> None:
+    """Add ``--seed N`` overriding the recipe's seed of ``what``."""
+    p.add_argument("--seed", type=nonnegative_int, default=None,
+                   help=f"override the recipe's {what} seed (integer >= 0)")
+
+
+def nonnegative_int(text: str) -> int:
+    """argparse type: an integer >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 0") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 0")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1 (plain digits or scientific like 1e6)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value) or value < 1 or not value.is_integer():
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 1")
+    return int(value)
+
+
+def finite_float(text: str) -> float:
+    """argparse type: a finite number."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+    return value
+
+
+def print_json(data: Any) -> None:
+    """Print ``data`` as JSON (NaN becomes null, so the output is strict JSON)."""
+
+    def clean(x: Any) -> Any:
+        if isinstance(x, float) and not math.isfinite(x):
+            return None
+        if isinstance(x, dict):
+            return {k: clean(v) for k, v in x.items()}
+        if isinstance(x, list | tuple):
+            return [clean(v) for v in x]
+        if hasattr(x, "tolist"):
+            return clean(x.tolist())
+        return x
+
+    print(json.dumps(clean(data), indent=2))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``microsim`` parser with every command registered."""
+    parser = Parser(
+        prog="microsim",
+        description="Microgeometry simulator: builds explicit microsurfaces, ray traces them "
+                    "with Embree as a virtual goniophotometer, and writes BRDF tables with "
+                    "error bars. Angles on the command line are in degrees.",
+    )
+    parser.add_argument("--version", action="version", version=f"microsim {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
+    for name in COMMANDS:
+        importlib.import_module(f"microsim.commands.{name}").register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the exit status.
+
+    Parameters
+    ----------
+    argv : sequence of str or None
+        Arguments without the program name (None: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        0 success, 1 internal failure, 2 bad input.
+    """
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        if args.command is None:
+            parser.print_help()
+            return 2
+        return int(args.func(args) or 0)
+    except InputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("error: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

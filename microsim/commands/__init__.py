@@ -1,0 +1,1 @@
+"""One module per ``microsim`` command; each has ``register(subparsers)``."""

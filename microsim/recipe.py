@@ -1,0 +1,330 @@
+"""Recipes: one TOML file describes one simulation.
+
+A recipe has the sections ``[surface]``, ``[material]``, ``[simulation]`` and ``[table]``
+(and an optional top-level ``description`` string). This module holds the complete schema,
+validates a recipe strictly (unknown keys are errors with a did-you-mean, types and ranges
+are checked, NaN and infinities are refused), fills in defaults, and applies command-line
+overrides ``--set section.key=value``.
+
+It imports nothing heavy, so ``microsim check`` and ``microsim --help`` start fast. Angles
+are degrees in recipes (``unit = "deg"``); the engine converts them to radians.
+
+The resolved recipe always has the form::
+
+    {"description": str,
+     "surface": {"kind": ..., <every key of that kind with its default>},
+     "material": {<part>: {"kind": ..., <material keys>} for every part of the surface},
+     "simulation": {...}, "table": {...}}
+"""
+
+from __future__ import annotations
+
+import copy
+import tomllib
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+from microsim.errors import InputError
+from microsim.schema import REQUIRED, Key, check_section, suggest, unknown_key
+from microsim.surfaces.params import SURFACE_KINDS
+
+def _n(doc: str, default: Any = REQUIRED, **kw: Any) -> Key:
+    """A float key."""
+    return Key("float", default, doc, **kw)
+
+
+# --- materials --------------------------------------------------------------------------
+MATERIAL_KINDS: dict[str, dict[str, Key]] = {
+    "mirror": {},
+    "conductor": {
+        "eta": Key("rgb", [0.2, 0.92, 1.1], "Real part of the complex index of refraction "
+                   "(R, G, B); default gold.", low=0.0, low_open=True),
+        "k": Key("rgb", [3.9, 2.45, 2.14], "Extinction coefficient (R, G, B); default gold.",
+                 low=0.0),
+    },
+    "dielectric": {
+        "eta": _n("Relative index of refraction (outside medium is air). The transmitted "
+                  "part is absorbed and reported.", 1.5, low=1.0, high=10.0),
+    },
+    "lambertian": {
+        "albedo": Key("rgb", 0.8, "Diffuse reflectance (R, G, B).", low=0.0, high=1.0),
+    },
+}
+MATERIAL_DOCS = {
+    "mirror": "Perfect specular reflection, F = 1.",
+    "conductor": "Specular reflection with exact conductor Fresnel per colour channel.",
+    "dielectric": "Specular reflection with dielectric Fresnel; the refracted part is "
+    "absorbed and reported as lost energy.",
+    "lambertian": "Cosine-weighted diffuse reflection with the given albedo.",
+}
+
+# --- simulation and table ---------------------------------------------------------------
+SIMULATION: dict[str, Key] = {
+    "theta_i": Key("floats", [0.0, 30.0, 60.0, 80.0], "Incident polar angles.", unit="deg",
+                   low=0.0, high=90.0, high_open=True),
+    "phi_i": Key("floats", [0.0], "Incident azimuths (used for anisotropic surfaces).",
+                 unit="deg", low=0.0, high=360.0, high_open=True),
+    "rays": Key("int", 200_000, "Rays launched per incident direction.", low=1,
+                high=10**10),
+    "bounces": Key("int", 16, "Maximum scattering order; paths alive after it are "
+                   "reported as lost energy.", low=1, high=10_000),
+    "seed": Key("int", 0, "Seed of the tracer's random numbers.", low=0, high=2**63 - 1),
+    "target_error": _n("Adaptive stop: add batches until the median relative standard "
+                       "error over lobe bins is at most this.", None, low=0.0, low_open=True,
+                       high=1.0),
+    "max_rays": Key("int", None, "Adaptive stop: upper limit of rays per incident "
+                    "direction.", low=1, high=10**11),
+}
+TABLE: dict[str, Key] = {
+    "theta_bins": Key("int", 32, "Bins in theta_o, equal in projected solid angle "
+                      "(uniform in cos^2 theta_o).", low=1, high=2048),
+    "phi_bins": Key("int", 64, "Bins in phi_o - phi_i over [0, 360) degrees.", low=1,
+                    high=4096),
+}
+SECTIONS = ("surface", "material", "simulation", "table")
+TOP_KEYS = ("description",) + SECTIONS
+
+
+def _table(raw: Any, name: str) -> Mapping[str, Any]:
+    if not isinstance(raw, Mapping):
+        raise InputError(f"{name}: must be a table ([{name}]), got {raw!r}")
+    return raw
+
+
+def _material(raw: Mapping[str, Any], where: str) -> dict:
+    kind = raw.get("kind", REQUIRED)
+    if kind is REQUIRED:
+        raise InputError(f"{where}kind: missing; must be one of "
+                         + ", ".join(repr(k) for k in MATERIAL_KINDS))
+    if kind not in MATERIAL_KINDS:
+        raise InputError(f"{where}kind = {kind!r}: must be one of "
+                         + ", ".join(repr(k) for k in MATERIAL_KINDS)
+                         + suggest(str(kind), MATERIAL_KINDS))
+    rest = {k: v for k, v in raw.items() if k != "kind"}
+    return {"kind": kind, **check_section(rest, MATERIAL_KINDS[kind], where)}
+
+
+def _materials(raw: Any, parts: tuple[str, ...]) -> dict:
+    """Resolve ``[material]``: one material for every part, or one sub-table per part."""
+    raw = _table(raw, "material")
+    if not raw:
+        return {part: {"kind": "mirror"} for part in parts}
+    if "kind" in raw or not all(isinstance(v, Mapping) for v in raw.values()):
+        one = _material(raw, "material.")
+        return {part: copy.deepcopy(one) for part in parts}
+    for name in raw:
+        if name not in parts:
+            raise InputError(f"material.{name}: not a part of this surface"
+                             f"{suggest(name, parts)}; parts: {', '.join(parts)}")
+    missing = [p for p in parts if p not in raw]
+    if missing:
+        raise InputError(f"material.{missing[0]}: missing; give [material.{missing[0]}] "
+                         f"(parts of this surface: {', '.join(parts)}) or one [material] "
+                         "for all parts")
+    return {p: _material(_table(raw[p], f"material.{p}"), f"material.{p}.") for p in parts}
+
+
+def resolve(raw: Mapping[str, Any]) -> dict:
+    """Validate a whole recipe and fill in every default.
+
+    Parameters
+    ----------
+    raw : mapping
+        The parsed TOML (after overrides).
+
+    Returns
+    -------
+    dict
+        The resolved recipe (see the module docstring for its form).
+
+    Raises
+    ------
+    InputError
+        For the first problem found, naming the key and what is allowed.
+    """
+    for name in raw:
+        if name not in TOP_KEYS:
+            raise unknown_key("", name, TOP_KEYS)
+    description = raw.get("description", "")
+    if not isinstance(description, str):
+        raise InputError(f"description = {description!r}: must be a string")
+    if "surface" not in raw:
+        raise InputError("surface: missing; a recipe needs a [surface] table with kind = "
+                         + " | ".join(repr(k) for k in SURFACE_KINDS))
+    surface = _table(raw["surface"], "surface")
+    kind = surface.get("kind")
+    if kind is None:
+        raise InputError("surface.kind: missing; must be one of "
+                         + ", ".join(repr(k) for k in SURFACE_KINDS))
+    if kind not in SURFACE_KINDS:
+        raise InputError(f"surface.kind = {kind!r}: must be one of "
+                         + ", ".join(repr(k) for k in SURFACE_KINDS)
+                         + suggest(str(kind), SURFACE_KINDS))
+    spec = SURFACE_KINDS[kind]
+    rest = {k: v for k, v in surface.items() if k != "kind"}
+    surf = {"kind": kind, **check_section(rest, spec.keys, "surface.")}
+    if spec.check is not None:
+        spec.check(surf)
+    return {
+        "description": description,
+        "surface": surf,
+        "material": _materials(raw.get("material", {}), spec.parts),
+        "simulation": check_section(_table(raw.get("simulation", {}), "simulation"),
+                                    SIMULATION, "simulation."),
+        "table": check_section(_table(raw.get("table", {}), "table"), TABLE, "table."),
+    }
+
+
+# --- loading and overrides --------------------------------------------------------------
+def parse_override(text: str) -> tuple[list[str], Any]:
+    """Split ``section.key=value`` into a key path and a TOML-parsed value.
+
+    The value is read as a TOML value (``0.3``, ``[0, 45]``, ``"gold"``, ``true``); a bare
+    word that is not valid TOML is taken as a string, so ``--set material.kind=mirror``
+    works without quotes.
+
+    Parameters
+    ----------
+    text : str
+        The argument of ``--set``.
+
+    Returns
+    -------
+    path : list of str
+        The dotted key split at the dots, e.g. ``["surface", "alpha"]``.
+    value : Any
+        The parsed value.
+    """
+    name, sep, value = text.partition("=")
+    name = name.strip()
+    path = name.split(".")
+    if not sep or len(path) < 2 or not all(path):
+        raise InputError(f"--set {text!r}: must be section.key=value, e.g. "
+                         "--set surface.alpha=0.3")
+    value = value.strip()
+    try:
+        parsed = tomllib.loads(f"v = {value}")["v"]
+    except tomllib.TOMLDecodeError:
+        parsed = value
+    return path, parsed
+
+
+def apply_overrides(raw: dict, overrides: Iterable[str]) -> dict:
+    """Return a copy of ``raw`` with every ``--set`` override applied in order."""
+    out = copy.deepcopy(raw)
+    for text in overrides:
+        path, value = parse_override(text)
+        node = out
+        for i, part in enumerate(path[:-1]):
+            child = node.setdefault(part, {})
+            if not isinstance(child, dict):
+                raise InputError(f"--set {text!r}: {'.'.join(path[:i + 1])} is not a table")
+            node = child
+        if path[0] == "material" and path[-1] == "kind" and len(path) == 2:
+            # switching the single material's kind drops the old kind's parameters
+            node.clear()
+        node[path[-1]] = value
+    return out
+
+
+def read_toml(path: str | Path) -> dict:
+    """Parse a TOML file, turning a missing file or a syntax error into ``InputError``."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: not valid TOML: {exc}") from None
+
+
+def load(path: str | Path, overrides: Iterable[str] = ()) -> dict:
+    """Read, override and resolve a recipe file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The recipe (TOML).
+    overrides : iterable of str
+        ``section.key=value`` strings, applied in order.
+
+    Returns
+    -------
+    dict
+        The resolved recipe. Relative ``path`` keys (e.g. ``surface.path`` of a ``mesh``
+        surface) are made absolute against the recipe's folder.
+    """
+    path = Path(path)
+    recipe = resolve(apply_overrides(read_toml(path), overrides))
+    for section in ("surface",):
+        for name, key in SURFACE_KINDS[recipe["surface"]["kind"]].keys.items():
+            if key.kind == "path" and name in recipe[section]:
+                recipe[section][name] = str((path.parent / recipe[section][name]).resolve())
+    return recipe
+
+
+def to_toml(recipe: Mapping[str, Any]) -> str:
+    """Write a resolved recipe back as TOML (the output of ``microsim check``)."""
+
+    def value(v: Any) -> str:
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str):
+            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        if isinstance(v, list):
+            return "[" + ", ".join(value(x) for x in v) + "]"
+        return repr(v)
+
+    lines = []
+    if recipe.get("description"):
+        lines.append(f"description = {value(recipe['description'])}")
+    for section in SECTIONS:
+        body = recipe[section]
+        if section == "material":
+            for part, mat in body.items():
+                lines.append(f"\n[material.{part}]")
+                lines += [f"{k} = {value(v)}" for k, v in mat.items()]
+            continue
+        lines.append(f"\n[{section}]")
+        lines += [f"{k} = {value(v)}" for k, v in body.items()]
+    return "\n".join(lines).lstrip("\n") + "\n"
+
+
+def schema_markdown() -> str:
+    """The schema as Markdown tables: the generated part of docs/recipes.md."""
+
+    def default(key: Key) -> str:
+        if key.default is REQUIRED:
+            return "required"
+        if key.default is None:
+            return "optional"
+        return f"`{key.default}`"
+
+    def rows(keys: Mapping[str, Key]) -> list[str]:
+        out = ["| key | default | allowed | meaning |", "| --- | --- | --- | --- |"]
+        out += [f"| `{n}` | {default(k)} | {k.allowed()} | {k.doc} |" for n, k in keys.items()]
+        return out
+
+    lines = ["## `[surface]`", "",
+             "`kind` (required) chooses the generator: "
+             + ", ".join(f"`{k}`" for k in SURFACE_KINDS) + ".", ""]
+    for kind, spec in SURFACE_KINDS.items():
+        lines += [f"### `kind = \"{kind}\"`", "", spec.doc, "",
+                  "Parts (for `[material.<part>]`): "
+                  + ", ".join(f"`{p}`" for p in spec.parts) + ".", ""]
+        lines += rows(spec.keys) + [""]
+    lines += ["## `[material]`", "",
+              "Either one material for every part (`[material]` with `kind`), or one "
+              "sub-table per part (`[material.<part>]`). Without `[material]` every part "
+              "is a `mirror`.", ""]
+    for kind, keys in MATERIAL_KINDS.items():
+        lines += [f"### `kind = \"{kind}\"`", "", MATERIAL_DOCS[kind], ""]
+        lines += (rows(keys) if keys else ["No parameters."]) + [""]
+    lines += ["## `[simulation]`", ""] + rows(SIMULATION) + [""]
+    lines += ["## `[table]`", ""] + rows(TABLE) + [""]
+    return "\n".join(lines)

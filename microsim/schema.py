@@ -1,0 +1,193 @@
+"""The vocabulary of recipe keys: a key's type, default, range, and its validation.
+
+Every section of a recipe (and every surface kind) is a mapping of names to ``Key``.
+``check_section`` validates a user's table against such a mapping: unknown keys are
+errors with a did-you-mean, types and ranges are checked, NaN and infinities are refused,
+and defaults are filled in. Pure Python, imports nothing heavy.
+"""
+
+from __future__ import annotations
+
+import copy
+import difflib
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from microsim.errors import InputError
+
+REQUIRED: Any = "<required>"
+"""Marker for a key without a default."""
+
+
+@dataclass(frozen=True)
+class Key:
+    """One recipe key: its type, default, allowed range and meaning.
+
+    Parameters
+    ----------
+    kind : str
+        ``"float"``, ``"int"``, ``"bool"``, ``"str"``, ``"path"``, ``"floats"`` (a list of
+        numbers), ``"rgb"`` (a number or a list of three), ``"pair"`` (a list of two numbers).
+    default : Any
+        The default value; ``REQUIRED`` if the key must be given; ``None`` if the key is
+        optional and has no default (it is then absent unless given).
+    doc : str
+        One sentence for docs/recipes.md and error messages.
+    unit : str
+        ``"deg"`` for angles, ``"length"`` for tile units, ``""`` for dimensionless.
+    low, high : float or None
+        Inclusive bounds (exclusive where ``low_open``/``high_open``), applied to every
+        element of list kinds.
+    choices : tuple of str
+        Allowed values of a ``"str"`` key (empty: any string).
+    length : int or None
+        Required list length for ``"floats"`` (None: any non-empty length).
+    """
+
+    kind: str
+    default: Any = REQUIRED
+    doc: str = ""
+    unit: str = ""
+    low: float | None = None
+    high: float | None = None
+    low_open: bool = False
+    high_open: bool = False
+    choices: tuple[str, ...] = ()
+    length: int | None = None
+
+    def allowed(self) -> str:
+        """Describe the allowed values in words, for error messages and docs."""
+        if self.choices:
+            return "one of " + ", ".join(repr(c) for c in self.choices)
+        what = {
+            "float": "a number",
+            "int": "an integer",
+            "bool": "true or false",
+            "str": "a string",
+            "path": "a file path (string)",
+            "floats": "a non-empty list of numbers",
+            "rgb": "a number or a list of 3 numbers",
+            "pair": "a list of 2 numbers",
+        }[self.kind]
+        if self.kind == "floats" and self.length:
+            what = f"a list of {self.length} numbers"
+        bounds = []
+        if self.low is not None:
+            bounds.append(f"{'>' if self.low_open else '>='} {self.low:g}")
+        if self.high is not None:
+            bounds.append(f"{'<' if self.high_open else '<='} {self.high:g}")
+        if bounds:
+            what += " " + " and ".join(bounds)
+        if self.unit == "deg":
+            what += " (degrees)"
+        return what
+
+
+
+def suggest(name: str, options: Iterable[str]) -> str:
+    """``" (did you mean 'x'?)"`` for the closest option, or ``""``."""
+    close = difflib.get_close_matches(name, list(options), n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+def unknown_key(where: str, name: str, options: Iterable[str]) -> InputError:
+    options = sorted(options)
+    return InputError(f"{where}{name}: unknown key{suggest(name, options)}; "
+                      f"allowed: {', '.join(options) if options else 'none'}")
+
+
+def _number(value: Any, name: str, key: Key, integer: bool = False) -> float | int:
+    """Check one number (type, finiteness, bounds) and return it."""
+    bad = InputError(f"{name} = {value!r}: must be {key.allowed()}")
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise bad
+    if integer and not isinstance(value, int):
+        if not float(value).is_integer():
+            raise bad
+        value = int(value)
+    if not integer and not math.isfinite(value):
+        raise bad
+    if key.low is not None and (value < key.low or (key.low_open and value == key.low)):
+        raise bad
+    if key.high is not None and (value > key.high or (key.high_open and value == key.high)):
+        raise bad
+    return value if integer else float(value)
+
+
+def check_value(value: Any, name: str, key: Key) -> Any:
+    """Validate one value against its key and return it in canonical form.
+
+    Parameters
+    ----------
+    value : Any
+        The value from TOML or from ``--set``.
+    name : str
+        Dotted name for the error message, e.g. ``"surface.alpha"``.
+    key : Key
+        The schema entry.
+
+    Returns
+    -------
+    Any
+        ``float`` for floats, ``int`` for ints, a list of floats for list kinds (``"rgb"``
+        always becomes three floats).
+    """
+    bad = InputError(f"{name} = {value!r}: must be {key.allowed()}")
+    if key.kind == "float":
+        return _number(value, name, key)
+    if key.kind == "int":
+        return _number(value, name, key, integer=True)
+    if key.kind == "bool":
+        if not isinstance(value, bool):
+            raise bad
+        return value
+    if key.kind in ("str", "path"):
+        if not isinstance(value, str) or not value:
+            raise bad
+        if key.choices and value not in key.choices:
+            raise InputError(f"{name} = {value!r}: must be {key.allowed()}"
+                             f"{suggest(value, key.choices)}")
+        return value
+    if key.kind == "rgb" and not isinstance(value, list):
+        return [_number(value, name, key)] * 3
+    if not isinstance(value, list) or not value:
+        raise bad
+    want = {"rgb": 3, "pair": 2}.get(key.kind, key.length)
+    if want is not None and len(value) != want:
+        raise bad
+    return [_number(v, f"{name}[{i}]", key) for i, v in enumerate(value)]
+
+
+def check_section(raw: Mapping[str, Any], keys: Mapping[str, Key], where: str) -> dict:
+    """Validate a table against a schema and fill in defaults.
+
+    Parameters
+    ----------
+    raw : mapping
+        The user's table.
+    keys : mapping of str to Key
+        The schema.
+    where : str
+        Prefix for error messages, e.g. ``"surface."``.
+
+    Returns
+    -------
+    dict
+        Every key of the schema that is given or has a default.
+    """
+    for name in raw:
+        if name not in keys:
+            raise unknown_key(where, name, keys)
+    out = {}
+    for name, key in keys.items():
+        if name in raw:
+            out[name] = check_value(raw[name], where + name, key)
+        elif key.default is REQUIRED:
+            raise InputError(f"{where}{name}: missing; must be {key.allowed()}")
+        elif key.default is not None:
+            out[name] = copy.deepcopy(key.default)
+    return out
+
+

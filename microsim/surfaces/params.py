@@ -1,0 +1,199 @@
+"""The ``[surface]`` keys of every generator: names, defaults, ranges, units, part names.
+
+Lengths are in tile units (any consistent unit: the BRDF is scale-free, only ratios
+matter). Angles are degrees. Pure Python: imported by the recipe validator, which must
+start fast.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from microsim.errors import InputError
+from microsim.schema import REQUIRED, Key
+
+
+@dataclass(frozen=True)
+class SurfaceKind:
+    """One generator's recipe vocabulary.
+
+    Parameters
+    ----------
+    doc : str
+        What the generator builds (for docs/recipes.md).
+    parts : tuple of str
+        Material part names; face material id ``i`` is ``parts[i]``.
+    keys : dict of str to Key
+        The ``[surface]`` keys besides ``kind``.
+    check : callable or None
+        Cross-key rules on the resolved section; raises ``InputError``.
+    """
+
+    doc: str
+    parts: tuple[str, ...]
+    keys: dict[str, Key] = field(default_factory=dict)
+    check: Callable[[dict[str, Any]], None] | None = None
+
+
+def _f(doc: str, default: Any = REQUIRED, **kw: Any) -> Key:
+    return Key("float", default, doc, **kw)
+
+
+SEED = Key("int", 0, "Seed of the generator's random numbers.", low=0, high=2**63 - 1)
+SIZE = _f("Tile side length (period along x and y).", 1.0, unit="length", low=0.0,
+          low_open=True)
+
+
+def _check_gaussian(s: dict[str, Any]) -> None:
+    """Exactly one of: ``alpha``; ``alpha_x`` and ``alpha_y``; ``sigma`` (with
+    ``correlation_length``)."""
+    given = [k for k in ("alpha", "alpha_x", "alpha_y", "sigma") if k in s]
+    ok = given in (["alpha"], ["alpha_x", "alpha_y"], ["sigma"])
+    if not ok:
+        raise InputError("surface: a gaussian surface takes exactly one of: alpha; "
+                         "alpha_x and alpha_y; sigma (with correlation_length); got "
+                         + (", ".join(given) or "none of them"))
+    if "sigma" in s and "correlation_length" not in s:
+        raise InputError("surface.correlation_length: missing; sigma needs it "
+                         "(alpha = 2 sigma / correlation_length)")
+
+
+def _check_vgroove(s: dict[str, Any]) -> None:
+    if ("slope" in s) == ("alpha" in s):
+        raise InputError("surface: a vgroove surface takes exactly one of slope, alpha")
+
+
+def _check_cylinders(s: dict[str, Any]) -> None:
+    if s["spacing"] < 2 * s["radius"]:
+        raise InputError(f"surface.spacing = {s['spacing']!r}: must be >= 2 * radius "
+                         f"= {2 * s['radius']:g} (cylinders must not overlap)")
+    if s["sink"] >= 2 * s["radius"]:
+        raise InputError(f"surface.sink = {s['sink']!r}: must be < 2 * radius "
+                         f"= {2 * s['radius']:g} (the cylinder would vanish)")
+
+
+SURFACE_KINDS: dict[str, SurfaceKind] = {
+    "flat": SurfaceKind(
+        "A flat square tile at z = 0: the trivial reference.",
+        ("base",),
+        {"size": SIZE, "seed": SEED},
+    ),
+    "gaussian": SurfaceKind(
+        "A Gaussian random height field with autocorrelation sigma^2 exp(-r^2/tau^2), made "
+        "by spectral (FFT) synthesis on a periodic grid. Roughness alpha = 2 sigma / tau "
+        "(Walter et al. 2007's alpha, the lecture's m). Anisotropic: alpha_x, alpha_y set "
+        "different correlation lengths along the rotated x and y axes.",
+        ("base",),
+        {
+            "alpha": _f("Target roughness (isotropic).", None, low=0.0, low_open=True,
+                        high=10.0),
+            "alpha_x": _f("Target roughness along the (rotated) x axis.", None, low=0.0,
+                          low_open=True, high=10.0),
+            "alpha_y": _f("Target roughness along the (rotated) y axis.", None, low=0.0,
+                          low_open=True, high=10.0),
+            "sigma": _f("RMS height (with correlation_length instead of alpha).", None,
+                        unit="length", low=0.0, low_open=True),
+            "correlation_length": _f(
+                "Correlation length tau (of the larger roughness axis when anisotropic). "
+                "Default: 8 grid cells.", None, unit="length", low=0.0, low_open=True),
+            "rotation": _f("Rotation of the anisotropy axes about +z.", 0.0, unit="deg",
+                           low=-360.0, high=360.0),
+            "resolution": Key("int", 256, "Vertices per tile side.", low=4, high=8192),
+            "size": SIZE,
+            "seed": SEED,
+        },
+        _check_gaussian,
+    ),
+    "vgroove": SurfaceKind(
+        "Symmetric V-grooves along y (Torrance-Sparrow cavities): one slope angle for "
+        "every groove, or slopes drawn from a Beckmann distribution of roughness alpha.",
+        ("base",),
+        {
+            "slope": _f("Slope angle of every groove face (give slope or alpha).", None,
+                        unit="deg", low=0.0, low_open=True, high=89.0),
+            "alpha": _f("Draw each groove's slope from a Beckmann slope distribution of "
+                        "this roughness (give slope or alpha).", None, low=0.0,
+                        low_open=True, high=10.0),
+            "grooves": Key("int", 64, "Grooves per tile.", low=1, high=1_000_000),
+            "size": SIZE,
+            "seed": SEED,
+        },
+        _check_vgroove,
+    ),
+    "cylinders": SurfaceKind(
+        "Parallel circular cylinders along y lying on (or sunk into) a flat base plane: "
+        "brushed metal, hair-like anisotropic surfaces.",
+        ("base", "cylinder"),
+        {
+            "radius": _f("Cylinder radius.", 0.5, unit="length", low=0.0, low_open=True),
+            "spacing": _f("Distance between cylinder axes (the tile period along x).", 1.0,
+                          unit="length", low=0.0, low_open=True),
+            "sink": _f("Depth the cylinders are sunk into the base plane.", 0.0,
+                       unit="length", low=0.0),
+            "segments": Key("int", 48, "Facets around each cylinder's circumference.",
+                            low=6, high=4096),
+            "length": _f("Tile period along the cylinder axis (y).", 1.0, unit="length",
+                         low=0.0, low_open=True),
+            "seed": SEED,
+        },
+        _check_cylinders,
+    ),
+    "velvet": SurfaceKind(
+        "Dense short fibres standing on a flat base (Westin et al. 1992's velvet), placed "
+        "by a seeded jittered-grid process, periodic; fibres are closed tubes with tips.",
+        ("base", "fibre"),
+        {
+            "fibre_radius": _f("Fibre radius.", 0.01, unit="length", low=0.0,
+                               low_open=True),
+            "fibre_length": _f("Fibre length.", 0.15, unit="length", low=0.0,
+                               low_open=True),
+            "density": _f("Fibres per unit area.", 400.0, low=0.0, low_open=True),
+            "tilt": _f("Mean tilt of the fibres from +z.", 10.0, unit="deg", low=0.0,
+                       high=89.0),
+            "tilt_spread": _f("Standard deviation of the tilt.", 5.0, unit="deg", low=0.0,
+                              high=90.0),
+            "azimuth": _f("Mean azimuth of the tilt, from +x towards +y.", 0.0, unit="deg",
+                          low=-360.0, high=360.0),
+            "azimuth_spread": _f("Standard deviation of the tilt azimuth (360 = uniform).",
+                                 360.0, unit="deg", low=0.0, high=360.0),
+            "sides": Key("int", 6, "Facets around each fibre.", low=3, high=64),
+            "size": SIZE,
+            "seed": SEED,
+        },
+    ),
+    "weave": SurfaceKind(
+        "Woven cloth, one pattern repeat: warp yarns along y and weft yarns along x as "
+        "swept tubes of elliptical cross-section on crimped (sinusoidal) paths.",
+        ("warp", "weft"),
+        {
+            "pattern": Key("str", "plain", "Weave pattern.", choices=("plain", "twill")),
+            "float": Key("floats", [2.0, 1.0], "Twill float: yarns passed over, then under "
+                         "(e.g. [2, 1] for 2/1 twill, [2, 2] for 2/2).", low=1, high=16,
+                         length=2),
+            "yarn_width": _f("Yarn cross-section width.", 0.8, unit="length", low=0.0,
+                             low_open=True),
+            "yarn_thickness": _f("Yarn cross-section thickness.", 0.3, unit="length",
+                                 low=0.0, low_open=True),
+            "spacing": _f("Distance between neighbouring yarns (warp and weft).", 1.0,
+                          unit="length", low=0.0, low_open=True),
+            "segments": Key("int", 16, "Path samples per yarn crossing.", low=4,
+                            high=1024),
+            "sides": Key("int", 12, "Facets around each yarn's cross-section.", low=4,
+                         high=256),
+            "seed": SEED,
+        },
+    ),
+    "mesh": SurfaceKind(
+        "A user tile (PLY, OBJ or STL, read by trimesh) with its period given here. The "
+        "mesh must lie within [0, period_x] x [0, period_y] and tile seamlessly.",
+        ("base",),
+        {
+            "path": Key("path", REQUIRED, "Mesh file (relative to the recipe's folder)."),
+            "period": Key("pair", REQUIRED, "Tile period [Lx, Ly].", unit="length",
+                          low=0.0, low_open=True),
+            "seed": SEED,
+        },
+    ),
+}

@@ -1,0 +1,69 @@
+"""The periodic tile: the one mesh every generator makes and the tracer reads.
+
+A tile is a triangle mesh inside the box [0, Lx] x [0, Ly] x [z_min, z_max] that repeats
+seamlessly with period (Lx, Ly): geometry that would cross a side is cut there and its
+remainder re-enters on the opposite side, so no face leaves the box. The tracer never
+replicates it; rays leaving a side re-enter at the other.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+@dataclass
+class Tile:
+    """A periodic triangle mesh with a material id per face.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+        Vertex positions; x in [0, Lx], y in [0, Ly].
+    faces : (m, 3) int
+        Vertex indices per triangle, counter-clockwise seen from outside (normals point
+        away from the material, i.e. up on a height field).
+    material : (m,) int
+        Material id per face: an index into ``parts``.
+    parts : tuple of str
+        Part names (``[material.<part>]`` in recipes).
+    period : tuple of float
+        (Lx, Ly).
+    info : dict
+        Facts the generator reports (``alpha_target``, ``alpha_realised``, ...), JSON-able.
+    warnings : list of str
+        Things the user should know (e.g. a correlation length of too few grid cells).
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    material: np.ndarray
+    parts: tuple[str, ...]
+    period: tuple[float, float]
+    info: dict[str, Any] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def z_range(self) -> tuple[float, float]:
+        """(z_min, z_max) of the vertices."""
+        z = self.vertices[:, 2]
+        return float(z.min()), float(z.max())
+
+    def face_normals_areas(self) -> tuple[np.ndarray, np.ndarray]:
+        """Unit face normals and face areas.
+
+        Returns
+        -------
+        normals : (m, 3) float
+            Unit normals (zero rows for degenerate faces).
+        areas : (m,) float
+            Triangle areas.
+        """
+        v = self.vertices[self.faces]
+        cross = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+        norm = np.linalg.norm(cross, axis=1)
+        normals = np.divide(cross, norm[:, None], out=np.zeros_like(cross),
+                            where=norm[:, None] > 0)
+        return normals, 0.5 * norm
