@@ -29,6 +29,7 @@ from microsim.errors import InputError
 from microsim.schema import REQUIRED, Key, check_section, suggest, unknown_key
 from microsim.surfaces.params import SURFACE_KINDS
 
+
 def _n(doc: str, default: Any = REQUIRED, **kw: Any) -> Key:
     """A float key."""
     return Key("float", default, doc, **kw)

@@ -1,0 +1,178 @@
+"""Recipe validation: strict schema, defaults, overrides, error messages."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from microsim import recipe
+from microsim.errors import InputError
+from microsim.schema import Key, check_value
+from microsim.surfaces.params import SURFACE_KINDS
+
+ROOT = Path(__file__).resolve().parent.parent
+BASE = {"surface": {"kind": "gaussian", "alpha": 0.3}}
+
+
+def resolve_with(**sections: dict) -> dict:
+    raw = {"surface": dict(BASE["surface"])}
+    raw.update(sections)
+    return recipe.resolve(raw)
+
+
+def error_of(raw: dict) -> str:
+    with pytest.raises(InputError) as info:
+        recipe.resolve(raw)
+    return str(info.value)
+
+
+def test_defaults_filled_in():
+    r = recipe.resolve(BASE)
+    assert r["surface"]["resolution"] == SURFACE_KINDS["gaussian"].keys["resolution"].default
+    assert r["material"] == {"base": {"kind": "mirror"}}
+    assert set(r["simulation"]) >= {"theta_i", "phi_i", "rays", "bounces", "seed"}
+    assert "target_error" not in r["simulation"]  # optional without default stays absent
+    assert r["table"] == {"theta_bins": 32, "phi_bins": 64}
+
+
+def test_every_shipped_recipe_is_valid():
+    recipes = sorted((ROOT / "surfaces").glob("*.toml"))
+    assert recipes, "no shipped recipes"
+    for path in recipes:
+        resolved = recipe.load(path)
+        assert resolved["surface"]["kind"] in SURFACE_KINDS
+
+
+def test_resolved_recipe_round_trips_through_toml(tmp_path):
+    r = resolve_with(material={"kind": "conductor"}, simulation={"theta_i": [0, 45]})
+    path = tmp_path / "r.toml"
+    path.write_text(recipe.to_toml(r))
+    assert recipe.load(path) == r
+
+
+@pytest.mark.parametrize(
+    ("raw", "needle"),
+    [
+        ({"surface": {"kind": "gaussian", "alpah": 0.3}}, "surface.alpah: unknown key (did you mean 'alpha'?)"),
+        ({"surface": {"kind": "gausian"}}, "did you mean 'gaussian'?"),
+        ({"surface": {"kind": "gaussian", "alpha": -1.0}}, "surface.alpha = -1.0: must be a number > 0"),
+        ({"surface": {"kind": "gaussian", "alpha": math.nan}}, "surface.alpha = nan"),
+        ({"surface": {"kind": "gaussian", "alpha": math.inf}}, "surface.alpha = inf"),
+        ({"surface": {"kind": "gaussian", "alpha": "0.3"}}, "surface.alpha = '0.3': must be a number"),
+        ({"surface": {"kind": "gaussian", "alpha": True}}, "surface.alpha = True"),
+        ({"surface": {"kind": "gaussian", "alpha": 0.3, "resolution": 0}}, "surface.resolution = 0"),
+        ({"surface": {"kind": "gaussian", "alpha": 0.3, "resolution": 10.5}}, "must be an integer"),
+        ({"surface": {"kind": "gaussian"}}, "exactly one of"),
+        ({"surface": {"kind": "gaussian", "alpha": 0.3, "alpha_x": 0.2}}, "exactly one of"),
+        ({"surface": {"kind": "gaussian", "sigma": 0.1}}, "surface.correlation_length: missing"),
+        ({}, "surface: missing"),
+        ({"surface": 3}, "surface: must be a table"),
+        ({"surface": {"kind": "flat"}, "simulaton": {}}, "simulaton: unknown key (did you mean 'simulation'?)"),
+        ({"surface": {"kind": "flat"}, "simulation": {"rays": -5}}, "simulation.rays = -5"),
+        ({"surface": {"kind": "flat"}, "simulation": {"theta_i": [0, 90]}}, "simulation.theta_i[1] = 90"),
+        ({"surface": {"kind": "flat"}, "simulation": {"theta_i": []}}, "simulation.theta_i = []"),
+        ({"surface": {"kind": "flat"}, "material": {"kind": "gold"}}, "material.kind = 'gold'"),
+        ({"surface": {"kind": "flat"}, "material": {"kind": "conductor", "eta": [1, 2]}}, "material.eta"),
+        ({"surface": {"kind": "flat"}, "material": {"kind": "lambertian", "albedo": 1.5}}, "material.albedo = 1.5"),
+        ({"surface": {"kind": "flat"}, "material": {"kind": "mirror", "eta": 1.5}}, "material.eta: unknown key"),
+        ({"surface": {"kind": "velvet"}, "material": {"fibre": {"kind": "mirror"}}}, "material.base: missing"),
+        ({"surface": {"kind": "velvet"}, "material": {"fiber": {"kind": "mirror"}}}, "did you mean 'fibre'?"),
+        ({"surface": {"kind": "flat"}, "description": 3}, "description = 3: must be a string"),
+    ],
+)
+def test_bad_recipes_name_the_key(raw, needle):
+    message = error_of(raw)
+    assert needle in message
+    assert "\n" not in message
+
+
+def test_per_part_materials():
+    r = recipe.resolve({"surface": {"kind": "velvet"},
+                        "material": {"base": {"kind": "lambertian", "albedo": 0.5},
+                                     "fibre": {"kind": "dielectric"}}})
+    assert r["material"]["base"] == {"kind": "lambertian", "albedo": [0.5, 0.5, 0.5]}
+    assert r["material"]["fibre"] == {"kind": "dielectric", "eta": 1.5}
+
+
+def test_one_material_applies_to_every_part():
+    r = recipe.resolve({"surface": {"kind": "velvet"}, "material": {"kind": "lambertian"}})
+    assert set(r["material"]) == set(SURFACE_KINDS["velvet"].parts)
+    assert all(m["kind"] == "lambertian" for m in r["material"].values())
+
+
+def test_overrides_parse_toml_values_and_bare_words():
+    raw = recipe.apply_overrides(BASE, ["surface.alpha=0.5", "simulation.theta_i=[0, 45]",
+                                        "material.kind=lambertian", "material.albedo=0.2"])
+    r = recipe.resolve(raw)
+    assert r["surface"]["alpha"] == 0.5
+    assert r["simulation"]["theta_i"] == [0.0, 45.0]
+    assert r["material"]["base"] == {"kind": "lambertian", "albedo": [0.2] * 3}
+    assert BASE == {"surface": {"kind": "gaussian", "alpha": 0.3}}  # input untouched
+
+
+def test_override_of_material_kind_drops_old_parameters():
+    raw = {"surface": {"kind": "flat"}, "material": {"kind": "conductor", "eta": 1.0, "k": 2.0}}
+    r = recipe.resolve(recipe.apply_overrides(raw, ["material.kind=mirror"]))
+    assert r["material"]["base"] == {"kind": "mirror"}
+
+
+@pytest.mark.parametrize("text", ["surface", "surface.alpha", "=3", ".alpha=3", "surface..a=1"])
+def test_malformed_overrides(text):
+    with pytest.raises(InputError, match="must be section.key=value"):
+        recipe.parse_override(text)
+
+
+def test_override_into_a_value_is_an_error():
+    with pytest.raises(InputError, match="surface.alpha is not a table"):
+        recipe.apply_overrides(BASE, ["surface.alpha.x=1"])
+
+
+def test_files(tmp_path):
+    with pytest.raises(InputError, match="no such file"):
+        recipe.load(tmp_path / "missing.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[surface\nkind=")
+    with pytest.raises(InputError, match="not valid TOML"):
+        recipe.load(bad)
+
+
+def test_relative_mesh_path_resolves_against_recipe_folder(tmp_path):
+    (tmp_path / "sub").mkdir()
+    path = tmp_path / "sub" / "r.toml"
+    path.write_text('[surface]\nkind = "mesh"\npath = "tile.ply"\nperiod = [1, 2]\n')
+    assert recipe.load(path)["surface"]["path"] == str((tmp_path / "sub" / "tile.ply").resolve())
+
+
+def test_recipe_docs_are_up_to_date():
+    """docs/recipes.md holds the generated schema; regenerate with scripts/make_recipe_docs.py."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("make_recipe_docs",
+                                                  ROOT / "scripts" / "make_recipe_docs.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    page = (ROOT / "docs" / "recipes.md").read_text(encoding="utf-8")
+    assert module.render(page) == page, "run: python scripts/make_recipe_docs.py"
+
+
+FLOAT_KEY = Key("float", 1.0, low=0.0, low_open=True, high=10.0)
+
+
+@given(st.floats(allow_nan=True, allow_infinity=True))
+def test_float_keys_accept_exactly_their_range(x):
+    inside = math.isfinite(x) and 0.0 < x <= 10.0
+    if inside:
+        assert check_value(x, "k", FLOAT_KEY) == x
+    else:
+        with pytest.raises(InputError, match="k = "):
+            check_value(x, "k", FLOAT_KEY)
+
+
+@given(st.one_of(st.text(), st.lists(st.integers()), st.none(), st.booleans(), st.dictionaries(st.text(), st.integers())))
+def test_non_numbers_are_refused(value):
+    with pytest.raises(InputError):
+        check_value(value, "k", FLOAT_KEY)
