@@ -1,0 +1,137 @@
+"""Facet scattering: what a ray does where it hits a face of a given material.
+
+Each face carries a material id (an index into the tile's parts); each part has a resolved
+``[material.<part>]`` section of the recipe. Scattering returns the new direction and the
+factor (RGB) by which the path weight is multiplied; the rest, ``1 - factor``, is absorbed
+(by a conductor, transmitted into a dielectric, or absorbed by a diffuse facet).
+
+- ``mirror``: specular reflection, factor 1.
+- ``conductor``: specular reflection, factor the exact conductor Fresnel reflectance per
+  channel at the facet's incidence angle.
+- ``dielectric``: specular reflection, factor the dielectric Fresnel reflectance.
+- ``lambertian``: cosine-weighted direction about the facet normal, factor the albedo (the
+  cosine-weighted pdf cancels the BRDF's cosine: Pharr, Jakob & Humphreys, PBR 4th ed.,
+  sec. 13.6.3 and 4.5.1).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
+
+
+def reflect(d: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Mirror a direction of travel about a plane: d - 2 (d . n) n.
+
+    Parameters
+    ----------
+    d : (k, 3) float
+        Unit directions of travel (towards the surface).
+    n : (k, 3) float
+        Unit facet normals.
+
+    Returns
+    -------
+    (k, 3) float
+        Reflected directions (away from the surface).
+    """
+    return d - 2.0 * np.einsum("ij,ij->i", d, n)[:, None] * n
+
+
+def cosine_about(n: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Cosine-weighted directions about each normal.
+
+    Malley's method (a uniform point on the unit disc lifted to the hemisphere; PBR 4th
+    ed., sec. A.5.3) in the orthonormal basis of Duff et al. 2017, "Building an
+    orthonormal basis, revisited", JCGT 6(1), listing 3.
+
+    Parameters
+    ----------
+    n : (k, 3) float
+        Unit normals.
+    u : (k, 2) float
+        Uniform numbers in [0, 1).
+
+    Returns
+    -------
+    (k, 3) float
+        Unit directions with pdf cos(theta) / pi about ``n``.
+    """
+    sign = np.copysign(1.0, n[:, 2])
+    a = -1.0 / (sign + n[:, 2])
+    b = n[:, 0] * n[:, 1] * a
+    t = np.stack([1.0 + sign * n[:, 0] ** 2 * a, sign * b, -sign * n[:, 0]], axis=1)
+    s = np.stack([b, sign + n[:, 1] ** 2 * a, -n[:, 1]], axis=1)
+    r = np.sqrt(u[:, 0])
+    phi = 2.0 * np.pi * u[:, 1]
+    z = np.sqrt(np.maximum(1.0 - u[:, 0], 0.0))
+    return (r * np.cos(phi))[:, None] * t + (r * np.sin(phi))[:, None] * s + z[:, None] * n
+
+
+class FacetMaterials:
+    """The materials of one tile's faces.
+
+    Parameters
+    ----------
+    face_material : (m,) int
+        Material id per face (index into ``parts``).
+    parts : sequence of str
+        Part names.
+    materials : mapping of str to dict
+        A resolved ``[material.<part>]`` section per part (``kind`` and its keys).
+    """
+
+    def __init__(self, face_material: np.ndarray, parts: Sequence[str],
+                 materials: Mapping[str, Mapping[str, Any]]) -> None:
+        self.face_material = np.asarray(face_material, np.int64)
+        self.specs = [dict(materials[p]) for p in parts]
+
+    def scatter(self, faces: np.ndarray, d: np.ndarray, n: np.ndarray,
+                rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """Scatter rays at the faces they hit.
+
+        Parameters
+        ----------
+        faces : (k,) int
+            Faces hit.
+        d : (k, 3) float
+            Unit directions of travel (``d . n < 0``).
+        n : (k, 3) float
+            Unit normals of the faces.
+        rng : numpy.random.Generator
+            Source of the random numbers (drawn part by part, in part order).
+
+        Returns
+        -------
+        out : (k, 3) float
+            New unit directions.
+        factor : (k, 3) float
+            RGB weight factor, in [0, 1].
+        """
+        out = np.empty_like(d)
+        factor = np.empty((len(d), 3))
+        mat = self.face_material[faces]
+        for m, spec in enumerate(self.specs):
+            sel = np.flatnonzero(mat == m)
+            if sel.size == 0:
+                continue
+            ds, ns = d[sel], n[sel]
+            kind = spec["kind"]
+            if kind == "lambertian":
+                out[sel] = cosine_about(ns, rng.random((sel.size, 2)))
+                factor[sel] = np.broadcast_to(spec["albedo"], (sel.size, 3))
+                continue
+            out[sel] = reflect(ds, ns)
+            cos = np.clip(-np.einsum("ij,ij->i", ds, ns), 0.0, 1.0)
+            if kind == "mirror":
+                factor[sel] = 1.0
+            elif kind == "conductor":
+                factor[sel] = fresnel_conductor(cos[:, None], np.asarray(spec["eta"]),
+                                                np.asarray(spec["k"]))
+            else:
+                factor[sel] = fresnel_dielectric(cos, spec["eta"])[:, None]
+        return out, factor

@@ -1,0 +1,332 @@
+"""Ray queries on one periodic tile with Embree, and multi-bounce paths over it.
+
+The tile is put into one Embree scene as it is (no replicated neighbours). A ray is traced
+inside the tile's box: each Embree query is clipped at the first side of the box the ray
+reaches; a ray that reaches a side without a hit re-enters at the opposite side (its origin
+shifted by one period) and goes on. It ends when it hits a face, leaves the height slab
+upwards (escaped) or downwards (leaked: only a surface with holes lets that happen), or
+exceeds the number of side crossings its direction allows within the slab (trapped). The
+whole loop is vectorised over the rays still active; docs/goniometer.md explains it.
+
+Embree works in float32. Hit points are recomputed in float64 on the plane of the face hit,
+and secondary rays start ``eps`` (a fixed fraction of the scene's size) off the face, on
+the side their direction goes, so a ray never re-hits the face it left through round-off.
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from embreex.mesh_construction import TriangleMesh
+from embreex.rtcore_scene import EmbreeScene
+
+from microsim.surfaces.tile import Tile
+
+if TYPE_CHECKING:
+    from microsim.materials import FacetMaterials
+
+EPS_REL = 1e-5
+"""Secondary-ray offset as a fraction of the scene's extent: about 80 float32 ulps of the
+largest coordinate, far above Embree's and the float32 rounding's error, far below a facet."""
+CHUNK = 16384
+"""Rays per Embree call on the thread pool (chosen by measurement: docs/performance.md)."""
+MAX_SEGMENTS = 10_000
+"""Upper bound of queries for one ray: a direction so nearly horizontal that it would need
+more side crossings to cross the slab is reported as trapped."""
+
+HIT, ESCAPED, LEAKED, TRAPPED, BACKFACE = range(5)
+"""Outcomes of a query: a front-face hit, out through the top, out through the bottom, out
+of side crossings, or a hit on the back of a face (numerical leakage into the material)."""
+FATES = ("hit", "escaped", "leaked", "trapped", "backface")
+
+
+@dataclass
+class Hits:
+    """Result of one closest-hit query per ray.
+
+    Attributes
+    ----------
+    status : (n,) int8
+        ``HIT``, ``ESCAPED``, ``LEAKED``, ``TRAPPED`` or ``BACKFACE``.
+    face : (n,) int64
+        Face hit (``-1`` unless ``status`` is ``HIT`` or ``BACKFACE``).
+    point : (n, 3) float
+        Hit point inside the tile's box (meaningful where a face was hit).
+    """
+
+    status: np.ndarray
+    face: np.ndarray
+    point: np.ndarray
+
+
+class PeriodicScene:
+    """One tile in Embree, traced with periodic wrap on a thread pool.
+
+    Parameters
+    ----------
+    tile : Tile
+        The periodic mesh.
+    threads : int or None
+        Worker threads for Embree queries (default: the number of CPUs).
+    chunk : int
+        Rays per Embree call.
+
+    Attributes
+    ----------
+    normals : (m, 3) float
+        Unit face normals (away from the material).
+    areas : (m,) float
+        Face areas.
+    eps : float
+        Offset of secondary-ray origins off their face.
+    segments : int
+        Rays sent to Embree so far (a ray crossing k sides counts k + 1).
+    """
+
+    def __init__(self, tile: Tile, threads: int | None = None, chunk: int = CHUNK) -> None:
+        self.tile = tile
+        self.period = np.array(tile.period, dtype=float)
+        self.normals, self.areas = tile.face_normals_areas()
+        self._v0 = tile.vertices[tile.faces[:, 0]]
+        z_min, z_max = tile.z_range
+        extent = max(float(np.abs(tile.vertices).max()), *tile.period, z_max - z_min)
+        self.eps = EPS_REL * extent
+        # the slab reaches a few eps past the geometry so offset origins always lie inside
+        self.z_top = z_max + 4 * self.eps
+        self.z_bottom = z_min - 4 * self.eps
+        self._scene = EmbreeScene()
+        TriangleMesh(self._scene, np.ascontiguousarray(tile.vertices, np.float32),
+                     np.ascontiguousarray(tile.faces, np.int32))
+        # the first query builds the BVH: do it here, so scene set-up is timed as such
+        self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))
+        self.threads = threads or os.cpu_count() or 1
+        self.chunk = chunk
+        self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        self.segments = 0
+
+    def close(self) -> None:
+        """Stop the worker threads."""
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+
+    def __enter__(self) -> PeriodicScene:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _embree(self, origins: np.ndarray, dirs: np.ndarray, tfar: np.ndarray
+                ) -> np.ndarray:
+        """Closest-hit face per ray (``-1``: none within ``tfar``), chunks on the pool."""
+        o = np.ascontiguousarray(origins, np.float32)
+        d = np.ascontiguousarray(dirs, np.float32)
+        t = np.ascontiguousarray(tfar, np.float32)
+        self.segments += len(o)
+        if self._pool is None or len(o) <= self.chunk:
+            return self._scene.run(o, d, dists=t)
+        starts = range(0, len(o), self.chunk)
+        parts = self._pool.map(lambda s: self._scene.run(o[s:s + self.chunk],
+                                                         d[s:s + self.chunk],
+                                                         dists=t[s:s + self.chunk]), starts)
+        return np.concatenate(list(parts))
+
+    def wrap(self, points: np.ndarray) -> np.ndarray:
+        """Points moved by whole periods into [0, Lx) x [0, Ly).
+
+        Parameters
+        ----------
+        points : (n, 3) float
+
+        Returns
+        -------
+        (n, 3) float
+        """
+        out = points.copy()
+        out[:, :2] = np.mod(out[:, :2], self.period)
+        return out
+
+    def _budget(self, dirs: np.ndarray) -> np.ndarray:
+        """Most queries a ray may need: a straight path across the slab (length at most
+        height / |dz|) crosses each pair of sides at most length |d_axis| / L + 1 times;
+        the bound is doubled for slack and capped at ``MAX_SEGMENTS``."""
+        height = self.z_top - self.z_bottom
+        reach = (np.abs(dirs[:, :2]) / self.period).sum(axis=1) * height
+        dz = np.abs(dirs[:, 2])
+        crossings = np.divide(reach, dz, out=np.full(len(dirs), float(MAX_SEGMENTS)),
+                              where=dz * MAX_SEGMENTS > reach)
+        return np.minimum(2 * np.ceil(crossings) + 8, MAX_SEGMENTS).astype(np.int64)
+
+    def closest_hit(self, origins: np.ndarray, dirs: np.ndarray) -> Hits:
+        """First face each ray meets in the periodic continuation of the tile.
+
+        Parameters
+        ----------
+        origins : (n, 3) float
+            Ray origins, within the slab; x and y may lie outside the box (wrapped).
+        dirs : (n, 3) float
+            Unit directions of travel.
+
+        Returns
+        -------
+        Hits
+        """
+        n = len(origins)
+        status = np.full(n, -1, np.int8)
+        face = np.full(n, -1, np.int64)
+        point = self.wrap(origins)
+        budget = self._budget(dirs)
+        active = np.arange(n)
+        queries = 0
+        bounds_hi = np.array([*self.period, self.z_top])
+        bounds_lo = np.array([0.0, 0.0, self.z_bottom])
+        while active.size:
+            o, d = point[active], dirs[active]
+            # distance to each side of the box along the ray (inf where parallel)
+            target = np.where(d > 0, bounds_hi, bounds_lo)
+            t_side = np.divide(target - o, d, out=np.full(o.shape, np.inf), where=d != 0)
+            t_side = np.maximum(t_side, 0.0)
+            t_exit = t_side.min(axis=1)
+            prim = self._embree(o, d, t_exit + self.eps).astype(np.int64)
+            queries += 1
+            got = prim >= 0
+            # hit point in float64 on the face's plane (Embree's t is float32)
+            idx, p = active[got], prim[got]
+            n_f, d_g = self.normals[p], d[got]
+            den = np.einsum("ij,ij->i", d_g, n_f)
+            num = np.einsum("ij,ij->i", self._v0[p] - o[got], n_f)
+            t_hit = np.divide(num, den, out=np.zeros(len(p)), where=den != 0)
+            point[idx] = o[got] + np.maximum(t_hit, 0.0)[:, None] * d_g
+            face[idx] = p
+            status[idx] = np.where(den < 0, HIT, BACKFACE)
+            # no hit: out through the top or bottom, or on into the neighbouring tile
+            miss = ~got
+            axis = np.argmin(t_side[miss], axis=1)
+            idx, o_m, d_m = active[miss], o[miss], d[miss]
+            vertical = axis == 2
+            status[idx[vertical]] = np.where(d_m[vertical, 2] > 0, ESCAPED, LEAKED)
+            side = ~vertical
+            idx, o_m, d_m, axis = idx[side], o_m[side], d_m[side], axis[side]
+            moved = o_m + t_exit[miss][side][:, None] * d_m
+            rows = np.arange(len(idx))
+            # enter at the opposite side exactly; the other coordinate stays in the box
+            entry = np.where(d_m[rows, axis] > 0, 0.0, self.period[axis])
+            moved[:, :2] = np.clip(moved[:, :2], 0.0, self.period)
+            moved[rows, axis] = entry
+            point[idx] = moved
+            trapped = idx[budget[idx] <= queries]
+            status[trapped] = TRAPPED
+            active = idx[budget[idx] > queries]
+        return Hits(status, face, point)
+
+    def offset(self, points: np.ndarray, faces: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+        """Origins of secondary rays: ``eps`` off the face on the side ``dirs`` goes.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Points on the faces.
+        faces : (n,) int
+            The faces.
+        dirs : (n, 3) float
+            Directions the new rays will take.
+
+        Returns
+        -------
+        (n, 3) float
+        """
+        n_f = self.normals[faces]
+        side = np.where(np.einsum("ij,ij->i", dirs, n_f) >= 0, 1.0, -1.0)
+        return points + (self.eps * side)[:, None] * n_f
+
+
+@dataclass
+class Paths:
+    """Fates of rays traced with bounces.
+
+    Attributes
+    ----------
+    direction : (n, 3) float
+        Exit direction of escaped rays (zero rows for the others).
+    weight : (n, 3) float
+        RGB weight of escaped rays (zero for the others).
+    order : (n,) int
+        Scattering order of escaped rays (bounces before escaping; 0: not escaped, or
+        escaped without touching the surface, which a closed surface does not allow).
+    lost : (n, 3) float
+        RGB weight of paths ended by the simulation: alive after the last bounce, leaked,
+        trapped, or through a back face.
+    absorbed : (n, 3) float
+        RGB weight the materials absorbed (conductor absorption, dielectric transmission,
+        lambertian absorption).
+    fate_counts : dict of str to int
+        Paths per ending (``"escaped"``, ``"bounces"``, and the ``FATES`` of lost paths).
+    """
+
+    direction: np.ndarray
+    weight: np.ndarray
+    order: np.ndarray
+    lost: np.ndarray
+    absorbed: np.ndarray
+    fate_counts: dict[str, int]
+
+
+def trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.ndarray,
+                dirs: np.ndarray, bounces: int, rng: np.random.Generator) -> Paths:
+    """Trace rays with up to ``bounces`` scattering events each.
+
+    Parameters
+    ----------
+    scene : PeriodicScene
+    materials : FacetMaterials
+        Scattering per face material.
+    origins : (n, 3) float
+        Start points within the slab.
+    dirs : (n, 3) float
+        Unit directions of travel.
+    bounces : int
+        Maximum scattering order; paths still alive afterwards are lost.
+    rng : numpy.random.Generator
+        Random numbers for the materials that need them.
+
+    Returns
+    -------
+    Paths
+    """
+    n = len(origins)
+    direction = np.zeros((n, 3))
+    weight = np.ones((n, 3))
+    order = np.zeros(n, np.int64)
+    lost = np.zeros((n, 3))
+    absorbed = np.zeros((n, 3))
+    counts = dict.fromkeys(("escaped", "bounces") + FATES[2:], 0)
+    alive = np.arange(n)
+    o, d = origins, dirs
+    for bounce in range(bounces + 1):
+        hits = scene.closest_hit(o, d)
+        out = hits.status == ESCAPED
+        direction[alive[out]] = d[out]
+        order[alive[out]] = bounce
+        counts["escaped"] += int(out.sum())
+        for code in (LEAKED, TRAPPED, BACKFACE):
+            ended = hits.status == code
+            lost[alive[ended]] = weight[alive[ended]]
+            counts[FATES[code]] += int(ended.sum())
+        hit = hits.status == HIT
+        alive, d_in = alive[hit], d[hit]
+        face, point = hits.face[hit], hits.point[hit]
+        if bounce == bounces:
+            lost[alive] = weight[alive]
+            counts["bounces"] += alive.size
+            break
+        d, factor = materials.scatter(face, d_in, scene.normals[face], rng)
+        absorbed[alive] += weight[alive] * (1.0 - factor)
+        weight[alive] *= factor
+        o = scene.offset(point, face, d)
+    escaped = order > 0
+    weight[~escaped] = 0.0
+    return Paths(direction, weight, order, lost, absorbed, counts)

@@ -1,0 +1,91 @@
+"""Small periodic tiles made directly in the tests (independent of the generators)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from microsim.surfaces.tile import Tile
+
+
+def height_field_tile(h: np.ndarray, size: float = 1.0, info: dict | None = None) -> Tile:
+    """A periodic tile from heights on an n x n grid (the last row and column wrap).
+
+    Parameters
+    ----------
+    h : (n, n) float
+        Heights at x = i size / n (axis 0) and y = j size / n (axis 1).
+    size : float
+        Tile period along x and y.
+    info : dict or None
+        The tile's ``info``.
+
+    Returns
+    -------
+    Tile
+    """
+    n = h.shape[0]
+    g = np.arange(n + 1) * (size / n)
+    x, y = np.meshgrid(g, g, indexing="ij")
+    z = np.pad(h, ((0, 1), (0, 1)), mode="wrap")
+    vertices = np.stack([x, y, z], axis=-1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    a = (i * (n + 1) + j).ravel()
+    b, c, d = a + (n + 1), a + 1, a + n + 2
+    faces = np.concatenate([np.stack([a, b, d], 1), np.stack([a, d, c], 1)])
+    return Tile(vertices, faces, np.zeros(len(faces), np.int64), ("base",), (size, size),
+                info=info or {})
+
+
+def flat_tile(n: int = 4) -> Tile:
+    """A flat tile at z = 0 on an n x n grid."""
+    return height_field_tile(np.zeros((n, n)), info={"isotropic": True})
+
+
+def random_tile(n: int = 64, rms_slope: float = 0.35, cells: float = 4.0,
+                seed: int = 0) -> Tile:
+    """A smooth periodic random height field (Gaussian spectrum filtered white noise).
+
+    Parameters
+    ----------
+    n : int
+        Grid points per side.
+    rms_slope : float
+        RMS slope per axis of the continuous field (approximately realised).
+    cells : float
+        Correlation length in grid cells.
+    seed : int
+        Seed of the noise.
+    """
+    rng = np.random.default_rng(seed)
+    k = np.fft.fftfreq(n) * 2 * np.pi
+    kx, ky = np.meshgrid(k, k, indexing="ij")
+    spectrum = np.exp(-(kx**2 + ky**2) * cells**2 / 8)
+    h = np.fft.ifft2(np.fft.fft2(rng.standard_normal((n, n))) * spectrum).real
+    slope = np.gradient(h, axis=0) * n
+    h *= rms_slope / slope.std()
+    return height_field_tile(h, info={"isotropic": True})
+
+
+def bump_tile(height: float = 0.05, half: float = 0.1) -> Tile:
+    """A flat unit tile at z = 0 with one square pyramid centred at (0.5, 0.5).
+
+    Face 16 is the pyramid face towards -x.
+    """
+    g = [0.0, 0.5 - half, 0.5 + half, 1.0]
+    vertices = [(x, y, 0.0) for x in g for y in g] + [(0.5, 0.5, height)]
+
+    def v(i: int, j: int) -> int:
+        return 4 * i + j
+
+    faces = []
+    for i in range(3):
+        for j in range(3):
+            if (i, j) != (1, 1):
+                faces += [(v(i, j), v(i + 1, j), v(i + 1, j + 1)),
+                          (v(i, j), v(i + 1, j + 1), v(i, j + 1))]
+    apex = 16
+    faces += [(v(1, 2), v(1, 1), apex), (v(1, 1), v(2, 1), apex),
+              (v(2, 1), v(2, 2), apex), (v(2, 2), v(1, 2), apex)]
+    faces_arr = np.array(faces)
+    return Tile(np.array(vertices, float), faces_arr, np.zeros(len(faces_arr), np.int64),
+                ("base",), (1.0, 1.0))
