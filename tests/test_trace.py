@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tilefixtures import bump_tile, flat_tile, random_tile
+from tilefixtures import bump_tile, flat_tile, random_tile, vgroove_tile
 
 from microsim.materials import cosine_about
 from microsim.trace import BACKFACE, ESCAPED, HIT, LEAKED, TRAPPED, PeriodicScene
@@ -26,10 +26,18 @@ def test_flat_tile_hits_below_every_start_point() -> None:
     assert np.abs(hits.point[:, 2]).max() < 1e-15
 
 
-@pytest.mark.parametrize("make", [flat_tile, random_tile], ids=["flat", "rough"])
+def steep_vgroove_tile():
+    return vgroove_tile(70.0, grooves=32)
+
+
+@pytest.mark.parametrize("make", [flat_tile, random_tile, steep_vgroove_tile],
+                         ids=["flat", "rough", "vgroove70"])
 def test_secondary_rays_never_rehit_their_face(make) -> None:
-    """Rays leaving a face (cosine-distributed, the worst case being grazing ones) must
-    not report that face again, nor a back face, nor leak: each of these counts is 0."""
+    """Rays leaving a face (cosine-distributed, so grazing ones too) must never report
+    that face again. On smooth tiles none may end in a back face or leak either; at the
+    140 deg concave edges of 70 deg V-grooves an origin within ~eps of the edge can start
+    behind the neighbour face: that band is eps / face length ~ 2e-5 of the points, so at
+    most 1e-4 of the rays may end so (5x the band, for noise in the count)."""
     tile = make()
     normals, areas = tile.face_normals_areas()
     rng = np.random.default_rng(2)
@@ -46,7 +54,8 @@ def test_secondary_rays_never_rehit_their_face(make) -> None:
         # the same rays without the offset do re-hit their faces: the check can fail
         raw = scene.closest_hit(points, d)
     assert np.count_nonzero((hits.status == HIT) & (hits.face == faces)) == 0
-    assert np.count_nonzero(np.isin(hits.status, (BACKFACE, LEAKED, TRAPPED))) == 0
+    lost = np.count_nonzero(np.isin(hits.status, (BACKFACE, LEAKED, TRAPPED)))
+    assert lost <= (1e-4 * n if make is steep_vgroove_tile else 0)
     if make is flat_tile:
         assert np.all(hits.status == ESCAPED)
     assert np.count_nonzero(raw.face == faces) > 0

@@ -89,3 +89,15 @@ def bump_tile(height: float = 0.05, half: float = 0.1) -> Tile:
     faces_arr = np.array(faces)
     return Tile(np.array(vertices, float), faces_arr, np.zeros(len(faces_arr), np.int64),
                 ("base",), (1.0, 1.0))
+
+
+def vgroove_tile(slope_deg: float, grooves: int = 8) -> Tile:
+    """Symmetric V-grooves along y with faces at +-slope_deg, peaks at z = 0.
+
+    Two grid points per groove along x (peak, valley), so each groove face is one row
+    of facets.
+    """
+    n = 2 * grooves
+    depth = np.tan(np.radians(slope_deg)) / n
+    h = np.where(np.arange(n) % 2 == 0, 0.0, -depth)[:, None] * np.ones((1, n))
+    return height_field_tile(h, info={"isotropic": False})
