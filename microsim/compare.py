@@ -1,0 +1,123 @@
+"""Simulated against analytic: a model averaged over the table's bins, and the metrics.
+
+A table bin holds the projected-solid-angle average of f_r over the bin (that is what the
+goniophotometer estimates: weight in the bin / rays / ∫_bin cos θo dω). Comparing it with
+the model at the bin centre would charge the model with the curvature of the lobe inside
+the bin, so the model is averaged over each bin the same way: in the coordinates
+u = sin²θo, φo the projected solid angle is uniform (cos θ dω = ½ du dφ), so the average is
+the mean over an ``n × n`` midpoint grid in (u, φ) inside the bin.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Protocol
+
+import numpy as np
+
+LOBE_FRACTION = 0.1
+"""Lobe bins: those where the model's bin average is at least this fraction of its peak."""
+
+
+class Model(Protocol):
+    """Anything with ``eval(wi, wo) -> (...,) or (..., 3)`` f_r in 1/sr."""
+
+    def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray: ...
+
+
+def direction(theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """Unit vectors from polar angles.
+
+    Parameters
+    ----------
+    theta, phi : (...) float
+        Polar angle from +z and azimuth from +x towards +y, radians.
+
+    Returns
+    -------
+    (..., 3) float
+    """
+    theta, phi = np.broadcast_arrays(np.asarray(theta, float), np.asarray(phi, float))
+    s = np.sin(theta)
+    return np.stack([s * np.cos(phi), s * np.sin(phi), np.cos(theta)], axis=-1)
+
+
+def _rgb(values: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """Broadcast a model's scalar or RGB output to ``shape + (3,)``."""
+    values = np.asarray(values, float)
+    if values.shape == shape:
+        values = values[..., None]
+    return np.broadcast_to(values, shape + (3,))
+
+
+def bin_average(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
+                phi_edges: np.ndarray, phi_i: float = 0.0, n: int = 8) -> np.ndarray:
+    """Projected-solid-angle average of a model's f_r over every outgoing bin.
+
+    Parameters
+    ----------
+    model : Model
+        The analytic BRDF.
+    wi : (3,) float
+        Incident direction (towards the light).
+    theta_edges : (nt + 1,) float
+        Bin edges in θo, radians.
+    phi_edges : (np + 1,) float
+        Bin edges in φo − φi, radians.
+    phi_i : float
+        Incident azimuth: the outgoing azimuth is ``phi_i`` + the table's relative φ.
+    n : int
+        Midpoints per bin and axis.
+
+    Returns
+    -------
+    (nt, np, 3) float
+        The average f_r per bin and colour, 1/sr.
+    """
+    t = (np.arange(n) + 0.5) / n
+    u_lo, u_hi = np.sin(theta_edges[:-1]) ** 2, np.sin(theta_edges[1:]) ** 2
+    u = u_lo[:, None] + (u_hi - u_lo)[:, None] * t  # (nt, n)
+    p = phi_edges[:-1, None] + np.diff(phi_edges)[:, None] * t  # (np, n)
+    theta = np.arcsin(np.sqrt(np.clip(u, 0.0, 1.0)))
+    wo = direction(theta[:, None, :, None], phi_i + p[None, :, None, :])  # (nt, np, n, n, 3)
+    f = _rgb(model.eval(np.broadcast_to(wi, wo.shape), wo), wo.shape[:-1])
+    return f.mean(axis=(2, 3))
+
+
+def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
+            proj: np.ndarray) -> dict[str, Any]:
+    """Error metrics of one incidence's simulated bins against the model's bin averages.
+
+    Parameters
+    ----------
+    sim, err, model : (nt, np, 3) float
+        Simulated f_r, its standard error (NaN where undefined), the model's bin average.
+    proj : (nt, np) float
+        Projected solid angle of each bin, sr.
+
+    Returns
+    -------
+    dict
+        ``median_rel_error`` and ``p90_rel_error`` over lobe bins (model ≥ 10% of its
+        peak), ``rms_error`` (1/sr, all bins), ``z_mean`` and ``z_std`` of
+        (sim − model)/stderr over lobe bins with a defined, non-zero error, ``lobe_bins``,
+        ``albedo_sim`` and ``albedo_model`` per channel (Σ f_r Ω_proj), and their difference.
+    """
+    peak = model.max(axis=(0, 1), keepdims=True)
+    lobe = model >= LOBE_FRACTION * np.where(peak > 0, peak, np.inf)
+    rel = np.abs(sim - model)[lobe] / model[lobe]
+    ok = lobe & np.isfinite(err) & (err > 0)
+    z = (sim - model)[ok] / err[ok]
+    albedo_sim = (sim * proj[..., None]).sum(axis=(0, 1))
+    albedo_model = (model * proj[..., None]).sum(axis=(0, 1))
+    nan = float("nan")
+    return {
+        "median_rel_error": float(np.median(rel)) if rel.size else nan,
+        "p90_rel_error": float(np.percentile(rel, 90)) if rel.size else nan,
+        "rms_error": float(np.sqrt(np.mean((sim - model) ** 2))),
+        "z_mean": float(z.mean()) if z.size else nan,
+        "z_std": float(z.std(ddof=1)) if z.size > 1 else nan,
+        "lobe_bins": int(lobe[..., 0].sum()),
+        "albedo_sim": albedo_sim.tolist(),
+        "albedo_model": albedo_model.tolist(),
+        "albedo_difference": (albedo_sim - albedo_model).tolist(),
+    }
