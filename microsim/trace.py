@@ -16,9 +16,10 @@ the side their direction goes, so a ray never re-hits the face it left through r
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from embreex.mesh_construction import TriangleMesh
@@ -34,7 +35,7 @@ EPS_REL = 1e-6
 coordinate. Measured (docs/goniometer.md): no self-hit on rough tiles down to 1e-8; at a
 concave edge sharper than 90 deg an origin within about eps of the edge can lie behind the
 neighbouring face, so a larger offset loses more rays there (1e-5 lost ten times more)."""
-CHUNK = 16384
+CHUNK = 32768
 """Rays per Embree call on the thread pool (chosen by measurement: docs/performance.md)."""
 MAX_SEGMENTS = 10_000
 """Upper bound of queries for one ray: a direction so nearly horizontal that it would need
@@ -44,6 +45,7 @@ HIT, ESCAPED, LEAKED, TRAPPED, BACKFACE = range(5)
 """Outcomes of a query: a front-face hit, out through the top, out through the bottom, out
 of side crossings, or a hit on the back of a face (numerical leakage into the material)."""
 FATES = ("hit", "escaped", "leaked", "trapped", "backface")
+T = TypeVar("T")
 
 
 @dataclass
@@ -93,7 +95,8 @@ class PeriodicScene:
         self.tile = tile
         self.period = np.array(tile.period, dtype=float)
         self.normals, self.areas = tile.face_normals_areas()
-        self._v0 = tile.vertices[tile.faces[:, 0]]
+        # plane of each face: n . x = c
+        self._plane = np.einsum("ij,ij->i", self.normals, tile.vertices[tile.faces[:, 0]])
         z_min, z_max = tile.z_range
         extent = max(float(np.abs(tile.vertices).max()), *tile.period, z_max - z_min)
         self.eps = EPS_REL * extent
@@ -122,20 +125,11 @@ class PeriodicScene:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def _embree(self, origins: np.ndarray, dirs: np.ndarray, tfar: np.ndarray
-                ) -> np.ndarray:
-        """Closest-hit face per ray (``-1``: none within ``tfar``), chunks on the pool."""
-        o = np.ascontiguousarray(origins, np.float32)
-        d = np.ascontiguousarray(dirs, np.float32)
-        t = np.ascontiguousarray(tfar, np.float32)
-        self.segments += len(o)
-        if self._pool is None or len(o) <= self.chunk:
-            return self._scene.run(o, d, dists=t)
-        starts = range(0, len(o), self.chunk)
-        parts = self._pool.map(lambda s: self._scene.run(o[s:s + self.chunk],
-                                                         d[s:s + self.chunk],
-                                                         dists=t[s:s + self.chunk]), starts)
-        return np.concatenate(list(parts))
+    def map(self, fn: Callable[[int], T], starts: range) -> list[T]:
+        """``fn`` over chunk starts, on the worker threads when there are several."""
+        if self._pool is None or len(starts) < 2:
+            return [fn(i) for i in starts]
+        return list(self._pool.map(fn, starts))
 
     def wrap(self, points: np.ndarray) -> np.ndarray:
         """Points moved by whole periods into [0, Lx) x [0, Ly).
@@ -149,22 +143,26 @@ class PeriodicScene:
         (n, 3) float
         """
         out = points.copy()
-        out[:, :2] = np.mod(out[:, :2], self.period)
+        for axis, length in enumerate(self.period):  # column by column: much faster
+            column = out[:, axis]
+            column -= np.floor(column / length) * length
         return out
 
     def _budget(self, dirs: np.ndarray) -> np.ndarray:
         """Most queries a ray may need: a straight path across the slab (length at most
         height / |dz|) crosses each pair of sides at most length |d_axis| / L + 1 times;
         the bound is doubled for slack and capped at ``MAX_SEGMENTS``."""
-        height = self.z_top - self.z_bottom
-        reach = (np.abs(dirs[:, :2]) / self.period).sum(axis=1) * height
-        dz = np.abs(dirs[:, 2])
-        crossings = np.divide(reach, dz, out=np.full(len(dirs), float(MAX_SEGMENTS)),
-                              where=dz * MAX_SEGMENTS > reach)
+        a = np.abs(dirs)
+        reach = (a[:, 0] / self.period[0] + a[:, 1] / self.period[1]) * (
+            self.z_top - self.z_bottom)
+        crossings = reach / np.maximum(a[:, 2], 1e-300)
         return np.minimum(2 * np.ceil(crossings) + 8, MAX_SEGMENTS).astype(np.int64)
 
     def closest_hit(self, origins: np.ndarray, dirs: np.ndarray) -> Hits:
         """First face each ray meets in the periodic continuation of the tile.
+
+        Chunks of ``chunk`` rays are traced on the worker threads; the result does not
+        depend on the chunking.
 
         Parameters
         ----------
@@ -177,60 +175,78 @@ class PeriodicScene:
         -------
         Hits
         """
+        c = self.chunk
+        parts = self.map(lambda i: self._closest_hit(origins[i:i + c], dirs[i:i + c]),
+                         range(0, len(origins), c))
+        self.segments += sum(seg for _, seg in parts)
+        return Hits(*(np.concatenate([getattr(h, f) for h, _ in parts])
+                      for f in ("status", "face", "point")))
+
+    def _closest_hit(self, origins: np.ndarray, dirs: np.ndarray) -> tuple[Hits, int]:
+        """``closest_hit`` in the calling thread; also returns the Embree queries made."""
         n = len(origins)
         status = np.full(n, -1, np.int8)
         face = np.full(n, -1, np.int64)
         point = self.wrap(origins)
         budget = self._budget(dirs)
+        dirs32 = dirs.astype(np.float32)
+        # per ray and axis: the box side it runs towards, and 1 / d (huge where d = 0, so
+        # that side is never the nearest; d = 0 runs towards the upper side, not behind)
+        target = np.column_stack([np.where(dirs[:, i] >= 0, hi, lo) for i, (lo, hi) in
+                                  enumerate(zip((0.0, 0.0, self.z_bottom),
+                                                (*self.period, self.z_top), strict=True))])
+        inv = np.divide(1.0, dirs, out=np.full(dirs.shape, 1e300), where=dirs != 0)
         active = np.arange(n)
-        queries = 0
-        bounds_hi = np.array([*self.period, self.z_top])
-        bounds_lo = np.array([0.0, 0.0, self.z_bottom])
+        queries = segments = 0
         while active.size:
-            o, d = point[active], dirs[active]
-            # distance to each side of the box along the ray (inf where parallel)
-            target = np.where(d > 0, bounds_hi, bounds_lo)
-            t_side = np.divide(target - o, d, out=np.full(o.shape, np.inf), where=d != 0)
-            t_side = np.maximum(t_side, 0.0)
-            t_exit = t_side.min(axis=1)
-            prim = self._embree(o, d, t_exit + self.eps).astype(np.int64)
+            full = active.size == n
+            o = point if full else point[active]
+            d = dirs if full else dirs[active]
+            # distance to each side of the box along the ray
+            t_side = (target if full else target[active]) - o
+            t_side *= inv if full else inv[active]
+            np.maximum(t_side, 0.0, out=t_side)
+            t_exit = np.minimum(np.minimum(t_side[:, 0], t_side[:, 1]), t_side[:, 2])
+            prim = self._scene.run(o.astype(np.float32), dirs32 if full else dirs32[active],
+                                   dists=(t_exit + self.eps).astype(np.float32))
+            segments += len(o)
             queries += 1
-            got = prim >= 0
+            got = np.flatnonzero(prim >= 0)
             # hit point in float64 on the face's plane (Embree's t is float32)
-            idx, p = active[got], prim[got]
-            n_f, d_g = self.normals[p], d[got]
+            idx, p = active[got], prim[got].astype(np.int64)
+            n_f, d_g, o_g = self.normals[p], d[got], o[got]
             den = np.einsum("ij,ij->i", d_g, n_f)
-            num = np.einsum("ij,ij->i", self._v0[p] - o[got], n_f)
+            num = self._plane[p] - np.einsum("ij,ij->i", o_g, n_f)
             t_hit = np.divide(num, den, out=np.zeros(len(p)), where=den != 0)
-            point[idx] = o[got] + np.maximum(t_hit, 0.0)[:, None] * d_g
+            point[idx] = o_g + np.maximum(t_hit, 0.0)[:, None] * d_g
             face[idx] = p
             status[idx] = np.where(den < 0, HIT, BACKFACE)
             # a back face whose plane the origin lies just behind (at most 2 eps: where an
             # offset crossed a neighbour's plane at a concave edge) is the offset's artefact:
             # the ray goes on from that face's front
-            again = (den >= 0) & (num <= 2 * self.eps)
+            again = np.flatnonzero((den >= 0) & (num <= 2 * self.eps))
             resume = idx[again]
             status[resume] = -1
             point[resume] = self.wrap(self.offset(point[resume], p[again], d_g[again]))
             # no hit: out through the top or bottom, or on into the neighbouring tile
-            miss = ~got
+            miss = np.flatnonzero(prim < 0)
             axis = np.argmin(t_side[miss], axis=1)
-            idx, o_m, d_m = active[miss], o[miss], d[miss]
             vertical = axis == 2
-            status[idx[vertical]] = np.where(d_m[vertical, 2] > 0, ESCAPED, LEAKED)
-            side = ~vertical
-            idx, o_m, d_m, axis = idx[side], o_m[side], d_m[side], axis[side]
-            moved = o_m + t_exit[miss][side][:, None] * d_m
-            rows = np.arange(len(idx))
+            ends = miss[vertical]
+            status[active[ends]] = np.where(d[ends, 2] > 0, ESCAPED, LEAKED)
+            on, axis = miss[~vertical], axis[~vertical]
+            idx = active[on]
+            moved = o[on] + t_exit[on, None] * d[on]
+            rows = np.arange(len(on))
             # enter at the opposite side exactly; the other coordinate stays in the box
-            entry = np.where(d_m[rows, axis] > 0, 0.0, self.period[axis])
+            entry = np.where(d[on, axis] > 0, 0.0, self.period[axis])
             moved[:, :2] = np.clip(moved[:, :2], 0.0, self.period)
             moved[rows, axis] = entry
             point[idx] = moved
             going = np.concatenate([idx, resume])
             status[going[budget[going] <= queries]] = TRAPPED
             active = np.sort(going[budget[going] > queries])
-        return Hits(status, face, point)
+        return Hits(status, face, point), segments
 
     def offset(self, points: np.ndarray, faces: np.ndarray, dirs: np.ndarray) -> np.ndarray:
         """Origins of secondary rays: ``eps`` off the face on the side ``dirs`` goes.
@@ -285,8 +301,12 @@ class Paths:
 
 
 def trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.ndarray,
-                dirs: np.ndarray, bounces: int, rng: np.random.Generator) -> Paths:
+                dirs: np.ndarray, bounces: int, seed: np.random.SeedSequence) -> Paths:
     """Trace rays with up to ``bounces`` scattering events each.
+
+    Chunks of ``scene.chunk`` rays are traced on the worker threads, chunk c drawing its
+    random numbers from the child ``seed`` spawn key + (c,); the result depends on the
+    chunk size but not on the number of threads.
 
     Parameters
     ----------
@@ -299,13 +319,31 @@ def trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nda
         Unit directions of travel.
     bounces : int
         Maximum scattering order; paths still alive afterwards are lost.
-    rng : numpy.random.Generator
-        Random numbers for the materials that need them.
+    seed : numpy.random.SeedSequence
+        Root of the random streams of the materials that need them.
 
     Returns
     -------
     Paths
     """
+    c = scene.chunk
+
+    def run(i: int) -> tuple[Paths, int]:
+        rng = np.random.default_rng(np.random.SeedSequence(
+            seed.entropy, spawn_key=(*seed.spawn_key, i // c)))
+        return _trace_paths(scene, materials, origins[i:i + c], dirs[i:i + c], bounces, rng)
+
+    parts = scene.map(run, range(0, len(origins), c))
+    scene.segments += sum(seg for _, seg in parts)
+    fates = {k: sum(p.fate_counts[k] for p, _ in parts) for k in parts[0][0].fate_counts}
+    return Paths(*(np.concatenate([getattr(p, f) for p, _ in parts])
+                   for f in ("direction", "weight", "order", "lost", "absorbed")), fates)
+
+
+def _trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.ndarray,
+                 dirs: np.ndarray, bounces: int, rng: np.random.Generator
+                 ) -> tuple[Paths, int]:
+    """``trace_paths`` of one chunk in the calling thread, and the Embree queries made."""
     n = len(origins)
     direction = np.zeros((n, 3))
     weight = np.ones((n, 3))
@@ -315,8 +353,12 @@ def trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nda
     counts = dict.fromkeys(("escaped", "bounces") + FATES[2:], 0)
     alive = np.arange(n)
     o, d = origins, dirs
+    segments = 0
     for bounce in range(bounces + 1):
-        hits = scene.closest_hit(o, d)
+        if alive.size == 0:
+            break
+        hits, seg = scene._closest_hit(o, d)
+        segments += seg
         out = hits.status == ESCAPED
         direction[alive[out]] = d[out]
         order[alive[out]] = bounce
@@ -336,6 +378,5 @@ def trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nda
         absorbed[alive] += weight[alive] * (1.0 - factor)
         weight[alive] *= factor
         o = scene.offset(point, face, d)
-    escaped = order > 0
-    weight[~escaped] = 0.0
-    return Paths(direction, weight, order, lost, absorbed, counts)
+    weight[order == 0] = 0.0
+    return Paths(direction, weight, order, lost, absorbed, counts), segments
