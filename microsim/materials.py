@@ -119,17 +119,23 @@ class FacetMaterials:
             sel = np.flatnonzero(mat == m)
             if sel.size == 0:
                 continue
-            ds, ns = d[sel], n[sel]
+            if sel.size == len(d):  # one material for every ray: no gathering
+                sel = slice(None)
+                ds, ns = d, n
+            else:
+                ds, ns = np.take(d, sel, axis=0), np.take(n, sel, axis=0)
+            count = len(ds)
             kind = spec["kind"]
             if kind == "lambertian":
-                out[sel] = cosine_about(ns, rng.random((sel.size, 2)))
-                factor[sel] = np.broadcast_to(spec["albedo"], (sel.size, 3))
+                out[sel] = cosine_about(ns, rng.random((count, 2)))
+                factor[sel] = np.broadcast_to(spec["albedo"], (count, 3))
                 continue
             out[sel] = reflect(ds, ns)
-            cos = np.clip(-np.einsum("ij,ij->i", ds, ns), 0.0, 1.0)
             if kind == "mirror":
                 factor[sel] = 1.0
-            elif kind == "conductor":
+                continue
+            cos = np.clip(-np.einsum("ij,ij->i", ds, ns), 0.0, 1.0)
+            if kind == "conductor":
                 factor[sel] = fresnel_conductor(cos[:, None], np.asarray(spec["eta"]),
                                                 np.asarray(spec["k"]))
             else:

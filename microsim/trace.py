@@ -200,21 +200,23 @@ class PeriodicScene:
         queries = segments = 0
         while active.size:
             full = active.size == n
-            o = point if full else point[active]
-            d = dirs if full else dirs[active]
+            o = point if full else np.take(point, active, axis=0)
+            d = dirs if full else np.take(dirs, active, axis=0)
             # distance to each side of the box along the ray
-            t_side = (target if full else target[active]) - o
-            t_side *= inv if full else inv[active]
+            t_side = (target if full else np.take(target, active, axis=0)) - o
+            t_side *= inv if full else np.take(inv, active, axis=0)
             np.maximum(t_side, 0.0, out=t_side)
             t_exit = np.minimum(np.minimum(t_side[:, 0], t_side[:, 1]), t_side[:, 2])
-            prim = self._scene.run(o.astype(np.float32), dirs32 if full else dirs32[active],
+            prim = self._scene.run(o.astype(np.float32),
+                                   dirs32 if full else np.take(dirs32, active, axis=0),
                                    dists=(t_exit + self.eps).astype(np.float32))
             segments += len(o)
             queries += 1
             got = np.flatnonzero(prim >= 0)
             # hit point in float64 on the face's plane (Embree's t is float32)
             idx, p = active[got], prim[got].astype(np.int64)
-            n_f, d_g, o_g = self.normals[p], d[got], o[got]
+            n_f = np.take(self.normals, p, axis=0)
+            d_g, o_g = np.take(d, got, axis=0), np.take(o, got, axis=0)
             den = np.einsum("ij,ij->i", d_g, n_f)
             num = self._plane[p] - np.einsum("ij,ij->i", o_g, n_f)
             t_hit = np.divide(num, den, out=np.zeros(len(p)), where=den != 0)
@@ -227,7 +229,7 @@ class PeriodicScene:
             again = np.flatnonzero((den >= 0) & (num <= 2 * self.eps))
             resume = idx[again]
             status[resume] = -1
-            point[resume] = self.wrap(self.offset(point[resume], p[again], d_g[again]))
+            point[resume] = self.wrap(self.offset(point[resume], n_f[again], d_g[again]))
             # no hit: out through the top or bottom, or on into the neighbouring tile
             miss = np.flatnonzero(prim < 0)
             axis = np.argmin(t_side[miss], axis=1)
@@ -236,7 +238,7 @@ class PeriodicScene:
             status[active[ends]] = np.where(d[ends, 2] > 0, ESCAPED, LEAKED)
             on, axis = miss[~vertical], axis[~vertical]
             idx = active[on]
-            moved = o[on] + t_exit[on, None] * d[on]
+            moved = np.take(o, on, axis=0) + t_exit[on, None] * np.take(d, on, axis=0)
             rows = np.arange(len(on))
             # enter at the opposite side exactly; the other coordinate stays in the box
             entry = np.where(d[on, axis] > 0, 0.0, self.period[axis])
@@ -248,15 +250,15 @@ class PeriodicScene:
             active = np.sort(going[budget[going] > queries])
         return Hits(status, face, point), segments
 
-    def offset(self, points: np.ndarray, faces: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+    def offset(self, points: np.ndarray, n_f: np.ndarray, dirs: np.ndarray) -> np.ndarray:
         """Origins of secondary rays: ``eps`` off the face on the side ``dirs`` goes.
 
         Parameters
         ----------
         points : (n, 3) float
             Points on the faces.
-        faces : (n,) int
-            The faces.
+        n_f : (n, 3) float
+            The faces' unit normals.
         dirs : (n, 3) float
             Directions the new rays will take.
 
@@ -264,7 +266,6 @@ class PeriodicScene:
         -------
         (n, 3) float
         """
-        n_f = self.normals[faces]
         side = np.where(np.einsum("ij,ij->i", dirs, n_f) >= 0, 1.0, -1.0)
         return points + (self.eps * side)[:, None] * n_f
 
@@ -282,11 +283,11 @@ class Paths:
     order : (n,) int
         Scattering order of escaped rays (bounces before escaping; 0: not escaped, or
         escaped without touching the surface, which a closed surface does not allow).
-    lost : (n, 3) float
-        RGB weight of paths ended by the simulation: alive after the last bounce, leaked,
-        trapped, or through a back face.
-    absorbed : (n, 3) float
-        RGB weight the materials absorbed (conductor absorption, dielectric transmission,
+    lost : (3,) float
+        Summed RGB weight of paths ended by the simulation: alive after the last bounce,
+        leaked, trapped, or through a back face.
+    absorbed : (3,) float
+        Summed RGB weight the materials absorbed (conductor absorption, dielectric transmission,
         lambertian absorption).
     fate_counts : dict of str to int
         Paths per ending (``"escaped"``, ``"bounces"``, and the ``FATES`` of lost paths).
@@ -337,7 +338,8 @@ def trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nda
     scene.segments += sum(seg for _, seg in parts)
     fates = {k: sum(p.fate_counts[k] for p, _ in parts) for k in parts[0][0].fate_counts}
     return Paths(*(np.concatenate([getattr(p, f) for p, _ in parts])
-                   for f in ("direction", "weight", "order", "lost", "absorbed")), fates)
+                   for f in ("direction", "weight", "order")),
+                 sum(p.lost for p, _ in parts), sum(p.absorbed for p, _ in parts), fates)
 
 
 def _trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.ndarray,
@@ -346,37 +348,38 @@ def _trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nd
     """``trace_paths`` of one chunk in the calling thread, and the Embree queries made."""
     n = len(origins)
     direction = np.zeros((n, 3))
-    weight = np.ones((n, 3))
+    weight = np.zeros((n, 3))
     order = np.zeros(n, np.int64)
-    lost = np.zeros((n, 3))
-    absorbed = np.zeros((n, 3))
+    lost = np.zeros(3)
+    absorbed = np.zeros(3)
     counts = dict.fromkeys(("escaped", "bounces") + FATES[2:], 0)
-    alive = np.arange(n)
-    o, d = origins, dirs
+    # the paths still alive: their rows, weights, origins and directions
+    alive, w, o, d = np.arange(n), np.ones((n, 3)), origins, dirs
     segments = 0
     for bounce in range(bounces + 1):
         if alive.size == 0:
             break
         hits, seg = scene._closest_hit(o, d)
         segments += seg
-        out = hits.status == ESCAPED
-        direction[alive[out]] = d[out]
+        out = np.flatnonzero(hits.status == ESCAPED)
+        direction[alive[out]] = np.take(d, out, axis=0)
+        weight[alive[out]] = np.take(w, out, axis=0)
         order[alive[out]] = bounce
-        counts["escaped"] += int(out.sum())
-        for code in (LEAKED, TRAPPED, BACKFACE):
+        counts["escaped"] += out.size
+        hit = np.flatnonzero(hits.status == HIT)
+        for code in (LEAKED, TRAPPED, BACKFACE) if out.size + hit.size < alive.size else ():
             ended = hits.status == code
-            lost[alive[ended]] = weight[alive[ended]]
+            lost += w[ended].sum(axis=0)
             counts[FATES[code]] += int(ended.sum())
-        hit = hits.status == HIT
-        alive, d_in = alive[hit], d[hit]
-        face, point = hits.face[hit], hits.point[hit]
+        alive, face = alive[hit], hits.face[hit]
+        w, d, point = (np.take(a, hit, axis=0) for a in (w, d, hits.point))
         if bounce == bounces:
-            lost[alive] = weight[alive]
+            lost += w.sum(axis=0)
             counts["bounces"] += alive.size
             break
-        d, factor = materials.scatter(face, d_in, scene.normals[face], rng)
-        absorbed[alive] += weight[alive] * (1.0 - factor)
-        weight[alive] *= factor
-        o = scene.offset(point, face, d)
-    weight[order == 0] = 0.0
+        n_f = np.take(scene.normals, face, axis=0)
+        d, factor = materials.scatter(face, d, n_f, rng)
+        absorbed += (w * (1.0 - factor)).sum(axis=0)
+        w = w * factor
+        o = scene.offset(point, n_f, d)
     return Paths(direction, weight, order, lost, absorbed, counts), segments

@@ -50,7 +50,7 @@ def test_secondary_rays_never_rehit_their_face(make) -> None:
     points = v[:, 0] + u[:, :1] * (v[:, 1] - v[:, 0]) + u[:, 1:] * (v[:, 2] - v[:, 0])
     d = cosine_about(normals[faces], rng.random((n, 2)))
     with PeriodicScene(tile) as scene:
-        hits = scene.closest_hit(scene.offset(points, faces, d), d)
+        hits = scene.closest_hit(scene.offset(points, normals[faces], d), d)
         # the same rays without the offset do re-hit their faces: the check can fail
         raw = scene.closest_hit(points, d)
     assert np.count_nonzero((hits.status == HIT) & (hits.face == faces)) == 0
