@@ -195,7 +195,7 @@ class PeriodicScene:
         target = np.column_stack([np.where(dirs[:, i] >= 0, hi, lo) for i, (lo, hi) in
                                   enumerate(zip((0.0, 0.0, self.z_bottom),
                                                 (*self.period, self.z_top), strict=True))])
-        inv = np.divide(1.0, dirs, out=np.full(dirs.shape, 1e300), where=dirs != 0)
+        inv = 1.0 / np.where(dirs == 0, 1e-300, dirs)
         active = np.arange(n)
         queries = segments = 0
         while active.size:

@@ -8,12 +8,12 @@ from microsim.surfaces.tile import Tile
 
 
 def height_field_tile(h: np.ndarray, size: float = 1.0, info: dict | None = None) -> Tile:
-    """A periodic tile from heights on an n x n grid (the last row and column wrap).
+    """A periodic tile from heights on an nx x ny grid (the last row and column wrap).
 
     Parameters
     ----------
-    h : (n, n) float
-        Heights at x = i size / n (axis 0) and y = j size / n (axis 1).
+    h : (nx, ny) float
+        Heights at x = i size / nx (axis 0) and y = j size / ny (axis 1).
     size : float
         Tile period along x and y.
     info : dict or None
@@ -23,14 +23,14 @@ def height_field_tile(h: np.ndarray, size: float = 1.0, info: dict | None = None
     -------
     Tile
     """
-    n = h.shape[0]
-    g = np.arange(n + 1) * (size / n)
-    x, y = np.meshgrid(g, g, indexing="ij")
+    nx, ny = h.shape
+    x, y = np.meshgrid(np.arange(nx + 1) * (size / nx), np.arange(ny + 1) * (size / ny),
+                       indexing="ij")
     z = np.pad(h, ((0, 1), (0, 1)), mode="wrap")
     vertices = np.stack([x, y, z], axis=-1).reshape(-1, 3)
-    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    a = (i * (n + 1) + j).ravel()
-    b, c, d = a + (n + 1), a + 1, a + n + 2
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    a = (i * (ny + 1) + j).ravel()
+    b, c, d = a + (ny + 1), a + 1, a + ny + 2
     faces = np.concatenate([np.stack([a, b, d], 1), np.stack([a, d, c], 1)])
     return Tile(vertices, faces, np.zeros(len(faces), np.int64), ("base",), (size, size),
                 info=info or {})
@@ -91,13 +91,28 @@ def bump_tile(height: float = 0.05, half: float = 0.1) -> Tile:
                 ("base",), (1.0, 1.0))
 
 
-def vgroove_tile(slope_deg: float, grooves: int = 8) -> Tile:
-    """Symmetric V-grooves along y with faces at +-slope_deg, peaks at z = 0.
+def vgroove_tile(slope_deg: float | np.ndarray, grooves: int = 8) -> Tile:
+    """Symmetric V-grooves along y with peaks at z = 0.
 
-    Two grid points per groove along x (peak, valley), so each groove face is one row
-    of facets.
+    Two grid points per groove along x (peak, valley), so each groove face is one row of
+    facets.
+
+    Parameters
+    ----------
+    slope_deg : float or (grooves,) float
+        Slope of the faces of every groove, or of each groove.
+    grooves : int
+        Grooves per tile.
     """
     n = 2 * grooves
-    depth = np.tan(np.radians(slope_deg)) / n
-    h = np.where(np.arange(n) % 2 == 0, 0.0, -depth)[:, None] * np.ones((1, n))
+    depth = np.tan(np.radians(np.broadcast_to(slope_deg, (grooves,)))) / n
+    h = np.zeros((n, 2))
+    h[1::2] = -depth[:, None]
     return height_field_tile(h, info={"isotropic": False})
+
+
+def beckmann_vgroove_tile(alpha: float, grooves: int = 256, seed: int = 0) -> Tile:
+    """V-grooves whose slopes tan(s) are |N(0, alpha^2 / 2)|: the per-axis slope
+    distribution of a Beckmann surface of roughness alpha across the grooves."""
+    slopes = np.abs(np.random.default_rng(seed).normal(0.0, alpha / np.sqrt(2), grooves))
+    return vgroove_tile(np.degrees(np.arctan(slopes)), grooves)
