@@ -1,0 +1,1 @@
+"""BRDF tables: outgoing-direction bins, the binned estimator with errors, OpenEXR files."""

@@ -1,0 +1,161 @@
+"""BRDF tables as OpenEXR files (docs/table-format.md describes the layout).
+
+One scanline image of float32 channels ``{total,single}{,_err}.{R,G,B}``. Image rows run
+over (θi, φi, θo) in row-major order, columns over φo. The string attribute ``microsim``
+holds JSON with the axes (bin edges in radians), the channel layout, the per-incidence
+albedo, errors and lost energy at full precision, and the caller's metadata. Files are
+written atomically: a temporary file in the same folder, renamed over the target.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from microsim.errors import InputError
+from microsim.tables.binning import HemisphereBins
+from microsim.tables.table import COMPONENTS, BRDFTable
+
+FORMAT_VERSION = 1
+ATTRIBUTE = "microsim"
+COLOURS = ("R", "G", "B")
+
+
+def _jsonable(x: Any) -> Any:
+    """NaN and infinities become null; numpy arrays and scalars become lists and numbers."""
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if hasattr(x, "tolist"):
+        return _jsonable(x.tolist())
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def _array(x: Any) -> np.ndarray:
+    """Inverse of ``_jsonable`` for numeric arrays: null becomes NaN."""
+    return np.array(x, dtype=float) if x is not None else np.nan
+
+
+def header_json(table: BRDFTable) -> dict[str, Any]:
+    """The ``microsim`` attribute of a table file, as a dict."""
+    a, b = table.rays.shape
+    nt, np_ = table.bins.shape
+    return _jsonable({
+        "format_version": FORMAT_VERSION,
+        "parameterisation": ("theta_i,theta_o,phi_o-phi_i" if table.isotropic
+                             else "theta_i,phi_i,theta_o,phi_o"),
+        "isotropic": table.isotropic,
+        "axes": {"theta_i": {"values": table.theta_i, "unit": "rad"},
+                 "phi_i": {"values": table.phi_i, "unit": "rad"},
+                 **table.bins.to_dict()},
+        "layout": {"rows": ["theta_i", "phi_i", "theta_o"], "columns": ["phi_o"],
+                   "shape": [a, b, nt, np_],
+                   "row": "(i_theta_i * n_phi_i + i_phi_i) * n_theta_o + i_theta_o",
+                   "channels": [f"{c}{s}.{k}" for c in COMPONENTS for s in ("", "_err")
+                                for k in COLOURS],
+                   "value": "f_r in 1/sr (never times cos theta_o); *_err: standard error, "
+                            "NaN where undefined (no ray landed in the bin)"},
+        "rays": table.rays,
+        "albedo": table.albedo_of["total"], "albedo_err": table.albedo_err_of["total"],
+        "single_albedo": table.albedo_of["single"],
+        "single_albedo_err": table.albedo_err_of["single"],
+        "lost_energy": table.lost_energy,
+        "meta": table.meta,
+    })
+
+
+def write_table(table: BRDFTable, path: str | Path) -> None:
+    """Write ``table`` to ``path`` atomically.
+
+    Parameters
+    ----------
+    table : BRDFTable
+    path : str or Path
+        Target file; its folder is created if missing. A crash never leaves a partial
+        file under this name, and an existing file is replaced only by a complete one.
+    """
+    import OpenEXR
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    a, b = table.rays.shape
+    nt, np_ = table.bins.shape
+    channels = {}
+    for c in COMPONENTS:
+        for suffix, data in (("", table.values[c]), ("_err", table.errors[c])):
+            image = data.reshape(a * b * nt, np_, 3)
+            for k, colour in enumerate(COLOURS):
+                channels[f"{c}{suffix}.{colour}"] = np.ascontiguousarray(image[..., k],
+                                                                         np.float32)
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+              ATTRIBUTE: json.dumps(header_json(table))}
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        OpenEXR.File(header, channels).write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def read_table(path: str | Path) -> BRDFTable:
+    """Read a table file written by ``write_table``.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    BRDFTable
+        Without raw sums (a read table does not merge); ``meta`` is the writer's.
+
+    Raises
+    ------
+    InputError
+        If the file is missing, not OpenEXR, or not a microsim table.
+    """
+    import OpenEXR
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such file")
+    try:
+        with OpenEXR.File(str(path), separate_channels=True) as f:
+            # copies: the file's header and pixel views do not outlive the file object
+            header = dict(f.header())
+            pixels = {name: np.array(ch.pixels) for name, ch in f.channels().items()}
+    except RuntimeError:
+        raise InputError(f"{path}: not an OpenEXR file") from None
+    if ATTRIBUTE not in header:
+        raise InputError(f"{path}: not a microsim table (no '{ATTRIBUTE}' attribute)")
+    info = json.loads(header[ATTRIBUTE])
+    if info.get("format_version") != FORMAT_VERSION:
+        raise InputError(f"{path}: table format version {info.get('format_version')!r}; "
+                         f"this microsim reads version {FORMAT_VERSION}")
+    axes = info["axes"]
+    bins = HemisphereBins.from_dict(axes)
+    shape = tuple(info["layout"]["shape"]) + (3,)
+
+    def load(name: str) -> np.ndarray:
+        return np.stack([pixels[f"{name}.{k}"] for k in COLOURS], axis=-1).astype(
+            float).reshape(shape)
+
+    return BRDFTable(
+        bins, _array(axes["theta_i"]["values"]), _array(axes["phi_i"]["values"]),
+        info["isotropic"],
+        {c: load(c) for c in COMPONENTS}, {c: load(f"{c}_err") for c in COMPONENTS},
+        np.array(info["rays"], np.int64),
+        {"total": _array(info["albedo"]), "single": _array(info["single_albedo"])},
+        {"total": _array(info["albedo_err"]), "single": _array(info["single_albedo_err"])},
+        _array(info["lost_energy"]), info["meta"])

@@ -1,0 +1,288 @@
+"""The tabulated BRDF: binned f_r with standard errors, its estimator and its evaluation.
+
+Axes are (θi, φi, θo, φo): incident directions are the product of ``theta_i`` and
+``phi_i``; outgoing bins are ``HemisphereBins``. For an isotropic surface ``phi_i`` is
+``[0]`` and the outgoing azimuth is relative, φo − φi. Arrays of values and errors have
+shape (n_theta_i, n_phi_i, theta_bins, phi_bins, 3) (RGB). Components: ``"total"`` (all
+scattering orders) and ``"single"`` (first order only).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from microsim.tables.binning import TWO_PI, HemisphereBins
+
+COMPONENTS = ("total", "single")
+LOBE_FRACTION = 0.1
+"""Lobe bins: where f_r (mean over RGB) is at least this fraction of the incidence's peak."""
+
+
+def _mean_and_error(s1: np.ndarray, s2: np.ndarray, n: np.ndarray) -> tuple[np.ndarray,
+                                                                            np.ndarray]:
+    """Sample mean of a per-ray quantity X and its standard error from Σx and Σx².
+
+    Parameters
+    ----------
+    s1, s2 : (..., m, 3) float
+        Σ X and Σ X² over ``n`` rays (X = 0 for rays that did not contribute).
+    n : (...) int
+        Rays.
+
+    Returns
+    -------
+    mean, stderr : (..., m, 3) float
+        ``stderr`` = √(s² / n) with the unbiased s² = (Σx² − (Σx)²/n) / (n − 1); NaN where
+        Σx² = 0 (no ray contributed, so the variance is unknown) or n < 2.
+    """
+    n = np.asarray(n, float)[..., None, None]
+    mean = s1 / n
+    with np.errstate(invalid="ignore", divide="ignore"):
+        var = np.maximum(s2 - s1 * mean, 0.0) / (n - 1)
+        err = np.sqrt(var / n)
+    return mean, np.where((s2 > 0) & (n >= 2), err, np.nan)
+
+
+def _linear_weights(x: np.ndarray, nodes: np.ndarray,
+                    period: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Indices and weights of linear interpolation of ``x`` between sorted ``nodes``.
+
+    Clamped at the ends, or periodic with ``period``.
+
+    Returns
+    -------
+    i0, i1 : (...) int
+    w1 : (...) float
+        Value = (1 − w1) f[i0] + w1 f[i1].
+    """
+    m = len(nodes)
+    if m == 1:
+        zero = np.zeros(np.shape(x), np.int64)
+        return zero, zero, np.zeros(np.shape(x))
+    if period is None:
+        x = np.clip(x, nodes[0], nodes[-1])
+        i1 = np.clip(np.searchsorted(nodes, x, side="right"), 1, m - 1)
+        i0 = i1 - 1
+        w1 = (x - nodes[i0]) / (nodes[i1] - nodes[i0])
+        return i0, i1, np.clip(w1, 0.0, 1.0)
+    ext = np.concatenate([nodes, [nodes[0] + period]])
+    x = nodes[0] + np.mod(x - nodes[0], period)
+    i1 = np.clip(np.searchsorted(ext, x, side="right"), 1, m)
+    i0 = i1 - 1
+    w1 = np.clip((x - ext[i0]) / (ext[i1] - ext[i0]), 0.0, 1.0)
+    return i0, np.mod(i1, m), w1
+
+
+class BRDFTable:
+    """A binned BRDF with per-bin standard errors.
+
+    Parameters
+    ----------
+    bins : HemisphereBins
+        Outgoing bins.
+    theta_i : (a,) float
+        Incident polar angles, radians, increasing.
+    phi_i : (b,) float
+        Incident azimuths, radians, increasing (``[0]`` when isotropic).
+    isotropic : bool
+        Outgoing azimuths are relative to the incident one.
+    values, errors : dict of str to (a, b, nt, np, 3) float
+        f_r (1/sr) and its standard error per component; an error is NaN where it is
+        undefined (no ray landed in the bin).
+    rays : (a, b) int
+        Rays launched per incident direction.
+    albedo, albedo_err, single_albedo, single_albedo_err, lost_energy : (a, b, 3) float
+        Directional albedo ∫ f_r cos θo dωo (of escaping light, all orders / first order)
+        with standard errors, and the energy of paths still alive after the bounce limit
+        or absorbed by transmission (per unit incident power).
+    meta : dict
+        Free-form JSON-able metadata (recipe, surface facts, seed, timings).
+    sums, sums_sq : dict or None
+        Raw per-bin sums Σw, Σw² of shape (a, b, nt·np, 3) when the table was estimated
+        here: tables of the same set-up and independent rays merge exactly with ``+``.
+    lost : (a, b, 3) float or None
+        Raw summed lost weight.
+    """
+
+    def __init__(self, bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
+                 isotropic: bool, values: Mapping[str, np.ndarray],
+                 errors: Mapping[str, np.ndarray], rays: np.ndarray,
+                 albedo: Mapping[str, np.ndarray], albedo_err: Mapping[str, np.ndarray],
+                 lost_energy: np.ndarray, meta: Mapping[str, Any], *,
+                 sums: Mapping[str, np.ndarray] | None = None,
+                 sums_sq: Mapping[str, np.ndarray] | None = None,
+                 lost: np.ndarray | None = None) -> None:
+        self.bins = bins
+        self.theta_i = np.asarray(theta_i, float)
+        self.phi_i = np.asarray(phi_i, float)
+        self.isotropic = bool(isotropic)
+        self.values = {c: np.asarray(values[c], float) for c in COMPONENTS}
+        self.errors = {c: np.asarray(errors[c], float) for c in COMPONENTS}
+        self.rays = np.asarray(rays, np.int64)
+        self.albedo_of = {c: np.asarray(albedo[c], float) for c in COMPONENTS}
+        self.albedo_err_of = {c: np.asarray(albedo_err[c], float) for c in COMPONENTS}
+        self.lost_energy = np.asarray(lost_energy, float)
+        self.meta = dict(meta)
+        self.sums, self.sums_sq, self.lost = sums, sums_sq, lost
+
+    @classmethod
+    def from_sums(cls, bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
+                  isotropic: bool, rays: np.ndarray, sums: Mapping[str, np.ndarray],
+                  sums_sq: Mapping[str, np.ndarray], lost: np.ndarray,
+                  meta: Mapping[str, Any]) -> BRDFTable:
+        """The goniophotometer's estimator from per-bin sums of exit weights.
+
+        Each launched ray contributes its exit weight w to at most one bin, so per bin the
+        per-ray quantity X = w·1[bin] has mean Σw/N and f_r = (Σw/N) / Ω_proj (Nicodemus
+        et al. 1977, NBS Monograph 160, eq. 4: reflected over incident power per
+        projected solid angle). The albedo is the mean of the per-ray total exit weight
+        W = Σ_bins X, whose Σ W² equals Σ over bins of Σw², because a ray exits once.
+
+        Parameters
+        ----------
+        bins : HemisphereBins
+        theta_i : (a,) float
+        phi_i : (b,) float
+        isotropic : bool
+        rays : (a, b) int
+            Rays launched per incident direction.
+        sums, sums_sq : dict of str to (a, b, nt·np, 3) float
+            Σw and Σw² per bin for "total" and "single".
+        lost : (a, b, 3) float
+            Summed weight of paths lost (bounce limit, transmission).
+        meta : dict
+
+        Returns
+        -------
+        BRDFTable
+        """
+        rays = np.asarray(rays, np.int64)
+        shape = rays.shape + bins.shape + (3,)
+        omega = bins.projected_solid_angle.reshape(1, 1, -1, 1)
+        values, errors, albedo, albedo_err = {}, {}, {}, {}
+        for c in COMPONENTS:
+            s1, s2 = np.asarray(sums[c], float), np.asarray(sums_sq[c], float)
+            mean, err = _mean_and_error(s1, s2, rays)
+            values[c] = (mean / omega).reshape(shape)
+            errors[c] = (err / omega).reshape(shape)
+            a, e = _mean_and_error(s1.sum(axis=2, keepdims=True),
+                                   s2.sum(axis=2, keepdims=True), rays)
+            albedo[c], albedo_err[c] = a[:, :, 0], e[:, :, 0]
+        return cls(bins, theta_i, phi_i, isotropic, values, errors, rays, albedo, albedo_err,
+                   np.asarray(lost, float) / rays[..., None], meta,
+                   sums={c: np.asarray(sums[c], float) for c in COMPONENTS},
+                   sums_sq={c: np.asarray(sums_sq[c], float) for c in COMPONENTS},
+                   lost=np.asarray(lost, float))
+
+    def __add__(self, other: BRDFTable) -> BRDFTable:
+        """Merge two estimates of the same set-up made with independent rays."""
+        if self.sums is None or other.sums is None:
+            raise ValueError("only tables holding raw sums (fresh estimates) merge")
+        same = (self.bins.shape == other.bins.shape and self.isotropic == other.isotropic
+                and np.array_equal(self.theta_i, other.theta_i)
+                and np.array_equal(self.phi_i, other.phi_i))
+        if not same:
+            raise ValueError("tables with different axes do not merge")
+        return BRDFTable.from_sums(
+            self.bins, self.theta_i, self.phi_i, self.isotropic, self.rays + other.rays,
+            {c: self.sums[c] + other.sums[c] for c in COMPONENTS},
+            {c: self.sums_sq[c] + other.sums_sq[c] for c in COMPONENTS},
+            self.lost + other.lost, self.meta)
+
+    # --- derived quantities ------------------------------------------------------------
+    @property
+    def albedo(self) -> np.ndarray:
+        """(a, b, 3) directional albedo of all escaping light (all orders)."""
+        return self.albedo_of["total"]
+
+    @property
+    def albedo_err(self) -> np.ndarray:
+        """(a, b, 3) standard error of ``albedo``."""
+        return self.albedo_err_of["total"]
+
+    def lobe_mask(self, component: str = "total",
+                  threshold: float = LOBE_FRACTION) -> np.ndarray:
+        """(a, b, nt, np) bool: bins whose f_r (mean over RGB) is at least ``threshold``
+        times the peak of their incidence."""
+        f = self.values[component].mean(axis=-1)
+        peak = f.max(axis=(2, 3), keepdims=True)
+        return (f >= threshold * peak) & (peak > 0)
+
+    def median_rel_error(self, component: str = "total") -> float:
+        """Median relative standard error over the lobe bins of every incidence (NaN
+        errors, i.e. empty bins, count as infinitely uncertain)."""
+        f = self.values[component].mean(axis=-1)
+        e = self.errors[component].mean(axis=-1)
+        lobe = self.lobe_mask(component)
+        rel = np.where(np.isfinite(e), e, np.inf)[lobe] / f[lobe]
+        return float(np.median(rel)) if rel.size else float("nan")
+
+    # --- evaluation --------------------------------------------------------------------
+    def _interpolate(self, data: np.ndarray, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """Interpolate an (a, b, nt, np, 3) array at direction pairs: linear in θi and φi
+        between incidences, bilinear in (sin²θo, φo) between bin centres (clamped at the
+        pole and the horizon, periodic in φo), zero where either direction is at or below
+        the horizon."""
+        wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
+        shape = wi.shape[:-1]
+        wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
+        theta_in = np.arccos(np.clip(wi[:, 2], -1.0, 1.0))
+        phi_in = np.arctan2(wi[:, 1], wi[:, 0])
+        phi_out = np.arctan2(wo[:, 1], wo[:, 0])
+        if self.isotropic:
+            phi_out = phi_out - phi_in
+        phi_out = self.bins.relative_phi(phi_out)
+        u_out = np.clip(wo[:, 0] ** 2 + wo[:, 1] ** 2, 0.0, 1.0)
+        u_centers = np.sin(self.bins.theta_centers) ** 2
+        a0, a1, wa = _linear_weights(theta_in, self.theta_i)
+        b0, b1, wb = _linear_weights(np.mod(phi_in, TWO_PI), self.phi_i, TWO_PI)
+        t0, t1, wt = _linear_weights(u_out, u_centers)
+        p0, p1, wp = _linear_weights(phi_out, self.bins.phi_centers, self.bins.phi_period)
+        out = np.zeros((len(wi), 3))
+        for ia, fa in ((a0, 1 - wa), (a1, wa)):
+            for ib, fb in ((b0, 1 - wb), (b1, wb)):
+                for it, ft in ((t0, 1 - wt), (t1, wt)):
+                    for ip, fp in ((p0, 1 - wp), (p1, wp)):
+                        out += (fa * fb * ft * fp)[:, None] * data[ia, ib, it, ip]
+        above = (wi[:, 2] > 0) & (wo[:, 2] > 0)
+        return np.where(above[:, None], out, 0.0).reshape(shape + (3,))
+
+    def eval(self, wi: np.ndarray, wo: np.ndarray, component: str = "total") -> np.ndarray:
+        """Interpolated f_r.
+
+        Parameters
+        ----------
+        wi, wo : (..., 3) float
+            Unit directions towards the light and the viewer, local frame.
+        component : str
+            ``"total"`` or ``"single"``.
+
+        Returns
+        -------
+        (..., 3) float
+            f_r in 1/sr per colour; 0 where either direction is at or below the horizon.
+        """
+        return self._interpolate(self.values[self._component(component)], wi, wo)
+
+    def stderr(self, wi: np.ndarray, wo: np.ndarray, component: str = "total") -> np.ndarray:
+        """Interpolated standard error of f_r (as ``eval``); NaN where an interpolation
+        node's error is undefined (an empty bin next to the direction)."""
+        err = self.errors[self._component(component)]
+        nan = self._interpolate(np.isnan(err).astype(float), wi, wo) > 0
+        return np.where(nan, np.nan, self._interpolate(np.nan_to_num(err), wi, wo))
+
+    def write(self, path: str | Path) -> None:
+        """Write the table as OpenEXR, atomically (see ``microsim.tables.exr``)."""
+        from microsim.tables.exr import write_table
+
+        write_table(self, path)
+
+    @staticmethod
+    def _component(component: str) -> str:
+        if component not in COMPONENTS:
+            raise ValueError(f"component must be one of {COMPONENTS}, got {component!r}")
+        return component
