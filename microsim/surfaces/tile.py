@@ -67,3 +67,52 @@ class Tile:
         normals = np.divide(cross, norm[:, None], out=np.zeros_like(cross),
                             where=norm[:, None] > 0)
         return normals, 0.5 * norm
+
+    def realised_alpha(self, rotation: float = 0.0) -> tuple[float, float]:
+        """Roughness of the facets along two axes rotated by ``rotation`` about +z.
+
+        The height gradient of a facet is g = (−n_x/n_z, −n_y/n_z); over the macro-surface
+        (facets weighted by projected area, a_f n_z) Walter et al. 2007's roughness is
+        α = √(2 E[(g · e)²]) along a unit axis e (Beckmann slopes have per-axis variance
+        α²/2). Facets with n_z ≤ 0 (overhangs, vertical walls) have no height gradient
+        and are left out.
+
+        Parameters
+        ----------
+        rotation : float
+            Angle of the first axis from +x, radians.
+
+        Returns
+        -------
+        alpha_x, alpha_y : float
+            Along the rotated x and y axes.
+        """
+        normals, areas = self.face_normals_areas()
+        up = normals[:, 2] > 0
+        n, weight = normals[up], areas[up] * normals[up, 2]
+        gx, gy = -n[:, 0] / n[:, 2], -n[:, 1] / n[:, 2]
+        c, s = np.cos(rotation), np.sin(rotation)
+        total = weight.sum()
+        return tuple(float(np.sqrt(2 * np.sum(weight * slope**2) / total))
+                     for slope in (c * gx + s * gy, -s * gx + c * gy))
+
+
+def grid_faces(nx: int, ny: int) -> np.ndarray:
+    """Triangles of a vertex grid indexed ``i * ny + j``, two per cell, counter-clockwise
+    seen from +z when x grows with i and y with j.
+
+    Parameters
+    ----------
+    nx, ny : int
+        Vertices along x and y.
+
+    Returns
+    -------
+    (2 (nx − 1)(ny − 1), 3) int64
+    """
+    i, j = np.meshgrid(np.arange(nx - 1), np.arange(ny - 1), indexing="ij")
+    v00 = (i * ny + j).ravel()
+    v10, v01 = v00 + ny, v00 + 1
+    v11 = v10 + 1
+    return np.concatenate([np.column_stack([v00, v10, v11]),
+                           np.column_stack([v00, v11, v01])]).astype(np.int64)
