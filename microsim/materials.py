@@ -1,14 +1,16 @@
 """Facet scattering: what a ray does where it hits a face of a given material.
 
 Each face carries a material id (an index into the tile's parts); each part has a resolved
-``[material.<part>]`` section of the recipe. Scattering returns the new direction and the
-factor (RGB) by which the path weight is multiplied; the rest, ``1 - factor``, is absorbed
-(by a conductor, transmitted into a dielectric, or absorbed by a diffuse facet).
+``[material.<part>]`` section of the recipe. Scattering returns the new direction, the
+factor (RGB) by which the path weight is multiplied, and the fraction transmitted into the
+material (a dielectric's 1 - F, reported as lost energy); the rest, ``1 - factor -
+transmitted``, is absorbed (by a conductor or a diffuse facet).
 
 - ``mirror``: specular reflection, factor 1.
 - ``conductor``: specular reflection, factor the exact conductor Fresnel reflectance per
   channel at the facet's incidence angle.
-- ``dielectric``: specular reflection, factor the dielectric Fresnel reflectance.
+- ``dielectric``: specular reflection, factor the dielectric Fresnel reflectance; the
+  refracted part is absorbed inside and reported as lost.
 - ``lambertian``: cosine-weighted direction about the facet normal, factor the albedo (the
   cosine-weighted pdf cancels the BRDF's cosine: Pharr, Jakob & Humphreys, PBR 4th ed.,
   sec. 13.6.3 and 4.5.1).
@@ -91,7 +93,7 @@ class FacetMaterials:
         self.specs = [dict(materials[p]) for p in parts]
 
     def scatter(self, faces: np.ndarray, d: np.ndarray, n: np.ndarray,
-                rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+                rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Scatter rays at the faces they hit.
 
         Parameters
@@ -111,9 +113,12 @@ class FacetMaterials:
             New unit directions.
         factor : (k, 3) float
             RGB weight factor, in [0, 1].
+        transmitted : (k, 3) float
+            Fraction of the weight refracted into the material (dielectrics), in [0, 1].
         """
         out = np.empty_like(d)
         factor = np.empty((len(d), 3))
+        transmitted = np.zeros((len(d), 3))
         mat = self.face_material[faces]
         for m, spec in enumerate(self.specs):
             sel = np.flatnonzero(mat == m)
@@ -140,4 +145,5 @@ class FacetMaterials:
                                                 np.asarray(spec["k"]))
             else:
                 factor[sel] = fresnel_dielectric(cos, spec["eta"])[:, None]
-        return out, factor
+                transmitted[sel] = 1.0 - factor[sel]
+        return out, factor, transmitted

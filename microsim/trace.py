@@ -286,9 +286,10 @@ class Paths:
     lost : (3,) float
         Summed RGB weight of paths ended by the simulation: alive after the last bounce,
         leaked, trapped, or through a back face.
+    transmitted : (3,) float
+        Summed RGB weight refracted into dielectric facets (absorbed there).
     absorbed : (3,) float
-        Summed RGB weight the materials absorbed (conductor absorption, dielectric transmission,
-        lambertian absorption).
+        Summed RGB weight absorbed by conductor and lambertian facets.
     fate_counts : dict of str to int
         Paths per ending (``"escaped"``, ``"bounces"``, and the ``FATES`` of lost paths).
     """
@@ -297,6 +298,7 @@ class Paths:
     weight: np.ndarray
     order: np.ndarray
     lost: np.ndarray
+    transmitted: np.ndarray
     absorbed: np.ndarray
     fate_counts: dict[str, int]
 
@@ -339,7 +341,8 @@ def trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nda
     fates = {k: sum(p.fate_counts[k] for p, _ in parts) for k in parts[0][0].fate_counts}
     return Paths(*(np.concatenate([getattr(p, f) for p, _ in parts])
                    for f in ("direction", "weight", "order")),
-                 sum(p.lost for p, _ in parts), sum(p.absorbed for p, _ in parts), fates)
+                 *(sum(getattr(p, f) for p, _ in parts)
+                   for f in ("lost", "transmitted", "absorbed")), fates)
 
 
 def _trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.ndarray,
@@ -350,8 +353,7 @@ def _trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nd
     direction = np.zeros((n, 3))
     weight = np.zeros((n, 3))
     order = np.zeros(n, np.int64)
-    lost = np.zeros(3)
-    absorbed = np.zeros(3)
+    lost, transmitted, absorbed = np.zeros(3), np.zeros(3), np.zeros(3)
     counts = dict.fromkeys(("escaped", "bounces") + FATES[2:], 0)
     # the paths still alive: their rows, weights, origins and directions
     alive, w, o, d = np.arange(n), np.ones((n, 3)), origins, dirs
@@ -378,8 +380,9 @@ def _trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nd
             counts["bounces"] += alive.size
             break
         n_f = np.take(scene.normals, face, axis=0)
-        d, factor = materials.scatter(face, d, n_f, rng)
-        absorbed += (w * (1.0 - factor)).sum(axis=0)
+        d, factor, into = materials.scatter(face, d, n_f, rng)
+        transmitted += (w * into).sum(axis=0)
+        absorbed += (w * (1.0 - factor - into)).sum(axis=0)
         w = w * factor
         o = scene.offset(point, n_f, d)
-    return Paths(direction, weight, order, lost, absorbed, counts), segments
+    return Paths(direction, weight, order, lost, transmitted, absorbed, counts), segments

@@ -1,0 +1,354 @@
+"""Estimators of the virtual goniophotometer: masking G1 and the binned BRDF.
+
+Both sample the tile as a real instrument does and count what the periodic tracer
+(``microsim.trace``) returns; docs/goniometer.md explains the sampling, the weights, the
+error bars and the adaptive stop.
+
+- G1: points on the microsurface with density proportional to area times <w, n>+ (the
+  projected area seen from w), a ray towards w from each; the fraction that escapes is
+  Smith's G1(w) = visible projected area / projected area of the front-facing facets
+  (Heitz 2014, "Understanding the masking-shadowing function", JCGT 3(2), eq. 2 and 8).
+- BRDF: rays -wi start at uniform points of the tile's top plane (uniform irradiance over
+  the projected area, as a collimated beam gives) and scatter until they escape; an
+  escaping ray of weight w lands in a bin B of projected solid angle Omega_B, and
+  f_r(wi, B) = E[w 1_B] / Omega_B (the estimator is the fraction of incident power per
+  projected solid angle: Nicodemus et al. 1977, NBS Monograph 160, eq. 4).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+import microsim
+from microsim.compare import direction
+from microsim.materials import FacetMaterials
+from microsim.surfaces.tile import Tile
+from microsim.tables.binning import HemisphereBins
+from microsim.tables.table import BRDFTable
+from microsim.trace import ESCAPED, Paths, PeriodicScene, trace_paths
+
+BATCH = 65536
+"""Rays per batch: the unit of random streams, accumulation and the adaptive stop."""
+COMPONENTS = ("total", "single")
+
+
+def sample_faces(tile: Tile, weights: np.ndarray, n: int, rng: np.random.Generator
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Uniform points on faces drawn with probability proportional to ``weights``.
+
+    Parameters
+    ----------
+    tile : Tile
+    weights : (m,) float
+        Non-negative weight per face, with a positive sum.
+    n : int
+        Points to draw.
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    faces : (n,) int
+    points : (n, 3) float
+        Uniform in each triangle (the folded parallelogram: Pharr, Jakob & Humphreys, PBR
+        4th ed., sec. A.5.5 gives the same density).
+    """
+    faces = rng.choice(len(weights), size=n, p=weights / weights.sum())
+    u = rng.random((n, 2))
+    fold = u.sum(axis=1) > 1.0
+    u[fold] = 1.0 - u[fold]
+    v = tile.vertices[tile.faces[faces]]
+    points = v[:, 0] + u[:, :1] * (v[:, 1] - v[:, 0]) + u[:, 1:] * (v[:, 2] - v[:, 0])
+    return faces, points
+
+
+def measure_g1(scene: PeriodicScene, theta: Sequence[float] | np.ndarray, phi: float,
+               rays: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Masking G1 of the tile towards directions (theta, phi).
+
+    Parameters
+    ----------
+    scene : PeriodicScene
+        The tile, ready to trace.
+    theta : (k,) float
+        Polar angles, radians, each below pi / 2.
+    phi : float
+        Azimuth, radians.
+    rays : int
+        Points (rays) per direction.
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    g1 : (k,) float
+        Fraction of the sampled points that see the direction unoccluded.
+    stderr : (k,) float
+        Binomial standard error sqrt(g1 (1 - g1) / rays).
+
+    Raises
+    ------
+    ValueError
+        If no face of the tile faces one of the directions.
+    """
+    omega = direction(np.asarray(theta, float), phi).reshape(-1, 3)
+    starts, dirs = [], []
+    for w in omega:
+        weights = scene.areas * np.maximum(scene.normals @ w, 0.0)
+        if not weights.sum() > 0:
+            raise ValueError(f"no face of the tile faces theta = "
+                             f"{math.degrees(math.acos(w[2])):g} deg")
+        faces, points = sample_faces(scene.tile, weights, rays, rng)
+        d = np.broadcast_to(w, (rays, 3))
+        starts.append(scene.offset(points, scene.normals[faces], d))
+        dirs.append(d)
+    hits = scene.closest_hit(np.concatenate(starts), np.concatenate(dirs))
+    g1 = (hits.status == ESCAPED).reshape(len(omega), rays).mean(axis=1)
+    return g1, np.sqrt(g1 * (1.0 - g1) / rays)
+
+
+def measure_g1_recipe(recipe: Mapping[str, Any], thetas_deg: Sequence[float], rays: int,
+                      phi_deg: float = 0.0, threads: int | None = None) -> dict[str, Any]:
+    """G1 of a recipe's surface, with the numbers a report needs.
+
+    Parameters
+    ----------
+    recipe : mapping
+        A resolved recipe (``microsim.recipe.resolve``); its surface is built, and
+        ``simulation.seed`` seeds the sampling.
+    thetas_deg : (k,) float
+        Polar angles, degrees.
+    rays : int
+        Rays per angle.
+    phi_deg : float
+        Azimuth, degrees.
+    threads : int or None
+        Tracing threads (default: every CPU).
+
+    Returns
+    -------
+    dict
+        ``theta_deg``, ``phi_deg``, ``g1``, ``stderr`` (lists), ``rays``, ``seed``,
+        ``surface`` (the tile's info), ``segments``, ``wall_time``.
+    """
+    from microsim.surfaces import build_tile
+
+    start = time.perf_counter()
+    tile = build_tile(dict(recipe["surface"]))
+    seed = recipe["simulation"]["seed"]
+    with PeriodicScene(tile, threads) as scene:
+        g1, err = measure_g1(scene, np.radians(thetas_deg), math.radians(phi_deg), rays,
+                             np.random.default_rng(seed))
+        segments = scene.segments
+    return {"theta_deg": list(map(float, thetas_deg)), "phi_deg": float(phi_deg),
+            "g1": g1.tolist(), "stderr": err.tolist(), "rays": rays, "seed": seed,
+            "surface": dict(tile.info), "segments": segments,
+            "wall_time": time.perf_counter() - start}
+
+
+class _Sums:
+    """Running per-bin sums of one incident direction.
+
+    Attributes
+    ----------
+    rays : int
+        Rays launched.
+    sums, sums_sq : dict of str to (b, 3) float
+        Per bin, the sum of exit weights w and of w**2, per component.
+    lost, transmitted, absorbed : (3,) float
+        Summed weight of paths ended by the simulation (bounce limit, leaks), refracted into
+        dielectrics, and absorbed by the other materials.
+    fates : dict of str to int
+        Paths per ending.
+    """
+
+    def __init__(self, bins: int) -> None:
+        self.rays = 0
+        self.sums = {c: np.zeros((bins, 3)) for c in COMPONENTS}
+        self.sums_sq = {c: np.zeros((bins, 3)) for c in COMPONENTS}
+        self.lost, self.transmitted, self.absorbed = np.zeros(3), np.zeros(3), np.zeros(3)
+        self.fates: dict[str, int] = {}
+
+    def add(self, index: np.ndarray, paths: Paths) -> None:
+        """Add one batch: the traced ``paths`` and the bin ``index`` (-1: none) of each."""
+        self.rays += len(index)
+        binned = index >= 0
+        size = self.sums["total"].size
+        for comp, sel in (("total", binned), ("single", binned & (paths.order == 1))):
+            # one bincount per moment over (bin, channel) pairs, in ray order
+            slot = (3 * index[sel, None] + np.arange(3)).ravel()
+            w = paths.weight[sel].ravel()
+            self.sums[comp] += np.bincount(slot, w, minlength=size).reshape(-1, 3)
+            self.sums_sq[comp] += np.bincount(slot, w * w, minlength=size).reshape(-1, 3)
+        # an escaping ray the bins do not take (none for a closed surface) is lost, not hidden
+        self.lost += paths.lost + paths.weight[~binned & (paths.order > 0)].sum(axis=0)
+        self.transmitted += paths.transmitted
+        self.absorbed += paths.absorbed
+        for name, count in paths.fate_counts.items():
+            self.fates[name] = self.fates.get(name, 0) + count
+
+    @property
+    def lost_energy(self) -> np.ndarray:
+        """(3,) summed weight a table reports as lost: simulation ends and transmission."""
+        return self.lost + self.transmitted
+
+
+def _table(bins: HemisphereBins, theta_deg: Sequence[float], phi_deg: Sequence[float],
+           isotropic: bool, runs: Sequence[Sequence[_Sums]], meta: Mapping[str, Any]
+           ) -> BRDFTable:
+    """The table of the sums of every direction (``runs[l][k]``)."""
+
+    def stacked(get: Callable[[_Sums], np.ndarray]) -> np.ndarray:
+        return np.stack([np.stack([get(acc) for acc in row]) for row in runs])
+
+    rays = np.array([[acc.rays for acc in row] for row in runs], np.int64)
+    sums = {c: stacked(lambda a, c=c: a.sums[c]) for c in COMPONENTS}
+    sums_sq = {c: stacked(lambda a, c=c: a.sums_sq[c]) for c in COMPONENTS}
+    return BRDFTable.from_sums(bins, np.radians(theta_deg), np.radians(phi_deg), isotropic,
+                               rays, sums, sums_sq, stacked(lambda a: a.lost_energy), meta)
+
+
+MAX_RAYS_FACTOR = 100
+"""With ``target_error`` and no ``max_rays``, at most this many times ``rays`` are traced."""
+
+
+def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: HemisphereBins,
+                       simulation: Mapping[str, Any], theta: float, phi: float,
+                       isotropic: bool, streams: tuple[int, int],
+                       progress: Callable[[dict[str, Any]], None] | None
+                       ) -> tuple[_Sums, str, float]:
+    """Run the batches of one incident direction (degrees); see ``simulate``.
+
+    Outgoing azimuths are binned relative to ``phi`` for isotropic tables, absolute
+    otherwise (the table's convention). Returns the sums, why the batches stopped
+    (``"rays"``: the fixed count, ``"target_error"`` or ``"max_rays"``), and the median
+    relative error over the lobe.
+    """
+    phi_ref = math.radians(phi) if isotropic else 0.0
+    wi = direction(math.radians(theta), math.radians(phi))
+    acc = _Sums(bins.size)
+    planned = int(simulation["rays"])
+    target = simulation.get("target_error")
+    most = simulation.get("max_rays") or MAX_RAYS_FACTOR * planned
+    batch = 0
+    while True:
+        n = min(BATCH, planned - acc.rays)
+        seed = np.random.SeedSequence(int(simulation["seed"]), spawn_key=(*streams, batch))
+        xy = np.random.default_rng(seed).random((n, 2)) * scene.period
+        origins = np.column_stack([xy, np.full(n, scene.z_top)])
+        paths = trace_paths(scene, facets, origins, np.broadcast_to(-wi, (n, 3)),
+                            int(simulation["bounces"]), seed)
+        acc.add(np.where(paths.order > 0, bins.index(paths.direction, phi_ref), -1), paths)
+        batch += 1
+        # the figure the table reports, for this direction alone
+        error = _table(bins, [theta], [phi], isotropic, [[acc]], {}).median_rel_error()
+        if progress is not None:
+            progress({"theta_i": theta, "phi_i": phi, "rays": acc.rays, "rel_error": error})
+        if acc.rays < planned:
+            continue
+        if target is None:
+            return acc, "rays", error
+        if error <= target:
+            return acc, "target_error", error
+        if acc.rays >= most:
+            return acc, "max_rays", error
+        planned = min(acc.rays + BATCH, most)
+
+
+def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
+             simulation: Mapping[str, Any], table: Mapping[str, Any], *,
+             recipe: Mapping[str, Any] | None = None, threads: int | None = None,
+             progress: Callable[[dict[str, Any]], None] | None = None) -> BRDFTable:
+    """Measure the tile's BRDF table with the virtual goniophotometer.
+
+    Parameters
+    ----------
+    tile : Tile
+        The surface. ``tile.info["isotropic"]`` (default False) says whether one incident
+        azimuth (0) suffices; otherwise every ``simulation["phi_i"]`` is measured.
+    materials : mapping
+        Resolved ``[material]``: one section per part of the tile.
+    simulation : mapping
+        Resolved ``[simulation]``: ``theta_i``, ``phi_i`` (degrees), ``rays``,
+        ``bounces``, ``seed``, and optionally ``target_error`` and ``max_rays``.
+    table : mapping
+        Resolved ``[table]``: ``theta_bins``, ``phi_bins``.
+    recipe : mapping or None
+        The full resolved recipe, stored in the table's metadata (default: the three
+        sections given).
+    threads : int or None
+        Tracing threads (default: every CPU). The result does not depend on it.
+    progress : callable or None
+        Called after every batch with a dict: ``theta_i``, ``phi_i`` (degrees),
+        ``rays`` (so far, this direction), ``rel_error`` (median over the lobe, or None
+        without a target).
+
+    Returns
+    -------
+    BRDFTable
+        Sums per bin for the components ``"total"`` and ``"single"`` (first-order
+        scattering), with metadata (see docs/goniometer.md).
+
+    Notes
+    -----
+    Direction (l, k) runs batches of ``BATCH`` rays (the last one of the planned rays may
+    be shorter); batch b draws from ``SeedSequence(seed, spawn_key=(l, k, b))``, so the
+    numbers depend on neither the thread count nor the chunking. With ``target_error``,
+    batches are added after the first ``rays`` until the median relative error over the
+    lobe is at most the target, or ``max_rays`` (default ``MAX_RAYS_FACTOR * rays``) is
+    reached.
+    """
+    start = time.perf_counter()
+    isotropic = bool(tile.info.get("isotropic", False))
+    theta_deg = [float(t) for t in simulation["theta_i"]]
+    phi_deg = [0.0] if isotropic else [float(p) for p in simulation["phi_i"]]
+    bins = HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
+    facets = FacetMaterials(tile.material, tile.parts, materials)
+    with PeriodicScene(tile, threads) as scene:
+        runs = [[_measure_direction(scene, facets, bins, simulation, theta, phi, isotropic,
+                                    (l, k), progress)
+                 for k, phi in enumerate(phi_deg)] for l, theta in enumerate(theta_deg)]
+        segments, eps = scene.segments, scene.eps
+    wall = time.perf_counter() - start
+    rays = sum(acc.rays for row in runs for acc, _, _ in row)
+    meta = {
+        "recipe": dict(recipe) if recipe is not None else
+        {"material": dict(materials), "simulation": dict(simulation), "table": dict(table)},
+        "microsim_version": microsim.__version__,
+        "surface": dict(tile.info),
+        "seed": int(simulation["seed"]),
+        "isotropic": isotropic,
+        "directions": [{"theta_i": theta_deg[l], "phi_i": phi_deg[k], "rays": acc.rays,
+                        "lost": (acc.lost / acc.rays).tolist(),
+                        "transmitted": (acc.transmitted / acc.rays).tolist(),
+                        "absorbed": (acc.absorbed / acc.rays).tolist(),
+                        "fates": acc.fates, "stop": stop, "rel_error": error}
+                       for l, row in enumerate(runs)
+                       for k, (acc, stop, error) in enumerate(row)],
+        "stop": sorted({stop for row in runs for _, stop, _ in row}),
+        "wall_time": wall,
+        "segments": segments,
+        "rays_per_second": rays / wall,
+        "segments_per_second": segments / wall,
+        "batch": BATCH,
+        "offset": eps,
+    }
+    result = _table(bins, theta_deg, phi_deg, isotropic,
+                    [[acc for acc, _, _ in row] for row in runs], meta)
+    for entry, albedo in zip(result.meta["directions"], result.albedo.reshape(-1, 3),
+                             strict=True):
+        entry["albedo"] = albedo.tolist()
+    return result
+
+
+def simulate_recipe(recipe: Mapping[str, Any], progress: Callable[[dict[str, Any]], None]
+                    | None = None, threads: int | None = None) -> BRDFTable:
+    """Build a resolved recipe's surface and measure its BRDF table (see ``simulate``)."""
+    from microsim.surfaces import build_tile
+
+    tile = build_tile(dict(recipe["surface"]))
+    return simulate(tile, recipe["material"], recipe["simulation"], recipe["table"],
+                    recipe=recipe, threads=threads, progress=progress)

@@ -1,0 +1,143 @@
+"""Estimators against exact or analytic answers: G1 and the binned BRDF."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from tilefixtures import flat_tile, random_tile, vgroove_tile
+
+from microsim.compare import direction
+from microsim.goniometer import measure_g1, simulate
+from microsim.materials import FacetMaterials
+from microsim.recipe import resolve
+from microsim.tables.binning import HemisphereBins
+from microsim.trace import PeriodicScene, trace_paths
+
+Z_MAX = 4.0
+"""Two-sided z bound per comparison: with at most a dozen comparisons per test the chance
+of a false alarm is below 12 x 6.3e-5 < 1e-3."""
+
+
+def vcavity_g1(theta: np.ndarray, slope: float) -> np.ndarray:
+    """G1 of symmetric V-grooves towards theta across the grooves (independent formula).
+
+    Each face (normals at +-slope) has area 1 / (2 cos slope) per unit macro area; a height
+    field shows a projected area cos(theta) of visible surface, so G1 = cos(theta) /
+    sum of area <w, m>+ over faces (Heitz 2014, eq. 2), i.e. the V-cavity result
+    min(1, 2 cos(slope) cos(theta) / cos(theta - slope)) of Torrance & Sparrow 1967.
+    """
+    front = np.cos(theta - slope) + np.maximum(np.cos(theta + slope), 0.0)
+    return np.minimum(1.0, 2 * np.cos(theta) * np.cos(slope) / front)
+
+
+@pytest.mark.parametrize("slope_deg", [30.0, 55.0])
+def test_vgroove_g1_equals_the_vcavity_g1(slope_deg: float) -> None:
+    theta = np.radians([20.0, 45.0, 60.0, 75.0, 85.0])
+    rays = 40_000
+    with PeriodicScene(vgroove_tile(slope_deg)) as scene:
+        g1, err = measure_g1(scene, theta, 0.0, rays, np.random.default_rng(5))
+        along, _ = measure_g1(scene, theta, np.pi / 2, 2000, np.random.default_rng(6))
+    expected = vcavity_g1(theta, np.radians(slope_deg))
+    exact = expected == 1.0
+    # where nothing can occlude, every ray must escape: no noise to allow for
+    assert np.all(g1[exact] == 1.0)
+    sigma = np.sqrt(expected * (1 - expected) / rays)[~exact]
+    assert np.all(np.abs(g1[~exact] - expected[~exact]) < Z_MAX * sigma)
+    assert np.allclose(err[~exact], sigma, rtol=0.1)
+    # along the grooves nothing masks
+    assert np.all(along == 1.0)
+
+
+def mirror_paths(tile, theta_deg: float, rays: int, bounces: int = 16, seed: int = 0):
+    """Trace ``rays`` mirror-facet paths from direction theta_deg (phi = 0)."""
+    wi = direction(np.radians(theta_deg), 0.0)
+    ss = np.random.SeedSequence(seed)
+    rng = np.random.default_rng(ss)
+    with PeriodicScene(tile) as scene:
+        origins = np.column_stack([rng.random((rays, 2)), np.full(rays, scene.z_top)])
+        facets = FacetMaterials(tile.material, tile.parts, {"base": {"kind": "mirror"}})
+        return wi, trace_paths(scene, facets, origins, np.broadcast_to(-wi, (rays, 3)),
+                               bounces, ss)
+
+
+def test_flat_mirror_reflects_every_ray_into_the_mirror_direction() -> None:
+    wi, paths = mirror_paths(flat_tile(), 30.0, 5000)
+    mirror = wi * [-1, -1, 1]
+    assert np.all(paths.order == 1)
+    assert np.abs(paths.direction - mirror).max() < 1e-12
+    assert np.all(paths.weight == 1.0) and not paths.lost.any() and not paths.absorbed.any()
+
+
+@pytest.mark.parametrize("theta_deg", [0.0, 60.0, 85.0])
+def test_white_furnace_conserves_energy(theta_deg: float) -> None:
+    """Mirror facets (F = 1) on a rough closed tile (RMS slope 0.7 per axis, alpha ~ 1):
+    every path ends escaped or lost, so escaped + lost = 1 up to rounding; with 32
+    bounces the energy still travelling must be below 0.002 (the budget of the check)."""
+    tile = random_tile(64, rms_slope=0.7, cells=4.0, seed=7)
+    _, paths = mirror_paths(tile, theta_deg, 20_000, bounces=32)
+    escaped = paths.weight.sum(axis=0) / 20_000
+    lost = paths.lost / 20_000
+    assert np.allclose(escaped + lost, 1.0, rtol=0, atol=1e-12)
+    assert np.all(lost < 0.002)
+    assert paths.order.max() > 2  # multiple scattering happened
+
+
+def recipe_sections(theta_i, rays: int, seed: int = 1, bounces: int = 16,
+                    material: dict | None = None, theta_bins: int = 16, phi_bins: int = 32,
+                    **simulation):
+    """Resolved material, simulation and table sections (the recipe's defaults filled in)."""
+    raw = {"surface": {"kind": "flat"},
+           "material": material or {"kind": "mirror"},
+           "simulation": {"theta_i": list(theta_i), "rays": rays, "seed": seed,
+                          "bounces": bounces, **simulation},
+           "table": {"theta_bins": theta_bins, "phi_bins": phi_bins}}
+    recipe = resolve(raw)
+    return recipe["material"], recipe["simulation"], recipe["table"]
+
+
+def test_flat_mirror_table_holds_everything_in_the_mirror_bin() -> None:
+    material, simulation, table = recipe_sections([30.0], 3000)
+    result = simulate(flat_tile(), material, simulation, table)
+    bin_ = result.bins.index(direction(np.radians([30.0]), np.pi), 0.0)[0]
+    sums = result.sums["total"][0, 0]
+    assert np.all(sums[bin_] == 3000) and np.count_nonzero(sums) == 3
+    assert np.all(result.albedo == 1.0) and np.all(result.lost_energy == 0.0)
+    assert result.meta["directions"][0]["stop"] == "rays"
+    assert result.meta["segments"] >= 2 * 3000  # in, then out: at least two queries a ray
+
+
+def test_reciprocity_bin_to_bin() -> None:
+    """Helmholtz reciprocity on one rough tile, all scattering orders, without bin bias.
+
+    Incident directions are drawn uniformly in projected solid angle inside a bin A (and
+    rays start uniformly over the tile), so the fraction landing in bin B is
+    P(A->B) = (1/Omega) int_A int_B f cos(theta_i) cos(theta_o) dwi dwo, exactly symmetric
+    in A and B when f is reciprocal (equal bins: Omega_A = Omega_B). Every pair of 8 x 4
+    bins (496 pairs; those no ray connects either way are trivially equal) gets
+    z = (P(A->B) - P(B->A)) / se; mirror facets give weights 0 or 1, so
+    se^2 = sum of p (1 - p) / n. Sum of z^2 must stay below its chi-square 0.999 quantile;
+    max |z| below 4.6 (Bonferroni over 496 pairs at 1e-3)."""
+    from scipy.stats import chi2
+
+    tile = random_tile(64, rms_slope=0.5, cells=4.0, seed=3)
+    bins = HemisphereBins(8, 4)
+    n = 10_000
+    facets = FacetMaterials(tile.material, tile.parts, {"base": {"kind": "mirror"}})
+    rng = np.random.default_rng(8)
+    source = np.repeat(np.arange(bins.size), n)
+    wi = bins.sample(source, rng.random(len(source)), rng.random(len(source)))
+    with PeriodicScene(tile) as scene:
+        origins = np.column_stack([rng.random((len(source), 2)), np.full(len(source),
+                                                                        scene.z_top)])
+        paths = trace_paths(scene, facets, origins, -wi, 16, np.random.SeedSequence(9))
+    landed = paths.order > 0
+    cell = source[landed] * bins.size + bins.index(paths.direction[landed], 0.0)
+    p = np.bincount(cell, paths.weight[landed, 0], minlength=bins.size**2)
+    p = p.reshape(bins.size, bins.size) / n
+    var = p * (1 - p) / n
+    i, j = np.triu_indices(bins.size, 1)
+    seen = (p + p.T)[i, j] > 0  # pairs no ray connects are trivially reciprocal
+    assert seen.sum() > 400
+    z = (p - p.T)[i, j][seen] / np.sqrt(var + var.T)[i, j][seen]
+    assert (z**2).sum() < chi2.ppf(0.999, len(z))
+    assert np.abs(z).max() < 4.6
