@@ -1,0 +1,190 @@
+"""The binned estimator, interpolation, merging and the OpenEXR file."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import OpenEXR
+import pytest
+
+import microsim
+from microsim.compare import direction
+from microsim.errors import InputError
+from microsim.tables import exr
+from microsim.tables.binning import HemisphereBins
+from microsim.tables.table import BRDFTable
+
+LAMBERT = 1 / np.pi
+
+
+def lambertian_sums(rng, bins, n, albedo=(1.0, 0.5, 0.25)):
+    """Sums a goniophotometer would record for a Lambertian surface: cosine-weighted
+    exit directions, each ray carrying the RGB albedo as its weight."""
+    u1, u2 = rng.random(n), rng.random(n)
+    wo = direction(np.arcsin(np.sqrt(u1)), 2 * np.pi * u2)
+    idx = bins.index(wo)
+    w = np.broadcast_to(np.asarray(albedo), (n, 3))
+    s1 = np.stack([np.bincount(idx, w[:, k], bins.size) for k in range(3)], -1)
+    s2 = np.stack([np.bincount(idx, w[:, k] ** 2, bins.size) for k in range(3)], -1)
+    return s1, s2
+
+
+def make_table(seed=1, n=100_000, bins=None, theta_i=(0.0,)):
+    rng = np.random.default_rng(seed)
+    bins = bins or HemisphereBins(6, 12)
+    s = [lambertian_sums(rng, bins, n) for _ in theta_i]
+    s1 = np.stack([a for a, _ in s])[:, None]
+    s2 = np.stack([b for _, b in s])[:, None]
+    rays = np.full((len(theta_i), 1), n)
+    return BRDFTable.from_sums(bins, np.array(theta_i), np.zeros(1), True, rays,
+                               {"total": s1, "single": s1}, {"total": s2, "single": s2},
+                               np.zeros((len(theta_i), 1, 3)), {"seed": seed})
+
+
+def test_lambertian_estimate_is_unbiased_within_its_errors():
+    """z = (f - albedo/pi)/stderr over 72 bins x 3 channels: the mean of 216 unit normals
+    lies within 4/sqrt(216) of 0 and their spread within 4/sqrt(2*216) of 1 (4 sigma)."""
+    t = make_table()
+    truth = np.array([1.0, 0.5, 0.25]) * LAMBERT
+    z = ((t.values["total"] - truth) / t.errors["total"]).ravel()
+    assert abs(z.mean()) < 4 / np.sqrt(z.size)
+    assert abs(z.std() - 1) < 4 / np.sqrt(2 * z.size)
+    np.testing.assert_allclose(t.albedo[0, 0], [1.0, 0.5, 0.25], rtol=1e-12)
+    np.testing.assert_allclose(t.albedo_err[0, 0], 0.0, atol=1e-12)  # every ray exits
+
+
+def test_reported_error_matches_scatter_over_seeds():
+    """The stderr predicts the spread of independent estimates: the ratio of the observed
+    standard deviation over 12 seeds to the mean reported error is 1 within ±0.35
+    (the sample std of 12 values has relative error 1/sqrt(22) ≈ 0.21; 0.35 is ~1.6 of
+    that, and averaging over bins shrinks it further)."""
+    vals = np.stack([make_table(seed=s, n=20_000).values["total"][..., 0] for s in range(12)])
+    errs = make_table(seed=99, n=20_000).errors["total"][..., 0]
+    ratio = vals.std(axis=0, ddof=1).mean() / errs.mean()
+    assert abs(ratio - 1) < 0.35
+
+
+def test_empty_bins_have_undefined_error_and_eval_stays_finite():
+    bins = HemisphereBins(4, 4)
+    s1 = np.zeros((1, 1, bins.size, 3))
+    s1[0, 0, 5] = 10.0
+    s2 = np.zeros_like(s1)
+    s2[0, 0, 5] = 10.0
+    t = BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[100]]),
+                            {"total": s1, "single": s1}, {"total": s2, "single": s2},
+                            np.zeros((1, 1, 3)), {})
+    err = t.errors["total"].reshape(-1, 3)
+    assert np.isnan(err[0]).all() and np.isfinite(err[5]).all()
+    wo = direction(np.linspace(0, np.pi / 2, 50), np.linspace(0, 6, 50))
+    f = t.eval(np.array([0.0, 0.0, 1.0]), wo)
+    assert np.isfinite(f).all()
+
+
+def test_eval_at_bin_centres_returns_bin_values_and_is_zero_below_horizon():
+    t = make_table(theta_i=(0.0, 0.6))
+    b = t.bins
+    th, ph = np.meshgrid(b.theta_centers, b.phi_centers, indexing="ij")
+    wo = direction(th, ph)
+    for k, ti in enumerate(t.theta_i):
+        wi = direction(ti, 0.0)
+        np.testing.assert_allclose(t.eval(wi, wo), t.values["total"][k, 0], rtol=1e-12)
+    below = np.array([0.0, 0.6, -0.8])
+    assert np.all(t.eval(direction(0.3, 0.0), below) == 0)
+    assert np.all(t.eval(below, direction(0.3, 0.0)) == 0)
+
+
+def test_eval_interpolates_linearly_in_theta_i():
+    t = make_table(theta_i=(0.0, 0.6))
+    wo = direction(t.bins.theta_centers[2], t.bins.phi_centers[3])
+    mid = t.eval(direction(0.3, 0.0), wo)
+    np.testing.assert_allclose(mid, 0.5 * (t.values["total"][0, 0, 2, 3]
+                                           + t.values["total"][1, 0, 2, 3]), rtol=1e-12)
+
+
+def test_isotropic_eval_uses_relative_azimuth():
+    t = make_table()
+    wo = direction(0.7, 1.0)
+    a = t.eval(direction(0.2, 0.4), wo)
+    b = t.eval(direction(0.2, 0.0), direction(0.7, 0.6))
+    np.testing.assert_allclose(a, b, rtol=1e-12)
+
+
+def test_merge_equals_one_big_estimate():
+    bins = HemisphereBins(3, 4)
+    rng = np.random.default_rng(0)
+    parts = [lambertian_sums(rng, bins, 1000) for _ in range(2)]
+
+    def table(s1, s2, n):
+        return BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[n]]),
+                                   {"total": s1[None, None], "single": s1[None, None]},
+                                   {"total": s2[None, None], "single": s2[None, None]},
+                                   np.zeros((1, 1, 3)), {})
+
+    merged = table(*parts[0], 1000) + table(*parts[1], 1000)
+    whole = table(parts[0][0] + parts[1][0], parts[0][1] + parts[1][1], 2000)
+    np.testing.assert_array_equal(merged.values["total"], whole.values["total"])
+    np.testing.assert_array_equal(merged.errors["total"], whole.errors["total"])
+
+
+def test_exr_round_trip(tmp_path):
+    t = make_table(theta_i=(0.0, 0.5, 1.2))
+    path = tmp_path / "t.exr"
+    t.write(path)
+    r = microsim.read_table(path)
+    for c in ("total", "single"):
+        np.testing.assert_array_equal(r.values[c], t.values[c].astype(np.float32))
+        np.testing.assert_array_equal(r.errors[c], t.errors[c].astype(np.float32))
+    np.testing.assert_array_equal(r.albedo, t.albedo)  # exact, through JSON
+    np.testing.assert_array_equal(r.theta_i, t.theta_i)
+    assert r.meta == {"seed": 1} and r.isotropic
+    assert not list(tmp_path.glob(".*tmp"))
+
+
+def test_file_readable_with_plain_openexr_as_documented(tmp_path):
+    """Read the file the way docs/table-format.md tells a reader to, without microsim."""
+    t = make_table(theta_i=(0.0, 0.5))
+    path = tmp_path / "t.exr"
+    t.write(path)
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        info = json.loads(f.header()["microsim"])
+        red = np.array(f.channels()["total.R"].pixels)
+    a, b, nt, nphi = info["layout"]["shape"]
+    f_r = red.reshape(a, b, nt, nphi)
+    theta_o = np.asarray(info["axes"]["theta_o"]["edges"])
+    assert f_r.shape == (2, 1, 6, 12) and theta_o.size == 7
+    np.testing.assert_array_equal(f_r, t.values["total"][..., 0].astype(np.float32))
+    assert info["parameterisation"] == "theta_i,theta_o,phi_o-phi_i"
+
+
+def test_write_is_atomic(tmp_path, monkeypatch):
+    t = make_table()
+    path = tmp_path / "t.exr"
+    t.write(path)
+    before = path.read_bytes()
+
+    def fail(self, name):
+        with open(name, "wb") as fh:
+            fh.write(b"partial")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(OpenEXR.File, "write", fail)
+    with pytest.raises(OSError, match="disk full"):
+        make_table(seed=2).write(path)
+    assert path.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.exr"]
+
+
+def test_bad_files(tmp_path):
+    with pytest.raises(InputError, match="no such file"):
+        microsim.read_table(tmp_path / "missing.exr")
+    junk = tmp_path / "junk.exr"
+    junk.write_text("not an image")
+    with pytest.raises(InputError, match="not an OpenEXR file"):
+        microsim.read_table(junk)
+    plain = tmp_path / "plain.exr"
+    OpenEXR.File({"type": OpenEXR.scanlineimage},
+                 {"R": np.zeros((2, 2), np.float32)}).write(str(plain))
+    with pytest.raises(InputError, match="not a microsim table"):
+        microsim.read_table(plain)
+    assert exr.FORMAT_VERSION == 1
