@@ -141,3 +141,53 @@ def test_reciprocity_bin_to_bin() -> None:
     z = (p - p.T)[i, j][seen] / np.sqrt(var + var.T)[i, j][seen]
     assert (z**2).sum() < chi2.ppf(0.999, len(z))
     assert np.abs(z).max() < 4.6
+
+
+def test_same_seed_same_numbers_whatever_the_threads() -> None:
+    tile = random_tile(64, rms_slope=0.4, cells=4.0, seed=4)
+    material, simulation, table = recipe_sections([0.0, 60.0], 70_000)
+    one = simulate(tile, material, simulation, table, threads=1)
+    two = simulate(tile, material, simulation, table, threads=2)
+    for c in ("total", "single"):
+        assert one.values[c].tobytes() == two.values[c].tobytes()
+        assert one.sums_sq[c].tobytes() == two.sums_sq[c].tobytes()
+    assert one.lost_energy.tobytes() == two.lost_energy.tobytes()
+
+
+def test_other_seed_other_numbers_within_noise() -> None:
+    """Two seeds give different tables that agree within noise: over the lobe bins,
+    sum of z^2 below its chi-square 0.999 quantile, and the single-scattering albedos
+    within 4 sigma (the total albedo of mirror facets is exactly 1 for both)."""
+    from scipy.stats import chi2
+
+    tile = random_tile(64, rms_slope=0.4, cells=4.0, seed=4)
+    material, simulation, table = recipe_sections([45.0], 50_000, theta_bins=8,
+                                                  phi_bins=16)
+    a = simulate(tile, material, simulation, table)
+    b = simulate(tile, material, {**simulation, "seed": 2}, table)
+    assert not np.array_equal(a.values["total"], b.values["total"])
+    lobe = a.lobe_mask() & b.lobe_mask()
+    z = ((a.values["total"] - b.values["total"])
+         / np.hypot(a.errors["total"], b.errors["total"]))[lobe][:, 0]
+    assert (z**2).sum() < chi2.ppf(0.999, z.size)
+    assert np.all(a.albedo == 1.0) and np.all(b.albedo == 1.0)
+    z_albedo = ((a.albedo_of["single"] - b.albedo_of["single"])
+                / np.hypot(a.albedo_err_of["single"], b.albedo_err_of["single"]))
+    assert np.all(np.abs(z_albedo) < 4)
+
+
+def test_adaptive_stop_reaches_the_target_or_the_limit() -> None:
+    tile = random_tile(64, rms_slope=0.4, cells=4.0, seed=4)
+    material, simulation, table = recipe_sections([30.0], 20_000, theta_bins=8,
+                                                  phi_bins=16, target_error=0.03)
+    result = simulate(tile, material, simulation, table)
+    done = result.meta["directions"][0]
+    assert done["stop"] == "target_error" and done["rays"] > 20_000
+    assert done["rel_error"] <= 0.03
+    assert done["rel_error"] == result.median_rel_error()
+    assert (done["rays"] - 20_000) % 65_536 == 0  # whole batches after the first rays
+    capped = simulate(tile, material, {**simulation, "target_error": 1e-4,
+                                       "max_rays": 30_000}, table)
+    done = capped.meta["directions"][0]
+    assert done["stop"] == "max_rays" and done["rays"] == 30_000
+    assert capped.meta["stop"] == ["max_rays"]
