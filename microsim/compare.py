@@ -10,6 +10,7 @@ the mean over an ``n × n`` midpoint grid in (u, φ) inside the bin.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any, Protocol
 
 import numpy as np
@@ -121,3 +122,37 @@ def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         "albedo_model": albedo_model.tolist(),
         "albedo_difference": (albedo_sim - albedo_model).tolist(),
     }
+
+
+def fresnel_of(material: Mapping[str, Any]) -> tuple | None:
+    """The ``TorranceSparrow`` Fresnel argument for a resolved facet material: None for a
+    mirror (F = 1), ``("conductor", eta, k)`` or ``("dielectric", eta)``."""
+    kind = material["kind"]
+    if kind == "mirror":
+        return None
+    if kind == "conductor":
+        return ("conductor", np.asarray(material["eta"]), np.asarray(material["k"]))
+    if kind == "dielectric":
+        return ("dielectric", float(material["eta"]))
+    raise ValueError(f"a {kind} facet has no microfacet model")
+
+
+def microfacet_model(meta: Mapping[str, Any]) -> Model:
+    """Torrance-Sparrow with a Beckmann NDF at the surface's realised roughness and
+    height-correlated Smith masking: the model a Gaussian surface's single scattering is
+    meant to follow (Walter et al. 2007, eq. 20; Heitz 2014, eq. 99).
+
+    Parameters
+    ----------
+    meta : mapping
+        A table's metadata: ``surface.alpha_realised`` (a number, or [αx, αy]) and the
+        recipe's material of the part ``base``.
+    """
+    from microsim.analytic.brdf import TorranceSparrow
+    from microsim.analytic.ndf import Beckmann
+
+    alpha = meta["surface"]["alpha_realised"]
+    ndf = (Beckmann(alpha_x=alpha[0], alpha_y=alpha[1]) if isinstance(alpha, list)
+           else Beckmann(alpha))
+    material = meta["recipe"]["material"]["base"]
+    return TorranceSparrow(ndf, fresnel=fresnel_of(material), shadowing="smith-correlated")
