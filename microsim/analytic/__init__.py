@@ -1,0 +1,1 @@
+"""Analytic BRDF models: the references every simulation is compared with."""
