@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from tilefixtures import beckmann_vgroove_tile, flat_tile, random_tile, vgroove_tile
 
+from microsim.analytic.fresnel import fresnel_conductor
 from microsim.compare import direction
 from microsim.goniometer import measure_g1, simulate
 from microsim.materials import FacetMaterials
@@ -214,3 +215,31 @@ def test_lambertian_vgrooves_retroreflect() -> None:
     z = [(b[0] - a[0]) / np.hypot(a[1], b[1]) for b, a in zip(back, front, strict=True)]
     assert abs(z[0]) < 4
     assert z[1] > 5 and z[2] > 5
+
+
+def test_conductor_single_scattering_is_mirror_times_fresnel_at_the_half_vector() -> None:
+    """Same rays, gold facets instead of mirrors: the paths are the same (the seed fixes
+    them and reflection does not depend on the material), and every first-order exit
+    carries exactly F(<wi, h>) per channel with h = normalize(wi + wo) from its exit
+    direction -- the facet that reflected wi into wo has normal h."""
+    tile = random_tile(64, rms_slope=0.35, cells=4.0, seed=5)
+    gold = {"kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]}
+    wi = direction(np.radians(50.0), 0.0)
+    n = 20_000
+    runs = []
+    for material in ({"kind": "mirror"}, gold):
+        rng = np.random.default_rng(3)
+        with PeriodicScene(tile) as scene:
+            origins = np.column_stack([rng.random((n, 2)), np.full(n, scene.z_top)])
+            facets = FacetMaterials(tile.material, tile.parts, {"base": material})
+            runs.append(trace_paths(scene, facets, origins, np.broadcast_to(-wi, (n, 3)),
+                                    8, np.random.SeedSequence(4)))
+    mirror, conductor = runs
+    assert np.array_equal(mirror.direction, conductor.direction)
+    assert np.array_equal(mirror.order, conductor.order)
+    first = mirror.order == 1
+    h = wi + mirror.direction[first]
+    h /= np.linalg.norm(h, axis=1, keepdims=True)
+    fresnel = fresnel_conductor((h @ wi)[:, None], np.array(gold["eta"]), np.array(gold["k"]))
+    assert first.sum() > 0.8 * n
+    assert np.allclose(conductor.weight[first], fresnel, rtol=1e-12, atol=0)
