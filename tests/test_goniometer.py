@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from tilefixtures import beckmann_vgroove_tile, flat_tile, random_tile, vgroove_tile
 
-from microsim.analytic.fresnel import fresnel_conductor
+from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
 from microsim.compare import direction
 from microsim.goniometer import measure_g1, simulate
 from microsim.materials import FacetMaterials
@@ -243,3 +243,13 @@ def test_conductor_single_scattering_is_mirror_times_fresnel_at_the_half_vector(
     fresnel = fresnel_conductor((h @ wi)[:, None], np.array(gold["eta"]), np.array(gold["k"]))
     assert first.sum() > 0.8 * n
     assert np.allclose(conductor.weight[first], fresnel, rtol=1e-12, atol=0)
+
+
+def test_flat_dielectric_reflects_fresnel_and_reports_the_rest_as_lost() -> None:
+    material, simulation, table = recipe_sections(
+        [0.0, 60.0], 2000, material={"kind": "dielectric", "eta": 1.5})
+    result = simulate(flat_tile(), material, simulation, table)
+    fresnel = fresnel_dielectric(np.cos(np.radians([0.0, 60.0])), 1.5)
+    assert np.allclose(result.albedo[:, 0], fresnel[:, None], rtol=1e-12)
+    assert np.allclose(result.lost_energy[:, 0], 1 - fresnel[:, None], rtol=1e-12)
+    assert result.meta["directions"][1]["lost"] == [0.0, 0.0, 0.0]  # nothing else lost
