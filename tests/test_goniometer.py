@@ -253,3 +253,30 @@ def test_flat_dielectric_reflects_fresnel_and_reports_the_rest_as_lost() -> None
     assert np.allclose(result.albedo[:, 0], fresnel[:, None], rtol=1e-12)
     assert np.allclose(result.lost_energy[:, 0], 1 - fresnel[:, None], rtol=1e-12)
     assert result.meta["directions"][1]["lost"] == [0.0, 0.0, 0.0]  # nothing else lost
+
+
+@pytest.mark.parametrize("alpha", [0.2, 0.5, 1.0])
+def test_gaussian_g1_matches_smith_at_the_realised_alpha(alpha: float) -> None:
+    """G1 of a 256^2 Gaussian tile (tau = 8 cells) against Smith's G1 for Beckmann at the
+    tile's realised alpha: within 0.005 up to 85 deg, 0.01 at 89 deg (DESIGN.md's figures
+    for Gaussian surfaces). G1 is averaged over four azimuths (0, 45, 90, 135 deg): one
+    realisation is slightly anisotropic, the isotropic realised alpha describes the mean.
+    The standard error of each mean is below 0.0015 (40 000 rays per direction), under a
+    third of the tolerance."""
+    from microsim.analytic.ndf import Beckmann
+    from microsim.surfaces import build_tile
+
+    surface = resolve({"surface": {"kind": "gaussian", "alpha": alpha, "resolution": 256,
+                                   "seed": 1}})["surface"]
+    tile = build_tile(surface)
+    theta = np.radians([30.0, 60.0, 75.0, 85.0, 89.0])
+    rng = np.random.default_rng(10)
+    with PeriodicScene(tile) as scene:
+        runs = [measure_g1(scene, theta, phi, 40_000, rng)
+                for phi in np.radians([0.0, 45.0, 90.0, 135.0])]
+    g1 = np.mean([g for g, _ in runs], axis=0)
+    err = np.sqrt(np.sum([e**2 for _, e in runs], axis=0)) / len(runs)
+    smith = Beckmann(tile.info["alpha_realised"]).G1(direction(theta, 0.0))
+    assert np.all(err < 0.0015)
+    tolerance = np.array([0.005, 0.005, 0.005, 0.005, 0.01])
+    assert np.all(np.abs(g1 - smith) < tolerance), (g1 - smith).tolist()
