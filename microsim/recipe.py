@@ -203,12 +203,17 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     if not sep or len(path) < 2 or not all(path):
         raise InputError(f"--set {text!r}: must be section.key=value, e.g. "
                          "--set surface.alpha=0.3")
-    value = value.strip()
+    return path, parse_value(value)
+
+
+def parse_value(text: str) -> Any:
+    """A command-line value read as TOML (``0.3``, ``[0, 45]``, ``"x"``, ``true``); a bare
+    word that is not valid TOML is taken as a string."""
+    text = text.strip()
     try:
-        parsed = tomllib.loads(f"v = {value}")["v"]
+        return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
-        parsed = value
-    return path, parsed
+        return text
 
 
 def apply_overrides(raw: dict, overrides: Iterable[str]) -> dict:

@@ -1,0 +1,180 @@
+"""Named analytic models with validated parameters: ``parse_model_spec("beckmann:alpha=0.3")``.
+
+A spec is ``NAME`` or ``NAME:key=value,key=value``. Values are read as TOML (numbers,
+``true``, strings); angles are degrees, as everywhere on the command line. Parameters are
+validated with the recipe schema's rules (type, range, NaN refused), and a bad name or key
+gets the list of valid ones and a did-you-mean.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from microsim.errors import InputError
+from microsim.schema import Key, check_section, suggest
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """A model's name-level description: its parameters and how to build it."""
+
+    doc: str
+    params: dict[str, Key]
+    build: Callable[[dict[str, Any]], Any]
+
+
+def _microfacet(ndf_name: str) -> Callable[[dict[str, Any]], Any]:
+    def build(p: dict[str, Any]) -> Any:
+        from microsim.analytic import ndf as ndfs
+        from microsim.analytic.brdf import TorranceSparrow
+
+        name = p.get("ndf", ndf_name)
+        if name == "blinn":
+            dist = ndfs.Blinn(p["n"])
+        elif name == "gaussian":
+            dist = ndfs.TorranceSparrowGaussian(p["c"])
+        else:
+            cls = ndfs.Beckmann if name == "beckmann" else ndfs.GGX
+            dist = (cls(alpha_x=p["alpha_x"], alpha_y=p["alpha_y"])
+                    if "alpha_x" in p else cls(p["alpha"]))
+        fresnel = None
+        if "k" in p:
+            fresnel = ("conductor", p.get("eta", 1.5), p["k"])
+        elif "eta" in p:
+            fresnel = ("dielectric", p["eta"])
+        return TorranceSparrow(dist, fresnel=fresnel, shadowing=p["shadowing"])
+
+    return build
+
+
+def _check_alphas(p: dict[str, Any]) -> None:
+    if ("alpha_x" in p) != ("alpha_y" in p):
+        raise InputError("model: give both alpha_x and alpha_y, or alpha")
+
+
+MICROFACET = {
+    "alpha": Key("float", 0.3, "Roughness (Walter et al. 2007's alpha).", low=0.0,
+                 low_open=True, high=10.0),
+    "alpha_x": Key("float", None, "Anisotropic roughness along x (with alpha_y).", low=0.0,
+                   low_open=True, high=10.0),
+    "alpha_y": Key("float", None, "Anisotropic roughness along y (with alpha_x).", low=0.0,
+                   low_open=True, high=10.0),
+    "shadowing": Key("str", "smith-correlated", "Masking-shadowing.",
+                     choices=("smith-correlated", "smith-separable", "v-groove", "none")),
+    "eta": Key("float", None, "Fresnel: index of refraction (dielectric, or conductor "
+               "with k). Without eta and k, F = 1.", low=0.0, low_open=True, high=100.0),
+    "k": Key("float", None, "Fresnel: conductor extinction coefficient.", low=0.0,
+             high=100.0),
+}
+
+MODELS: dict[str, ModelSpec] = {
+    "beckmann": ModelSpec("Torrance-Sparrow with a Beckmann NDF.", MICROFACET,
+                          _microfacet("beckmann")),
+    "ggx": ModelSpec("Torrance-Sparrow with a GGX (Trowbridge-Reitz) NDF.", MICROFACET,
+                     _microfacet("ggx")),
+    "torrance-sparrow": ModelSpec(
+        "Torrance-Sparrow microfacet BRDF with a chosen NDF.",
+        {**MICROFACET,
+         "ndf": Key("str", "beckmann", "Distribution.",
+                    choices=("beckmann", "ggx", "blinn", "gaussian")),
+         "n": Key("float", 20.0, "Blinn exponent (ndf = blinn).", low=0.0, high=1e6),
+         "c": Key("float", 3.0, "Gaussian width 1/c (ndf = gaussian).", low=0.0,
+                  low_open=True, high=1e4)},
+        _microfacet("beckmann")),
+    "blinn": ModelSpec("Torrance-Sparrow with the normalised Blinn NDF (n+2)/(2 pi) cos^n.",
+                       {**MICROFACET, "n": Key("float", 20.0, "Blinn exponent.", low=0.0,
+                                               high=1e6)},
+                       lambda p: _microfacet("blinn")({**p, "ndf": "blinn"})),
+    "phong": ModelSpec(
+        "Phong's lobe about the mirror direction, cos^n (normalised: (n+2)/(2 pi) cos^n).",
+        {"n": Key("float", 10.0, "Exponent.", low=0.0, high=1e6),
+         "normalized": Key("bool", True, "Energy-conserving normalisation.")},
+        lambda p: _brdf("Phong")(p["n"], normalized=p["normalized"])),
+    "blinn-phong": ModelSpec("Blinn-Phong half-vector lobe (n+2)/(8 pi) cos^n theta_h.",
+                             {"n": Key("float", 10.0, "Exponent.", low=0.0, high=1e6)},
+                             lambda p: _brdf("BlinnPhong")(p["n"])),
+    "lambertian": ModelSpec("Lambert: albedo / pi.",
+                            {"albedo": Key("float", 0.8, "Albedo.", low=0.0, high=1.0)},
+                            lambda p: _brdf("Lambertian")(p["albedo"])),
+    "oren-nayar": ModelSpec(
+        "Oren-Nayar rough diffuse reflection (full model with interreflection, or the "
+        "qualitative A/B model).",
+        {"sigma": Key("float", 20.0, "Slope standard deviation.", unit="deg", low=0.0,
+                      high=90.0),
+         "albedo": Key("float", 0.8, "Facet albedo.", low=0.0, high=1.0),
+         "model": Key("str", "full", "Variant.", choices=("full", "qualitative"))},
+        lambda p: _brdf("OrenNayar")(math.radians(p["sigma"]), p["albedo"], p["model"])),
+    "lafortune": ModelSpec(
+        "One Lafortune lobe (Cx wx wx' + Cy wy wy' + Cz wz wz')^n.",
+        {"cx": Key("float", -1.0, "Cx.", low=-1e6, high=1e6),
+         "cy": Key("float", -1.0, "Cy.", low=-1e6, high=1e6),
+         "cz": Key("float", 1.0, "Cz.", low=-1e6, high=1e6),
+         "n": Key("float", 10.0, "Exponent.", low=0.0, high=1e6)},
+        lambda p: _brdf("Lafortune")([(p["cx"], p["cy"], p["cz"], p["n"])])),
+    "kay-kajiya": ModelSpec(
+        "Kay-Kajiya fibre reflection: kd sin(t, wi) + ks cos^n(theta_i - theta_o).",
+        {"tangent_theta": Key("float", 90.0, "Fibre tangent polar angle.", unit="deg",
+                              low=0.0, high=180.0),
+         "tangent_phi": Key("float", 0.0, "Fibre tangent azimuth.", unit="deg", low=-360.0,
+                            high=360.0),
+         "kd": Key("float", 0.1, "Diffuse coefficient, 1/sr.", low=0.0, high=1e3),
+         "ks": Key("float", 0.5, "Specular coefficient, 1/sr.", low=0.0, high=1e3),
+         "n": Key("float", 20.0, "Specular exponent.", low=0.0, high=1e6)},
+        lambda p: _brdf("KayKajiya")(_tangent(p), p["kd"], p["ks"], p["n"])),
+}
+
+
+def _brdf(name: str) -> Any:
+    from microsim.analytic import brdf
+
+    return getattr(brdf, name)
+
+
+def _tangent(p: Mapping[str, Any]) -> list[float]:
+    t, f = math.radians(p["tangent_theta"]), math.radians(p["tangent_phi"])
+    return [math.sin(t) * math.cos(f), math.sin(t) * math.sin(f), math.cos(t)]
+
+
+def parse_model_spec(spec: str, defaults: Mapping[str, Any] | None = None
+                     ) -> tuple[str, dict[str, Any], Any]:
+    """Build a model from ``NAME[:key=value,...]``.
+
+    Parameters
+    ----------
+    spec : str
+        E.g. ``"beckmann:alpha=0.31"``, ``"oren-nayar:sigma=20,model=qualitative"``.
+    defaults : mapping, optional
+        Values used for keys the spec does not give (e.g. a table's realised alpha).
+
+    Returns
+    -------
+    name : str
+    params : dict
+        Every parameter, resolved.
+    model : object
+        With ``eval(wi, wo)``.
+    """
+    from microsim.recipe import parse_value
+
+    name, _, rest = spec.strip().partition(":")
+    if name not in MODELS:
+        raise InputError(f"model {name!r}: unknown{suggest(name, MODELS)}; models: "
+                         + ", ".join(MODELS))
+    given: dict[str, Any] = {}
+    for item in filter(None, (s.strip() for s in rest.split(","))):
+        key, eq, value = item.partition("=")
+        if not eq:
+            raise InputError(f"model {name}: {item!r} must be key=value")
+        given[key.strip()] = parse_value(value)
+    keys = MODELS[name].params
+    merged = {k: v for k, v in (defaults or {}).items() if k in keys}
+    merged.update(given)
+    if "alpha_x" in given or "alpha_y" in given:
+        merged.pop("alpha", None)
+    params = check_section(merged, keys, f"model {name}: ")
+    if "alpha_x" in keys:
+        _check_alphas(params)
+    return name, params, MODELS[name].build(params)

@@ -1,0 +1,93 @@
+"""``microsim models``: list the analytic models, or evaluate one."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from microsim.cli import Parser, add_json_arg, print_json
+from microsim.errors import InputError
+
+
+def angle_pair(text: str) -> tuple[float, float]:
+    """argparse type: ``THETA,PHI`` in degrees."""
+    parts = text.split(",")
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 2 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"{text!r} is not THETA,PHI in degrees")
+    return values
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``models`` command and its ``eval`` sub-command."""
+    p = sub.add_parser(
+        "models",
+        help="list the analytic BRDF models and their parameters, or evaluate one",
+        description="List the analytic models (name, parameters with defaults and ranges; "
+                    "angles in degrees). `microsim models eval SPEC --wi THETA,PHI --wo "
+                    "THETA,PHI` prints f_r in 1/sr. SPEC is NAME or NAME:key=value,... "
+                    "(see docs/models.md).",
+    )
+    add_json_arg(p)
+    p.set_defaults(func=run_list)
+    inner = p.add_subparsers(dest="models_command", metavar="eval", parser_class=Parser)
+    e = inner.add_parser(
+        "eval", help="evaluate a model's f_r (1/sr) at one direction pair",
+        description="Evaluate f_r (1/sr, not times cos) of an analytic model. Directions "
+                    "are THETA,PHI in degrees, pointing away from the surface: --wi "
+                    "towards the light, --wo towards the viewer.")
+    e.add_argument("spec", metavar="SPEC", help="model name or NAME:key=value,...")
+    e.add_argument("--wi", type=angle_pair, required=True, metavar="THETA,PHI",
+                   help="incident direction, degrees")
+    e.add_argument("--wo", type=angle_pair, required=True, metavar="THETA,PHI",
+                   help="outgoing direction, degrees")
+    e.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
+                   help="model parameter (repeatable), e.g. --param alpha=0.3")
+    add_json_arg(e)
+    e.set_defaults(func=run_eval)
+
+
+def run_list(args: argparse.Namespace) -> int:
+    """Print every model with its parameters."""
+    from microsim.analytic.registry import MODELS
+
+    if args.json:
+        print_json({name: {"doc": m.doc, "params": {
+            k: {"kind": key.kind, "default": key.default, "allowed": key.allowed(),
+                "doc": key.doc} for k, key in m.params.items()}}
+            for name, m in MODELS.items()})
+        return 0
+    for name, m in MODELS.items():
+        print(f"{name}: {m.doc}")
+        for k, key in m.params.items():
+            default = "optional" if key.default is None else f"default {key.default}"
+            print(f"    {k:<14} {default}; {key.allowed()}")
+    return 0
+
+
+def run_eval(args: argparse.Namespace) -> int:
+    """Evaluate one model at one direction pair."""
+    import numpy as np
+
+    from microsim.analytic.registry import parse_model_spec
+    from microsim.compare import direction
+
+    spec = args.spec
+    for item in args.param:
+        if "=" not in item:
+            raise InputError(f"--param {item!r}: must be KEY=VALUE")
+        spec += ("," if ":" in spec else ":") + item
+    name, params, model = parse_model_spec(spec)
+    wi = direction(*np.radians(args.wi))
+    wo = direction(*np.radians(args.wo))
+    f = np.asarray(model.eval(wi, wo), float)
+    value = f.tolist()
+    if args.json:
+        print_json({"model": name, "params": params, "wi": list(args.wi),
+                    "wo": list(args.wo), "f_r": value})
+    else:
+        print(f"{name} {params}: f_r = {value} 1/sr")
+    return 0
