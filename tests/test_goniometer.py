@@ -200,7 +200,7 @@ def test_lambertian_vgrooves_retroreflect() -> None:
     phi_o = 0 and pi (compared at theta_o = 30 deg: |z| < 4); at 60 and 75 deg the back-scattering bins (phi_o = 0,
     theta_o = theta_i) are brighter than the forward ones (phi_o = pi) by more than 5
     sigma -- the retro-reflection Oren & Nayar 1994 explain by facets lit and seen at
-    once (fig. 1; their model is compared in scripts, not asserted here)."""
+    once (fig. 1). Their model is compared, not asserted, by scripts/vgroove_oren_nayar.py."""
     tile = beckmann_vgroove_tile(0.8, 256, seed=1)
     material, simulation, table = recipe_sections(
         [0.0, 60.0, 75.0], 100_000, material={"kind": "lambertian", "albedo": 0.8},
