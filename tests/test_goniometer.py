@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 from tilefixtures import beckmann_vgroove_tile, flat_tile, random_tile, vgroove_tile
 
+import microsim
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
 from microsim.compare import bin_average, direction, metrics, microfacet_model
-from microsim.goniometer import measure_g1, simulate
+from microsim.goniometer import measure_g1, measure_g1_recipe, simulate, simulate_recipe
 from microsim.materials import FacetMaterials
 from microsim.recipe import resolve
 from microsim.tables.binning import HemisphereBins
@@ -312,3 +313,16 @@ def test_gaussian_single_scattering_follows_torrance_sparrow() -> None:
                     result.bins.projected_solid_angle)
         assert abs(m["z_mean"]) < 0.5 and m["z_std"] < 4.5, (theta, m)
         assert abs(m["albedo_sim"][0] / m["albedo_model"][0] - 1) < 0.02, (theta, m)
+
+
+def test_recipe_entry_points() -> None:
+    recipe = resolve({"surface": {"kind": "flat"},
+                      "simulation": {"theta_i": [10.0], "rays": 500, "seed": 3},
+                      "table": {"theta_bins": 4, "phi_bins": 8}})
+    table = simulate_recipe(recipe)
+    assert table.meta["recipe"] == recipe and table.meta["seed"] == 3
+    assert table.meta["microsim_version"] == microsim.__version__
+    assert np.all(table.albedo == 1.0)
+    report = measure_g1_recipe(recipe, [0.0, 60.0], 300)
+    assert report["g1"] == [1.0, 1.0] and report["theta_deg"] == [0.0, 60.0]
+    assert report["segments"] >= 600
