@@ -29,12 +29,11 @@ from microsim.compare import direction
 from microsim.materials import FacetMaterials
 from microsim.surfaces.tile import Tile
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.table import BRDFTable
+from microsim.tables.table import COMPONENTS, BRDFTable
 from microsim.trace import ESCAPED, Paths, PeriodicScene, trace_paths
 
 BATCH = 65536
 """Rays per batch: the unit of random streams, accumulation and the adaptive stop."""
-COMPONENTS = ("total", "single")
 
 
 def sample_faces(tile: Tile, weights: np.ndarray, n: int, rng: np.random.Generator

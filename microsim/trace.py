@@ -36,7 +36,8 @@ coordinate. Measured (docs/goniometer.md): no self-hit on rough tiles down to 1e
 concave edge sharper than 90 deg an origin within about eps of the edge can lie behind the
 neighbouring face, so a larger offset loses more rays there (1e-5 lost ten times more)."""
 CHUNK = 32768
-"""Rays per Embree call on the thread pool (chosen by measurement: docs/performance.md)."""
+"""Rays per worker task: a chunk is traced whole (wrap loop, bounces) on one thread
+(chosen by measurement: docs/performance.md)."""
 MAX_SEGMENTS = 10_000
 """Upper bound of queries for one ray: a direction so nearly horizontal that it would need
 more side crossings to cross the slab is reported as trapped."""
@@ -75,9 +76,9 @@ class PeriodicScene:
     tile : Tile
         The periodic mesh.
     threads : int or None
-        Worker threads for Embree queries (default: the number of CPUs).
+        Worker threads (default: the number of CPUs).
     chunk : int
-        Rays per Embree call.
+        Rays per worker task.
 
     Attributes
     ----------

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from tilefixtures import bump_tile, flat_tile, random_tile, vgroove_tile
 
+from microsim.goniometer import sample_faces
 from microsim.materials import cosine_about
 from microsim.trace import BACKFACE, ESCAPED, HIT, LEAKED, TRAPPED, PeriodicScene
 
@@ -42,12 +43,7 @@ def test_secondary_rays_never_rehit_their_face(make) -> None:
     normals, areas = tile.face_normals_areas()
     rng = np.random.default_rng(2)
     n = 100_000
-    faces = rng.choice(len(areas), size=n, p=areas / areas.sum())
-    u = rng.random((n, 2))
-    fold = u.sum(axis=1) > 1
-    u[fold] = 1 - u[fold]
-    v = tile.vertices[tile.faces[faces]]
-    points = v[:, 0] + u[:, :1] * (v[:, 1] - v[:, 0]) + u[:, 1:] * (v[:, 2] - v[:, 0])
+    faces, points = sample_faces(tile, areas, n, rng)
     d = cosine_about(normals[faces], rng.random((n, 2)))
     with PeriodicScene(tile) as scene:
         hits = scene.closest_hit(scene.offset(points, normals[faces], d), d)
