@@ -1,0 +1,229 @@
+"""BRDFs and Fresnel: reciprocity, energy, closed forms, references, hard cases."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import mpmath as mp
+import numpy as np
+import pytest
+
+from microsim.analytic.brdf import (
+    BlinnPhong,
+    KayKajiya,
+    Lafortune,
+    Lambertian,
+    OrenNayar,
+    Phong,
+    TorranceSparrow,
+)
+from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
+from microsim.analytic.ndf import GGX, Beckmann, Blinn
+from microsim.analytic.shadowing import smith_g2, vgroove_G
+from microsim.compare import direction
+
+GOLD = (np.array([0.2, 0.92, 1.1]), np.array([3.9, 2.45, 2.14]))
+
+RECIPROCAL = {
+    "ts-beckmann": TorranceSparrow(Beckmann(0.3)),
+    "ts-ggx-separable": TorranceSparrow(GGX(0.6), shadowing="smith-separable"),
+    "ts-aniso-vgroove": TorranceSparrow(Beckmann(alpha_x=0.2, alpha_y=0.5),
+                                        shadowing="v-groove"),
+    "ts-conductor": TorranceSparrow(GGX(0.4), fresnel=("conductor", *GOLD)),
+    "ts-dielectric": TorranceSparrow(Beckmann(0.2), fresnel=("dielectric", 1.5)),
+    "phong": Phong(8.0),
+    "phong-normalized": Phong(8.0, normalized=True),
+    "blinn-phong": BlinnPhong(12.0),
+    "lambertian": Lambertian([0.2, 0.5, 0.9]),
+    "oren-nayar-full": OrenNayar(0.4, 0.9),
+    "oren-nayar-qualitative": OrenNayar(0.4, [0.9, 0.5, 0.1], "qualitative"),
+    "lafortune": Lafortune([(-1.0, -1.0, 1.0, 12.0), (0.4, 0.4, 0.6, 3.0)]),
+}
+"""Every model except Kay-Kajiya, whose diffuse term depends on ωi only (tested apart)."""
+
+ENERGY_CONSERVING = ["ts-beckmann", "ts-ggx-separable", "ts-conductor", "ts-dielectric",
+                     "phong-normalized", "blinn-phong", "lambertian"]
+
+
+def random_pairs(n=400, seed=11):
+    rng = np.random.default_rng(seed)
+    t = np.arccos(rng.random((2, n)))  # uniform over the hemisphere
+    p = rng.random((2, n)) * 2 * np.pi
+    return direction(t[0], p[0]), direction(t[1], p[1])
+
+
+@pytest.mark.parametrize("name", list(RECIPROCAL))
+def test_reciprocity(name):
+    model = RECIPROCAL[name]
+    wi, wo = random_pairs()
+    np.testing.assert_allclose(model.eval(wi, wo), model.eval(wo, wi), rtol=1e-12,
+                               atol=1e-300)
+
+
+def test_kay_kajiya_specular_is_reciprocal_and_peaks_on_the_mirror_cone():
+    kk = KayKajiya([1.0, 0.0, 0.0], kd=0.2, ks=1.0, n=30)
+    wi, wo = random_pairs()
+    np.testing.assert_allclose(kk.specular(wi, wo), kk.specular(wo, wi), rtol=1e-12)
+    wi = direction(0.6, 0.3)
+    cone = wi * np.array([-1.0, 1.0, 1.0])  # axial component reversed: the mirror cone
+    cone[0] = -wi[0]
+    assert kk.specular(wi, cone) == pytest.approx(1.0)
+    # the product form (not the lecture's sum) never exceeds ks
+    assert np.all(kk.specular(*random_pairs()) <= 1.0 + 1e-12)
+
+
+def albedo(model, wi, n=256):
+    """∫ f cos θo dωo by Gauss-Legendre in (u = sin²θo, φo), where cos θ dω = ½ du dφ;
+    n = 256 nodes per axis resolve lobes down to α ≈ 0.1 to 1e-4."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    u, wu = (x + 1) / 2, w / 2
+    phi, wphi = np.pi * (x + 1), np.pi * w
+    wo = direction(np.arcsin(np.sqrt(u))[:, None], phi[None, :])
+    f = np.asarray(model.eval(wi, wo), float)
+    if f.ndim == 3:
+        f = f.max(axis=-1)
+    return 0.5 * np.einsum("i,j,ij->", wu, wphi, f)
+
+
+@pytest.mark.parametrize("name", ENERGY_CONSERVING)
+@pytest.mark.parametrize("theta_deg", [0.0, 45.0, 80.0, 89.0])
+def test_white_furnace_albedo_at_most_one(name, theta_deg):
+    """Albedo ≤ 1 + 1e-3 (the quadrature's accuracy on these lobes)."""
+    assert albedo(RECIPROCAL[name], direction(math.radians(theta_deg), 0.3)) <= 1 + 1e-3
+
+
+def test_normalized_phong_integrates_to_one_at_normal_incidence():
+    """(n+2)/(2π) ∫ cos^n α cos θ dω = 1 at normal incidence; 1e-4 quadrature tolerance."""
+    assert albedo(Phong(20.0, normalized=True), direction(0.0, 0.0)) == pytest.approx(
+        1.0, abs=1e-4)
+
+
+def test_lambertian_albedo_is_its_albedo():
+    a = albedo(Lambertian(0.7), direction(0.8, 0.0))
+    assert a == pytest.approx(0.7, abs=1e-6)
+
+
+@pytest.mark.parametrize(("ndf", "expected"), [(Beckmann(0.5), 0.893), (Beckmann(1.0), 0.664),
+                                                (GGX(0.5), 0.700), (GGX(1.0), 0.409)])
+def test_hemispherical_average_albedo_matches_design_figures(ndf, expected):
+    """DESIGN.md's single-scattering albedos (F = 1, height-correlated Smith) are the
+    cosine-weighted hemispherical average (1/π) ∫ E(ωi) cos θi dωi = 2 ∫ E(μ) μ dμ; they
+    are quoted to 3 decimals, so the tolerance is 0.0006."""
+    model = TorranceSparrow(ndf)
+    x, w = np.polynomial.legendre.leggauss(24)
+    mu, wmu = (x + 1) / 2, w / 2
+    e = np.array([albedo(model, direction(math.acos(m), 0.0), n=160) for m in mu])
+    assert 2 * np.sum(e * mu * wmu) == pytest.approx(expected, abs=6e-4)
+
+
+def test_fresnel_closed_forms():
+    eta = np.array([1.33, 1.5, 2.4])
+    np.testing.assert_allclose(fresnel_dielectric(1.0, eta), ((eta - 1) / (eta + 1)) ** 2,
+                               rtol=1e-14)
+    e, k = GOLD
+    np.testing.assert_allclose(fresnel_conductor(1.0, e, k),
+                               ((e - 1) ** 2 + k**2) / ((e + 1) ** 2 + k**2), rtol=1e-14)
+    c = np.linspace(0, 1, 50)[:, None]
+    np.testing.assert_allclose(fresnel_conductor(c, eta, 0.0), fresnel_dielectric(c, eta),
+                               rtol=1e-12, atol=1e-15)
+    assert np.all(fresnel_dielectric(0.0, eta) == 1.0)
+    assert np.all(fresnel_conductor(0.0, e, k) == 1.0)
+    # total internal reflection beyond the critical angle, eta = 1/1.5 inside glass
+    crit = math.sqrt(1 - (1 / 1.5) ** 2)  # cos of the critical angle
+    assert fresnel_dielectric(crit - 1e-6, 1 / 1.5) == 1.0
+    assert fresnel_dielectric(crit + 1e-3, 1 / 1.5) < 1.0
+
+
+def test_fresnel_reference_value():
+    """Born & Wolf's r_s, r_p evaluated in mpmath at θ = 60°, η = 1.5."""
+    with mp.workdps(30):
+        ci = mp.cos(mp.pi / 3)
+        ct = mp.sqrt(1 - (1 - ci**2) / mp.mpf("2.25"))
+        rs = (ci - mp.mpf("1.5") * ct) / (ci + mp.mpf("1.5") * ct)
+        rp = (mp.mpf("1.5") * ci - ct) / (mp.mpf("1.5") * ci + ct)
+        ref = float((rs**2 + rp**2) / 2)
+    assert float(fresnel_dielectric(0.5, 1.5)) == pytest.approx(ref, rel=1e-14)
+
+
+def test_torrance_sparrow_reference_value():
+    """f at θi = 40°, θo = 20°, Δφ = 160° for Beckmann α = 0.4, F = 1, from the paper
+    formulas in mpmath (Walter et al. 2007, eq. 20, 25, 27; Heitz 2014, eq. 99)."""
+    with mp.workdps(40):
+        def vec(t, p):
+            return [mp.sin(t) * mp.cos(p), mp.sin(t) * mp.sin(p), mp.cos(t)]
+
+        wi, wo = vec(mp.radians(40), 0), vec(mp.radians(20), mp.radians(160))
+        s = [a + b for a, b in zip(wi, wo, strict=True)]
+        norm = mp.sqrt(sum(x * x for x in s))
+        h = [x / norm for x in s]
+        alpha = mp.mpf("0.4")
+        tan2 = (1 - h[2] ** 2) / h[2] ** 2
+        d = mp.exp(-tan2 / alpha**2) / (mp.pi * alpha**2 * h[2] ** 4)
+
+        def lam(w):
+            a = w[2] / (alpha * mp.sqrt(1 - w[2] ** 2))
+            return (mp.erf(a) - 1) / 2 + mp.exp(-a * a) / (2 * a * mp.sqrt(mp.pi))
+
+        g = 1 / (1 + lam(wi) + lam(wo))
+        ref = float(d * g / (4 * wi[2] * wo[2]))
+    f = TorranceSparrow(Beckmann(0.4)).eval(direction(math.radians(40), 0.0),
+                                            direction(math.radians(20), math.radians(160)))
+    assert float(f) == pytest.approx(ref, rel=1e-12)
+
+
+def test_oren_nayar_limits():
+    """σ = 0 is Lambertian (C1 = 1, C2 = C3 = interreflection = 0), and the rough model
+    is brighter towards the light than away from it (back-scattering, Oren & Nayar 1994)."""
+    wi, wo = random_pairs(50)
+    for variant in ("full", "qualitative"):
+        np.testing.assert_allclose(OrenNayar(0.0, 0.6, variant).eval(wi, wo), 0.6 / np.pi,
+                                   rtol=1e-14)
+        on = OrenNayar(0.5, 0.8, variant)
+        wi = direction(math.radians(60), 0.0)
+        back, forward = (on.eval(wi, direction(math.radians(60), p)) for p in (0.0, np.pi))
+        assert back > forward
+
+
+def test_lafortune_mirror_lobe_equals_phong():
+    wi, wo = random_pairs()
+    np.testing.assert_allclose(Lafortune([(-1, -1, 1, 9.0)]).eval(wi, wo),
+                               Phong(9.0).eval(wi, wo), rtol=1e-12, atol=1e-300)
+
+
+def test_vgroove_attenuation_cases():
+    """Torrance-Sparrow's three regimes: no masking near normal, then the ωi or ωo case."""
+    h = direction(0.0, 0.0)
+    assert vgroove_G(direction(0.2, 0.0), direction(0.2, np.pi), h) == 1.0
+    wi, wo = direction(1.3, 0.0), direction(1.3, np.pi)
+    hh = direction(0.0, 0.0)
+    expected = 2 * 1.0 * math.cos(1.3) / math.cos(1.3)  # 2 (n·h)(n·ωo)/(ωo·h) = 2, capped
+    assert vgroove_G(wi, wo, hh) == pytest.approx(min(1.0, expected))
+    # a facet tilted 0.5 rad towards +x, lit along its normal, seen at 1.4 rad: the
+    # viewer's term 2 cos 0.5 cos 1.4 / cos 0.9 = 0.480 is the smallest
+    h2 = direction(0.5, 0.0)
+    w = direction(1.4, 0.0)
+    g = 2 * math.cos(0.5) * math.cos(1.4) / math.cos(0.9)
+    assert float(vgroove_G(direction(0.5, 0.0), w, h2)) == pytest.approx(g, rel=1e-12)
+    # a viewer behind the facet sees none of it
+    assert float(vgroove_G(direction(0.5, 0.0), direction(1.4, np.pi), h2)) == 0.0
+
+
+def test_hard_cases_no_nan_no_warning():
+    thetas = np.radians([0.0, 89.0, 89.999, 90.0, 91.0, 180.0])
+    t1, t2 = np.meshgrid(thetas, thetas, indexing="ij")
+    wi, wo = direction(t1, 0.0), direction(t2, np.pi)
+    models = [*RECIPROCAL.values(), KayKajiya([0, 1, 0], 0.1, 0.5, 20),
+              TorranceSparrow(Beckmann(1e-4)), TorranceSparrow(GGX(10.0)),
+              TorranceSparrow(Blinn(5.0))]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for model in models:
+            f = np.asarray(model.eval(wi, wo))
+            assert np.isfinite(f).all() and (f >= 0).all()
+            below = (wi[..., 2] <= 0) | (wo[..., 2] <= 0)
+            assert np.all(f[below] == 0)
+        g = smith_g2(Beckmann(0.5), wi, wo)
+    assert ((g >= 0) & (g <= 1)).all()
+    # exactly opposite directions have no half vector
+    assert TorranceSparrow(Beckmann(0.3)).eval(direction(0.5, 0.0), -direction(0.5, 0.0)) == 0
