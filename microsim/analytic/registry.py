@@ -177,4 +177,6 @@ def parse_model_spec(spec: str, defaults: Mapping[str, Any] | None = None
     params = check_section(merged, keys, f"model {name}: ")
     if "alpha_x" in keys:
         _check_alphas(params)
+        if "alpha_x" in params:
+            del params["alpha"]  # its default does not apply to an anisotropic model
     return name, params, MODELS[name].build(params)
