@@ -176,10 +176,11 @@ class _Sums:
         self.rays += len(index)
         binned = index >= 0
         size = self.sums["total"].size
+        # one bincount per moment over (bin, channel) pairs, in ray order; rays outside a
+        # component add exact zeros (to bin 0), which spares gathering the selected rows
+        slot = (3 * np.maximum(index, 0)[:, None] + np.arange(3)).ravel()
         for comp, sel in (("total", binned), ("single", binned & (paths.order == 1))):
-            # one bincount per moment over (bin, channel) pairs, in ray order
-            slot = (3 * index[sel, None] + np.arange(3)).ravel()
-            w = paths.weight[sel].ravel()
+            w = (paths.weight * sel[:, None]).ravel()
             self.sums[comp] += np.bincount(slot, w, minlength=size).reshape(-1, 3)
             self.sums_sq[comp] += np.bincount(slot, w * w, minlength=size).reshape(-1, 3)
         # an escaping ray the bins do not take (none for a closed surface) is lost, not hidden
