@@ -156,3 +156,26 @@ def microfacet_model(meta: Mapping[str, Any]) -> Model:
            else Beckmann(alpha))
     material = meta["recipe"]["material"]["base"]
     return TorranceSparrow(ndf, fresnel=fresnel_of(material), shadowing="smith-correlated")
+
+
+def ndf_bin_average(ndf: Any, edges: np.ndarray, n: int = 16) -> np.ndarray:
+    """Bin averages ∫_B D cos θ dω / ∫_B cos θ dω of an isotropic NDF over θ bins.
+
+    Parameters
+    ----------
+    ndf : NDF
+        With ``D(m)``.
+    edges : (k + 1,) float
+        Bin edges in θ, radians.
+    n : int
+        Gauss-Legendre nodes per bin.
+
+    Returns
+    -------
+    (k,) float
+    """
+    x, w = np.polynomial.legendre.leggauss(n)
+    lo, hi = edges[:-1, None], edges[1:, None]
+    t = lo + (hi - lo) * (x + 1) / 2
+    weights = w * (hi - lo) / 2 * np.cos(t) * np.sin(t)
+    return (ndf.D(direction(t, 0.0)) * weights).sum(axis=1) / weights.sum(axis=1)

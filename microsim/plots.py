@@ -76,3 +76,40 @@ def incidence_plane(table: BRDFTable, models: Sequence[Model], path: str | Path,
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def ndf_plot(theta_deg: np.ndarray, measured: np.ndarray, stderr: np.ndarray,
+             model: np.ndarray | None, path: str | Path, title: str = "") -> None:
+    """Measured NDF bins (±1 standard error) against a model's bin averages, log scale.
+
+    Parameters
+    ----------
+    theta_deg : (k,) float
+        Bin centres, degrees.
+    measured, stderr : (k,) float
+        NDF estimate and its standard error, 1/sr.
+    model : (k,) float or None
+        The model's bin averages.
+    path : str or Path
+        PNG to write.
+    title : str
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5.5, 4))
+    ax.errorbar(theta_deg, measured, yerr=stderr, fmt="o", ms=3, label="facets of the tile")
+    if model is not None:
+        ax.plot(theta_deg, model, "-", color="tab:red", label="Beckmann, realised α")
+    ax.set_yscale("log")
+    ax.set_xlabel("θh (°)")
+    ax.set_ylabel("D (1/sr)")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    if title:
+        ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
