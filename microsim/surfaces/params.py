@@ -29,12 +29,16 @@ class SurfaceKind:
         The ``[surface]`` keys besides ``kind``.
     check : callable or None
         Cross-key rules on the resolved section; raises ``InputError``.
+    triangles : callable or None
+        Upper estimate of the tile's triangle count from the resolved section, for the
+        memory guard (None: unknown before building, e.g. an imported mesh).
     """
 
     doc: str
     parts: tuple[str, ...]
     keys: dict[str, Key] = field(default_factory=dict)
     check: Callable[[dict[str, Any]], None] | None = None
+    triangles: Callable[[dict[str, Any]], float] | None = None
 
 
 def _f(doc: str, default: Any = REQUIRED, **kw: Any) -> Key:
@@ -79,6 +83,7 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
         "A flat square tile at z = 0: the trivial reference.",
         ("base",),
         {"size": SIZE, "seed": SEED},
+        triangles=lambda s: 2,
     ),
     "gaussian": SurfaceKind(
         "A Gaussian random height field with autocorrelation sigma^2 exp(-r^2/tau^2), made "
@@ -105,6 +110,7 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
             "seed": SEED,
         },
         _check_gaussian,
+        lambda s: 2 * s["resolution"] ** 2,
     ),
     "vgroove": SurfaceKind(
         "Symmetric V-grooves along y (Torrance-Sparrow cavities): one slope angle for "
@@ -121,6 +127,7 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
             "seed": SEED,
         },
         _check_vgroove,
+        lambda s: 4 * s["grooves"],
     ),
     "cylinders": SurfaceKind(
         "Parallel circular cylinders along y lying on (or sunk into) a flat base plane: "

@@ -1,0 +1,71 @@
+"""A user's periodic tile, imported from PLY, OBJ or STL through trimesh."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from microsim.errors import InputError
+from microsim.surfaces.tile import Tile
+
+TOLERANCE = 1e-6
+"""Vertices may lie this far (relative to the period) outside [0, L]: export round-off."""
+
+
+def build(surface: Mapping[str, Any]) -> Tile:
+    """Load and check a tile.
+
+    The mesh must load, have faces, finite vertices and a non-zero area, and lie within
+    [0, Lx] × [0, Ly] (to ``TOLERANCE`` of the period; it is then clipped onto the box).
+    Zero-area faces are dropped with a warning. Periodicity itself (that the edges meet
+    their opposite edges) is the user's promise: it is not checked.
+
+    Parameters
+    ----------
+    surface : mapping
+        Kind ``mesh``: ``path`` (absolute after recipe loading), ``period`` [Lx, Ly].
+
+    Returns
+    -------
+    Tile
+        Part ``base``; ``info["isotropic"]`` False (unknown).
+    """
+    import trimesh
+
+    path = Path(surface["path"])
+    if not path.is_file():
+        raise InputError(f"surface.path = {str(path)!r}: no such file")
+    try:
+        mesh = trimesh.load(path, process=False, force="mesh")
+    except Exception as exc:  # trimesh raises many kinds for unreadable files
+        raise InputError(f"surface.path = {str(path)!r}: cannot read it as a mesh "
+                         f"(PLY, OBJ or STL): {exc}") from None
+    vertices = np.asarray(mesh.vertices, float)
+    faces = np.asarray(mesh.faces, np.int64)
+    if len(faces) == 0:
+        raise InputError(f"surface.path = {str(path)!r}: the mesh has no faces")
+    if not np.isfinite(vertices).all():
+        raise InputError(f"surface.path = {str(path)!r}: vertices contain NaN or inf")
+    lx, ly = surface["period"]
+    for axis, (name, length) in enumerate((("x", lx), ("y", ly))):
+        lo, hi = vertices[:, axis].min(), vertices[:, axis].max()
+        slack = TOLERANCE * length
+        if lo < -slack or hi > length + slack:
+            raise InputError(
+                f"surface.period = {[lx, ly]}: the mesh spans {name} in [{lo:g}, {hi:g}], "
+                f"outside [0, {length:g}]; a tile must lie within its period")
+        vertices[:, axis] = np.clip(vertices[:, axis], 0.0, length)
+    tile = Tile(vertices, faces, np.zeros(len(faces), np.int32), ("base",), (lx, ly),
+                info={"kind": "mesh", "isotropic": False, "source": str(path)})
+    _, areas = tile.face_normals_areas()
+    if not areas.sum() > 0:
+        raise InputError(f"surface.path = {str(path)!r}: the mesh has zero area")
+    degenerate = areas <= 1e-12 * areas.max()
+    if degenerate.any():
+        tile.faces, tile.material = faces[~degenerate], tile.material[~degenerate]
+        tile.warnings.append(f"surface: dropped {int(degenerate.sum())} zero-area faces "
+                             f"of {len(faces)}")
+    return tile
