@@ -114,3 +114,53 @@ def test_flat_tile():
     t = tile_of(kind="flat", size=2.0)
     assert t.period == (2.0, 2.0) and t.z_range == (0.0, 0.0)
     assert (t.face_normals_areas()[0] == [0, 0, 1]).all()
+
+
+@pytest.mark.parametrize("sink", [0.0, 0.25, 0.5, 0.99])
+def test_cylinders_profile_is_closed_outward_and_inside_the_box(sink):
+    """Cylinder facets face away from the axis, base facets up; every face lies in the
+    period box; no zero-area faces; both parts present; the profile is one continuous
+    curve from x = 0 to x = spacing (no gap a ray could slip through)."""
+    r, s = 0.5, 1.1
+    t = tile_of(kind="cylinders", radius=r, spacing=s, sink=sink, segments=32)
+    n, a = t.face_normals_areas()
+    assert a.min() > 0 and set(np.unique(t.material)) == {0, 1}
+    cyl = t.material == 1
+    centre = t.vertices[t.faces].mean(axis=1)
+    radial = centre - [s / 2, 0.0, r - sink]
+    radial[:, 1] = 0
+    assert (np.sum(n[cyl] * radial[cyl], axis=1) > 0).all()
+    assert np.allclose(n[~cyl], [0, 0, 1])
+    v = t.vertices
+    assert v[:, 0].min() == 0 and v[:, 0].max() == s and v[:, 1].max() == t.period[1]
+    # the polygon's top lies within the sagitta r (1 - cos(pi/32)) below the circle's
+    top = 2 * r - sink
+    assert t.z_range[0] == 0.0 and top - r * (1 - np.cos(np.pi / 32)) <= t.z_range[1] <= top
+    from microsim.surfaces.cylinders import profile
+    points, part = profile(r, s, sink, 32)
+    # one curve: base from x = 0, the arc, base to x = spacing, each vertex on the circle
+    assert points[0, 0] == 0 and points[-1, 0] == s and part[0] == part[-1] == 0
+    on_arc = points[1:-1]
+    np.testing.assert_allclose(np.hypot(on_arc[:, 0] - s / 2, on_arc[:, 1] - (r - sink)), r,
+                               rtol=1e-12)
+
+
+def test_cylinder_facet_normals_sample_the_circle_evenly():
+    """The arc's normals are the exact circle normals at evenly spaced angles: their
+    angles differ by 360/segments degrees (the tessellation docs/surfaces.md discusses)."""
+    t = tile_of(kind="cylinders", radius=0.5, spacing=1.0, sink=0.0, segments=64)
+    n, _ = t.face_normals_areas()
+    ang = np.degrees(np.arctan2(n[t.material == 1][:64, 2], n[t.material == 1][:64, 0]))
+    steps = np.abs(np.diff(ang))
+    steps = np.minimum(steps, 360 - steps)
+    np.testing.assert_allclose(steps, 360 / 64, rtol=1e-9)
+
+
+def test_cylinders_reject_overlap_and_vanishing():
+    from microsim.errors import InputError
+    with pytest.raises(InputError, match="spacing"):
+        tile_of(kind="cylinders", radius=0.5, spacing=0.9)
+    with pytest.raises(InputError, match="sink"):
+        tile_of(kind="cylinders", radius=0.5, spacing=1.0, sink=1.0)
+    with pytest.raises(InputError, match="radius"):
+        tile_of(kind="cylinders", radius=-0.5)

@@ -139,13 +139,15 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
                           unit="length", low=0.0, low_open=True),
             "sink": _f("Depth the cylinders are sunk into the base plane.", 0.0,
                        unit="length", low=0.0),
-            "segments": Key("int", 48, "Facets around each cylinder's circumference.",
-                            low=6, high=4096),
+            "segments": Key("int", 128, "Facets around a full circumference. A mirror "
+                            "reflection turns by twice the facet step, so 128 gives 5.6 "
+                            "degree steps: the default phi bin width.", low=6, high=65536),
             "length": _f("Tile period along the cylinder axis (y).", 1.0, unit="length",
                          low=0.0, low_open=True),
             "seed": SEED,
         },
         _check_cylinders,
+        lambda s: 2 * (s["segments"] + 2),
     ),
     "velvet": SurfaceKind(
         "Dense short fibres standing on a flat base (Westin et al. 1992's velvet), placed "

@@ -1,0 +1,81 @@
+"""Parallel circular cylinders along y on a base plane: brushed metal, hair-like surfaces."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from microsim.surfaces.tile import Tile, grid_faces
+
+
+def profile(radius: float, spacing: float, sink: float, segments: int
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """The cross-section (x, z) of one period: base, cylinder arc above the base, base.
+
+    The cylinder's axis lies at x = spacing/2, z = radius − sink. Its points
+    (x_c + r cos ψ, z_c + r sin ψ) are above the plane z = 0 for ψ in [a, π − a] with
+    a = arcsin(−z_c/r); the arc runs from ψ = π − a over the top to ψ = a, so together with
+    the base strips it is one continuous curve from x = 0 to x = spacing (no gap a ray could
+    pass through). With sink = 0 the arc is the whole circle, touching the base along a line.
+
+    Parameters
+    ----------
+    radius, spacing, sink : float
+    segments : int
+        Facets around a full circumference (the arc gets its share, at least 2).
+
+    Returns
+    -------
+    points : (k, 2) float
+        Profile vertices (x, z) in order.
+    part : (k − 1,) int
+        0 for base segments, 1 for cylinder segments.
+    """
+    zc = radius - sink
+    a = math.asin(max(-1.0, min(1.0, -zc / radius)))
+    cx = spacing / 2
+    arc_steps = max(2, math.ceil(segments * (math.pi - 2 * a) / (2 * math.pi)))
+    psi = np.linspace(math.pi - a, a, arc_steps + 1)
+    arc = np.column_stack([cx + radius * np.cos(psi), zc + radius * np.sin(psi)])
+    arc[[0, -1], 1] = 0.0  # exactly on the base plane
+    points = [np.array([[0.0, 0.0]]), arc, np.array([[spacing, 0.0]])]
+    part = [np.zeros(1, int), np.ones(arc_steps, int), np.zeros(1, int)]
+    points, part = np.concatenate(points), np.concatenate(part)
+    keep = np.linalg.norm(np.diff(points, axis=0), axis=1) > 1e-12 * spacing
+    # drop zero-length base segments (a cylinder as wide as the period)
+    return np.concatenate([points[:1], points[1:][keep]]), part[keep]
+
+
+def build(surface: Mapping[str, Any]) -> Tile:
+    """One cylinder per period along x, extruded along y.
+
+    Facet normals point out of the cylinder and up from the base: with profile edges e
+    and the extrusion direction ŷ the face normal is e × ŷ, which is +z on the base and
+    radial on the arc (the vertex grid's ordering of ``grid_faces``).
+
+    Parameters
+    ----------
+    surface : mapping
+        Kind ``cylinders``: ``radius``, ``spacing`` (≥ 2 radius), ``sink`` (< 2 radius),
+        ``segments``, ``length``.
+
+    Returns
+    -------
+    Tile
+        Parts ``base`` and ``cylinder``; anisotropic. The surface is open (a sheet, not a
+        closed solid): the tracer only needs the boundary that light can reach.
+    """
+    r, s = float(surface["radius"]), float(surface["spacing"])
+    length = float(surface["length"])
+    points, part = profile(r, s, float(surface["sink"]), int(surface["segments"]))
+    k = len(points)
+    vertices = np.column_stack([np.repeat(points[:, 0], 2), np.tile([0.0, length], k),
+                                np.repeat(points[:, 1], 2)])
+    faces = grid_faces(k, 2)
+    material = np.concatenate([part, part]).astype(np.int32)  # grid_faces: two halves
+    return Tile(vertices, faces, material, ("base", "cylinder"), (s, length),
+                info={"kind": "cylinders", "isotropic": False,
+                      "axis": [0.0, 1.0, 0.0]})
