@@ -227,8 +227,8 @@ def apply_overrides(raw: dict, overrides: Iterable[str]) -> dict:
             if not isinstance(child, dict):
                 raise InputError(f"--set {text!r}: {'.'.join(path[:i + 1])} is not a table")
             node = child
-        if path[0] == "material" and path[-1] == "kind" and len(path) == 2:
-            # switching the single material's kind drops the old kind's parameters
+        if path[0] == "material" and path[-1] == "kind":
+            # switching a material's kind drops the old kind's parameters
             node.clear()
         node[path[-1]] = value
     return out

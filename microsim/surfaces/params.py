@@ -69,6 +69,17 @@ def _check_vgroove(s: dict[str, Any]) -> None:
         raise InputError("surface: a vgroove surface takes exactly one of slope, alpha")
 
 
+def _check_velvet(s: dict[str, Any]) -> None:
+    """Fibres must be small against the tile: the periodic wrap moves a cut piece by one
+    period at most, and a fibre's root reaches radius · (tan 80° + 1) below the base."""
+    if s["fibre_length"] > 0.5 * s["size"]:
+        raise InputError(f"surface.fibre_length = {s['fibre_length']!r}: must be <= half the "
+                         f"tile size ({0.5 * s['size']:g}); raise size for longer fibres")
+    if s["fibre_radius"] > 0.02 * s["size"]:
+        raise InputError(f"surface.fibre_radius = {s['fibre_radius']!r}: must be <= 2% of "
+                         f"the tile size ({0.02 * s['size']:g})")
+
+
 def _check_cylinders(s: dict[str, Any]) -> None:
     if s["spacing"] < 2 * s["radius"]:
         raise InputError(f"surface.spacing = {s['spacing']!r}: must be >= 2 * radius "
@@ -171,6 +182,8 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
             "size": SIZE,
             "seed": SEED,
         },
+        _check_velvet,
+        lambda s: 2 + 8 * s["sides"] * s["density"] * s["size"] ** 2,
     ),
     "weave": SurfaceKind(
         "Woven cloth, one pattern repeat: warp yarns along y and weft yarns along x as "

@@ -1,0 +1,122 @@
+"""Velvet: dense short fibres standing on a base (Westin, Arvo & Torrance 1992, fig. 11)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from microsim.surfaces.periodic import wrap_into_box
+from microsim.surfaces.tile import Tile
+
+MAX_TILT = 80.0
+"""Sampled tilts are clipped to this many degrees, so every fibre stands out of the base."""
+
+
+def fibre_directions(n: int, tilt: float, tilt_spread: float, azimuth: float,
+                     azimuth_spread: float, rng: np.random.Generator) -> np.ndarray:
+    """Unit fibre axes: tilt from +z ~ N(tilt, spread) clipped to [0, 80]°, azimuth
+    ~ N(azimuth, spread) (uniform when the spread is 360°); angles in degrees.
+
+    Returns
+    -------
+    (n, 3) float
+    """
+    theta = np.radians(np.clip(rng.normal(tilt, tilt_spread, n), 0.0, MAX_TILT))
+    if azimuth_spread >= 360.0:
+        phi = rng.uniform(0.0, 2 * math.pi, n)
+    else:
+        phi = np.radians(rng.normal(azimuth, azimuth_spread, n))
+    s = np.sin(theta)
+    return np.column_stack([s * np.cos(phi), s * np.sin(phi), np.cos(theta)])
+
+
+def jittered_points(n: int, size: float, rng: np.random.Generator) -> np.ndarray:
+    """n points, one uniformly inside each of n cells chosen at random from an m × m grid
+    (m = ⌈√n⌉) over [0, size)²: jittered sampling, no clumps and no gaps larger than a
+    cell (Cook 1986, "Stochastic sampling in computer graphics")."""
+    m = math.ceil(math.sqrt(n))
+    cells = rng.choice(m * m, size=n, replace=False)
+    ij = np.column_stack(np.divmod(cells, m)).astype(float)
+    return (ij + rng.random((n, 2))) * (size / m)
+
+
+def tubes(roots: np.ndarray, axes: np.ndarray, radius: float, start: np.ndarray,
+          length: float, sides: int) -> tuple[np.ndarray, np.ndarray]:
+    """Closed tubes with cone tips: for fibre k, a prism of ``sides`` faces from
+    roots[k] + start[k] axes[k] to roots[k] + length axes[k], a cone of height ``radius``
+    on top and a flat cap at the bottom; faces wind outward.
+
+    Returns
+    -------
+    vertices : (n (2 sides + 2), 3) float
+    faces : (n · 4 sides, 3) int
+    """
+    n = len(roots)
+    helper = np.where(np.abs(axes[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
+    u = np.cross(axes, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(axes, u)
+    ang = 2 * math.pi * np.arange(sides) / sides
+    ring = radius * (np.cos(ang)[None, :, None] * u[:, None] + np.sin(ang)[None, :, None]
+                     * v[:, None])  # (n, sides, 3)
+    bottom = roots[:, None] + start[:, None, None] * axes[:, None] + ring
+    top = roots[:, None] + length * axes[:, None] + ring
+    tip = roots + (length + radius) * axes
+    base = roots + start[:, None] * axes
+    verts = np.concatenate([bottom, top, tip[:, None], base[:, None]], axis=1)
+    per = 2 * sides + 2
+    a = np.arange(sides)
+    b = (a + 1) % sides
+    t, c = sides + a, sides + b
+    local = np.concatenate([
+        np.column_stack([a, b, c]), np.column_stack([a, c, t]),          # sides
+        np.column_stack([t, c, np.full(sides, 2 * sides)]),              # cone tip
+        np.column_stack([b, a, np.full(sides, 2 * sides + 1)]),          # bottom cap
+    ])
+    faces = (local[None] + per * np.arange(n)[:, None, None]).reshape(-1, 3)
+    return verts.reshape(-1, 3), faces
+
+
+def build(surface: Mapping[str, Any]) -> Tile:
+    """A velvet tile: a flat base at z = 0 and closed fibres rooted in it.
+
+    Fibres are placed by jittered sampling at ``density`` per unit area; each is a tube of
+    ``fibre_radius`` with ``sides`` faces, rising ``fibre_length`` along its axis from the
+    base and ending in a cone; its root reaches below the base (by radius · (tan tilt + 1)
+    along the axis) so the tube meets the base without a gap. Fibres crossing a tile side
+    are cut there and continue from the opposite side.
+
+    Parameters
+    ----------
+    surface : mapping
+        Kind ``velvet``: ``fibre_radius``, ``fibre_length``, ``density``, ``tilt``,
+        ``tilt_spread``, ``azimuth``, ``azimuth_spread`` (degrees), ``sides``, ``size``,
+        ``seed``.
+
+    Returns
+    -------
+    Tile
+        Parts ``base`` and ``fibre``; isotropic when the azimuth spread is 360°.
+    """
+    size = float(surface["size"])
+    rng = np.random.default_rng(surface["seed"])
+    n = max(1, round(surface["density"] * size * size))
+    radius, length, sides = surface["fibre_radius"], surface["fibre_length"], surface["sides"]
+    roots = np.column_stack([jittered_points(n, size, rng), np.zeros(n)])
+    axes = fibre_directions(n, surface["tilt"], surface["tilt_spread"], surface["azimuth"],
+                            surface["azimuth_spread"], rng)
+    tan_tilt = np.sqrt(1 - axes[:, 2] ** 2) / axes[:, 2]
+    start = -radius * (tan_tilt + 1.0)
+    fv, ff = tubes(roots, axes, radius, start, length, sides)
+    base_v = np.array([[0, 0, 0], [size, 0, 0], [size, size, 0], [0, size, 0]], float)
+    vertices = np.concatenate([base_v, fv])
+    faces = np.concatenate([[[0, 1, 2], [0, 2, 3]], ff + 4])
+    material = np.concatenate([[0, 0], np.ones(len(ff), int)])
+    groups = np.concatenate([[0, 0], 1 + np.repeat(np.arange(n), 4 * sides)])
+    vertices, faces, material = wrap_into_box(vertices, faces, material, (size, size), groups)
+    isotropic = surface["azimuth_spread"] >= 360.0 or surface["tilt"] == 0
+    return Tile(vertices, faces, material, ("base", "fibre"), (size, size),
+                info={"kind": "velvet", "isotropic": bool(isotropic), "fibres": n})
