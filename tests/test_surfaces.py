@@ -202,13 +202,70 @@ def test_velvet_tile_is_periodic_inside_its_box_and_closed():
     assert table.lost_energy.max() == 0
 
 
-@pytest.mark.parametrize("kind", ["gaussian", "cylinders", "velvet"])
+@pytest.mark.parametrize("kind", ["gaussian", "vgroove", "cylinders", "velvet", "weave"])
 def test_screenshots_are_not_blank(kind, tmp_path):
     """Rendered off screen through EGL: the image has structure (pixel std > 10 of 255)
     and many colours."""
     from microsim.view import show_tile
-    params = {"gaussian": {"alpha": 0.3, "resolution": 64}, "cylinders": {},
-              "velvet": {"density": 100}}[kind]
+    params = {"gaussian": {"alpha": 0.3, "resolution": 64}, "vgroove": {"slope": 30.0},
+              "cylinders": {}, "velvet": {"density": 100}, "weave": {}}[kind]
     img = show_tile(tile_of(kind=kind, **params), tmp_path / "s.png", tiles=2)
     assert (tmp_path / "s.png").stat().st_size > 5000
     assert img.std() > 10 and len(np.unique(img.reshape(-1, 3), axis=0)) > 50
+
+
+@pytest.mark.parametrize("pattern", [{"pattern": "plain"}, {"pattern": "twill", "float": [2, 1]},
+                                     {"pattern": "twill", "float": [2, 2]}])
+def test_weave_yarns_are_outward_tubes_that_do_not_intersect(pattern):
+    """(1) Each yarn is a closed periodic tube wound outward: the flux of F = (x, 0, 0)
+    (warp, along y) or (0, y, 0) (weft) through its faces equals the section polygon's area
+    times the period — its volume (the open ends carry no flux of F). (2) Crossing yarns do
+    not intersect: a ray cast down from inside the upper yarn at a crossing first meets
+    that same yarn's underside."""
+    from microsim.trace import PeriodicScene
+    t = tile_of(kind="weave", sides=8, segments=8, **pattern)
+    n, area = t.face_normals_areas()
+    centre = t.vertices[t.faces].mean(axis=1)
+    w, th, k = 0.8, 0.3, 8
+    section = k / 2 * (w / 2) * (th / 2) * np.sin(2 * np.pi / k)
+    repeat = t.info["repeat"]
+    per_yarn = len(t.faces) // (2 * repeat)
+    for y in range(2 * repeat):
+        sl = slice(y * per_yarn, (y + 1) * per_yarn)
+        axis = 1 if t.material[sl][0] == 0 else 0
+        flux = np.sum(centre[sl, 1 - axis] * n[sl, 1 - axis] * area[sl])
+        assert flux == pytest.approx(section * t.period[0], rel=1e-9)
+    from microsim.surfaces.weave import over, path_heights
+    top = over(repeat, 1 if pattern["pattern"] == "plain" else int(pattern["float"][0]))
+    amp = t.info["crimp_amplitude"]
+    i, j = np.argwhere(top)[0]
+    rng = np.random.default_rng(0)
+    a, b = rng.uniform(-0.85, 0.85, (2, 400))  # offsets across / along, in half-widths
+    x = (i + 0.5) + a * w / 2
+    yy = (j + 0.5) + b * w / 2
+    heights = np.where(top[i], amp, -amp)
+    z = path_heights(yy, heights, 1.0)
+    with PeriodicScene(t, threads=1) as scene:
+        hits = scene.closest_hit(np.column_stack([x, yy, z]), np.tile([0.0, 0.0, -1.0],
+                                                                      (400, 1)))
+    assert np.all(hits.face >= 0) and np.all(t.material[hits.face] == 0)
+
+
+def test_weave_inside_box_and_seamless():
+    t = tile_of(kind="weave", pattern="twill")
+    v = t.vertices
+    lx, ly = t.period
+    assert v[:, 0].min() >= 0 and v[:, 0].max() <= lx + 1e-12
+    assert v[:, 1].min() >= 0 and v[:, 1].max() <= ly + 1e-12
+    assert t.face_normals_areas()[1].min() > 0 and set(np.unique(t.material)) == {0, 1}
+    # warp ends: the ring at y = 0 equals the ring at y = Ly (the path is periodic)
+    ends = v[(v[:, 1] == 0) | (v[:, 1] == ly)]
+    start, end = ends[ends[:, 1] == 0], ends[ends[:, 1] == ly]
+    np.testing.assert_allclose(np.sort(start[:, [0, 2]], axis=0),
+                               np.sort(end[:, [0, 2]], axis=0), atol=1e-12)
+
+
+def test_weave_bad_width():
+    from microsim.errors import InputError
+    with pytest.raises(InputError, match="yarn_width"):
+        tile_of(kind="weave", yarn_width=1.0, spacing=1.0)

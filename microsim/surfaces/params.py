@@ -80,6 +80,14 @@ def _check_velvet(s: dict[str, Any]) -> None:
                          f"the tile size ({0.02 * s['size']:g})")
 
 
+def _check_weave(s: dict[str, Any]) -> None:
+    if s["yarn_width"] > 0.95 * s["spacing"]:
+        raise InputError(f"surface.yarn_width = {s['yarn_width']!r}: must be <= 0.95 * "
+                         f"spacing = {0.95 * s['spacing']:g} (neighbouring yarns would touch)")
+    if any(v != int(v) for v in s["float"]):
+        raise InputError(f"surface.float = {s['float']!r}: must be whole numbers of yarns")
+
+
 def _check_cylinders(s: dict[str, Any]) -> None:
     if s["spacing"] < 2 * s["radius"]:
         raise InputError(f"surface.spacing = {s['spacing']!r}: must be >= 2 * radius "
@@ -206,6 +214,8 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
                          high=256),
             "seed": SEED,
         },
+        _check_weave,
+        lambda s: 4 * s["segments"] * s["sides"] * (s["float"][0] + s["float"][1]) ** 2,
     ),
     "mesh": SurfaceKind(
         "A user tile (PLY, OBJ or STL, read by trimesh) with its period given here. The "
