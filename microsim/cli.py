@@ -85,6 +85,40 @@ def finite_float(text: str) -> float:
     return value
 
 
+def number_list(count: int | None = None, low: float = -math.inf, high: float = math.inf,
+                low_open: bool = False, what: str = "numbers") -> Any:
+    """argparse type: comma-separated finite numbers, ``count`` of them (None: one or
+    more), each in [low, high] (or (low, high] with ``low_open``).
+
+    Parameters
+    ----------
+    count : int or None
+    low, high : float
+    low_open : bool
+    what : str
+        How the error names the expected value, e.g. ``"THETA,PHI in degrees"``.
+
+    Returns
+    -------
+    callable
+        ``str -> list[float]``.
+    """
+
+    def parse(text: str) -> list[float]:
+        try:
+            values = [float(t) for t in text.split(",") if t.strip()]
+        except ValueError:
+            values = []
+        ok = bool(values) and (count is None or len(values) == count) and all(
+            math.isfinite(v) and (low < v if low_open else low <= v) and v <= high
+            for v in values)
+        if not ok:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {what}")
+        return values
+
+    return parse
+
+
 def print_json(data: Any) -> None:
     """Print ``data`` as JSON (NaN becomes null, so the output is strict JSON)."""
 

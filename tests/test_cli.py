@@ -17,11 +17,6 @@ RECIPE = str(ROOT / "surfaces" / "gaussian-0.3.toml")
 HEAVY = ("embreex", "pyvista", "vtk", "matplotlib", "OpenEXR", "trimesh", "scipy", "dask")
 
 
-def run(capsys, *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
-
 
 def test_version(capsys):
     with pytest.raises(SystemExit) as info:
@@ -40,8 +35,8 @@ def test_every_command_has_complete_help(capsys):
         assert len(text.splitlines()) > 3, name
 
 
-def test_check_prints_resolved_recipe(capsys):
-    code, out, err = run(capsys, "check", RECIPE, "--set", "surface.alpha=0.5", "--json")
+def test_check_prints_resolved_recipe(cli):
+    code, out, err = cli("check", RECIPE, "--set", "surface.alpha=0.5", "--json")
     assert code == 0 and err == ""
     resolved = json.loads(out)
     assert resolved["surface"]["alpha"] == 0.5
@@ -61,8 +56,8 @@ def test_check_prints_resolved_recipe(capsys):
         (["check", RECIPE, "--bogus"], "unrecognized arguments: --bogus"),
     ],
 )
-def test_bad_input_is_one_error_line_and_exit_2(capsys, argv, needle):
-    code, out, err = run(capsys, *argv)
+def test_bad_input_is_one_error_line_and_exit_2(cli, argv, needle):
+    code, out, err = cli(*argv)
     assert code == 2
     lines = err.strip().splitlines()
     assert len(lines) == 1, err

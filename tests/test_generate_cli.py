@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 import trimesh
 
-from microsim.cli import main
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
 
@@ -17,15 +16,10 @@ ROOT = Path(__file__).resolve().parent.parent
 GAUSS = str(ROOT / "surfaces" / "gaussian-0.3.toml")
 
 
-def run(capsys, *argv):
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
 
-
-def test_generate_ply_round_trips_through_the_mesh_importer(capsys, tmp_path):
+def test_generate_ply_round_trips_through_the_mesh_importer(cli, tmp_path):
     out = tmp_path / "tile.ply"
-    code, text, _ = run(capsys, "generate", GAUSS, "--set", "surface.resolution=64", "-o",
+    code, text, _ = cli("generate", GAUSS, "--set", "surface.resolution=64", "-o",
                         str(out), "--json")
     assert code == 0
     facts = json.loads(text)
@@ -43,9 +37,9 @@ def test_generate_ply_round_trips_through_the_mesh_importer(capsys, tmp_path):
     assert not list(tmp_path.glob(".*tmp"))
 
 
-def test_generate_obj(capsys, tmp_path):
+def test_generate_obj(cli, tmp_path):
     out = tmp_path / "tile.obj"
-    code, _, _ = run(capsys, "generate", str(ROOT / "surfaces" / "vgroove-30.toml"), "-o",
+    code, _, _ = cli("generate", str(ROOT / "surfaces" / "vgroove-30.toml"), "-o",
                      str(out))
     assert code == 0 and len(trimesh.load(out, process=False).faces) == 4 * 64
 
@@ -71,7 +65,7 @@ def test_mesh_drops_zero_area_faces_with_a_warning(tmp_path):
     ("missing", "no such file"),
     ("garbage", "cannot read it as a mesh"),
 ])
-def test_bad_meshes_exit_2(capsys, tmp_path, case, needle):
+def test_bad_meshes_exit_2(cli, tmp_path, case, needle):
     if case == "outside":
         recipe = mesh_recipe(tmp_path, [[0, 0, 0], [1.5, 0, 0], [1, 1, 0]], [[0, 1, 2]])
     else:
@@ -80,7 +74,7 @@ def test_bad_meshes_exit_2(capsys, tmp_path, case, needle):
         if case == "garbage":
             (tmp_path / "m.ply").write_text("this is not a mesh")
         recipe = str(recipe)
-    code, _, err = run(capsys, "generate", recipe, "-o", str(tmp_path / "o.ply"))
+    code, _, err = cli("generate", recipe, "-o", str(tmp_path / "o.ply"))
     assert code == 2 and err.startswith("error: surface.") and needle in err
 
 
@@ -91,21 +85,21 @@ def test_bad_meshes_exit_2(capsys, tmp_path, case, needle):
     (["--set", "surface.resolution=0"], "surface.resolution = 0"),
     (["--set", "surface.alpha=nan"], "surface.alpha = nan"),
 ])
-def test_bad_generate_input(capsys, tmp_path, argv, needle):
-    code, _, err = run(capsys, "generate", GAUSS, "-o", str(tmp_path / "t.ply"), *argv)
+def test_bad_generate_input(cli, tmp_path, argv, needle):
+    code, _, err = cli("generate", GAUSS, "-o", str(tmp_path / "t.ply"), *argv)
     assert code == 2 and err.startswith("error: ") and needle in err
     assert not (tmp_path / "t.ply").exists()
 
 
-def test_memory_limit_from_the_environment(capsys, tmp_path, monkeypatch):
+def test_memory_limit_from_the_environment(cli, tmp_path, monkeypatch):
     monkeypatch.setenv("MICROSIM_MEMORY_LIMIT", "0.01")
-    code, _, err = run(capsys, "generate", GAUSS, "-o", str(tmp_path / "t.ply"))
+    code, _, err = cli("generate", GAUSS, "-o", str(tmp_path / "t.ply"))
     assert code == 2 and "0.01 GiB limit" in err
     monkeypatch.setenv("MICROSIM_MEMORY_LIMIT", "lots")
-    code, _, err = run(capsys, "generate", GAUSS, "-o", str(tmp_path / "t.ply"))
+    code, _, err = cli("generate", GAUSS, "-o", str(tmp_path / "t.ply"))
     assert code == 2 and "MICROSIM_MEMORY_LIMIT" in err
 
 
-def test_output_suffix_checked(capsys, tmp_path):
-    code, _, err = run(capsys, "generate", GAUSS, "-o", str(tmp_path / "t.stl"))
+def test_output_suffix_checked(cli, tmp_path):
+    code, _, err = cli("generate", GAUSS, "-o", str(tmp_path / "t.stl"))
     assert code == 2 and "--output" in err

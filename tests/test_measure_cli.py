@@ -7,24 +7,17 @@ from pathlib import Path
 
 import pytest
 
-from microsim.cli import main
-
 ROOT = Path(__file__).resolve().parent.parent
 RECIPE = str(ROOT / "surfaces" / "gaussian-0.3.toml")
 
 
-def run(capsys, *argv):
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
 
-
-def test_g1_json_against_smith(capsys):
+def test_g1_json_against_smith(cli):
     """G1 of the default 256² α = 0.3 tile (32 correlation lengths) at 80° with 40k rays:
     stderr ≈ 0.0016; such a tile follows Smith to ~0.005 (DESIGN.md), so
     |G1 − Smith| < 0.005 + 4 stderr. (A 128² tile, 16 correlation lengths, misses by 0.012:
     too few independent slopes; the generator warns about it.)"""
-    code, out, _ = run(capsys, "measure", "g1", RECIPE, "--theta", "0,80", "--rays", "40000",
+    code, out, _ = cli("measure", "g1", RECIPE, "--theta", "0,80", "--rays", "40000",
                        "--json")
     assert code == 0
     r = json.loads(out)
@@ -33,9 +26,9 @@ def test_g1_json_against_smith(capsys):
     assert abs(r["g1"][1] - r["smith"][1]) < 0.005 + 4 * r["g1_stderr"][1]
 
 
-def test_ndf_json_and_plot(capsys, tmp_path):
+def test_ndf_json_and_plot(cli, tmp_path):
     plot = tmp_path / "ndf.png"
-    code, out, _ = run(capsys, "measure", "ndf", RECIPE, "--set", "surface.resolution=128",
+    code, out, _ = cli("measure", "ndf", RECIPE, "--set", "surface.resolution=128",
                        "--bins", "12", "--plot", str(plot), "--json")
     assert code == 0
     r = json.loads(out)
@@ -51,6 +44,6 @@ def test_ndf_json_and_plot(capsys, tmp_path):
     (["measure", "ndf", RECIPE, "--bins", "-2"], "--bins"),
     (["measure"], "required"),
 ])
-def test_bad_flags(capsys, argv, needle):
-    code, _, err = run(capsys, *argv)
+def test_bad_flags(cli, argv, needle):
+    code, _, err = cli(*argv)
     assert code == 2 and err.startswith("error: ") and needle in err

@@ -8,39 +8,32 @@ import math
 import pytest
 
 from microsim.analytic.registry import MODELS, parse_model_spec
-from microsim.cli import main
 from microsim.compare import direction
 from microsim.errors import InputError
 
 
-def run(capsys, *argv):
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def test_list_names_every_model(capsys):
-    code, out, _ = run(capsys, "models", "--json")
+def test_list_names_every_model(cli):
+    code, out, _ = cli("models", "--json")
     assert code == 0
     listed = json.loads(out)
     assert set(listed) == set(MODELS)
     assert listed["beckmann"]["params"]["alpha"]["default"] == 0.3
 
 
-def test_eval_prints_f_r(capsys):
+def test_eval_prints_f_r(cli):
     """Mirror configuration of Beckmann α = 0.3 at 30°: h = n, so f = D(n) G2 / (4 cos²30°)
     with D(n) = 1/(π α²) and G2 = 1/(1 + 2Λ), Λ(a = 1/(0.3 tan 30°) = 5.77) < 1e-15."""
-    code, out, _ = run(capsys, "models", "eval", "beckmann:alpha=0.3", "--wi", "30,0",
+    code, out, _ = cli("models", "eval", "beckmann:alpha=0.3", "--wi", "30,0",
                        "--wo", "30,180", "--json")
     assert code == 0
     expected = 1 / (math.pi * 0.09) / (4 * math.cos(math.radians(30)) ** 2)
     assert json.loads(out)["f_r"] == pytest.approx(expected, rel=1e-12)
 
 
-def test_param_flag_equals_spec(capsys):
-    _, a, _ = run(capsys, "models", "eval", "oren-nayar", "--param", "sigma=30", "--wi",
+def test_param_flag_equals_spec(cli):
+    _, a, _ = cli("models", "eval", "oren-nayar", "--param", "sigma=30", "--wi",
                   "40,0", "--wo", "20,90", "--json")
-    _, b, _ = run(capsys, "models", "eval", "oren-nayar:sigma=30", "--wi", "40,0", "--wo",
+    _, b, _ = cli("models", "eval", "oren-nayar:sigma=30", "--wi", "40,0", "--wo",
                   "20,90", "--json")
     assert json.loads(a)["f_r"] == json.loads(b)["f_r"]
 
@@ -56,8 +49,8 @@ def test_param_flag_equals_spec(capsys):
     (["models", "eval", "ggx", "--wi", "0,0"], "--wo"),
     (["models", "eval", "ggx", "--param", "alpha", "--wi", "0,0", "--wo", "0,0"], "KEY=VALUE"),
 ])
-def test_bad_input_exits_2_with_one_line(capsys, argv, needle):
-    code, _, err = run(capsys, *argv)
+def test_bad_input_exits_2_with_one_line(cli, argv, needle):
+    code, _, err = cli(*argv)
     assert code == 2
     assert err.startswith("error: ") and err.count("\n") == 1 and needle in err
 

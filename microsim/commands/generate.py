@@ -3,33 +3,22 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
 from microsim import recipe
-from microsim.cli import add_json_arg, add_recipe_args, print_json
+from microsim.cli import add_json_arg, add_recipe_args, number_list, print_json
 from microsim.errors import InputError
+from microsim.files import atomic_path
 
 FORMATS = (".ply", ".obj")
 
 
-def positive_gib(text: str) -> float:
-    """argparse type: a positive, finite number of GiB."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not (value > 0 and value != float("inf")):
-        raise argparse.ArgumentTypeError(f"{text!r} is not a positive number of GiB")
-    return value
-
-
 def add_memory_arg(p: argparse.ArgumentParser) -> None:
     """Add ``--memory-limit GIB``."""
-    p.add_argument("--memory-limit", type=positive_gib, default=None, metavar="GIB",
+    gib = number_list(1, low=0.0, low_open=True, what="a positive number of GiB")
+    p.add_argument("--memory-limit", type=lambda t: gib(t)[0], default=None, metavar="GIB",
                    help="refuse tiles estimated to need more memory than this (default: "
                         "$MICROSIM_MEMORY_LIMIT or 2 GiB)")
 
@@ -76,15 +65,8 @@ def write_mesh(tile: Any, path: Path) -> None:
                                                include_attributes=True)
     else:
         data = trimesh.exchange.obj.export_obj(mesh).encode()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -12,22 +12,14 @@ from microsim.cli import (
     add_json_arg,
     add_recipe_args,
     add_seed_arg,
+    number_list,
     positive_int,
     print_json,
 )
 from microsim.errors import InputError
 
-
-def degree_list(text: str) -> list[float]:
-    """argparse type: comma-separated angles in degrees, each in [0, 90]."""
-    try:
-        values = [float(t) for t in text.split(",") if t.strip()]
-    except ValueError:
-        values = []
-    if not values or not all(math.isfinite(v) and 0 <= v <= 90 for v in values):
-        raise argparse.ArgumentTypeError(
-            f"{text!r} is not a comma-separated list of angles in [0, 90] degrees")
-    return values
+degree_list = number_list(low=0.0, high=90.0,
+                          what="a comma-separated list of angles in [0, 90] degrees")
 
 
 def register(sub: argparse._SubParsersAction) -> None:

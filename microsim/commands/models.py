@@ -3,22 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import math
 
-from microsim.cli import Parser, add_json_arg, print_json
+from microsim.cli import Parser, add_json_arg, number_list, print_json
 from microsim.errors import InputError
 
-
-def angle_pair(text: str) -> tuple[float, float]:
-    """argparse type: ``THETA,PHI`` in degrees."""
-    parts = text.split(",")
-    try:
-        values = tuple(float(p) for p in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 2 or not all(math.isfinite(v) for v in values):
-        raise argparse.ArgumentTypeError(f"{text!r} is not THETA,PHI in degrees")
-    return values
+angle_pair = number_list(2, what="THETA,PHI in degrees")
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -6,22 +6,14 @@ import argparse
 from pathlib import Path
 
 from microsim import recipe
-from microsim.cli import positive_int
+from microsim.cli import number_list, positive_int
 from microsim.commands.generate import add_memory_arg
 from microsim.errors import InputError
 
 MESHES = (".ply", ".obj", ".stl")
 
 
-def period_pair(text: str) -> list[float]:
-    """argparse type: ``LX,LY``, two positive numbers."""
-    try:
-        values = [float(t) for t in text.split(",")]
-    except ValueError:
-        values = []
-    if len(values) != 2 or not all(0 < v < float("inf") for v in values):
-        raise argparse.ArgumentTypeError(f"{text!r} is not LX,LY (two positive numbers)")
-    return values
+period_pair = number_list(2, low=0.0, low_open=True, what="LX,LY (two positive numbers)")
 
 
 def register(sub: argparse._SubParsersAction) -> None:

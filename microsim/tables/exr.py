@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from microsim.errors import InputError
+from microsim.files import atomic_path
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.table import COMPONENTS, BRDFTable
 
@@ -85,8 +84,6 @@ def write_table(table: BRDFTable, path: str | Path) -> None:
     """
     import OpenEXR
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     a, b = table.rays.shape
     nt, np_ = table.bins.shape
     channels = {}
@@ -98,14 +95,8 @@ def write_table(table: BRDFTable, path: str | Path) -> None:
                                                                          np.float32)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
               ATTRIBUTE: json.dumps(header_json(table))}
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        OpenEXR.File(header, channels).write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path) as tmp:
+        OpenEXR.File(header, channels).write(str(tmp))
 
 
 def read_table(path: str | Path) -> BRDFTable:

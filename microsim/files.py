@@ -1,0 +1,40 @@
+"""Writing files so that nothing a user made is lost: whole or not at all."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+
+@contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary path beside ``path`` that replaces it when the block succeeds.
+
+    The folder is created if missing. On any exception the temporary file is removed and
+    an existing ``path`` is left untouched; on success ``os.replace`` renames it over
+    ``path`` in one step (atomic on POSIX within a file system), so a crash never leaves a
+    partial file under the final name.
+
+    Parameters
+    ----------
+    path : str or Path
+        The final file.
+
+    Yields
+    ------
+    Path
+        Where to write.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
