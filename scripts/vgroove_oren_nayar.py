@@ -23,23 +23,7 @@ from microsim.analytic.brdf import OrenNayar
 from microsim.compare import bin_average, direction, metrics
 from microsim.goniometer import simulate
 from microsim.recipe import resolve
-from microsim.surfaces.tile import Tile
-
-
-def beckmann_vgrooves(alpha: float, grooves: int, seed: int) -> tuple[Tile, float]:
-    """The tile (two facet rows per groove) and the RMS slope angle of its faces."""
-    slope = np.abs(np.random.default_rng(seed).normal(0.0, alpha / np.sqrt(2), grooves))
-    n = 2 * grooves
-    x = np.arange(n + 1) / n
-    z = np.zeros(n + 1)
-    z[1::2] = -slope / n
-    vertices = np.array([(xi, y, zi) for xi, zi in zip(x, z, strict=True) for y in (0, 1)],
-                        float)
-    a = 2 * np.arange(n)
-    faces = np.concatenate([np.stack([a, a + 2, a + 3], 1), np.stack([a, a + 3, a + 1], 1)])
-    tile = Tile(vertices, faces, np.zeros(len(faces), np.int64), ("base",), (1.0, 1.0),
-                info={"isotropic": False})
-    return tile, float(np.sqrt(np.mean(np.arctan(slope) ** 2)))
+from microsim.surfaces import build_tile
 
 
 def main() -> None:
@@ -47,12 +31,14 @@ def main() -> None:
     parser.add_argument("--alpha", type=float, default=0.8)
     parser.add_argument("--rays", type=int, default=200_000)
     args = parser.parse_args()
-    tile, sigma = beckmann_vgrooves(args.alpha, 256, 1)
     theta = [0.0, 30.0, 60.0, 75.0]
-    recipe = resolve({"surface": {"kind": "flat"},
+    recipe = resolve({"surface": {"kind": "vgroove", "alpha": args.alpha, "grooves": 256,
+                                  "seed": 1},
                       "material": {"kind": "lambertian", "albedo": 0.8},
                       "simulation": {"theta_i": theta, "rays": args.rays, "seed": 1},
                       "table": {"theta_bins": 8, "phi_bins": 16}})
+    tile = build_tile(recipe["surface"])
+    sigma = float(np.sqrt(np.mean(np.radians(tile.info["slopes_deg"]) ** 2)))
     table = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"])
     model = OrenNayar(sigma, 0.8, "full")
     rows = []
