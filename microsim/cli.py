@@ -52,6 +52,11 @@ def add_seed_arg(p: argparse.ArgumentParser, what: str) -> None:
                    help=f"override the recipe's {what} seed (integer >= 0)")
 
 
+def seed_override(args: argparse.Namespace, section: str) -> list[str]:
+    """``[section.seed=N]`` when ``--seed N`` was given, else ``[]``."""
+    return [] if args.seed is None else [f"{section}.seed={args.seed}"]
+
+
 def nonnegative_int(text: str) -> int:
     """argparse type: an integer >= 0."""
     try:

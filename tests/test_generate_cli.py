@@ -103,3 +103,10 @@ def test_memory_limit_from_the_environment(cli, tmp_path, monkeypatch):
 def test_output_suffix_checked(cli, tmp_path):
     code, _, err = cli("generate", GAUSS, "-o", str(tmp_path / "t.stl"))
     assert code == 2 and "--output" in err
+
+
+def test_seed_flag_overrides_the_surface_seed(cli, tmp_path):
+    runs = [json.loads(cli("generate", GAUSS, "--set", "surface.resolution=32", "-o",
+                           str(tmp_path / "t.ply"), "--seed", s, "--json")[1])
+            for s in ("5", "5", "6")]
+    assert runs[0]["alpha_realised"] == runs[1]["alpha_realised"] != runs[2]["alpha_realised"]

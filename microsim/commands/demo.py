@@ -9,7 +9,7 @@ from typing import Any
 
 import microsim
 from microsim import recipe
-from microsim.cli import add_json_arg, positive_int, print_json
+from microsim.cli import add_json_arg, add_seed_arg, positive_int, print_json, seed_override
 
 RECIPE = Path(microsim.__file__).resolve().parent.parent / "surfaces" / "gaussian-0.3.toml"
 
@@ -33,6 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="also draw the plane of incidence, simulation against model")
     p.add_argument("--threads", type=positive_int, default=None,
                    help="tracing threads (default: every CPU)")
+    add_seed_arg(p, "simulation")
     add_json_arg(p)
     p.set_defaults(func=run)
 
@@ -64,7 +65,9 @@ def run(args: argparse.Namespace) -> int:
     """Simulate, write, compare, print."""
     from microsim.commands.simulate import print_summary, simulate_resolved, summary
 
-    overrides = [] if args.rays is None else [f"simulation.rays={args.rays}"]
+    overrides = seed_override(args, "simulation")
+    if args.rays is not None:
+        overrides.append(f"simulation.rays={args.rays}")
     resolved = recipe.load(RECIPE, overrides)
     table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json)
     table.write(args.output)

@@ -8,7 +8,14 @@ from pathlib import Path
 from typing import Any
 
 from microsim import recipe
-from microsim.cli import add_json_arg, add_recipe_args, number_list, print_json
+from microsim.cli import (
+    add_json_arg,
+    add_recipe_args,
+    add_seed_arg,
+    number_list,
+    print_json,
+    seed_override,
+)
 from microsim.errors import InputError
 from microsim.files import atomic_path
 
@@ -36,6 +43,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", type=Path, required=True,
                    help="mesh file, .ply or .obj")
     add_memory_arg(p)
+    add_seed_arg(p, "surface")
     add_json_arg(p)
     p.set_defaults(func=run)
 
@@ -75,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.output.suffix.lower() not in FORMATS:
         raise InputError(f"--output {args.output}: must end in .ply or .obj")
-    resolved = recipe.load(args.recipe, args.overrides)
+    resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "surface")])
     tile = build_tile(resolved["surface"], args.memory_limit)
     for warning in tile.warnings:
         print(f"warning: {warning}", file=sys.stderr)

@@ -15,6 +15,7 @@ from microsim.cli import (
     number_list,
     positive_int,
     print_json,
+    seed_override,
 )
 from microsim.errors import InputError
 
@@ -56,6 +57,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_recipe_args(n)
     n.add_argument("--bins", type=positive_int, default=30, help="theta_h bins (default 30)")
     n.add_argument("--plot", default=None, metavar="PNG", help="also draw it")
+    add_seed_arg(n, "surface")
     add_json_arg(n)
     n.set_defaults(func=run_ndf)
 
@@ -81,10 +83,7 @@ def run_g1(args: argparse.Namespace) -> int:
 
     if not math.isfinite(args.phi):
         raise InputError(f"--phi {args.phi}: must be a finite angle in degrees")
-    overrides = list(args.overrides)
-    if args.seed is not None:
-        overrides.append(f"simulation.seed={args.seed}")
-    resolved = recipe.load(args.recipe, overrides)
+    resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "simulation")])
     result = measure_g1_recipe(resolved, args.theta, args.rays, args.phi, args.threads)
     info = result["surface"]
     model = smith_model(info)
@@ -119,7 +118,7 @@ def run_ndf(args: argparse.Namespace) -> int:
     from microsim.compare import ndf_bin_average
     from microsim.surfaces import build_tile
 
-    resolved = recipe.load(args.recipe, args.overrides)
+    resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "surface")])
     tile = build_tile(resolved["surface"])
     alpha = tile.info.get("alpha_realised")
     iso = alpha if isinstance(alpha, float) else None

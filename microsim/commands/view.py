@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from microsim import recipe
-from microsim.cli import number_list, positive_int
+from microsim.cli import add_seed_arg, number_list, positive_int, seed_override
 from microsim.commands.generate import add_memory_arg
 from microsim.errors import InputError
 
@@ -37,6 +37,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--period", type=period_pair, default=None, metavar="LX,LY",
                    help="period of a mesh file (required for .ply/.obj/.stl)")
     add_memory_arg(p)
+    add_seed_arg(p, "surface")
     p.set_defaults(func=run)
 
 
@@ -55,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
                                               "period": args.period}})["surface"]
         title = source.name
     elif suffix == ".toml":
-        surface = recipe.load(source, args.overrides)["surface"]
+        surface = recipe.load(source, [*args.overrides, *seed_override(args, "surface")])[
+            "surface"]
         title = f"{source.name}: {surface['kind']}"
     else:
         raise InputError(f"{source}: must be a recipe (.toml) or a mesh (.ply, .obj, .stl)")
