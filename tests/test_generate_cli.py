@@ -35,6 +35,7 @@ def test_generate_ply_round_trips_through_the_mesh_importer(cli, tmp_path):
     rx, ry = tile.realised_alpha()
     assert np.sqrt((rx**2 + ry**2) / 2) == pytest.approx(facts["alpha_realised"], rel=1e-3)
     assert not list(tmp_path.glob(".*tmp"))
+    assert out.stat().st_mode & 0o044  # readable by others under the usual umask, not 0600
 
 
 def test_generate_obj(cli, tmp_path):

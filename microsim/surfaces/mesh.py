@@ -31,7 +31,8 @@ def build(surface: Mapping[str, Any]) -> Tile:
     Returns
     -------
     Tile
-        Part ``base``; ``info["isotropic"]`` False (unknown).
+        Part ``base``; ``info["isotropic"]`` False (unknown); ``info["alpha_realised"]``
+        from the facet slopes (``Tile.realised_alpha``), as for generated surfaces.
     """
     import trimesh
 
@@ -68,4 +69,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
         tile.faces, tile.material = faces[~degenerate], tile.material[~degenerate]
         tile.warnings.append(f"surface: dropped {int(degenerate.sum())} zero-area faces "
                              f"of {len(faces)}")
+    rx, ry = tile.realised_alpha()
+    tile.info.update(alpha_realised=float(np.sqrt((rx**2 + ry**2) / 2)),
+                     alpha_realised_x=rx, alpha_realised_y=ry)
     return tile
