@@ -20,7 +20,7 @@ from typing import Any, NoReturn
 from microsim import __version__
 from microsim.errors import InputError
 
-COMMANDS = ("check", "models", "generate", "measure", "view", "simulate", "demo")
+COMMANDS = ("check", "models", "generate", "measure", "view", "simulate", "compare", "demo")
 """Command modules under ``microsim.commands``, in the order ``--help`` lists them."""
 
 

@@ -84,6 +84,30 @@ def bin_average(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
     return f.mean(axis=(2, 3))
 
 
+def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Relative errors and z-scores over the model's lobe bins.
+
+    Parameters
+    ----------
+    sim, err, model : (nt, np, 3) float
+        Simulated f_r, its standard error (NaN where undefined), the model's bin average.
+
+    Returns
+    -------
+    rel : (k,) float
+        |sim − model| / model over lobe bins (model ≥ 10% of its peak, per channel).
+    z : (j,) float
+        (sim − model) / stderr over lobe bins with a defined, non-zero error.
+    lobe : (nt, np, 3) bool
+    """
+    peak = model.max(axis=(0, 1), keepdims=True)
+    lobe = model >= LOBE_FRACTION * np.where(peak > 0, peak, np.inf)
+    rel = np.abs(sim - model)[lobe] / model[lobe]
+    ok = lobe & np.isfinite(err) & (err > 0)
+    return rel, (sim - model)[ok] / err[ok], lobe
+
+
 def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
             proj: np.ndarray) -> dict[str, Any]:
     """Error metrics of one incidence's simulated bins against the model's bin averages.
@@ -103,11 +127,7 @@ def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         (sim − model)/stderr over lobe bins with a defined, non-zero error, ``lobe_bins``,
         ``albedo_sim`` and ``albedo_model`` per channel (Σ f_r Ω_proj), and their difference.
     """
-    peak = model.max(axis=(0, 1), keepdims=True)
-    lobe = model >= LOBE_FRACTION * np.where(peak > 0, peak, np.inf)
-    rel = np.abs(sim - model)[lobe] / model[lobe]
-    ok = lobe & np.isfinite(err) & (err > 0)
-    z = (sim - model)[ok] / err[ok]
+    rel, z, lobe = lobe_residuals(sim, err, model)
     albedo_sim = (sim * proj[..., None]).sum(axis=(0, 1))
     albedo_model = (model * proj[..., None]).sum(axis=(0, 1))
     nan = float("nan")
@@ -179,3 +199,73 @@ def ndf_bin_average(ndf: Any, edges: np.ndarray, n: int = 16) -> np.ndarray:
     t = lo + (hi - lo) * (x + 1) / 2
     weights = w * (hi - lo) / 2 * np.cos(t) * np.sin(t)
     return (ndf.D(direction(t, 0.0)) * weights).sum(axis=1) / weights.sum(axis=1)
+
+
+def model_defaults(meta: Mapping[str, Any]) -> dict[str, Any]:
+    """Model parameters a table's metadata implies: the realised roughness (``alpha``, or
+    ``alpha_x``/``alpha_y``) and, when every part has the same material, its Fresnel
+    (``eta``, ``k``) or Lambertian ``albedo``. A spec's own values override these."""
+    out: dict[str, Any] = {}
+    alpha = meta.get("surface", {}).get("alpha_realised")
+    if isinstance(alpha, list):
+        out.update(alpha_x=alpha[0], alpha_y=alpha[1])
+    elif alpha is not None:
+        out["alpha"] = alpha
+    materials = list(meta.get("recipe", {}).get("material", {}).values())
+    if materials and all(m == materials[0] for m in materials):
+        m = materials[0]
+        out.update({k: m[k] for k in ("eta", "k", "albedo") if k in m})
+    return out
+
+
+def compare_table(table: Any, model: Model, component: str = "total") -> dict[str, Any]:
+    """Every incidence of a table against a model: per-incidence and pooled metrics.
+
+    Parameters
+    ----------
+    table : BRDFTable
+    model : Model
+    component : str
+        ``"total"`` or ``"single"``.
+
+    Returns
+    -------
+    dict
+        ``median_rel_error``, ``p90_rel_error``, ``z_mean``, ``z_std`` pooled over every
+        incidence's lobe bins; ``per_theta_i``: one row per incident direction with
+        ``theta_i``, ``phi_i`` (degrees), the ``metrics`` keys and
+        ``multiple_scattering_share`` (the share of the escaping energy scattered more
+        than once: what a single-scattering model leaves out); ``model`` (per-bin bin
+        averages, (a, b, nt, np, 3)) for plots.
+    """
+    rows, rels, zs = [], [], []
+    averages = np.zeros_like(table.values[component])
+    for a, theta in enumerate(table.theta_i):
+        for b, phi in enumerate(table.phi_i):
+            # isotropic tables hold azimuths relative to phi_i, anisotropic ones absolute;
+            # a folded table's bins hold phi and -phi alike, which a model symmetric about
+            # the plane of incidence fills equally
+            avg = bin_average(model, direction(theta, phi), table.bins.theta_edges,
+                              table.bins.phi_edges, phi if table.isotropic else 0.0)
+            averages[a, b] = avg
+            sim, err = table.values[component][a, b], table.errors[component][a, b]
+            rel, z, _ = lobe_residuals(sim, err, avg)
+            rels.append(rel)
+            zs.append(z)
+            m = metrics(sim, err, avg, table.bins.projected_solid_angle)
+            total = table.albedo_of["total"][a, b].mean()
+            single = table.albedo_of["single"][a, b].mean()
+            m.update(theta_i=float(np.degrees(theta)), phi_i=float(np.degrees(phi)),
+                     multiple_scattering_share=float((total - single) / total)
+                     if total > 0 else float("nan"))
+            rows.append(m)
+    rel, z = np.concatenate(rels), np.concatenate(zs)
+    nan = float("nan")
+    return {
+        "median_rel_error": float(np.median(rel)) if rel.size else nan,
+        "p90_rel_error": float(np.percentile(rel, 90)) if rel.size else nan,
+        "z_mean": float(z.mean()) if z.size else nan,
+        "z_std": float(z.std(ddof=1)) if z.size > 1 else nan,
+        "per_theta_i": rows,
+        "model": averages,
+    }

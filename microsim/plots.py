@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from microsim.compare import Model, bin_average, direction
+from microsim.compare import Model, direction
 from microsim.tables.table import BRDFTable
 
 
@@ -20,22 +20,31 @@ def incidence_plane_bins(table: BRDFTable) -> tuple[int, int]:
     return back, forward
 
 
-def incidence_plane(table: BRDFTable, models: Sequence[Model], path: str | Path,
+def _pyplot() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
                     component: str = "single", title: str = "") -> None:
     """Plot f_r cos θo in the plane of incidence, simulation against model, one panel
-    per incidence.
+    per incidence (the first incident azimuth).
 
     The simulated bins (with ±1 standard error bars) and the model averaged over the
-    same bins (``compare.bin_average``) are drawn against the signed θo of the bin centre:
-    negative on the back-scattering side (towards the light), positive on the forward
-    side (towards the mirror direction).
+    same bins (``compare.compare_table``'s ``model``) are drawn against the signed θo of
+    the bin centre: negative on the back-scattering side (towards the light), positive on
+    the forward side (towards the mirror direction).
 
     Parameters
     ----------
     table : BRDFTable
         An isotropic table.
-    models : sequence of Model
-        One model per ``table.theta_i``.
+    model_bins : (a, b, nt, np, 3) float
+        The model's bin averages.
     path : str or Path
         PNG file to write.
     component : str
@@ -43,19 +52,14 @@ def incidence_plane(table: BRDFTable, models: Sequence[Model], path: str | Path,
     title : str
         Figure title.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     back, forward = incidence_plane_bins(table)
     theta = np.degrees(table.bins.theta_centers)
     cos_o = np.cos(table.bins.theta_centers)
     n = len(table.theta_i)
-    fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 3.4), squeeze=False, sharey=False)
-    for k, (ax, model) in enumerate(zip(axes[0], models, strict=True)):
-        wi = direction(table.theta_i[k], 0.0)
-        avg = bin_average(model, wi, table.bins.theta_edges, table.bins.phi_edges)
+    fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 3.4), squeeze=False)
+    for k, ax in enumerate(axes[0]):
+        avg = model_bins[k, 0]
         values = table.values[component][k, 0]
         errors = np.nan_to_num(table.errors[component][k, 0])
         for side, sign in ((back, -1), (forward, 1)):
@@ -69,10 +73,122 @@ def incidence_plane(table: BRDFTable, models: Sequence[Model], path: str | Path,
         ax.set_xlabel("θo in the plane of incidence (°)")
         ax.set_xlim(-90, 90)
         ax.grid(alpha=0.3)
-    axes[0, 0].set_ylabel("f_r cos θo (1/sr)")
+    axes[0, 0].set_ylabel("f_r cos θo (1/sr), green channel")
     axes[0, 0].legend(loc="upper left", fontsize=8)
     if title:
         fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def half_difference(theta_h: np.ndarray, theta_d: np.ndarray, phi_d: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """(ωi, ωo) from Rusinkiewicz's half/difference angles with φh = 0 (Rusinkiewicz
+    1998, "A new change of variables for efficient BRDF representation", sec. 3): the
+    difference vector d(θd, φd) in the half vector's frame, rotated by θh about y; ωo is
+    d mirrored about h.
+
+    Returns
+    -------
+    wi, wo : (..., 3) float
+    """
+    d = direction(theta_d, phi_d)
+    e = d * np.array([-1.0, -1.0, 1.0])
+    c, s = np.cos(theta_h)[..., None], np.sin(theta_h)[..., None]
+
+    def rot(v: np.ndarray) -> np.ndarray:
+        return np.stack([c[..., 0] * v[..., 0] + s[..., 0] * v[..., 2], v[..., 1],
+                         -s[..., 0] * v[..., 0] + c[..., 0] * v[..., 2]], axis=-1)
+
+    return rot(d), rot(e)
+
+
+def half_difference_slices(table: BRDFTable, model: Model, path: str | Path,
+                           component: str = "total", title: str = "", n: int = 90) -> None:
+    """θh–θd images at φd = 90° (the MERL / BRDF Explorer view): simulation
+    (``table.eval``), model, and log10 of their ratio; white where a direction is below
+    the horizon."""
+    plt = _pyplot()
+    t = np.radians((np.arange(n) + 0.5) * 90.0 / n)
+    th, td = np.meshgrid(t, t, indexing="ij")
+    wi, wo = half_difference(th, td, np.pi / 2)
+    sim = table.eval(wi, wo, component).mean(axis=-1)
+    mod = np.asarray(model.eval(wi, wo), float)
+    mod = mod.mean(axis=-1) if mod.ndim == 3 else mod
+    valid = (wi[..., 2] > 0) & (wo[..., 2] > 0)
+    ratio = np.full(sim.shape, np.nan)
+    # the ratio only where the model holds at least 1% of its peak: further out it shows
+    # how the table's bins smear the lobe's edge, not how model and simulation differ
+    both = valid & (sim > 0) & (mod > 0.01 * np.max(np.where(valid, mod, 0.0)))
+    ratio[both] = np.log10(sim[both] / mod[both])
+    floor = max(np.nanmax(np.where(valid, mod, np.nan)) * 1e-4, 1e-6)
+    images = [np.log10(np.where(valid, np.maximum(sim, floor), np.nan)),
+              np.log10(np.where(valid, np.maximum(mod, floor), np.nan)), ratio]
+    names = ["simulated log10 f_r", "model log10 f_r",
+             "log10(simulated / model), model ≥ 1% of peak"]
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.8))
+    lo = np.nanmin(images[1])
+    hi = np.nanmax(images[1])
+    for ax, img, name in zip(axes, images, names, strict=True):
+        ratio_panel = name.startswith("log10(")
+        im = ax.imshow(img.T, origin="lower", extent=(0, 90, 0, 90),
+                       cmap="RdBu_r" if ratio_panel else "viridis",
+                       vmin=-0.5 if ratio_panel else lo, vmax=0.5 if ratio_panel else hi)
+        ax.set_xlabel("θh (°)")
+        ax.set_ylabel("θd (°)")
+        ax.set_title(name, fontsize=9)
+        fig.colorbar(im, ax=ax, shrink=0.8)
+    if title:
+        fig.suptitle(title + "  (φd = 90°)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def z_maps(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
+           component: str = "total", title: str = "") -> None:
+    """Per incidence, z = (simulated − model) / standard error over (φo, θo) bins
+    (green channel), clipped to ±4; grey where the error is undefined."""
+    plt = _pyplot()
+    n = len(table.theta_i)
+    fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 3.4), squeeze=False)
+    te, pe = np.degrees(table.bins.theta_edges), np.degrees(table.bins.phi_edges)
+    for k, ax in enumerate(axes[0]):
+        err = table.errors[component][k, 0, ..., 1]
+        z = (table.values[component][k, 0, ..., 1] - model_bins[k, 0, ..., 1]) / err
+        ax.set_facecolor("0.8")
+        im = ax.pcolormesh(pe, te, np.ma.masked_invalid(z), cmap="RdBu_r", vmin=-4, vmax=4)
+        ax.set_title(f"θi = {np.degrees(table.theta_i[k]):.0f}°")
+        ax.set_xlabel("φo − φi (°)")
+        ax.set_ylabel("θo (°)")
+    fig.colorbar(im, ax=axes[0].tolist(), shrink=0.8, label="z")
+    if title:
+        fig.suptitle(title, fontsize=10, y=1.04)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+
+def albedo_plot(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
+                title: str = "") -> None:
+    """Directional albedo against θi: simulated total and single scattering (±1 standard
+    error) and the model (Σ bin average × projected solid angle), mean over RGB."""
+    plt = _pyplot()
+    theta = np.degrees(table.theta_i)
+    proj = table.bins.projected_solid_angle[None, :, :, None]
+    model = (model_bins[:, 0] * proj).sum(axis=(1, 2)).mean(axis=-1)
+    fig, ax = plt.subplots(figsize=(5.5, 4))
+    for comp, label in (("total", "simulated, all orders"), ("single", "simulated, single")):
+        ax.errorbar(theta, table.albedo_of[comp][:, 0].mean(axis=-1),
+                    yerr=np.nan_to_num(table.albedo_err_of[comp][:, 0].mean(axis=-1)),
+                    fmt="o-", ms=4, label=label)
+    ax.plot(theta, model, "s--", color="tab:red", label="model")
+    ax.set_xlabel("θi (°)")
+    ax.set_ylabel("albedo ∫ f_r cos θo dωo")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -70,7 +70,8 @@ class TorranceSparrow:
             if np.ndim(eta) or np.ndim(k):
                 return fresnel_conductor(cos_d[..., None], eta, k)
             return fresnel_conductor(cos_d, eta, k)
-        return fresnel_dielectric(cos_d, self.fresnel[1])
+        eta = self.fresnel[1]
+        return fresnel_dielectric(cos_d[..., None] if np.ndim(eta) else cos_d, eta)
 
     def G(self, wi: np.ndarray, wo: np.ndarray, h: np.ndarray) -> np.ndarray:  # noqa: N802
         """Masking-shadowing of the chosen model."""

@@ -13,6 +13,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from microsim.errors import InputError
 from microsim.schema import Key, check_section, suggest
 
@@ -42,9 +44,9 @@ def _microfacet(ndf_name: str) -> Callable[[dict[str, Any]], Any]:
                     if "alpha_x" in p else cls(p["alpha"]))
         fresnel = None
         if "k" in p:
-            fresnel = ("conductor", p.get("eta", 1.5), p["k"])
+            fresnel = ("conductor", np.asarray(p.get("eta", [1.5] * 3)), np.asarray(p["k"]))
         elif "eta" in p:
-            fresnel = ("dielectric", p["eta"])
+            fresnel = ("dielectric", np.asarray(p["eta"]))
         return TorranceSparrow(dist, fresnel=fresnel, shadowing=p["shadowing"])
 
     return build
@@ -64,10 +66,11 @@ MICROFACET = {
                    low_open=True, high=10.0),
     "shadowing": Key("str", "smith-correlated", "Masking-shadowing.",
                      choices=("smith-correlated", "smith-separable", "v-groove", "none")),
-    "eta": Key("float", None, "Fresnel: index of refraction (dielectric, or conductor "
-               "with k). Without eta and k, F = 1.", low=0.0, low_open=True, high=100.0),
-    "k": Key("float", None, "Fresnel: conductor extinction coefficient.", low=0.0,
-             high=100.0),
+    "eta": Key("rgb", None, "Fresnel: index of refraction, one or three (R, G, B) values "
+               "(dielectric, or conductor with k). Without eta and k, F = 1.", low=0.0,
+               low_open=True, high=100.0),
+    "k": Key("rgb", None, "Fresnel: conductor extinction coefficient, one or three values.",
+             low=0.0, high=100.0),
 }
 
 MODELS: dict[str, ModelSpec] = {
@@ -97,14 +100,16 @@ MODELS: dict[str, ModelSpec] = {
                              {"n": Key("float", 10.0, "Exponent.", low=0.0, high=1e6)},
                              lambda p: _brdf("BlinnPhong")(p["n"])),
     "lambertian": ModelSpec("Lambert: albedo / pi.",
-                            {"albedo": Key("float", 0.8, "Albedo.", low=0.0, high=1.0)},
+                            {"albedo": Key("rgb", 0.8, "Albedo, one or three (R, G, B) "
+                                           "values.", low=0.0, high=1.0)},
                             lambda p: _brdf("Lambertian")(p["albedo"])),
     "oren-nayar": ModelSpec(
         "Oren-Nayar rough diffuse reflection (full model with interreflection, or the "
         "qualitative A/B model).",
         {"sigma": Key("float", 20.0, "Slope standard deviation.", unit="deg", low=0.0,
                       high=90.0),
-         "albedo": Key("float", 0.8, "Facet albedo.", low=0.0, high=1.0),
+         "albedo": Key("rgb", 0.8, "Facet albedo, one or three values.", low=0.0,
+                       high=1.0),
          "model": Key("str", "full", "Variant.", choices=("full", "qualitative"))},
         lambda p: _brdf("OrenNayar")(math.radians(p["sigma"]), p["albedo"], p["model"])),
     "lafortune": ModelSpec(

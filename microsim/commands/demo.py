@@ -39,26 +39,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def comparison(table: Any) -> dict[str, Any]:
-    """Per incidence: simulated single scattering against the microfacet model."""
-    import numpy as np
+    """Simulated single scattering against the microfacet model at the realised alpha."""
+    from microsim.compare import compare_table, microfacet_model
 
-    from microsim.compare import bin_average, direction, metrics, microfacet_model
-
-    model = microfacet_model(table.meta)
-    rows = []
-    for k, theta in enumerate(table.theta_i):
-        avg = bin_average(model, direction(theta, 0.0), table.bins.theta_edges,
-                          table.bins.phi_edges)
-        m = metrics(table.values["single"][k, 0], table.errors["single"][k, 0], avg,
-                    table.bins.projected_solid_angle)
-        total, single = table.albedo[k, 0].mean(), table.albedo_of["single"][k, 0].mean()
-        m.update(theta_i=float(np.degrees(theta)),
-                 multiple_scattering_share=float((total - single) / total))
-        rows.append(m)
+    result = compare_table(table, microfacet_model(table.meta), "single")
     return {"model": "torrance-sparrow:ndf=beckmann,shadowing=smith-correlated",
             "alpha_realised": table.meta["surface"]["alpha_realised"],
-            "alpha_target": table.meta["surface"]["alpha_target"],
-            "per_theta_i": rows}
+            "alpha_target": table.meta["surface"]["alpha_target"], **result}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -71,13 +58,13 @@ def run(args: argparse.Namespace) -> int:
     resolved = recipe.load(RECIPE, overrides)
     table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json)
     table.write(args.output)
-    result = {"simulation": summary(table, args.output), "comparison": comparison(table)}
+    compared = comparison(table)
+    model_bins = compared.pop("model")
+    result = {"simulation": summary(table, args.output), "comparison": compared}
     if args.plot is not None:
-        from microsim.compare import microfacet_model
         from microsim.plots import incidence_plane
 
-        model = microfacet_model(table.meta)
-        incidence_plane(table, [model] * len(table.theta_i), args.plot,
+        incidence_plane(table, model_bins, args.plot,
                         title=f"Gaussian surface, mirror facets, α realised "
                               f"{result['comparison']['alpha_realised']:.3f}, "
                               f"{int(table.rays[0, 0]):,} rays per θi: single scattering "

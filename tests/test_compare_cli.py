@@ -1,0 +1,119 @@
+"""`microsim compare`: tables made from analytic models, with and without known noise."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from microsim.analytic.registry import parse_model_spec
+from microsim.compare import bin_average, compare_table, direction, model_defaults
+from microsim.tables.binning import HemisphereBins
+from microsim.tables.table import COMPONENTS, BRDFTable
+
+THETA_I = np.radians([0.0, 40.0, 70.0])
+
+
+def model_table(spec, sigma_rel=0.0, seed=0, meta=None):
+    """A table whose bins hold the model's exact bin averages, plus Gaussian noise of a
+    known relative standard deviation reported as the bins' standard error."""
+    _, _, model = parse_model_spec(spec)
+    bins = HemisphereBins(12, 24)
+    avg = np.stack([bin_average(model, direction(t, 0.0), bins.theta_edges, bins.phi_edges)
+                    for t in THETA_I])[:, None]
+    rng = np.random.default_rng(seed)
+    err = sigma_rel * avg + 1e-12
+    values = avg + (rng.standard_normal(avg.shape) * err if sigma_rel else 0.0)
+    albedo = (values * bins.projected_solid_angle[None, None, :, :, None]).sum(axis=(2, 3))
+    zeros = np.zeros_like(albedo)
+    return BRDFTable(bins, THETA_I, [0.0], True, {c: values for c in COMPONENTS},
+                     {c: err for c in COMPONENTS}, np.full((3, 1), 10**6),
+                     {c: albedo for c in COMPONENTS}, {c: zeros for c in COMPONENTS},
+                     zeros, meta or {"surface": {"kind": "test"}})
+
+
+def test_same_model_gives_zero_error():
+    _, _, model = parse_model_spec("ggx:alpha=0.4")
+    r = compare_table(model_table("ggx:alpha=0.4"), model)
+    assert r["median_rel_error"] < 1e-12 and abs(r["z_mean"]) < 1e-6
+    for row in r["per_theta_i"]:
+        np.testing.assert_allclose(row["albedo_difference"], 0.0, atol=1e-12)
+
+
+def test_known_noise_gives_unit_z_spread():
+    """Noise of relative σ 2% reported as the error: z is standard normal; over the lobe
+    bins of 3 incidences × 3 channels (several hundred values) its mean lies within
+    4/√N of 0 and its spread within 4/√(2N) of 1."""
+    _, _, model = parse_model_spec("beckmann:alpha=0.3")
+    r = compare_table(model_table("beckmann:alpha=0.3", 0.02, seed=3), model)
+    n = 3 * sum(row["lobe_bins"] for row in r["per_theta_i"])
+    assert n > 200
+    assert abs(r["z_mean"]) < 4 / np.sqrt(n) and abs(r["z_std"] - 1) < 4 / np.sqrt(2 * n)
+    assert 0.01 < r["median_rel_error"] < 0.02  # median |N(0, 0.02)| = 0.0135
+
+
+def test_different_model_reports_the_known_difference():
+    """Lambertian 0.8 against Lambertian 0.6: every bin is off by exactly 1/3 and the
+    albedo by 0.2."""
+    _, _, model = parse_model_spec("lambertian:albedo=0.6")
+    r = compare_table(model_table("lambertian:albedo=0.8"), model)
+    assert r["median_rel_error"] == pytest.approx(1 / 3, rel=1e-9)
+    for row in r["per_theta_i"]:
+        np.testing.assert_allclose(row["albedo_difference"], 0.2, rtol=1e-6)
+
+
+def test_defaults_come_from_the_table():
+    meta = {"surface": {"alpha_realised": 0.27},
+            "recipe": {"material": {"base": {"kind": "conductor", "eta": [0.2, 0.9, 1.1],
+                                             "k": [3.9, 2.4, 2.1]}}}}
+    d = model_defaults(meta)
+    assert d == {"alpha": 0.27, "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1]}
+    _, params, model = parse_model_spec("beckmann", d)
+    assert params["alpha"] == 0.27 and model.fresnel[0] == "conductor"
+    assert model_defaults({"surface": {"alpha_realised": [0.1, 0.2]}}) == {
+        "alpha_x": 0.1, "alpha_y": 0.2}
+
+
+@pytest.fixture
+def table_file(tmp_path):
+    path = tmp_path / "t.exr"
+    meta = {"surface": {"kind": "gaussian", "alpha_realised": 0.3},
+            "recipe": {"material": {"base": {"kind": "mirror"}}}}
+    model_table("beckmann:alpha=0.3", 0.02, meta=meta).write(path)
+    return path
+
+
+def test_cli_json_plots_and_report(cli, table_file, tmp_path):
+    out = tmp_path / "cmp"
+    code, text, _ = cli("compare", str(table_file), "--model", "beckmann", "--out", str(out),
+                        "--json")
+    assert code == 0
+    r = json.loads(text)
+    assert set(r) >= {"median_rel_error", "p90_rel_error", "z_mean", "z_std",
+                      "per_theta_i", "model", "params", "report"}
+    assert r["params"]["alpha"] == 0.3  # from the table
+    row = r["per_theta_i"][0]
+    assert set(row) >= {"theta_i", "phi_i", "median_rel_error", "p90_rel_error", "rms_error",
+                        "z_mean", "z_std", "albedo_sim", "albedo_model",
+                        "albedo_difference", "multiple_scattering_share"}
+    report = (out / "report.md").read_text()
+    for name in ("incidence-plane.png", "half-difference.png", "z-maps.png", "albedo.png"):
+        image = out / name
+        assert image.stat().st_size > 20_000, name  # a drawn figure, not an empty canvas
+        assert f"]({name})" in report
+
+
+@pytest.mark.parametrize(("spec", "needle"), [
+    ("beckman", "models: beckmann, ggx"),           # the list of valid names
+    ("beckmann:alpha=-2", "alpha = -2: must be a number > 0"),
+    ("ggx:roughness=0.3", "allowed: alpha, alpha_x"),
+])
+def test_bad_spec_exits_2(cli, table_file, spec, needle):
+    code, _, err = cli("compare", str(table_file), "--model", spec)
+    assert code == 2 and err.startswith("error: ") and needle in err
+
+
+def test_missing_table_exits_2(cli, tmp_path):
+    code, _, err = cli("compare", str(tmp_path / "none.exr"), "--model", "ggx")
+    assert code == 2 and "no such file" in err
