@@ -64,7 +64,8 @@ def tile_polydata(pv: Any, tile: Tile, tiles: int = 1, z_scale: float = 1.0) -> 
 
 
 def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
-              color: str = "slope", title: str = "") -> np.ndarray | None:
+              color: str = "slope", title: str = "",
+              paths: list[tuple[np.ndarray, int]] | None = None) -> np.ndarray | None:
     """View a tile interactively, or render it off screen to a PNG.
 
     Parameters
@@ -78,6 +79,8 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
         ``"slope"`` (facet slope angle, degrees) or ``"material"`` (part).
     title : str
         Text in the corner.
+    paths : list of ((k, 3) float, int) or None
+        Ray paths (``ray_paths``) to draw, coloured by scattering order.
 
     Returns
     -------
@@ -101,6 +104,14 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
         top = float(np.ceil(np.percentile(mesh.cell_data["slope"], 99.5) / 5) * 5)
         plotter.add_mesh(mesh, scalars="slope", cmap="viridis", clim=(0, max(top, 5.0)),
                          scalar_bar_args={"title": "facet slope (deg)"})
+    colours = {0: "black", 1: "gold", 2: "orangered", 3: "magenta"}
+    for points, order in paths or []:
+        line = pv.lines_from_points(points * [1.0, 1.0, z_scale])
+        plotter.add_mesh(line, color=colours[min(order, 3)], line_width=2)
+    if paths:
+        plotter.add_legend([["single", "gold"], ["double", "orangered"],
+                            ["3 or more", "magenta"], ["not escaped", "black"]],
+                           bcolor="white", size=(0.18, 0.16))
     plotter.show_bounds(xtitle="x (tile units)", ytitle="y (tile units)",
                         ztitle="z (drawn)" if z_scale > 1.0 else "z (tile units)",
                         font_size=10)
@@ -113,3 +124,167 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
         return image
     plotter.show()
     return None
+
+
+def lobe_surface(pv: Any, f: np.ndarray, theta: np.ndarray, phi: np.ndarray,
+                 radius: str, log: bool) -> Any:
+    """A radial surface r(ωo) ωo over a (θo, φo) grid.
+
+    Parameters
+    ----------
+    pv : module
+    f : (nt, np) float
+        f_r on the grid, 1/sr.
+    theta, phi : (nt,), (np,) float
+        Grid angles, radians.
+    radius : str
+        ``"fr_cos"``: r = f_r cos θo (the reflected radiance lobe under unit irradiance);
+        ``"fr"``: r = f_r.
+    log : bool
+        r = log10(1 + r / r_max · 1000) / 3: shows faint tails next to a strong peak.
+
+    Returns
+    -------
+    pyvista.StructuredGrid
+    """
+    from microsim.compare import direction
+
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    r = f * np.cos(t) if radius == "fr_cos" else f.copy()
+    if log:
+        r = np.log10(1.0 + 1000.0 * r / max(float(r.max()), 1e-300)) / 3.0
+    w = direction(t, p) * r[..., None]
+    return pv.StructuredGrid(w[..., 0], w[..., 1], w[..., 2])
+
+
+def show_lobe(table: Any, theta_i: float, model: Any = None,
+              screenshot: str | Path | None = None, radius: str = "fr_cos",
+              log: bool = False, component: str = "total", title: str = "",
+              n: int = 64) -> np.ndarray | None:
+    """A table's BRDF lobe for one incidence as a radial surface over the hemisphere.
+
+    Colour is the relative error against ``model`` (clipped to ±50%) when one is given,
+    else f_r; the model's lobe is drawn as a wireframe over it and the incident direction
+    as an arrow pointing at the surface.
+
+    Parameters
+    ----------
+    table : BRDFTable
+    theta_i : float
+        Incident polar angle, radians (φi = 0).
+    model : Model or None
+    screenshot : str or Path or None
+        PNG to render off screen; None opens a window.
+    radius : str
+        ``"fr_cos"`` or ``"fr"`` (see ``lobe_surface``).
+    log : bool
+        Logarithmic radius.
+    component : str
+    title : str
+    n : int
+        Grid resolution in θo (2n in φo).
+
+    Returns
+    -------
+    (h, w, 3) uint8 or None
+    """
+    from microsim.compare import direction
+
+    off = screenshot is not None
+    pv = import_pyvista(off)
+    theta = np.radians(np.linspace(0.0, 89.5, n))
+    phi = np.linspace(0.0, 2 * np.pi, 2 * n + 1)
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    wi = direction(theta_i, 0.0)
+    wo = direction(t, p)
+    f = table.eval(wi, wo, component).mean(axis=-1)
+    surf = lobe_surface(pv, f, theta, phi, radius, log)
+    plotter = pv.Plotter(off_screen=off, window_size=WINDOW)
+    if model is not None:
+        g = np.asarray(model.eval(np.broadcast_to(wi, wo.shape), wo), float)
+        g = g.mean(axis=-1) if g.ndim == 3 else g
+        rel = np.where(g > 0, (f - g) / np.where(g > 0, g, 1.0), 0.0)
+        surf.point_data["relative error"] = np.clip(rel, -0.5, 0.5).ravel(order="F")
+        plotter.add_mesh(surf, scalars="relative error", cmap="RdBu_r", clim=(-0.5, 0.5))
+        plotter.add_mesh(lobe_surface(pv, g, theta, phi, radius, log), style="wireframe",
+                         color="black", opacity=0.35)
+    else:
+        surf.point_data["f_r (1/sr)"] = f.ravel(order="F")
+        plotter.add_mesh(surf, scalars="f_r (1/sr)", cmap="viridis")
+    size = max(float(np.abs(surf.points).max()), 1e-9)
+    plotter.add_mesh(pv.Arrow(start=wi * 1.3 * size, direction=-wi, scale=0.5 * size),
+                     color="orange")
+    plotter.add_mesh(pv.Disc(inner=0.0, outer=size, c_res=48), color="lightgrey",
+                     opacity=0.3)
+    plotter.add_text(title or f"theta_i = {np.degrees(theta_i):.0f} deg", font_size=10)
+    plotter.camera_position = [(2.5 * size, -2.5 * size, 1.8 * size), (0, 0, 0.2 * size),
+                               (0, 0, 1)]
+    if off:
+        image = plotter.screenshot(str(screenshot), return_img=True)
+        plotter.close()
+        return image
+    plotter.show()
+    return None
+
+
+def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: int,
+              seed: int) -> list[tuple[np.ndarray, int]]:
+    """Polylines of a few rays scattered by the tile, for drawing.
+
+    Uses the tracer's own queries (``PeriodicScene.closest_hit``, ``offset``) and the
+    facets' ``scatter``, so the paths are the ones ``simulate`` traces. Hit points come
+    back wrapped into the tile; each is moved back onto its ray's unwrapped line
+    (t = (p_z − o_z)/d_z), so a path that crosses a side continues into the
+    neighbouring copy instead of jumping back.
+
+    Parameters
+    ----------
+    tile : Tile
+    materials : mapping
+        Resolved ``[material]`` (one section per part).
+    theta_i : float
+        Incident polar angle, radians (φi = 0).
+    rays, bounces, seed : int
+
+    Returns
+    -------
+    list of ((k, 3) float, int)
+        Each path's vertices (a point on the incoming ray 0.3 periods before the tile, the
+        entry into the slab, the hit points, and 0.3 periods along the escaping ray) and
+        its scattering order (0: it did not escape).
+    """
+    from microsim.compare import direction
+    from microsim.materials import FacetMaterials
+    from microsim.trace import ESCAPED, HIT, PeriodicScene
+
+    rng = np.random.default_rng(seed)
+    facets = FacetMaterials(tile.material, tile.parts, materials)
+    lx, ly = tile.period
+    d = np.broadcast_to(-direction(theta_i, 0.0), (rays, 3)).copy()
+    with PeriodicScene(tile, threads=1) as scene:
+        o = np.column_stack([(0.25 + 0.5 * rng.random((rays, 2))) * [lx, ly],
+                             np.full(rays, scene.z_top)])
+        reach = 0.3 * max(lx, ly)  # drawn length of the incoming and escaping legs
+        points = [[p - reach * q, p.copy()] for p, q in zip(o, d, strict=True)]
+        order = np.zeros(rays, int)
+        alive = np.arange(rays)
+        for bounce in range(bounces + 1):
+            hits = scene.closest_hit(o[alive], d[alive])
+            up = hits.status == ESCAPED
+            for k in alive[up]:
+                points[k].append(o[k] + reach * d[k])
+                order[k] = bounce
+            hit = hits.status == HIT
+            idx = alive[hit]
+            if not idx.size or bounce == bounces:
+                break
+            t = (hits.point[hit, 2] - o[idx, 2]) / np.where(d[idx, 2] != 0, d[idx, 2], 1e-300)
+            p = o[idx] + t[:, None] * d[idx]
+            for k, q in zip(idx, p, strict=True):
+                points[k].append(q)
+            n = scene.normals[hits.face[hit]]
+            new, _, _ = facets.scatter(hits.face[hit], d[idx], n, rng)
+            o[idx] = p + (scene.offset(hits.point[hit], n, new) - hits.point[hit])
+            d[idx] = new
+            alive = idx
+    return [(np.array(v), int(order[k])) for k, v in enumerate(points)]

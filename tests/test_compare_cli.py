@@ -117,3 +117,54 @@ def test_bad_spec_exits_2(cli, table_file, spec, needle):
 def test_missing_table_exits_2(cli, tmp_path):
     code, _, err = cli("compare", str(tmp_path / "none.exr"), "--model", "ggx")
     assert code == 2 and "no such file" in err
+
+
+def _image_ok(path):
+    """A rendered figure, not a blank canvas: pixel std > 10 and many colours."""
+    import matplotlib.image as mpimg
+
+    img = mpimg.imread(path)[..., :3]
+    return img.std() * 255 > 10 and len(np.unique(img.reshape(-1, 3), axis=0)) > 50
+
+
+def test_view_table_lobe_against_model(cli, table_file, tmp_path):
+    shot = tmp_path / "lobe.png"
+    code, _, err = cli("view", str(table_file), "--theta-i", "40", "--model", "beckmann",
+                       "--screenshot", str(shot))
+    assert code == 0, err
+    assert _image_ok(shot)
+
+
+def test_view_recipe_with_ray_paths(cli, tmp_path):
+    from pathlib import Path
+    recipe = Path(__file__).resolve().parent.parent / "surfaces" / "gaussian-0.3.toml"
+    shot = tmp_path / "paths.png"
+    code, _, err = cli("view", str(recipe), "--set", "surface.resolution=32", "--rays", "20",
+                       "--tiles", "1", "--screenshot", str(shot))
+    assert code == 0, err
+    assert _image_ok(shot)
+
+
+def test_ray_paths_escape_with_their_order():
+    """On a flat mirror every path is entry → one hit → escape: order 1, 4 vertices, and
+    the escaping leg is the mirror image of the incoming one (to 1e-4: the leg starts at
+    the secondary-ray origin, offset ~1e-6 of the scene off the face, over a 0.26 leg)."""
+    from microsim.recipe import resolve
+    from microsim.surfaces import build_tile
+    from microsim.view import ray_paths
+    r = resolve({"surface": {"kind": "flat"}})
+    paths = ray_paths(build_tile(r["surface"]), r["material"], 0.5, 10, 4, 0)
+    for points, order in paths:
+        assert order == 1 and len(points) == 4
+        incoming, outgoing = points[2] - points[1], points[3] - points[2]
+        np.testing.assert_allclose(outgoing / np.linalg.norm(outgoing),
+                                   incoming / np.linalg.norm(incoming) * [1, 1, -1], atol=1e-4)
+
+
+@pytest.mark.parametrize(("argv", "needle"), [
+    (["--theta-i", "95"], "--theta-i"),
+    (["--model", "nosuch"], "models:"),
+])
+def test_view_table_bad_flags(cli, table_file, argv, needle):
+    code, _, err = cli("view", str(table_file), *argv, "--screenshot", "/tmp/x.png")
+    assert code == 2 and err.startswith("error: ") and needle in err

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from microsim import recipe
@@ -19,10 +20,12 @@ period_pair = number_list(2, low=0.0, low_open=True, what="LX,LY (two positive n
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``view`` command."""
     p = sub.add_parser(
-        "view", help="3D view of a recipe's tile or a mesh file (PyVista)",
+        "view", help="3D view of a tile (recipe or mesh), ray paths, or a table's lobe",
         description="Show the facet geometry of a recipe's tile (.toml) or of a mesh file "
                     "(.ply, .obj, .stl, with --period), coloured by facet slope (degrees) "
-                    "or by material part, with a few tiles repeated to show periodicity. "
+                    "or by material part, with a few tiles repeated to show periodicity, "
+                    "optionally with traced ray paths (--rays); or the BRDF lobe of a "
+                    "table (.exr) at one incidence (--theta-i), optionally against a model. "
                     "Interactive, or rendered off screen to a PNG with --screenshot "
                     "(no X server needed: EGL).")
     p.add_argument("source", metavar="RECIPE|TILE", help="recipe (.toml) or mesh file")
@@ -36,9 +39,52 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="colour facets by slope angle (degrees) or by material part")
     p.add_argument("--period", type=period_pair, default=None, metavar="LX,LY",
                    help="period of a mesh file (required for .ply/.obj/.stl)")
+    p.add_argument("--rays", type=positive_int, default=None,
+                   help="recipe: also draw this many traced ray paths, coloured by "
+                        "scattering order (light from the recipe's first theta_i)")
+    p.add_argument("--theta-i", type=float, default=None, metavar="DEG",
+                   help="table: the incidence whose lobe to show, degrees (default: the "
+                        "table's first); recipe with --rays: the light's polar angle")
+    p.add_argument("--model", default=None, metavar="SPEC",
+                   help="table: draw this analytic model's lobe as a wireframe and colour "
+                        "the table's lobe by the relative error (defaults from the table)")
+    p.add_argument("--radius", choices=("fr_cos", "fr"), default="fr_cos",
+                   help="table: lobe radius f_r cos(theta_o) (default) or f_r")
+    p.add_argument("--log", action="store_true", help="table: logarithmic lobe radius")
     add_memory_arg(p)
     add_seed_arg(p, "surface")
     p.set_defaults(func=run)
+
+
+def check_theta(theta: float) -> None:
+    """--theta-i must be an angle in [0, 90) degrees."""
+    if not (math.isfinite(theta) and 0 <= theta < 90):
+        raise InputError(f"--theta-i {theta}: must be in [0, 90) degrees")
+
+
+def view_table(args: argparse.Namespace, source: Path) -> int:
+    """The lobe of a table at one incidence, optionally against a model."""
+    import numpy as np
+
+    import microsim
+    from microsim.view import show_lobe
+
+    table = microsim.read_table(source)
+    theta = args.theta_i if args.theta_i is not None else math.degrees(table.theta_i[0])
+    check_theta(theta)
+    model = None
+    title = f"{source.name}: theta_i = {theta:g} deg"
+    if args.model is not None:
+        from microsim.analytic.registry import parse_model_spec
+        from microsim.compare import model_defaults
+
+        name, _, model = parse_model_spec(args.model, model_defaults(table.meta))
+        title += f" (wireframe: {name}; colour: relative error)"
+    show_lobe(table, float(np.radians(theta)), model, args.screenshot, args.radius,
+              args.log, title=title)
+    if args.screenshot is not None:
+        print(f"wrote {args.screenshot}")
+    return 0
 
 
 def run(args: argparse.Namespace) -> int:
@@ -55,14 +101,29 @@ def run(args: argparse.Namespace) -> int:
         surface = recipe.resolve({"surface": {"kind": "mesh", "path": str(source.resolve()),
                                               "period": args.period}})["surface"]
         title = source.name
+        resolved = None
     elif suffix == ".toml":
-        surface = recipe.load(source, [*args.overrides, *seed_override(args, "surface")])[
-            "surface"]
+        resolved = recipe.load(source, [*args.overrides, *seed_override(args, "surface")])
+        surface = resolved["surface"]
         title = f"{source.name}: {surface['kind']}"
+    elif suffix == ".exr":
+        return view_table(args, source)
     else:
-        raise InputError(f"{source}: must be a recipe (.toml) or a mesh (.ply, .obj, .stl)")
+        raise InputError(f"{source}: must be a recipe (.toml), a mesh (.ply, .obj, .stl) "
+                         "or a table (.exr)")
     tile = build_tile(surface, args.memory_limit)
-    show_tile(tile, args.screenshot, args.tiles, args.color, title)
+    paths = None
+    if args.rays is not None:
+        from microsim.view import ray_paths
+
+        if resolved is None:
+            raise InputError("--rays: needs a recipe (its materials scatter the rays)")
+        sim = resolved["simulation"]
+        theta = args.theta_i if args.theta_i is not None else sim["theta_i"][0]
+        check_theta(theta)
+        paths = ray_paths(tile, resolved["material"], math.radians(theta), args.rays,
+                          sim["bounces"], sim["seed"])
+    show_tile(tile, args.screenshot, args.tiles, args.color, title, paths)
     if args.screenshot is not None:
         print(f"wrote {args.screenshot}")
     return 0
