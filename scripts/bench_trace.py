@@ -23,13 +23,11 @@ import os
 import platform
 import statistics
 import time
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
-from embreex.mesh_construction import TriangleMesh
-from embreex.rtcore_scene import EmbreeScene
 
+from microsim.bench import bare_rays_per_second, bare_scene
 from microsim.compare import direction
 from microsim.goniometer import simulate
 from microsim.recipe import load
@@ -37,27 +35,6 @@ from microsim.surfaces import build_tile
 from microsim.trace import CHUNK, PeriodicScene
 
 ROOT = Path(__file__).resolve().parent.parent
-
-
-def bare_scene(vertices: np.ndarray, faces: np.ndarray) -> EmbreeScene:
-    """An Embree scene of the mesh, committed (the first query builds the BVH)."""
-    scene = EmbreeScene()
-    TriangleMesh(scene, np.ascontiguousarray(vertices, np.float32),
-                 np.ascontiguousarray(faces, np.int32))
-    scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))
-    return scene
-
-
-def bare_rays_per_second(scene: EmbreeScene, origins: np.ndarray, dirs: np.ndarray,
-                         threads: int) -> float:
-    """Closest-hit queries per second of bare ``run`` in chunks on a thread pool."""
-    starts = range(0, len(origins), CHUNK)
-    with ThreadPoolExecutor(threads) as pool:
-        start = time.perf_counter()
-        list(pool.map(lambda i: scene.run(origins[i:i + CHUNK], dirs[i:i + CHUNK],
-                                          dists=np.full(len(origins[i:i + CHUNK]), 1e30,
-                                                        np.float32)), starts))
-        return len(origins) / (time.perf_counter() - start)
 
 
 def main() -> None:

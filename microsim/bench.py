@@ -1,0 +1,262 @@
+"""Speed against error: reference cases with trusted answers, swept over rays, tile
+resolution and table resolution, timed next to bare Embree on the same tiles.
+
+Cases (each returns rows of a CSV):
+
+- ``ts``: Gaussian α = 0.3, mirror facets; error = median relative error of single
+  scattering against Torrance-Sparrow + Beckmann + height-correlated Smith at the realised α
+  over lobe bins (``compare.compare_table``).
+- ``g1``: Gaussian α = 0.5; error = mean |G1 − Smith| at θ = 60, 80, 88° (absolute).
+- ``vgroove``: 45° V-grooves; error = mean |G1 − V-cavity G1| across the grooves at
+  θ = 30, 60, 80° (absolute; Heitz 2014, sec. 4.1).
+- ``furnace``: Gaussian α = 0.5, mirror facets, F = 1, 64 bounces; error = mean
+  |albedo + lost − 1| over θi (absolute; a closed microsurface conserves energy).
+
+Gaussian tiles keep 32 correlation lengths per side whatever their resolution, so the
+resolution sweep changes only how finely each correlation length is tessellated
+(2, 4, 8, … cells): the bias floor it sets is what the second plot shows.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import statistics
+import time
+from collections.abc import Callable, Iterable
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from microsim.compare import compare_table, direction, microfacet_model
+from microsim.recipe import resolve
+from microsim.surfaces import build_tile
+from microsim.trace import CHUNK, PeriodicScene
+
+COLUMNS = ("case", "rays", "tile_resolution", "cells_per_correlation", "table_bins",
+           "wall_s", "segments", "segments_per_s", "bare_rays_per_s", "error", "stderr")
+LENGTHS = 32
+"""Correlation lengths per tile side in every Gaussian case."""
+
+
+def bare_scene(vertices: np.ndarray, faces: np.ndarray) -> Any:
+    """A bare Embree scene of the mesh, committed (the first query builds the BVH)."""
+    from embreex.mesh_construction import TriangleMesh
+    from embreex.rtcore_scene import EmbreeScene
+
+    scene = EmbreeScene()
+    TriangleMesh(scene, np.ascontiguousarray(vertices, np.float32),
+                 np.ascontiguousarray(faces, np.int32))
+    scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))
+    return scene
+
+
+def bare_rays_per_second(scene: Any, origins: np.ndarray, dirs: np.ndarray,
+                         threads: int) -> float:
+    """Closest-hit queries per second of bare ``EmbreeScene.run`` on float32 rays, in the
+    tracer's chunks on a thread pool of ``threads``."""
+    o32, d32 = origins.astype(np.float32), dirs.astype(np.float32)
+    starts = range(0, len(o32), CHUNK)
+    with ThreadPoolExecutor(threads) as pool:
+        start = time.perf_counter()
+        list(pool.map(lambda i: scene.run(o32[i:i + CHUNK], d32[i:i + CHUNK],
+                                          dists=np.full(len(o32[i:i + CHUNK]), 1e30,
+                                                        np.float32)), starts))
+        return len(o32) / (time.perf_counter() - start)
+
+
+def primary_rays(tile: Any, theta_deg: Iterable[float], n: int, seed: int
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """The goniophotometer's primary rays: uniform over the tile, from above, per θi."""
+    rng = np.random.default_rng(seed)
+    o, d = [], []
+    for t in theta_deg:
+        o.append(np.column_stack([rng.random((n, 2)) * tile.period,
+                                  np.full(n, tile.z_range[1])]))
+        d.append(np.broadcast_to(-direction(math.radians(t), 0.0), (n, 3)))
+    return np.concatenate(o), np.concatenate(d)
+
+
+def gaussian(alpha: float, resolution: int, seed: int) -> dict[str, Any]:
+    """A Gaussian ``[surface]`` with ``LENGTHS`` correlation lengths per side."""
+    return {"kind": "gaussian", "alpha": alpha, "resolution": resolution, "seed": seed,
+            "correlation_length": 1.0 / LENGTHS}
+
+
+def run_tables(case: str, surface: dict[str, Any], material: str, theta: list[float],
+               rays: int, bins: int, bounces: int, seed: int,
+               score: Callable[[Any], tuple[float, float]]) -> dict[str, Any]:
+    """Simulate one table and score it; the row of the CSV."""
+    from microsim.goniometer import simulate
+
+    r = resolve({"surface": surface, "material": {"kind": material},
+                 "simulation": {"theta_i": theta, "rays": rays, "bounces": bounces,
+                                "seed": seed},
+                 "table": {"theta_bins": bins, "phi_bins": 2 * bins}})
+    tile = build_tile(r["surface"])
+    start = time.perf_counter()
+    table = simulate(tile, r["material"], r["simulation"], r["table"], recipe=r)
+    wall = time.perf_counter() - start
+    error, stderr = score(table)
+    return {"case": case, "rays": rays * len(theta), "wall_s": wall,
+            "tile_resolution": surface.get("resolution", 0),
+            "segments": table.meta["segments"], "table_bins": bins,
+            "segments_per_s": table.meta["segments"] / wall, "error": error,
+            "stderr": stderr, "tile": tile, "theta": theta}
+
+
+def score_ts(table: Any) -> tuple[float, float]:
+    """Median relative lobe error against the microfacet model; median relative stderr."""
+    result = compare_table(table, microfacet_model(table.meta), "single")
+    return result["median_rel_error"], table.median_rel_error("single")
+
+
+def score_furnace(table: Any) -> tuple[float, float]:
+    """Mean |albedo + lost − 1| over θi; mean albedo standard error."""
+    total = (table.albedo + table.lost_energy).mean(axis=-1)
+    return float(np.abs(total - 1.0).mean()), float(np.nanmean(table.albedo_err))
+
+
+def g1_rows(case: str, tile: Any, resolution: int, theta: list[float], rays: int,
+            reference: np.ndarray, seed: int) -> dict[str, Any]:
+    """Trace G1 at ``theta`` (degrees, φ = 0) and score it against ``reference``."""
+    from microsim.goniometer import measure_g1
+
+    with PeriodicScene(tile) as scene:
+        start = time.perf_counter()
+        g1, err = measure_g1(scene, np.radians(theta), 0.0, rays,
+                             np.random.default_rng(seed))
+        wall = time.perf_counter() - start
+        segments = scene.segments
+    return {"case": case, "rays": rays * len(theta), "wall_s": wall, "segments": segments,
+            "tile_resolution": resolution,
+            "segments_per_s": segments / wall, "table_bins": 0,
+            "error": float(np.abs(g1 - reference).mean()), "stderr": float(err.mean()),
+            "tile": tile, "theta": theta}
+
+
+def vcavity_reference(slope: float, theta: np.ndarray) -> np.ndarray:
+    """G1 of symmetric V-grooves across the grooves: the V-cavity G1 of each facet
+    (``analytic.shadowing.vcavity_G1``) averaged with weight area · ⟨ω, m⟩⁺."""
+    from microsim.analytic.shadowing import vcavity_G1
+
+    w = direction(theta, 0.0)
+    num = den = 0.0
+    for sign in (1.0, -1.0):
+        m = np.array([sign * math.sin(slope), 0.0, math.cos(slope)])
+        proj = np.maximum(w @ m, 0.0)
+        num = num + proj * vcavity_G1(w, np.broadcast_to(m, w.shape))
+        den = den + proj
+    return num / den
+
+
+def sweep(quick: bool, seed: int = 1, threads: int = 2,
+          log: Callable[[str], None] = print) -> list[dict[str, Any]]:
+    """Run every case over the sweep; each row also times bare Embree on its tile.
+
+    Quick: rays 10³…10⁵ per direction (5 points), tile resolutions 64, 128, 256 (2, 4, 8
+    cells per correlation length), tables of 8 and 16 θo bins. Full: rays 10⁴…10⁶, tile
+    resolutions 64…512, tables of 16 and 32 θo bins.
+    """
+    from microsim.analytic.ndf import Beckmann
+
+    rays = np.geomspace(1e3, 1e5, 5) if quick else np.geomspace(1e4, 1e6, 5)
+    rays = [int(round(r, -2)) for r in rays]
+    resolutions = [64, 128, 256] if quick else [64, 128, 256, 512]
+    table_bins = [8, 16] if quick else [16, 32]
+    rows = []
+    for res in resolutions:
+        for bins in table_bins:
+            for n in rays if bins == table_bins[0] else rays[-1:]:
+                rows.append(run_tables("ts", gaussian(0.3, res, seed), "mirror",
+                                       [0.0, 45.0, 75.0], n, bins, 16, seed, score_ts))
+        g1_theta = [60.0, 80.0, 88.0]
+        tile = build_tile(resolve({"surface": gaussian(0.5, res, seed)})["surface"])
+        w = direction(np.radians(g1_theta), 0.0)
+        smith = Beckmann(tile.info["alpha_realised"]).G1(w)
+        rows += [g1_rows("g1", tile, res, g1_theta, n, smith, seed) for n in rays]
+        rows.append(run_tables("furnace", gaussian(0.5, res, seed), "mirror",
+                               [0.0, 60.0, 85.0], rays[2], table_bins[0], 64, seed,
+                               score_furnace))
+        log(f"resolution {res} done")
+    vg = build_tile(resolve({"surface": {"kind": "vgroove", "slope": 45.0,
+                                         "grooves": 16}})["surface"])
+    vg_theta = [30.0, 60.0, 80.0]
+    reference = vcavity_reference(math.radians(45.0), np.radians(vg_theta))
+    rows += [g1_rows("vgroove", vg, 0, vg_theta, n, reference, seed) for n in rays]
+    for row in rows:
+        tile, theta = row.pop("tile"), row.pop("theta")
+        o, d = primary_rays(tile, theta, 100_000, seed)
+        scene = bare_scene(tile.vertices, tile.faces)
+        row["bare_rays_per_s"] = statistics.median(
+            bare_rays_per_second(scene, o, d, threads) for _ in range(3))
+        row["cells_per_correlation"] = row["tile_resolution"] / LENGTHS
+    return rows
+
+
+def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
+    """The sweep as CSV (``COLUMNS``)."""
+    with path.open("w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=COLUMNS)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: row[k] for k in COLUMNS})
+
+
+def plot(rows: list[dict[str, Any]], out: Path) -> list[Path]:
+    """``error_vs_time.png`` (log-log, case ts, one line per tile resolution, with the
+    1/√t noise slope) and ``bias_floor.png`` (the error at the most rays against cells per
+    correlation length, for ts and g1)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ts = [r for r in rows if r["case"] == "ts"]
+    bins0 = min(r["table_bins"] for r in ts)
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    for res in sorted({r["tile_resolution"] for r in ts}):
+        sel = sorted((r for r in ts if r["tile_resolution"] == res and
+                      r["table_bins"] == bins0), key=lambda r: r["wall_s"])
+        t = np.array([r["wall_s"] for r in sel])
+        ax.loglog(t, [r["error"] for r in sel], "o-",
+                  label=f"{res}² ({res // LENGTHS} cells per τ)")
+        ax.loglog(t, [r["stderr"] for r in sel], ":", color=ax.lines[-1].get_color())
+    t0 = min(r["wall_s"] for r in ts)
+    e0 = max(r["stderr"] for r in ts)
+    tt = np.array([t0, max(r["wall_s"] for r in ts)])
+    ax.loglog(tt, e0 * np.sqrt(t0 / tt), "k--", lw=1, label="1/√t (noise)")
+    ax.set_xlabel("wall time (s)")
+    ax.set_ylabel("median relative lobe error")
+    ax.set_title("Gaussian α = 0.3, single scattering vs Torrance-Sparrow + Smith\n"
+                 "solid: error against the model; dotted: reported standard error",
+                 fontsize=9)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    paths = [out / "error_vs_time.png", out / "bias_floor.png"]
+    fig.savefig(paths[0], dpi=110)
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    for case, label in (("ts", "ts: median relative lobe error"),
+                        ("g1", "g1: mean |G1 − Smith|")):
+        sel = [r for r in rows if r["case"] == case and r["table_bins"] in (0, bins0)]
+        most = max(r["rays"] for r in sel)
+        pts = sorted((r["cells_per_correlation"], r["error"], r["stderr"]) for r in sel
+                     if r["rays"] == most)
+        ax.errorbar([p[0] for p in pts], [p[1] for p in pts], yerr=[p[2] for p in pts],
+                    fmt="o-", label=label, capsize=3)
+    ax.set_xscale("log", base=2)
+    ax.set_yscale("log")
+    ax.set_xlabel("grid cells per correlation length")
+    ax.set_ylabel("error at the largest ray count")
+    ax.set_title("Bias floor against tile resolution (±1 reported standard error)",
+                 fontsize=9)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(paths[1], dpi=110)
+    plt.close(fig)
+    return paths

@@ -1,0 +1,68 @@
+"""``microsim bench``: speed against error on reference cases (docs/performance.md)."""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from microsim.cli import add_json_arg, add_seed_arg, print_json
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``bench`` command."""
+    p = sub.add_parser(
+        "bench", help="speed against error on reference cases; CSV and plots",
+        description="Run the reference cases (Torrance-Sparrow single scattering, Smith G1, "
+                    "V-groove G1, white furnace) over ray counts, tile resolutions and table "
+                    "resolutions; time bare Embree on the same tiles; write bench.csv, "
+                    "error_vs_time.png and bias_floor.png into --out. --quick takes about a "
+                    "minute; the full sweep is timed in docs/performance.md.")
+    p.add_argument("--quick", action="store_true", help="the small sweep (about a minute)")
+    p.add_argument("--out", type=Path, default=Path("bench"), metavar="DIR",
+                   help="output folder (default: bench)")
+    add_seed_arg(p, "surface and simulation")
+    add_json_arg(p)
+    p.set_defaults(func=run)
+
+
+def summary(rows: list[dict[str, Any]], wall: float) -> dict[str, Any]:
+    """Best error per case and the speed ratio to bare Embree."""
+    cases: dict[str, Any] = {}
+    for row in rows:
+        c = cases.setdefault(row["case"], {"runs": 0, "best_error": float("inf")})
+        c["runs"] += 1
+        c["best_error"] = min(c["best_error"], row["error"])
+    # traced tables at their largest ray count, where the scene build (in the wall time)
+    # weighs least
+    most = max(r["rays"] for r in rows if r["case"] == "ts")
+    ratios = [r["segments_per_s"] / r["bare_rays_per_s"] for r in rows
+              if r["case"] == "ts" and r["rays"] == most]
+    return {"cases": cases, "ratio_to_bare_embree": statistics.median(ratios),
+            "wall_s": wall}
+
+
+def run(args: argparse.Namespace) -> int:
+    """Sweep, write, summarise."""
+    from microsim.bench import plot, sweep, write_csv
+
+    start = time.perf_counter()
+    log = (lambda text: None) if args.json else (lambda text: print(text, file=sys.stderr))
+    rows = sweep(args.quick, seed=1 if args.seed is None else args.seed, log=log)
+    args.out.mkdir(parents=True, exist_ok=True)
+    write_csv(rows, args.out / "bench.csv")
+    plots = plot(rows, args.out)
+    result = {**summary(rows, time.perf_counter() - start),
+              "csv": str(args.out / "bench.csv"), "plots": [str(p) for p in plots]}
+    if args.json:
+        print_json(result)
+        return 0
+    for case, c in result["cases"].items():
+        print(f"{case:>8}: {c['runs']} runs, best error {c['best_error']:.4g}")
+    print(f"simulate traces {result['ratio_to_bare_embree']:.2f}x the segments per second "
+          f"of bare Embree on the same tiles (median); {result['wall_s']:.0f} s in all")
+    print(f"wrote {result['csv']} and {', '.join(result['plots'])}")
+    return 0
