@@ -28,8 +28,10 @@ def test_quick_bench_writes_csv_and_plots(cli, tmp_path):
         assert img.std() > 0.05  # a drawn figure
     # 100x the rays cut the noise tenfold: on the finest tile (noise-dominated at 1e3
     # rays, ~20%) the error falls below half of its first value even with the ~7% floor
-    fine = [r for r in ts if r["tile_resolution"] == max(x["tile_resolution"] for x in ts)
-            and r["table_bins"] == min(x["table_bins"] for x in ts)]
+    finest = max(int(x["tile_resolution"]) for x in ts)
+    coarsest_table = min(int(x["table_bins"]) for x in ts)
+    fine = [r for r in ts if int(r["tile_resolution"]) == finest
+            and int(r["table_bins"]) == coarsest_table]
     errors = [float(r["error"]) for r in sorted(fine, key=lambda r: int(r["rays"]))]
     assert errors[-1] < 0.5 * errors[0]
     # the white furnace closes exactly; G1 agrees with Smith to 0.01 at the most rays
