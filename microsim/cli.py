@@ -53,6 +53,12 @@ def add_seed_arg(p: argparse.ArgumentParser, what: str) -> None:
                    help=f"override the recipe's {what} seed (integer >= 0)")
 
 
+def add_threads_arg(p: argparse.ArgumentParser) -> None:
+    """Add ``--threads N`` for the commands that trace."""
+    p.add_argument("--threads", type=positive_int, default=None,
+                   help="tracing threads (default: every CPU; results do not depend on it)")
+
+
 def seed_override(args: argparse.Namespace, section: str) -> list[str]:
     """``[section.seed=N]`` when ``--seed N`` was given, else ``[]``."""
     return [] if args.seed is None else [f"{section}.seed={args.seed}"]

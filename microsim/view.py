@@ -30,6 +30,16 @@ def import_pyvista(off_screen: bool) -> Any:
     return pv
 
 
+def finish(plotter: Any, screenshot: str | Path | None) -> np.ndarray | None:
+    """Write the off-screen image and return it, or open the interactive window."""
+    if screenshot is None:
+        plotter.show()
+        return None
+    image = plotter.screenshot(str(screenshot), return_img=True)
+    plotter.close()
+    return image
+
+
 def tile_polydata(pv: Any, tile: Tile, tiles: int = 1, z_scale: float = 1.0) -> Any:
     """The tile as PolyData, repeated ``tiles`` × ``tiles`` times (copies shifted by whole
     periods: for viewing only), with cell arrays ``slope`` (degrees) and ``material``.
@@ -118,12 +128,7 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
     if title:
         plotter.add_text(title, font_size=10)
     plotter.camera_position = "iso"
-    if off:
-        image = plotter.screenshot(str(screenshot), return_img=True)
-        plotter.close()
-        return image
-    plotter.show()
-    return None
+    return finish(plotter, screenshot)
 
 
 def lobe_surface(pv: Any, f: np.ndarray, theta: np.ndarray, phi: np.ndarray,
@@ -219,12 +224,7 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
     plotter.add_text(title or f"theta_i = {np.degrees(theta_i):.0f} deg", font_size=10)
     plotter.camera_position = [(2.5 * size, -2.5 * size, 1.8 * size), (0, 0, 0.2 * size),
                                (0, 0, 1)]
-    if off:
-        image = plotter.screenshot(str(screenshot), return_img=True)
-        plotter.close()
-        return image
-    plotter.show()
-    return None
+    return finish(plotter, screenshot)
 
 
 def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: int,

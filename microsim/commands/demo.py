@@ -9,7 +9,14 @@ from typing import Any
 
 import microsim
 from microsim import recipe
-from microsim.cli import add_json_arg, add_seed_arg, positive_int, print_json, seed_override
+from microsim.cli import (
+    add_json_arg,
+    add_seed_arg,
+    add_threads_arg,
+    positive_int,
+    print_json,
+    seed_override,
+)
 
 RECIPE = Path(microsim.__file__).resolve().parent.parent / "surfaces" / "gaussian-0.3.toml"
 
@@ -31,8 +38,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="rays per incident direction (default: the recipe's)")
     p.add_argument("--plot", type=Path, default=None, metavar="PNG",
                    help="also draw the plane of incidence, simulation against model")
-    p.add_argument("--threads", type=positive_int, default=None,
-                   help="tracing threads (default: every CPU)")
+    add_threads_arg(p)
     add_seed_arg(p, "simulation")
     add_json_arg(p)
     p.set_defaults(func=run)

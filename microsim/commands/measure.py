@@ -12,6 +12,7 @@ from microsim.cli import (
     add_json_arg,
     add_recipe_args,
     add_seed_arg,
+    add_threads_arg,
     number_list,
     positive_int,
     print_json,
@@ -43,8 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--phi", type=float, default=0.0, help="azimuth, degrees (default 0)")
     g.add_argument("--rays", type=positive_int, default=100_000,
                    help="rays per angle (default 100000)")
-    g.add_argument("--threads", type=positive_int, default=None,
-                   help="tracing threads (default: every CPU)")
+    add_threads_arg(g)
     add_seed_arg(g, "simulation")
     add_json_arg(g)
     g.set_defaults(func=run_g1)

@@ -8,7 +8,14 @@ from pathlib import Path
 from typing import Any
 
 from microsim import recipe
-from microsim.cli import add_json_arg, add_recipe_args, add_seed_arg, positive_int, print_json
+from microsim.cli import (
+    add_json_arg,
+    add_recipe_args,
+    add_seed_arg,
+    add_threads_arg,
+    positive_int,
+    print_json,
+)
 from microsim.errors import InputError
 
 
@@ -21,8 +28,7 @@ def add_tracing_args(p: argparse.ArgumentParser) -> None:
                         "error over lobe bins is <= E (0 < E <= 1), or --max-rays")
     p.add_argument("--max-rays", type=positive_int, default=None,
                    help="adaptive stop: at most this many rays per incident direction")
-    p.add_argument("--threads", type=positive_int, default=None,
-                   help="tracing threads (default: every CPU; results do not depend on it)")
+    add_threads_arg(p)
     add_seed_arg(p, "simulation")
 
 
