@@ -42,6 +42,28 @@ def direction(theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
     return np.stack([s * np.cos(phi), s * np.sin(phi), np.cos(theta)], axis=-1)
 
 
+def half_difference(theta_h: np.ndarray, theta_d: np.ndarray, phi_d: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """(ωi, ωo) from Rusinkiewicz's half/difference angles with φh = 0 (Rusinkiewicz
+    1998, "A new change of variables for efficient BRDF representation", sec. 3): the
+    difference vector d(θd, φd) in the half vector's frame, rotated by θh about y; ωo is
+    d mirrored about h.
+
+    Returns
+    -------
+    wi, wo : (..., 3) float
+    """
+    d = direction(theta_d, phi_d)
+    e = d * np.array([-1.0, -1.0, 1.0])
+    c, s = np.cos(theta_h)[..., None], np.sin(theta_h)[..., None]
+
+    def rot(v: np.ndarray) -> np.ndarray:
+        return np.stack([c[..., 0] * v[..., 0] + s[..., 0] * v[..., 2], v[..., 1],
+                         -s[..., 0] * v[..., 0] + c[..., 0] * v[..., 2]], axis=-1)
+
+    return rot(d), rot(e)
+
+
 def _rgb(values: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     """Broadcast a model's scalar or RGB output to ``shape + (3,)``."""
     values = np.asarray(values, float)

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from microsim.compare import Model, direction
+from microsim.compare import Model, half_difference
 from microsim.tables.table import BRDFTable
 
 
@@ -80,28 +80,6 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
-
-
-def half_difference(theta_h: np.ndarray, theta_d: np.ndarray, phi_d: float
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """(ωi, ωo) from Rusinkiewicz's half/difference angles with φh = 0 (Rusinkiewicz
-    1998, "A new change of variables for efficient BRDF representation", sec. 3): the
-    difference vector d(θd, φd) in the half vector's frame, rotated by θh about y; ωo is
-    d mirrored about h.
-
-    Returns
-    -------
-    wi, wo : (..., 3) float
-    """
-    d = direction(theta_d, phi_d)
-    e = d * np.array([-1.0, -1.0, 1.0])
-    c, s = np.cos(theta_h)[..., None], np.sin(theta_h)[..., None]
-
-    def rot(v: np.ndarray) -> np.ndarray:
-        return np.stack([c[..., 0] * v[..., 0] + s[..., 0] * v[..., 2], v[..., 1],
-                         -s[..., 0] * v[..., 0] + c[..., 0] * v[..., 2]], axis=-1)
-
-    return rot(d), rot(e)
 
 
 def half_difference_slices(table: BRDFTable, model: Model, path: str | Path,

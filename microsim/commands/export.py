@@ -1,0 +1,55 @@
+"""``microsim export TABLE --format npz|merl|rgl -o OUT``: tables for other tools."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from microsim.cli import positive_int
+from microsim.errors import InputError
+
+SUFFIXES = {"npz": ".npz", "merl": ".binary", "rgl": ".bsdf"}
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``export`` command."""
+    p = sub.add_parser(
+        "export", help="write a table as .npz, MERL .binary or RGL .bsdf (Mitsuba 3, pbrt-v4)",
+        description="Export a BRDF table: npz (axes, values, errors, albedo for numpy), "
+                    "merl (MERL .binary, 90 x 90 x 180 half/difference cells, BRDF Explorer "
+                    "and many tools read it), or rgl (RGL tensor file .bsdf, loaded by "
+                    "Mitsuba 3's and pbrt-v4's 'measured' materials). See "
+                    "docs/table-format.md.")
+    p.add_argument("table", metavar="TABLE", help="table file (.exr)")
+    p.add_argument("--format", required=True, choices=tuple(SUFFIXES), help="output format")
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="output file (.npz, .binary or .bsdf to match --format)")
+    p.add_argument("--component", choices=("total", "single"), default="total",
+                   help="all scattering orders (default) or single scattering")
+    p.add_argument("--resolution", type=positive_int, default=32,
+                   help="rgl: grid vertices per axis of the colour tensor (default 32)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Read, convert, write."""
+    import microsim
+    from microsim.tables import export
+
+    want = SUFFIXES[args.format]
+    if args.output.suffix.lower() != want:
+        raise InputError(f"--output {args.output}: a {args.format} file must end in {want}")
+    if args.format == "rgl" and args.resolution < 2:
+        raise InputError(f"--resolution {args.resolution}: must be >= 2")
+    table = microsim.read_table(args.table)
+    if args.format != "npz" and not table.isotropic:
+        raise InputError(f"--format {args.format}: writes isotropic tables; {args.table} is "
+                         "anisotropic (use --format npz)")
+    if args.format == "npz":
+        export.write_npz(table, args.output)
+    elif args.format == "merl":
+        export.write_merl(table, args.output, args.component)
+    else:
+        export.write_rgl(table, args.output, args.resolution, args.component)
+    print(f"wrote {args.output}")
+    return 0

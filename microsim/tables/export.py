@@ -1,0 +1,148 @@
+"""Exports of a BRDF table to formats other tools read: numpy ``.npz``, MERL ``.binary``
+and the RGL tensor file ``.bsdf`` that Mitsuba 3's and pbrt-v4's ``measured`` materials load.
+
+Every writer evaluates the table with ``BRDFTable.eval`` (interpolated, 0 below the
+horizon) at the format's own sample points and writes atomically.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from microsim.compare import direction, half_difference
+from microsim.files import atomic_path
+from microsim.tables.table import COMPONENTS, BRDFTable
+
+MERL_SHAPE = (90, 90, 180)
+MERL_SCALE = np.array([1.0 / 1500, 1.15 / 1500, 1.66 / 1500])
+"""What MERL readers multiply the stored R, G, B values by (Matusik et al. 2003)."""
+
+
+def write_npz(table: BRDFTable, path: str | Path) -> None:
+    """Axes, values, errors and albedo as plain numpy arrays.
+
+    Keys: ``theta_i``, ``phi_i`` (radians), ``theta_o_edges``, ``phi_o_edges`` (radians),
+    ``total``, ``total_err``, ``single``, ``single_err`` ((n_theta_i, n_phi_i, theta_bins,
+    phi_bins, 3), f_r in 1/sr and standard errors, NaN where undefined), ``albedo``,
+    ``albedo_err``, ``lost_energy`` ((n_theta_i, n_phi_i, 3)), ``isotropic`` (bool), and
+    ``meta`` (the table's metadata as a JSON string).
+    """
+    arrays = {"theta_i": table.theta_i, "phi_i": table.phi_i,
+              "theta_o_edges": table.bins.theta_edges, "phi_o_edges": table.bins.phi_edges,
+              "albedo": table.albedo, "albedo_err": table.albedo_err,
+              "lost_energy": table.lost_energy, "isotropic": np.array(table.isotropic),
+              "meta": np.array(json.dumps(table.meta, default=str))}
+    for c in COMPONENTS:
+        arrays[c], arrays[f"{c}_err"] = table.values[c], table.errors[c]
+    with atomic_path(path) as tmp, tmp.open("wb") as f:
+        np.savez(f, **arrays)
+
+
+def merl_directions() -> tuple[np.ndarray, np.ndarray]:
+    """(ωi, ωo) at every MERL cell (θh, θd, φd) = ((i/90)² π/2, j/90 · π/2, k/180 · π), with
+    φh = 0 (Rusinkiewicz 1998; the cell layout of Matusik et al. 2003's reader).
+
+    Returns
+    -------
+    wi, wo : (90, 90, 180, 3) float
+    """
+    i, j, k = (np.arange(n, dtype=float) for n in MERL_SHAPE)
+    theta_h = (i / 90.0) ** 2 * (np.pi / 2)
+    theta_d = j / 90.0 * (np.pi / 2)
+    phi_d = k / 180.0 * np.pi
+    th, td, pd = np.meshgrid(theta_h, theta_d, phi_d, indexing="ij")
+    return half_difference(th, td, pd)
+
+
+def write_merl(table: BRDFTable, path: str | Path, component: str = "total") -> None:
+    """MERL ``.binary``: int32 dims (90, 90, 180), then float64 R, G, B planes over
+    (θh, θd, φd), little-endian. Stored values are f_r / scale per channel, so readers
+    that multiply by 1/1500, 1.15/1500, 1.66/1500 get f_r back; cells with either
+    direction at or below the horizon hold −1. Isotropic tables only (the format is)."""
+    if not table.isotropic:
+        raise ValueError("MERL files hold isotropic BRDFs; this table is anisotropic")
+    wi, wo = merl_directions()
+    f = table.eval(wi, wo, component) / MERL_SCALE
+    below = (wi[..., 2] <= 0) | (wo[..., 2] <= 0)
+    f[below] = -1.0
+    planes = np.ascontiguousarray(np.moveaxis(f, -1, 0), dtype="<f8")
+    with atomic_path(path) as tmp, tmp.open("wb") as out:
+        out.write(struct.pack("<3i", *MERL_SHAPE))
+        out.write(planes.tobytes())
+
+
+def _tensor_file(fields: dict[str, np.ndarray]) -> bytes:
+    """The RGL tensor file: magic ``tensor_file\\0``, version (1, 0), the field count,
+    then per field its name, rank, type code, data offset and shape, then the data at
+    8-byte aligned offsets, all little-endian (Mitsuba 3, ``TensorFile``)."""
+    codes = {np.dtype(np.uint8): 1, np.dtype(np.float32): 10}
+    header = [b"tensor_file\0", struct.pack("<BBI", 1, 0, len(fields))]
+    size = sum(len(h) for h in header) + sum(
+        2 + len(name.encode()) + 2 + 1 + 8 + 8 * a.ndim for name, a in fields.items())
+    blobs, offsets = [], []
+    for a in fields.values():
+        size = (size + 7) // 8 * 8
+        offsets.append(size)
+        blobs.append(a.tobytes())
+        size += len(blobs[-1])
+    for (name, a), offset in zip(fields.items(), offsets, strict=True):
+        label = name.encode()
+        header.append(struct.pack("<H", len(label)) + label
+                      + struct.pack("<HBQ", a.ndim, codes[a.dtype], offset)
+                      + struct.pack(f"<{a.ndim}Q", *a.shape))
+    out = bytearray(b"".join(header))
+    for blob, offset in zip(blobs, offsets, strict=True):
+        out += bytes(offset - len(out)) + blob
+    return bytes(out)
+
+
+def rgl_fields(table: BRDFTable, resolution: int = 32, component: str = "total",
+               description: str = "") -> dict[str, np.ndarray]:
+    """The fields of an RGL ``.bsdf`` for an isotropic table (Dupuy & Jakob 2018).
+
+    The colour grid is the plain vertex grid a uniform VNDF gives: axes (φm, θm) with
+    u = 0…1 in ``resolution`` steps, θm = u² π/2 and φm = 2πu − π from φi; each value is
+    f_r(ωi, ωo) cos θo at the mirror direction ωo of ωi about m, which Mitsuba 3's
+    ``measured`` plugin returns as its ``eval`` (it includes the cosine). NDF, σ, VNDF and
+    luminance are uniform (ones), so importance sampling is uniform over the grid.
+    """
+    if not table.isotropic:
+        raise ValueError("the RGL export writes isotropic tables; this one is anisotropic")
+    h = resolution
+    u = np.linspace(0.0, 1.0, h)
+    theta_m = u**2 * (np.pi / 2)
+    phi_m = 2 * np.pi * u - np.pi
+    m = direction(theta_m[None, :], phi_m[:, None])  # (φm, θm, 3)
+    n = len(table.theta_i)
+    rgb = np.zeros((1, n, 3, h, h), np.float32)
+    for k, theta in enumerate(table.theta_i):
+        wi = direction(theta, 0.0)
+        wo = 2 * (m @ wi)[..., None] * m - wi
+        f = table.eval(np.broadcast_to(wi, wo.shape), wo, component)
+        rgb[0, k] = np.moveaxis(f * np.maximum(wo[..., 2:3], 0.0), -1, 0)
+    ones = np.ones((h, h), np.float32)
+    return {
+        "description": np.frombuffer((description or "microsim table").encode(), np.uint8),
+        "jacobian": np.zeros(1, np.uint8),
+        "theta_i": table.theta_i.astype(np.float32),
+        "phi_i": np.zeros(1, np.float32),
+        "ndf": ones, "sigma": ones,
+        "vndf": np.ones((1, n, h, h), np.float32),
+        "luminance": np.ones((1, n, h, h), np.float32),
+        "rgb": rgb,
+    }
+
+
+def write_rgl(table: BRDFTable, path: str | Path, resolution: int = 32,
+              component: str = "total") -> None:
+    """Write an RGL tensor file ``.bsdf`` (see ``rgl_fields``)."""
+    surface: dict[str, Any] = table.meta.get("surface", {})
+    fields = rgl_fields(table, resolution, component,
+                        f"microsim {component} BRDF of a {surface.get('kind', '')} surface")
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(_tensor_file(fields))
