@@ -20,8 +20,8 @@ from typing import Any, NoReturn
 from microsim import __version__
 from microsim.errors import InputError
 
-COMMANDS = ("check", "models", "generate", "measure", "view", "simulate", "compare", "export",
-            "bench", "demo")
+COMMANDS = ("check", "models", "generate", "measure", "view", "simulate", "compare", "fit",
+            "export", "bench", "demo")
 """Command modules under ``microsim.commands``, in the order ``--help`` lists them."""
 
 

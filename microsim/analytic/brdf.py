@@ -46,7 +46,8 @@ class TorranceSparrow:
         ``microsim.analytic.ndf`` distribution (``D``, ``Lambda``, ``G1``).
     fresnel : None or tuple
         None: F = 1 (a mirror facet); ``("conductor", eta, k)`` (RGB-able);
-        ``("dielectric", eta)``.
+        ``("dielectric", eta)``; ``("schlick", f0)`` (Schlick's approximation, RGB-able:
+        what model fits use).
     shadowing : str
         ``"smith-correlated"`` (default, Heitz 2014 eq. 99), ``"smith-separable"``,
         ``"v-groove"`` (Torrance-Sparrow's), or ``"none"`` (G = 1).
@@ -56,15 +57,21 @@ class TorranceSparrow:
                  shadowing: str = "smith-correlated") -> None:
         if shadowing not in SHADOWING:
             raise ValueError(f"shadowing must be one of {SHADOWING}")
-        if fresnel is not None and fresnel[0] not in ("conductor", "dielectric"):
-            raise ValueError("fresnel must be None, ('conductor', eta, k) or "
-                             "('dielectric', eta)")
+        if fresnel is not None and fresnel[0] not in ("conductor", "dielectric", "schlick"):
+            raise ValueError("fresnel must be None, ('conductor', eta, k), "
+                             "('dielectric', eta) or ('schlick', f0)")
         self.ndf, self.fresnel, self.shadowing = ndf, fresnel, shadowing
 
     def F(self, cos_d: np.ndarray) -> np.ndarray:  # noqa: N802
         """Fresnel factor at ⟨ωi, h⟩: ``(...)`` or ``(..., 3)``."""
         if self.fresnel is None:
             return np.ones_like(cos_d)
+        if self.fresnel[0] == "schlick":
+            # Schlick 1994, "An inexpensive BRDF model for physically-based rendering",
+            # eq. 15: F0 + (1 - F0)(1 - cos)^5, per channel
+            f0 = np.asarray(self.fresnel[1], float)
+            c = cos_d[..., None] if f0.ndim else cos_d
+            return f0 + (1.0 - f0) * (1.0 - c) ** 5
         if self.fresnel[0] == "conductor":
             _, eta, k = self.fresnel
             if np.ndim(eta) or np.ndim(k):

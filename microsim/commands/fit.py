@@ -1,0 +1,63 @@
+"""``microsim fit TABLE --model NAME``: fit an analytic model to a simulated table."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from microsim.cli import add_json_arg, print_json
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``fit`` command."""
+    p = sub.add_parser(
+        "fit", help="fit beckmann, ggx, oren-nayar, lafortune[:K] or phong to a table",
+        description="Fit an analytic model's parameters to a BRDF table by weighted least "
+                    "squares in log space, using the per-bin standard errors (bins without "
+                    "an error are skipped); see microsim/fit.py and docs/compare.md. Prints "
+                    "the parameters with 1-sigma uncertainties, chi^2/dof, the median "
+                    "relative error and the albedo of fit and table per incidence.")
+    p.add_argument("table", metavar="TABLE", help="table file (.exr)")
+    p.add_argument("--model", required=True, metavar="NAME",
+                   help="beckmann, ggx (alpha and Schlick F0 per channel), oren-nayar "
+                        "(sigma in radians, albedo per channel), phong (n, ks per channel), "
+                        "lafortune[:K] (K isotropic lobes: Cxy, Cz, n)")
+    p.add_argument("--component", choices=("total", "single"), default="total",
+                   help="all scattering orders (default) or single scattering")
+    p.add_argument("--plot", type=Path, default=None, metavar="PNG",
+                   help="draw the plane of incidence, table against the fit")
+    add_json_arg(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Fit and report."""
+    import microsim
+    from microsim.errors import InputError
+    from microsim.fit import family, fit_table
+
+    family(args.model)  # a bad name fails before the table is read
+    table = microsim.read_table(args.table)
+    if not table.isotropic:
+        raise InputError(f"{args.table}: fitting takes isotropic tables")
+    result = fit_table(table, args.model, args.component)
+    result.pop("fitted")
+    bins = result.pop("model_bins")
+    if args.plot is not None:
+        from microsim.plots import incidence_plane
+
+        incidence_plane(table, bins, args.plot, args.component,
+                        f"{args.table}: {args.component} vs fitted {result['model']}")
+        result["plot"] = str(args.plot)
+    if args.json:
+        print_json(result)
+        return 0
+    print(f"{result['model']} fitted to the {args.component} of {args.table}:")
+    for name, value in result["params"].items():
+        print(f"  {name:>10} = {value:.5g} ± {result['uncertainty'][name]:.2g}")
+    print(f"  chi^2/dof {result['chi2_dof']:.3g}, median relative error over lobe bins "
+          f"{100 * result['median_rel_error']:.2f}%")
+    for row in result["per_theta_i"]:
+        print(f"  theta_i {row['theta_i']:5.1f}: albedo fit "
+              f"{sum(row['albedo_fit']) / 3:.4f}, table {sum(row['albedo_table']) / 3:.4f}")
+    return 0

@@ -1,0 +1,96 @@
+"""Fitting models back from tables made from them, and from a simulation."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from microsim.analytic.brdf import OrenNayar, TorranceSparrow
+from microsim.analytic.ndf import Beckmann
+from microsim.fit import fit_table, model_bins
+from microsim.tables.binning import HemisphereBins
+from microsim.tables.table import COMPONENTS, BRDFTable
+
+THETA_I = np.radians([0.0, 30.0, 60.0])
+
+
+def table_of(model, sigma_rel=0.0, seed=0):
+    """Bins = the model's bin averages (8² midpoints per bin), optionally with Gaussian
+    noise of known relative σ, reported as the error."""
+    bins = HemisphereBins(16, 32)
+    t = BRDFTable(bins, THETA_I, [0.0], True, {c: np.zeros((3, 1, 16, 32, 3)) for c in
+                                              COMPONENTS}, {c: np.zeros((3, 1, 16, 32, 3))
+                                                            for c in COMPONENTS},
+                  np.full((3, 1), 10**6), {c: np.zeros((3, 1, 3)) for c in COMPONENTS},
+                  {c: np.zeros((3, 1, 3)) for c in COMPONENTS}, np.zeros((3, 1, 3)), {})
+    avg = model_bins(model, t, 8)
+    rng = np.random.default_rng(seed)
+    err = sigma_rel * avg + 1e-9
+    values = avg * (1 + sigma_rel * rng.standard_normal(avg.shape)) if sigma_rel else avg
+    for c in COMPONENTS:
+        t.values[c], t.errors[c] = values, err
+    return t
+
+
+def test_beckmann_without_noise_comes_back_within_one_percent():
+    truth = TorranceSparrow(Beckmann(0.4), fresnel=("schlick", np.array([0.9, 0.6, 0.3])))
+    r = fit_table(table_of(truth), "beckmann")
+    assert r["params"]["alpha"] == pytest.approx(0.4, rel=0.01)
+    for ch, f0 in zip("RGB", (0.9, 0.6, 0.3), strict=True):
+        assert r["params"][f"F0_{ch}"] == pytest.approx(f0, rel=0.01)
+
+
+def test_noisy_fit_within_two_sigma():
+    """5% relative noise per bin: the fitted α lies within 2 reported σ of the truth
+    (a 95% interval; fixed seed)."""
+    truth = TorranceSparrow(Beckmann(0.25), fresnel=("schlick", np.array([0.8, 0.8, 0.8])))
+    r = fit_table(table_of(truth, 0.05, seed=5), "beckmann")
+    a, s = r["params"]["alpha"], r["uncertainty"]["alpha"]
+    assert 0 < s < 0.05 and abs(a - 0.25) < 2 * s
+    assert 0.5 < r["chi2_dof"] < 2.0  # the errors describe the noise
+
+
+def test_oren_nayar_without_noise():
+    truth = OrenNayar(0.35, [0.7, 0.5, 0.3])
+    r = fit_table(table_of(truth), "oren-nayar")
+    assert r["params"]["sigma"] == pytest.approx(0.35, rel=0.01)
+    assert r["params"]["albedo_G"] == pytest.approx(0.5, rel=0.01)
+
+
+@pytest.mark.parametrize("spec", ["phong", "lafortune:2", "ggx"])
+def test_other_families_run_and_improve_on_their_start(spec):
+    truth = TorranceSparrow(Beckmann(0.3))
+    t = table_of(truth)
+    r = fit_table(t, spec)
+    assert np.isfinite(r["chi2_dof"]) and r["median_rel_error"] < 0.5
+    assert set(r["params"]) == set(r["uncertainty"])
+
+
+def test_simulated_gaussian_fits_beckmann_at_its_realised_alpha(cli, tmp_path):
+    """A simulated α = 0.3 mirror surface (256², 32 correlation lengths): the fitted α of
+    its single scattering lies within 5% of the realised α (the issue's bound; the
+    tile's finite slope sample moves it by ~2%, docs/performance.md)."""
+    from pathlib import Path
+
+    recipe = Path(__file__).resolve().parent.parent / "surfaces" / "gaussian-0.3.toml"
+    exr = tmp_path / "g.exr"
+    assert cli("simulate", str(recipe), "-o", str(exr), "--rays", "100000", "--set",
+               "simulation.theta_i=[0, 30, 60]", "--set", "table.theta_bins=16",
+               "--set", "table.phi_bins=32")[0] == 0
+    code, out, err = cli("fit", str(exr), "--model", "beckmann", "--component", "single",
+                         "--json", "--plot", str(tmp_path / "fit.png"))
+    assert code == 0, err
+    r = json.loads(out)
+    from microsim import read_table
+    realised = read_table(exr).meta["surface"]["alpha_realised"]
+    assert r["params"]["alpha"] == pytest.approx(realised, rel=0.05)
+    assert (tmp_path / "fit.png").stat().st_size > 20_000
+
+
+@pytest.mark.parametrize(("model", "needle"), [("beckman", "must be one of"),
+                                                ("lafortune:9", "1 to 4 lobes")])
+def test_bad_model_exits_2(cli, tmp_path, model, needle):
+    code, _, err = cli("fit", str(tmp_path / "none.exr"), "--model", model)
+    assert code == 2 and err.startswith("error: ") and needle in err
