@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from microsim.errors import InputError
 from microsim.surfaces.tile import Tile
 
 WINDOW = (800, 600)
@@ -23,7 +25,12 @@ def import_pyvista(off_screen: bool) -> Any:
     ``DISPLAY`` it is told to use EGL (Debian's libegl1 libegl-mesa0 libgl1-mesa-dri),
     which needs no X server.
     """
-    if off_screen and not os.environ.get("DISPLAY"):
+    headless = sys.platform.startswith("linux") and not (
+        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    if headless and not off_screen:
+        raise InputError("view: no display for an interactive window here; render to a "
+                         "file with --screenshot PNG")
+    if headless:
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     import pyvista as pv
 

@@ -168,3 +168,10 @@ def test_ray_paths_escape_with_their_order():
 def test_view_table_bad_flags(cli, table_file, argv, needle):
     code, _, err = cli("view", str(table_file), *argv, "--screenshot", "/tmp/x.png")
     assert code == 2 and err.startswith("error: ") and needle in err
+
+
+def test_view_without_display_asks_for_a_screenshot(cli, table_file, monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    code, _, err = cli("view", str(table_file))
+    assert code == 2 and "--screenshot" in err
