@@ -7,11 +7,34 @@ and turned into BRDF tables with per-bin error bars, compared with analytic mode
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from microsim.tables.table import BRDFTable
+
 __version__ = "0.1.0"
 
 
-def read_table(path):  # noqa: ANN001, ANN201 - documented in microsim.tables.exr
-    """Read a BRDF table file (OpenEXR); see ``microsim.tables.exr.read_table``."""
+def read_table(path: str | Path) -> BRDFTable:
+    """Read a BRDF table file (OpenEXR); see ``microsim.tables.exr.read_table``.
+
+    OpenEXR is imported on the first call, so ``import microsim`` stays light.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    BRDFTable
+
+    Raises
+    ------
+    microsim.errors.InputError
+        If the file is missing, not OpenEXR, or not a microsim table.
+    """
     from microsim.tables.exr import read_table as read
 
     return read(path)

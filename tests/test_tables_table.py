@@ -188,3 +188,63 @@ def test_bad_files(tmp_path):
     with pytest.raises(InputError, match="not a microsim table"):
         microsim.read_table(plain)
     assert exr.FORMAT_VERSION == 1
+
+
+def test_eval_is_continuous_across_bins_and_the_azimuth_seam():
+    """Along a fine path crossing every θo bin boundary and φo = 0 = 2π, consecutive f_r
+    differ by at most (largest jump between neighbouring nodes) × (step / node spacing):
+    piecewise-linear interpolation is Lipschitz with that constant; a jump at a boundary
+    would break it by orders of magnitude. The factor 2 absorbs the sin² stretch of u.
+    The path's end points are left out: at the pole the azimuth is undefined (the clamped
+    first ring keeps its φ dependence) and on the horizon f_r is 0 by definition."""
+    t = make_table()
+    b = t.bins
+    s = np.linspace(0.0, 1.0, 4001)
+    theta = np.arcsin(np.sqrt(s))                         # u = sin²θ from 0 to 1
+    phi = -1.0 + 2.0 * s                                  # crosses the seam at s = 0.5
+    f = t.eval(direction(0.0, 0.0), direction(theta, phi))[..., 0]
+    v = t.values["total"][0, 0, ..., 0]
+    jump = max(np.abs(np.diff(v, axis=0)).max(), np.abs(v - np.roll(v, 1, axis=1)).max())
+    du, dphi = 1.0 / b.theta_bins, 2 * np.pi / b.phi_bins
+    step = max(np.diff(s).max() / du, 2.0 * np.diff(phi).max() / dphi)
+    assert np.abs(np.diff(f[1:-1])).max() <= 2 * jump * step
+
+
+def test_stderr_is_nan_only_where_the_nearest_bin_is_empty():
+    bins = HemisphereBins(4, 4)
+    s1 = np.zeros((1, 1, bins.size, 3))
+    s1[0, 0, 5] = 10.0
+    s2 = s1.copy()
+    t = BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[100]]),
+                            {"total": s1, "single": s1}, {"total": s2, "single": s2},
+                            np.zeros((1, 1, 3)), {})
+    wi = direction(0.0, 0.0)
+    it, ip = divmod(5, 4)
+    centre = direction(bins.theta_centers[it], bins.phi_centers[ip])
+    # inside bin 5 but off its centre: the empty neighbours are left out
+    off = direction(np.arcsin(np.sqrt((it + 0.8) / 4)), bins.phi_centers[ip] + 0.3)
+    np.testing.assert_allclose(t.stderr(wi, centre), t.errors["total"][0, 0, it, ip])
+    np.testing.assert_allclose(t.stderr(wi, off), t.errors["total"][0, 0, it, ip])
+    assert np.isnan(t.stderr(wi, direction(0.1, 0.1))).all()      # bin 0 is empty
+    assert (t.stderr(wi, np.array([0.6, 0.0, -0.8])) == 0).all()    # below the horizon
+
+
+def test_from_sums_refuses_bad_input():
+    bins = HemisphereBins(2, 2)
+    s = np.zeros((1, 1, bins.size, 3))
+    with pytest.raises(ValueError, match="rays"):
+        BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[0]]),
+                            {"total": s, "single": s}, {"total": s, "single": s},
+                            np.zeros((1, 1, 3)), {})
+    with pytest.raises(ValueError, match="shape"):
+        BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[5]]),
+                            {"total": s[..., :2, :], "single": s},
+                            {"total": s, "single": s}, np.zeros((1, 1, 3)), {})
+
+
+def test_attribute_that_is_not_json(tmp_path):
+    path = tmp_path / "bad.exr"
+    OpenEXR.File({"type": OpenEXR.scanlineimage, "microsim": "{oops"},
+                 {"R": np.zeros((2, 2), np.float32)}).write(str(path))
+    with pytest.raises(InputError, match="not JSON"):
+        microsim.read_table(path)

@@ -130,9 +130,13 @@ def read_table(path: str | Path) -> BRDFTable:
         raise InputError(f"{path}: not an OpenEXR file") from None
     if ATTRIBUTE not in header:
         raise InputError(f"{path}: not a microsim table (no '{ATTRIBUTE}' attribute)")
-    info = json.loads(header[ATTRIBUTE])
-    if info.get("format_version") != FORMAT_VERSION:
-        raise InputError(f"{path}: table format version {info.get('format_version')!r}; "
+    try:
+        info = json.loads(header[ATTRIBUTE])
+    except (TypeError, json.JSONDecodeError):
+        raise InputError(f"{path}: the '{ATTRIBUTE}' attribute is not JSON") from None
+    if not isinstance(info, dict) or info.get("format_version") != FORMAT_VERSION:
+        version = info.get("format_version") if isinstance(info, dict) else None
+        raise InputError(f"{path}: table format version {version!r}; "
                          f"this microsim reads version {FORMAT_VERSION}")
     axes = info["axes"]
     bins = HemisphereBins.from_dict(axes)

@@ -159,9 +159,21 @@ class BRDFTable:
         Returns
         -------
         BRDFTable
+
+        Raises
+        ------
+        ValueError
+            If an incidence launched no ray or an array has the wrong shape.
         """
         rays = np.asarray(rays, np.int64)
         shape = rays.shape + bins.shape + (3,)
+        if rays.shape != (len(theta_i), len(phi_i)) or np.any(rays < 1):
+            raise ValueError(f"rays must be (n_theta_i, n_phi_i) = "
+                             f"({len(theta_i)}, {len(phi_i)}) counts >= 1, got shape {rays.shape}")
+        for c in COMPONENTS:
+            expected = rays.shape + (bins.size, 3)
+            if not np.shape(sums[c]) == np.shape(sums_sq[c]) == expected:
+                raise ValueError(f"sums[{c!r}] and sums_sq[{c!r}] must have shape {expected}")
         omega = bins.projected_solid_angle.reshape(1, 1, -1, 1)
         values, errors, albedo, albedo_err = {}, {}, {}, {}
         for c in COMPONENTS:
@@ -204,6 +216,16 @@ class BRDFTable:
         """(a, b, 3) standard error of ``albedo``."""
         return self.albedo_err_of["total"]
 
+    @property
+    def single_albedo(self) -> np.ndarray:
+        """(a, b, 3) directional albedo of single scattering."""
+        return self.albedo_of["single"]
+
+    @property
+    def single_albedo_err(self) -> np.ndarray:
+        """(a, b, 3) standard error of ``single_albedo``."""
+        return self.albedo_err_of["single"]
+
     def lobe_mask(self, component: str = "total",
                   threshold: float = LOBE_FRACTION) -> np.ndarray:
         """(a, b, nt, np) bool: bins whose f_r (mean over RGB) is at least ``threshold``
@@ -222,11 +244,29 @@ class BRDFTable:
         return float(np.median(rel)) if rel.size else float("nan")
 
     # --- evaluation --------------------------------------------------------------------
-    def _interpolate(self, data: np.ndarray, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-        """Interpolate an (a, b, nt, np, 3) array at direction pairs: linear in θi and φi
-        between incidences, bilinear in (sin²θo, φo) between bin centres (clamped at the
-        pole and the horizon, periodic in φo), zero where either direction is at or below
-        the horizon."""
+    def _stencil(self, wi: np.ndarray, wo: np.ndarray) -> tuple[tuple[int, ...], np.ndarray,
+                                                              np.ndarray, np.ndarray]:
+        """The 16 interpolation nodes of each direction pair: linear in θi and φi between
+        incidences, bilinear in (sin²θo, φo) between bin centres (clamped at the pole and
+        the horizon, periodic in φo).
+
+        Parameters
+        ----------
+        wi, wo : (..., 3) float
+            Unit directions, local frame.
+
+        Returns
+        -------
+        shape : tuple
+            The broadcast leading shape (...).
+        nodes : (n, 16) int
+            Flat indices into an (a·b·nt·np, 3) view of a table array.
+        weights : (n, 16) float
+            Interpolation weights, summing to 1; the node with the largest weight is the
+            nearest one (the nearest incidence and the bin holding ωo).
+        above : (n,) bool
+            Both directions strictly above the horizon.
+        """
         wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
         shape = wi.shape[:-1]
         wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
@@ -235,24 +275,31 @@ class BRDFTable:
         phi_out = np.arctan2(wo[:, 1], wo[:, 0])
         if self.isotropic:
             phi_out = phi_out - phi_in
-        phi_out = self.bins.relative_phi(phi_out)
-        u_out = np.clip(wo[:, 0] ** 2 + wo[:, 1] ** 2, 0.0, 1.0)
-        u_centers = np.sin(self.bins.theta_centers) ** 2
-        a0, a1, wa = _linear_weights(theta_in, self.theta_i)
-        b0, b1, wb = _linear_weights(np.mod(phi_in, TWO_PI), self.phi_i, TWO_PI)
-        t0, t1, wt = _linear_weights(u_out, u_centers)
-        p0, p1, wp = _linear_weights(phi_out, self.bins.phi_centers, self.bins.phi_period)
-        out = np.zeros((len(wi), 3))
-        for ia, fa in ((a0, 1 - wa), (a1, wa)):
-            for ib, fb in ((b0, 1 - wb), (b1, wb)):
-                for it, ft in ((t0, 1 - wt), (t1, wt)):
-                    for ip, fp in ((p0, 1 - wp), (p1, wp)):
-                        out += (fa * fb * ft * fp)[:, None] * data[ia, ib, it, ip]
+        axes = (
+            _linear_weights(theta_in, self.theta_i),
+            _linear_weights(np.mod(phi_in, TWO_PI), self.phi_i, TWO_PI),
+            _linear_weights(np.clip(wo[:, 0] ** 2 + wo[:, 1] ** 2, 0.0, 1.0),
+                            np.sin(self.bins.theta_centers) ** 2),
+            _linear_weights(self.bins.relative_phi(phi_out), self.bins.phi_centers,
+                            self.bins.phi_period),
+        )
+        sizes = (len(self.theta_i), len(self.phi_i)) + self.bins.shape
+        nodes = np.zeros((len(wi),) + (1,) * 4, np.int64)
+        weights = np.ones((len(wi),) + (1,) * 4)
+        for k, ((i0, i1, w1), size) in enumerate(zip(axes, sizes, strict=True)):
+            at = (slice(None),) + (None,) * k + (slice(None),) + (None,) * (3 - k)
+            nodes = nodes * size + np.stack([i0, i1], -1)[at]
+            weights = weights * np.stack([1.0 - w1, w1], -1)[at]
         above = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-        return np.where(above[:, None], out, 0.0).reshape(shape + (3,))
+        return shape, nodes.reshape(len(wi), 16), weights.reshape(len(wi), 16), above
 
     def eval(self, wi: np.ndarray, wo: np.ndarray, component: str = "total") -> np.ndarray:
         """Interpolated f_r.
+
+        Linear in θi (and periodically in φi for anisotropic tables) between the table's
+        incidences, clamped outside them; bilinear in (sin²θo, φo) between bin centres,
+        periodic in φo and clamped at the pole and the horizon. An empty bin's value is 0,
+        so the result is never NaN.
 
         Parameters
         ----------
@@ -266,14 +313,41 @@ class BRDFTable:
         (..., 3) float
             f_r in 1/sr per colour; 0 where either direction is at or below the horizon.
         """
-        return self._interpolate(self.values[self._component(component)], wi, wo)
+        data = self.values[self._component(component)].reshape(-1, 3)
+        shape, nodes, weights, above = self._stencil(wi, wo)
+        out = np.einsum("nk,nkc->nc", weights, data[nodes])
+        return np.where(above[:, None], out, 0.0).reshape(shape + (3,))
 
     def stderr(self, wi: np.ndarray, wo: np.ndarray, component: str = "total") -> np.ndarray:
-        """Interpolated standard error of f_r (as ``eval``); NaN where an interpolation
-        node's error is undefined (an empty bin next to the direction)."""
-        err = self.errors[self._component(component)]
-        nan = self._interpolate(np.isnan(err).astype(float), wi, wo) > 0
-        return np.where(nan, np.nan, self._interpolate(np.nan_to_num(err), wi, wo))
+        """Interpolated standard error of f_r, with the nodes of ``eval``.
+
+        Nodes whose error is undefined (empty bins) are left out and the other weights
+        renormalised; the result is NaN only where the nearest node (the nearest incidence
+        and the bin holding ωo) is itself undefined. 0 at or below the horizon, where f_r
+        is 0 by definition.
+
+        Parameters
+        ----------
+        wi, wo : (..., 3) float
+            Unit directions, local frame.
+        component : str
+            ``"total"`` or ``"single"``.
+
+        Returns
+        -------
+        (..., 3) float
+            Standard error of f_r in 1/sr per colour.
+        """
+        err = self.errors[self._component(component)].reshape(-1, 3)
+        shape, nodes, weights, above = self._stencil(wi, wo)
+        known = np.isfinite(err[nodes])                               # (n, 16, 3)
+        w = np.where(known, weights[..., None], 0.0)
+        total = w.sum(axis=1)
+        nearest = np.argmax(weights, axis=1)
+        undefined = ~np.take_along_axis(known, nearest[:, None, None], axis=1)[:, 0]
+        out = (w * np.nan_to_num(err[nodes])).sum(axis=1) / np.where(undefined, 1.0, total)
+        out = np.where(undefined, np.nan, out)
+        return np.where(above[:, None], out, 0.0).reshape(shape + (3,))
 
     def write(self, path: str | Path) -> None:
         """Write the table as OpenEXR, atomically (see ``microsim.tables.exr``)."""
