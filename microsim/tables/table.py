@@ -18,6 +18,8 @@ import numpy as np
 from microsim.tables.binning import TWO_PI, HemisphereBins
 
 COMPONENTS = ("total", "single")
+CHUNK = 65536
+"""Direction pairs interpolated at once by ``eval`` and ``stderr``."""
 LOBE_FRACTION = 0.1
 """Lobe bins: where f_r (mean over RGB) is at least this fraction of the incidence's peak."""
 
@@ -244,21 +246,19 @@ class BRDFTable:
         return float(np.median(rel)) if rel.size else float("nan")
 
     # --- evaluation --------------------------------------------------------------------
-    def _stencil(self, wi: np.ndarray, wo: np.ndarray) -> tuple[tuple[int, ...], np.ndarray,
-                                                              np.ndarray, np.ndarray]:
+    def _stencil(self, wi: np.ndarray, wo: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The 16 interpolation nodes of each direction pair: linear in θi and φi between
         incidences, bilinear in (sin²θo, φo) between bin centres (clamped at the pole and
         the horizon, periodic in φo).
 
         Parameters
         ----------
-        wi, wo : (..., 3) float
+        wi, wo : (n, 3) float
             Unit directions, local frame.
 
         Returns
         -------
-        shape : tuple
-            The broadcast leading shape (...).
         nodes : (n, 16) int
             Flat indices into an (a·b·nt·np, 3) view of a table array.
         weights : (n, 16) float
@@ -267,9 +267,6 @@ class BRDFTable:
         above : (n,) bool
             Both directions strictly above the horizon.
         """
-        wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
-        shape = wi.shape[:-1]
-        wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
         theta_in = np.arccos(np.clip(wi[:, 2], -1.0, 1.0))
         phi_in = np.arctan2(wi[:, 1], wi[:, 0])
         phi_out = np.arctan2(wo[:, 1], wo[:, 0])
@@ -291,7 +288,26 @@ class BRDFTable:
             nodes = nodes * size + np.stack([i0, i1], -1)[at]
             weights = weights * np.stack([1.0 - w1, w1], -1)[at]
         above = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-        return shape, nodes.reshape(len(wi), 16), weights.reshape(len(wi), 16), above
+        return nodes.reshape(len(wi), 16), weights.reshape(len(wi), 16), above
+
+    def _per_pair(self, kernel: Any, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """``kernel(nodes, weights)`` over the direction pairs in chunks of ``CHUNK`` (the
+        16-node gathers stay a few tens of MB however many pairs), 0 where either direction
+        is at or below the horizon.
+
+        Returns
+        -------
+        (..., 3) float
+        """
+        wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
+        shape = wi.shape[:-1]
+        wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
+        out = np.zeros((len(wi), 3))
+        for start in range(0, len(wi), CHUNK):
+            sl = slice(start, start + CHUNK)
+            nodes, weights, above = self._stencil(wi[sl], wo[sl])
+            out[sl] = np.where(above[:, None], kernel(nodes, weights), 0.0)
+        return out.reshape(shape + (3,))
 
     def eval(self, wi: np.ndarray, wo: np.ndarray, component: str = "total") -> np.ndarray:
         """Interpolated f_r.
@@ -314,9 +330,8 @@ class BRDFTable:
             f_r in 1/sr per colour; 0 where either direction is at or below the horizon.
         """
         data = self.values[self._component(component)].reshape(-1, 3)
-        shape, nodes, weights, above = self._stencil(wi, wo)
-        out = np.einsum("nk,nkc->nc", weights, data[nodes])
-        return np.where(above[:, None], out, 0.0).reshape(shape + (3,))
+        return self._per_pair(lambda nodes, w: np.einsum("nk,nkc->nc", w, data[nodes]),
+                              wi, wo)
 
     def stderr(self, wi: np.ndarray, wo: np.ndarray, component: str = "total") -> np.ndarray:
         """Interpolated standard error of f_r, with the nodes of ``eval``.
@@ -339,15 +354,17 @@ class BRDFTable:
             Standard error of f_r in 1/sr per colour.
         """
         err = self.errors[self._component(component)].reshape(-1, 3)
-        shape, nodes, weights, above = self._stencil(wi, wo)
-        known = np.isfinite(err[nodes])                               # (n, 16, 3)
-        w = np.where(known, weights[..., None], 0.0)
-        total = w.sum(axis=1)
-        nearest = np.argmax(weights, axis=1)
-        undefined = ~np.take_along_axis(known, nearest[:, None, None], axis=1)[:, 0]
-        out = (w * np.nan_to_num(err[nodes])).sum(axis=1) / np.where(undefined, 1.0, total)
-        out = np.where(undefined, np.nan, out)
-        return np.where(above[:, None], out, 0.0).reshape(shape + (3,))
+
+        def kernel(nodes: np.ndarray, weights: np.ndarray) -> np.ndarray:
+            known = np.isfinite(err[nodes])                               # (n, 16, 3)
+            w = np.where(known, weights[..., None], 0.0)
+            nearest = np.argmax(weights, axis=1)
+            undefined = ~np.take_along_axis(known, nearest[:, None, None], axis=1)[:, 0]
+            out = (w * np.nan_to_num(err[nodes])).sum(axis=1) / np.where(
+                undefined, 1.0, w.sum(axis=1))
+            return np.where(undefined, np.nan, out)
+
+        return self._per_pair(kernel, wi, wo)
 
     def write(self, path: str | Path) -> None:
         """Write the table as OpenEXR, atomically (see ``microsim.tables.exr``)."""
