@@ -282,10 +282,12 @@ def load(path: str | Path, overrides: Iterable[str] = ()) -> dict:
         Also when a material's ``path`` names no file.
     """
     path = Path(path)
-    recipe = resolve(apply_overrides(read_toml(path), overrides))
+    raw = apply_overrides(read_toml(path), overrides)
+    recipe = resolve(raw)
+    one = "kind" in raw.get("material", {})  # one [material] for every part
     sections = [(recipe["surface"], SURFACE_KINDS[recipe["surface"]["kind"]].keys, "")]
-    sections += [(mat, MATERIAL_KINDS[mat["kind"]], f"material.{part}.")
-                 for part, mat in recipe["material"].items()]
+    sections += [(mat, MATERIAL_KINDS[mat["kind"]], "material." if one else
+                  f"material.{part}.") for part, mat in recipe["material"].items()]
     for section, keys, where in sections:
         for name, key in keys.items():
             if key.kind == "path" and name in section:
