@@ -67,6 +67,50 @@ def build(surface: Mapping[str, Any]) -> Tile:
     return tile
 
 
+def _face_field(surface: Mapping[str, Any]) -> tuple[int, float, float, np.ndarray]:
+    """The micro-roughness of a rough V-groove tile: grid size n, slope s (radians),
+    correlation length τ along a face, and the heights h (n, n) (see ``rough_faces``)."""
+    size = float(surface["size"])
+    n = int(surface.get("micro_resolution", MICRO_RESOLUTION))
+    s = math.radians(surface["slope"])
+    tau = surface.get("micro_correlation", DEFAULT_CELLS * size / n / math.cos(s))
+    h = heights(n, size, surface["micro_alpha"] * tau / 2, tau * math.cos(s), tau, 0.0,
+                np.random.default_rng(surface["seed"]))
+    return n, s, tau, h
+
+
+def face_roughness_tile(surface: Mapping[str, Any]) -> Tile:
+    """The micro-roughness a rough V-groove tile lays on its faces, laid flat instead.
+
+    The lower level of the matching two-level hierarchy of scale: the same heights h on
+    the grid x' = i·size/(n cos s), y = j·size/n (distances along a face), so the table
+    of this tile is the reflectance of exactly the roughness the faces carry
+    (docs/materials.md).
+
+    Parameters
+    ----------
+    surface : mapping
+        A resolved ``vgroove`` section with ``micro_alpha`` (see ``rough_faces``).
+
+    Returns
+    -------
+    Tile
+        Period (size / cos s, size); isotropic; ``info["alpha_realised"]``.
+    """
+    size = float(surface["size"])
+    n, s, tau, h = _face_field(surface)
+    g = np.linspace(0.0, size, n + 1)
+    x, y = np.meshgrid(g / math.cos(s), g, indexing="ij")
+    z = np.pad(h, ((0, 1), (0, 1)), mode="wrap")
+    faces = grid_faces(n + 1, n + 1)
+    tile = Tile(np.column_stack([x.ravel(), y.ravel(), z.ravel()]), faces,
+                np.zeros(len(faces), np.int32), ("base",), (size / math.cos(s), size),
+                info={"kind": "vgroove-face-roughness", "isotropic": True,
+                      "alpha_target": surface["micro_alpha"], "correlation_length": tau})
+    tile.info["alpha_realised"] = list(tile.realised_alpha())
+    return tile
+
+
 def rough_faces(surface: Mapping[str, Any]) -> Tile:
     """V-grooves of one slope s whose faces carry Gaussian micro-roughness.
 
@@ -94,13 +138,8 @@ def rough_faces(surface: Mapping[str, Any]) -> Tile:
         ``Tile.realised_alpha``).
     """
     size, grooves = float(surface["size"]), int(surface["grooves"])
-    n = int(surface.get("micro_resolution", MICRO_RESOLUTION))
-    s = math.radians(surface["slope"])
+    n, s, tau, h = _face_field(surface)
     cell = size / n
-    tau = surface.get("micro_correlation", DEFAULT_CELLS * cell / math.cos(s))
-    sigma = surface["micro_alpha"] * tau / 2
-    h = heights(n, size, sigma, tau * math.cos(s), tau, 0.0,
-                np.random.default_rng(surface["seed"]))
     m = n // (2 * grooves)  # grid columns per face
     k = np.arange(n) % (2 * m)
     junction = (k == 0) | (k == m)
