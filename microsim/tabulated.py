@@ -4,8 +4,10 @@ surfaces", SIGGRAPH '92, sec. 3: hierarchies of scale).
 
 A ray hitting a facet of kind ``table`` leaves in a direction importance-sampled from the
 table in the facet's local frame, and its weight is multiplied by the estimator's ratio
-f_r cos θo / pdf. docs/materials.md derives the weights; in short, with a table of bins
-b (projected solid angle Ω_b, values f_b,c for colour channel c) at one incidence node:
+f_r cos θo / pdf (the importance-sampled Monte Carlo estimator: Pharr, Jakob & Humphreys,
+PBR 4th ed., sec. 2.2.2). docs/materials.md derives the weights; in short, with a table of
+bins b (projected solid angle Ω_b, values f_b,c for colour channel c) at one incidence
+node:
 
 - a bin is chosen with probability P_b = g_b / Σ g, g_b = mean_c(f_b,c) Ω_b (the mean
   over R, G, B: every channel with energy in a bin gives the bin a positive probability);
@@ -17,7 +19,8 @@ b (projected solid angle Ω_b, values f_b,c for colour channel c) at one inciden
   channels are proportional) the ratio is 1 and the weight is the albedo itself.
 
 Incidence between the table's θi nodes picks the lower or upper node at random with the
-linear-interpolation weights, which makes the estimator unbiased for the BRDF linearly
+linear-interpolation weights (a one-sample estimate of the two-term mixture
+(1 − w) f(θ0) + w f(θ1)), which makes the estimator unbiased for the BRDF linearly
 interpolated in θi (and in φi, periodic, for anisotropic tables); incidence outside the
 nodes' range clamps to the nearest node. Within a bin the BRDF is taken as constant (the
 table's own piecewise-constant model), so an estimate made over a table reproduces the
