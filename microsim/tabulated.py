@@ -27,7 +27,7 @@ table's own piecewise-constant model), so an estimate made over a table reproduc
 table's bin values exactly in expectation.
 
 The facet frame: normal n (the face's unit normal), tangent t the projection of +x onto
-the facet plane, normalised (of +y where n is within 1e-6 of ±x), bitangent n × t. An
+the facet plane, normalised (of +y where |n_x| > 1 − 1e-6), bitangent n × t. An
 isotropic table's azimuths are relative to the incidence's, so only an anisotropic table
 depends on this choice; a V-groove along y or a cylinder along y then has t across the
 groove or around the cylinder.
