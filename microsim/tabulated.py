@@ -59,6 +59,11 @@ def file_digest(path: str | Path) -> str:
 def facet_frame(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Tangent and bitangent of each facet (the convention in the module docstring).
 
+    In closed form: with r = √(n_y² + n_z²) = |e_x − n_x n|, t = (e_x − n_x n) / r =
+    (r², −n_x n_y, −n_x n_z) / r and b = n × t = n × e_x / r = (0, n_z, −n_y) / r; where
+    |n_x| > 1 − 1e-6 the same with e_y: r = √(n_x² + n_z²), t = (−n_y n_x, r², −n_y n_z) / r,
+    b = n × e_y / r = (−n_z, 0, n_x) / r.
+
     Parameters
     ----------
     n : (k, 3) float
@@ -69,13 +74,19 @@ def facet_frame(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     t, b : (k, 3) float
         Unit tangent (+x projected onto the facet plane; +y where n is ±x) and n × t.
     """
-    axis = np.zeros_like(n)
-    along_x = 1.0 - np.abs(n[:, 0]) < 1e-6
-    axis[~along_x, 0] = 1.0
-    axis[along_x, 1] = 1.0
-    t = axis - np.einsum("ij,ij->i", axis, n)[:, None] * n
-    t /= np.linalg.norm(t, axis=1, keepdims=True)
-    return t, np.cross(n, t)
+    nx, ny, nz = n[:, 0], n[:, 1], n[:, 2]
+    zero = np.zeros_like(nx)
+    rx = np.sqrt(ny * ny + nz * nz)
+    t = np.stack([rx * rx, -nx * ny, -nx * nz], axis=1)
+    b = np.stack([zero, nz, -ny], axis=1)
+    r = rx
+    along_x = 1.0 - np.abs(nx) < 1e-6
+    if along_x.any():
+        ry = np.sqrt(nx * nx + nz * nz)
+        t[along_x] = np.stack([-ny * nx, ry * ry, -ny * nz], axis=1)[along_x]
+        b[along_x] = np.stack([-nz, zero, nx], axis=1)[along_x]
+        r = np.where(along_x, ry, rx)
+    return t / r[:, None], b / r[:, None]
 
 
 class TabulatedMaterial:
