@@ -145,7 +145,8 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
     ),
     "vgroove": SurfaceKind(
         "Symmetric V-grooves along y (Torrance-Sparrow cavities): one slope angle for "
-        "every groove, or slopes drawn from a Beckmann distribution of roughness alpha.",
+        "every groove, or slopes drawn from a Beckmann distribution of roughness alpha; "
+        "with slope, optionally Gaussian micro-roughness on every face (micro_alpha).",
         ("base",),
         {
             "slope": _f("Slope angle of every groove face (give slope or alpha).", None,
