@@ -26,11 +26,13 @@ nodes' range clamps to the nearest node. Within a bin the BRDF is taken as const
 table's own piecewise-constant model), so an estimate made over a table reproduces the
 table's bin values exactly in expectation.
 
-The facet frame: normal n (the face's unit normal), tangent t the projection of +x onto
-the facet plane, normalised (of +y where |n_x| > 1 − 1e-6), bitangent n × t. An
-isotropic table's azimuths are relative to the incidence's, so only an anisotropic table
-depends on this choice; a V-groove along y or a cylinder along y then has t across the
-groove or around the cylinder.
+The facet frame: normal n (the face's unit normal), tangent t the projection of the
+material's ``tangent`` axis (+x by default, or +y) onto the facet plane, normalised (the
+other axis where n lies along it), bitangent n × t. An isotropic table's azimuths are
+relative to the incidence's, so only an anisotropic table depends on this choice; with +x
+a V-groove or a cylinder along y has t across the groove or around the cylinder, with +y
+along it; a weave's weft (along x) and warp (along y) parts name their own axis, so that
+t runs along every yarn.
 """
 
 from __future__ import annotations
@@ -56,37 +58,47 @@ def file_digest(path: str | Path) -> str:
     return digest.hexdigest()
 
 
-def facet_frame(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Tangent and bitangent of each facet (the convention in the module docstring).
+AXES = ("x", "y")
+"""Tangent axes a table material may name (``tangent`` in a recipe)."""
 
-    In closed form: with r = √(n_y² + n_z²) = |e_x − n_x n|, t = (e_x − n_x n) / r =
-    (r², −n_x n_y, −n_x n_z) / r and b = n × t = n × e_x / r = (0, n_z, −n_y) / r; where
-    |n_x| > 1 − 1e-6 the same with e_y: r = √(n_x² + n_z²), t = (−n_y n_x, r², −n_y n_z) / r,
-    b = n × e_y / r = (−n_z, 0, n_x) / r.
+
+def _frame_about(n: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
+    """t = (e − (n·e) n) / r and b = n × e / r for the unit axis e = e_axis (x or y),
+    r = |e − (n·e) n| = √(sum of the squares of n's other two components)."""
+    nx, ny, nz = n[:, 0], n[:, 1], n[:, 2]
+    t = -n[:, axis, None] * n
+    t[:, axis] += 1.0
+    if axis == 0:
+        r = np.sqrt(ny * ny + nz * nz)
+        b = np.stack([np.zeros_like(nx), nz, -ny], axis=1)
+    else:
+        r = np.sqrt(nx * nx + nz * nz)
+        b = np.stack([-nz, np.zeros_like(ny), nx], axis=1)
+    return t / r[:, None], b / r[:, None]
+
+
+def facet_frame(n: np.ndarray, axis: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Tangent and bitangent of each facet (the convention in the module docstring).
 
     Parameters
     ----------
     n : (k, 3) float
         Unit facet normals.
+    axis : int
+        0: the tangent is +x projected onto the facet plane; 1: +y. Where n lies along
+        that axis (|n·e| > 1 − 1e-6) the other axis is used.
 
     Returns
     -------
     t, b : (k, 3) float
-        Unit tangent (+x projected onto the facet plane; +y where n is ±x) and n × t.
+        Unit tangent and bitangent n × t.
     """
-    nx, ny, nz = n[:, 0], n[:, 1], n[:, 2]
-    zero = np.zeros_like(nx)
-    rx = np.sqrt(ny * ny + nz * nz)
-    t = np.stack([rx * rx, -nx * ny, -nx * nz], axis=1)
-    b = np.stack([zero, nz, -ny], axis=1)
-    r = rx
-    along_x = 1.0 - np.abs(nx) < 1e-6
-    if along_x.any():
-        ry = np.sqrt(nx * nx + nz * nz)
-        t[along_x] = np.stack([-ny * nx, ry * ry, -ny * nz], axis=1)[along_x]
-        b[along_x] = np.stack([-nz, zero, nx], axis=1)[along_x]
-        r = np.where(along_x, ry, rx)
-    return t / r[:, None], b / r[:, None]
+    t, b = _frame_about(n, axis)
+    along = 1.0 - np.abs(n[:, axis]) < 1e-6
+    if along.any():
+        t2, b2 = _frame_about(n[along], 1 - axis)
+        t[along], b[along] = t2, b2
+    return t, b
 
 
 class TabulatedMaterial:
@@ -98,6 +110,8 @@ class TabulatedMaterial:
         The lower-scale BRDF (values must be finite and non-negative).
     component : str
         ``"total"`` (all scattering orders of the lower scale) or ``"single"``.
+    tangent : str
+        ``"x"`` or ``"y"``: the axis whose projection onto a facet is the table's φ = 0.
     source : dict or None
         Provenance recorded by tables made with this material (path, digest, component).
 
@@ -113,10 +127,13 @@ class TabulatedMaterial:
         Directional albedo Σ_b f_b Ω_b of the piecewise-constant table per node.
     """
 
-    def __init__(self, table: BRDFTable, component: str = "total",
+    def __init__(self, table: BRDFTable, component: str = "total", tangent: str = "x",
                  source: dict[str, Any] | None = None) -> None:
         if component not in COMPONENTS:
             raise ValueError(f"component must be one of {COMPONENTS}, got {component!r}")
+        if tangent not in AXES:
+            raise ValueError(f"tangent must be one of {AXES}, got {tangent!r}")
+        self.axis = AXES.index(tangent)
         values = table.values[component]
         if not np.all(np.isfinite(values)) or np.any(values < 0):
             raise ValueError("a table material needs finite, non-negative values")
@@ -142,7 +159,8 @@ class TabulatedMaterial:
             self.weight = np.where(g[..., None] > 0, energy * (total / g)[..., None], 0.0)
 
     @classmethod
-    def load(cls, path: str | Path, component: str, key: str) -> TabulatedMaterial:
+    def load(cls, path: str | Path, component: str, key: str, tangent: str = "x"
+             ) -> TabulatedMaterial:
         """Read a table file for a facet material.
 
         Parameters
@@ -153,6 +171,8 @@ class TabulatedMaterial:
             ``"total"`` or ``"single"``.
         key : str
             The recipe key naming the file, for error messages (``material.<part>.path``).
+        tangent : str
+            ``"x"`` or ``"y"`` (see the class).
 
         Raises
         ------
@@ -166,7 +186,7 @@ class TabulatedMaterial:
         source = {"path": str(Path(path).resolve()), "sha256": file_digest(path),
                   "component": component}
         try:
-            return cls(table, component, source)
+            return cls(table, component, tangent, source)
         except ValueError as exc:
             raise InputError(f"{key} = {str(path)!r}: {exc}") from None
 
@@ -193,7 +213,7 @@ class TabulatedMaterial:
         """
         table, bins = self.table, self.table.bins
         u = rng.random((len(d), 6))
-        t, b = facet_frame(n)
+        t, b = facet_frame(n, self.axis)
         wi = -d
         x, y = np.einsum("ij,ij->i", wi, t), np.einsum("ij,ij->i", wi, b)
         theta = np.arccos(np.clip(np.einsum("ij,ij->i", wi, n), -1.0, 1.0))
