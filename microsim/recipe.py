@@ -57,9 +57,9 @@ MATERIAL_KINDS: dict[str, dict[str, Key]] = {
         "component": Key("str", "total", "The table's component the facets reflect: all "
                          "scattering orders of the lower scale, or single scattering.",
                          choices=("total", "single")),
-        "tangent": Key("str", "x", "Axis whose projection onto each facet is the table's "
-                       "phi = 0 (matters for anisotropic tables only): x, or y (e.g. along "
-                       "cylinders or warp yarns, which run along y).", choices=("x", "y")),
+        "tangent": Key("str", "x", "Axis whose projection t onto each facet is the "
+                       "table's x axis (phi = 0); the table's y axis lies along n x t. "
+                       "Matters for anisotropic tables only.", choices=("x", "y")),
     },
 }
 MATERIAL_DOCS = {

@@ -29,10 +29,10 @@ table's bin values exactly in expectation.
 The facet frame: normal n (the face's unit normal), tangent t the projection of the
 material's ``tangent`` axis (+x by default, or +y) onto the facet plane, normalised (the
 other axis where n lies along it), bitangent n × t. An isotropic table's azimuths are
-relative to the incidence's, so only an anisotropic table depends on this choice; with +x
-a V-groove or a cylinder along y has t across the groove or around the cylinder, with +y
-along it; a weave's weft (along x) and warp (along y) parts name their own axis, so that
-t runs along every yarn.
+relative to the incidence's, so only an anisotropic table depends on this choice: its x
+axis (φ = 0) lies along t, its y axis along n × t. With +x a V-groove or a cylinder along
+y has t across the groove or around the cylinder, with +y along it; a weave's weft (along
+x) and warp (along y) parts name their own axis (docs/materials.md).
 """
 
 from __future__ import annotations
