@@ -107,7 +107,7 @@ class FacetMaterials:
         self.face_material = np.asarray(face_material, np.int64)
         self.specs = [dict(materials[p]) for p in parts]
         self.tables = {m: TabulatedMaterial.load(spec["path"], spec["component"],
-                                                 f"material.{parts[m]}.path", spec["tangent"])
+                                                 f"material.{parts[m]}.path", spec["axis"])
                        for m, spec in enumerate(self.specs) if spec["kind"] == "table"}
         self.inputs = [{"part": parts[m], **t.source} for m, t in self.tables.items()]
 

@@ -57,9 +57,10 @@ MATERIAL_KINDS: dict[str, dict[str, Key]] = {
         "component": Key("str", "total", "The table's component the facets reflect: all "
                          "scattering orders of the lower scale, or single scattering.",
                          choices=("total", "single")),
-        "tangent": Key("str", "x", "Axis whose projection t onto each facet is the "
-                       "table's x axis (phi = 0); the table's y axis lies along n x t. "
-                       "Matters for anisotropic tables only.", choices=("x", "y")),
+        "axis": Key("str", "y", "World axis whose projection onto each facet is the "
+                    "table's y axis (its x axis, phi = 0, is that projection times the "
+                    "normal), e.g. the axis a yarn runs along. Matters for anisotropic "
+                    "tables only.", choices=("x", "y")),
     },
 }
 MATERIAL_DOCS = {

@@ -26,13 +26,14 @@ nodes' range clamps to the nearest node. Within a bin the BRDF is taken as const
 table's own piecewise-constant model), so an estimate made over a table reproduces the
 table's bin values exactly in expectation.
 
-The facet frame: normal n (the face's unit normal), tangent t the projection of the
-material's ``tangent`` axis (+x by default, or +y) onto the facet plane, normalised (the
-other axis where n lies along it), bitangent n × t. An isotropic table's azimuths are
-relative to the incidence's, so only an anisotropic table depends on this choice: its x
-axis (φ = 0) lies along t, its y axis along n × t. With +x a V-groove or a cylinder along
-y has t across the groove or around the cylinder, with +y along it; a weave's weft (along
-x) and warp (along y) parts name their own axis (docs/materials.md).
+The facet frame: normal n (the face's unit normal), bitangent b the projection of the
+material's ``axis`` (+y by default, or +x) onto the facet plane, normalised (the other
+axis where n lies along it), tangent t = b × n. The table's x axis (φ = 0) lies along t,
+its y axis along b. An isotropic table's azimuths are relative to the incidence's, so only
+an anisotropic table depends on this choice. On a flat facet the default frame is the
+world's; a facet of a V-groove or a cylinder along y keeps b along the groove or the
+cylinder, and a yarn's facets keep b along the yarn when its part names the axis the yarn
+runs along (docs/materials.md).
 """
 
 from __future__ import annotations
@@ -59,25 +60,25 @@ def file_digest(path: str | Path) -> str:
 
 
 AXES = ("x", "y")
-"""Tangent axes a table material may name (``tangent`` in a recipe)."""
+"""World axes a table material may name (``axis`` in a recipe)."""
 
 
-def _frame_about(n: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
-    """t = (e − (n·e) n) / r and b = n × e / r for the unit axis e = e_axis (x or y),
-    r = |e − (n·e) n| = √(sum of the squares of n's other two components)."""
+def _frame_along(n: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
+    """b = (e − (n·e) n) / r and t = b × n = (e × n) / r for the unit axis e = e_axis
+    (x or y), r = |e − (n·e) n| = √(sum of the squares of n's other two components)."""
     nx, ny, nz = n[:, 0], n[:, 1], n[:, 2]
-    t = -n[:, axis, None] * n
-    t[:, axis] += 1.0
+    b = -n[:, axis, None] * n
+    b[:, axis] += 1.0
     if axis == 0:
         r = np.sqrt(ny * ny + nz * nz)
-        b = np.stack([np.zeros_like(nx), nz, -ny], axis=1)
+        t = np.stack([np.zeros_like(nx), -nz, ny], axis=1)
     else:
         r = np.sqrt(nx * nx + nz * nz)
-        b = np.stack([-nz, np.zeros_like(ny), nx], axis=1)
+        t = np.stack([nz, np.zeros_like(ny), -nx], axis=1)
     return t / r[:, None], b / r[:, None]
 
 
-def facet_frame(n: np.ndarray, axis: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def facet_frame(n: np.ndarray, axis: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Tangent and bitangent of each facet (the convention in the module docstring).
 
     Parameters
@@ -85,18 +86,19 @@ def facet_frame(n: np.ndarray, axis: int = 0) -> tuple[np.ndarray, np.ndarray]:
     n : (k, 3) float
         Unit facet normals.
     axis : int
-        0: the tangent is +x projected onto the facet plane; 1: +y. Where n lies along
-        that axis (|n·e| > 1 − 1e-6) the other axis is used.
+        0 (x) or 1 (y): the world axis whose projection onto the facet plane is the
+        bitangent. Where n lies along it (|n·e| > 1 − 1e-6) the other axis is used.
 
     Returns
     -------
     t, b : (k, 3) float
-        Unit tangent and bitangent n × t.
+        Unit tangent t = b × n (the table's x axis) and bitangent b (its y axis), so that
+        (t, b, n) is right-handed.
     """
-    t, b = _frame_about(n, axis)
+    t, b = _frame_along(n, axis)
     along = 1.0 - np.abs(n[:, axis]) < 1e-6
     if along.any():
-        t2, b2 = _frame_about(n[along], 1 - axis)
+        t2, b2 = _frame_along(n[along], 1 - axis)
         t[along], b[along] = t2, b2
     return t, b
 
@@ -110,8 +112,9 @@ class TabulatedMaterial:
         The lower-scale BRDF (values must be finite and non-negative).
     component : str
         ``"total"`` (all scattering orders of the lower scale) or ``"single"``.
-    tangent : str
-        ``"x"`` or ``"y"``: the axis whose projection onto a facet is the table's φ = 0.
+    axis : str
+        ``"y"`` or ``"x"``: the world axis whose projection onto a facet is the table's
+        y axis (``facet_frame``).
     source : dict or None
         Provenance recorded by tables made with this material (path, digest, component).
 
@@ -127,13 +130,13 @@ class TabulatedMaterial:
         Directional albedo Σ_b f_b Ω_b of the piecewise-constant table per node.
     """
 
-    def __init__(self, table: BRDFTable, component: str = "total", tangent: str = "x",
+    def __init__(self, table: BRDFTable, component: str = "total", axis: str = "y",
                  source: dict[str, Any] | None = None) -> None:
         if component not in COMPONENTS:
             raise ValueError(f"component must be one of {COMPONENTS}, got {component!r}")
-        if tangent not in AXES:
-            raise ValueError(f"tangent must be one of {AXES}, got {tangent!r}")
-        self.axis = AXES.index(tangent)
+        if axis not in AXES:
+            raise ValueError(f"axis must be one of {AXES}, got {axis!r}")
+        self.axis = AXES.index(axis)
         values = table.values[component]
         if not np.all(np.isfinite(values)) or np.any(values < 0):
             raise ValueError("a table material needs finite, non-negative values")
@@ -159,7 +162,7 @@ class TabulatedMaterial:
             self.weight = np.where(g[..., None] > 0, energy * (total / g)[..., None], 0.0)
 
     @classmethod
-    def load(cls, path: str | Path, component: str, key: str, tangent: str = "x"
+    def load(cls, path: str | Path, component: str, key: str, axis: str = "y"
              ) -> TabulatedMaterial:
         """Read a table file for a facet material.
 
@@ -171,8 +174,8 @@ class TabulatedMaterial:
             ``"total"`` or ``"single"``.
         key : str
             The recipe key naming the file, for error messages (``material.<part>.path``).
-        tangent : str
-            ``"x"`` or ``"y"`` (see the class).
+        axis : str
+            ``"y"`` or ``"x"`` (see the class).
 
         Raises
         ------
@@ -186,7 +189,7 @@ class TabulatedMaterial:
         source = {"path": str(Path(path).resolve()), "sha256": file_digest(path),
                   "component": component}
         try:
-            return cls(table, component, tangent, source)
+            return cls(table, component, axis, source)
         except ValueError as exc:
             raise InputError(f"{key} = {str(path)!r}: {exc}") from None
 
