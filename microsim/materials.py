@@ -14,6 +14,8 @@ transmitted``, is absorbed (by a conductor or a diffuse facet).
 - ``lambertian``: cosine-weighted direction about the facet normal, factor the albedo (the
   cosine-weighted pdf cancels the BRDF's cosine: Pharr, Jakob & Humphreys, PBR 4th ed.,
   sec. 13.6.3 and 4.5.1).
+- ``table``: a direction importance-sampled from a simulated BRDF table in the facet's
+  frame, factor f_r cos / pdf (``microsim.tabulated``; hierarchies of scale).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
+from microsim.tabulated import TabulatedMaterial
 
 
 def reflect(d: np.ndarray, n: np.ndarray) -> np.ndarray:
@@ -85,12 +88,28 @@ class FacetMaterials:
         Part names.
     materials : mapping of str to dict
         A resolved ``[material.<part>]`` section per part (``kind`` and its keys).
+
+    Attributes
+    ----------
+    tables : dict of int to TabulatedMaterial
+        The loaded table of each part of kind ``table`` (by material id).
+    inputs : list of dict
+        Provenance of those tables: ``part``, ``path``, ``sha256``, ``component``.
+
+    Raises
+    ------
+    InputError
+        If a table file is missing or unusable (naming ``material.<part>.path``).
     """
 
     def __init__(self, face_material: np.ndarray, parts: Sequence[str],
                  materials: Mapping[str, Mapping[str, Any]]) -> None:
         self.face_material = np.asarray(face_material, np.int64)
         self.specs = [dict(materials[p]) for p in parts]
+        self.tables = {m: TabulatedMaterial.load(spec["path"], spec["component"],
+                                                 f"material.{parts[m]}.path", spec["axis"])
+                       for m, spec in enumerate(self.specs) if spec["kind"] == "table"}
+        self.inputs = [{"part": parts[m], **t.source} for m, t in self.tables.items()]
 
     def scatter(self, faces: np.ndarray, d: np.ndarray, n: np.ndarray,
                 rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -112,7 +131,8 @@ class FacetMaterials:
         out : (k, 3) float
             New unit directions.
         factor : (k, 3) float
-            RGB weight factor, in [0, 1].
+            RGB weight factor, in [0, 1] (one ray's channel of a ``table`` may exceed 1;
+            its mean does not).
         transmitted : (k, 3) float
             Fraction of the weight refracted into the material (dielectrics), in [0, 1].
         """
@@ -134,6 +154,9 @@ class FacetMaterials:
             if kind == "lambertian":
                 out[sel] = cosine_about(ns, rng.random((count, 2)))
                 factor[sel] = np.broadcast_to(spec["albedo"], (count, 3))
+                continue
+            if kind == "table":
+                out[sel], factor[sel] = self.tables[m].scatter(ds, ns, rng)
                 continue
             out[sel] = reflect(ds, ns)
             if kind == "mirror":

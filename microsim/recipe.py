@@ -51,6 +51,17 @@ MATERIAL_KINDS: dict[str, dict[str, Key]] = {
     "lambertian": {
         "albedo": Key("rgb", 0.8, "Diffuse reflectance (R, G, B).", low=0.0, high=1.0),
     },
+    "table": {
+        "path": Key("path", REQUIRED, "BRDF table (.exr, as `microsim simulate` writes "
+                    "it), relative to the recipe's folder."),
+        "component": Key("str", "total", "The table's component the facets reflect: all "
+                         "scattering orders of the lower scale, or single scattering.",
+                         choices=("total", "single")),
+        "axis": Key("str", "y", "World axis whose projection onto each facet is the "
+                    "table's y axis (its x axis, phi = 0, is that projection times the "
+                    "normal), e.g. the axis a yarn runs along. Matters for anisotropic "
+                    "tables only.", choices=("x", "y")),
+    },
 }
 MATERIAL_DOCS = {
     "mirror": "Perfect specular reflection, F = 1.",
@@ -58,6 +69,9 @@ MATERIAL_DOCS = {
     "dielectric": "Specular reflection with dielectric Fresnel; the refracted part is "
     "absorbed and reported as lost energy.",
     "lambertian": "Cosine-weighted diffuse reflection with the given albedo.",
+    "table": "Reflection importance-sampled from a simulated BRDF table in the facet's "
+    "local frame, weighted by the table's albedo (hierarchies of scale; "
+    "docs/materials.md).",
 }
 
 # --- simulation and table ---------------------------------------------------------------
@@ -262,15 +276,30 @@ def load(path: str | Path, overrides: Iterable[str] = ()) -> dict:
     Returns
     -------
     dict
-        The resolved recipe. Relative ``path`` keys (e.g. ``surface.path`` of a ``mesh``
-        surface) are made absolute against the recipe's folder.
+        The resolved recipe. Relative ``path`` keys (``surface.path`` of a ``mesh``
+        surface, ``material.<part>.path`` of a ``table`` material) are made absolute
+        against the recipe's folder.
+
+    Raises
+    ------
+    InputError
+        Also when a material's ``path`` names no file.
     """
     path = Path(path)
-    recipe = resolve(apply_overrides(read_toml(path), overrides))
-    for section in ("surface",):
-        for name, key in SURFACE_KINDS[recipe["surface"]["kind"]].keys.items():
-            if key.kind == "path" and name in recipe[section]:
-                recipe[section][name] = str((path.parent / recipe[section][name]).resolve())
+    raw = apply_overrides(read_toml(path), overrides)
+    recipe = resolve(raw)
+    one = "kind" in raw.get("material", {})  # one [material] for every part
+    sections = [(recipe["surface"], SURFACE_KINDS[recipe["surface"]["kind"]].keys, "")]
+    sections += [(mat, MATERIAL_KINDS[mat["kind"]], "material." if one else
+                  f"material.{part}.") for part, mat in recipe["material"].items()]
+    for section, keys, where in sections:
+        for name, key in keys.items():
+            if key.kind == "path" and name in section:
+                given = section[name]
+                section[name] = str((path.parent / given).resolve())
+                if where and not Path(section[name]).is_file():
+                    raise InputError(f"{where}{name} = {given!r}: no such file "
+                                     f"({section[name]})")
     return recipe
 
 

@@ -45,6 +45,8 @@ def _f(doc: str, default: Any = REQUIRED, **kw: Any) -> Key:
     return Key("float", default, doc, **kw)
 
 
+MICRO_RESOLUTION = 512
+"""Default grid of a ``vgroove`` tile with micro-roughness (columns and rows)."""
 SEED = Key("int", 0, "Seed of the generator's random numbers.", low=0, high=2**63 - 1)
 SIZE = _f("Tile side length (period along x and y).", 1.0, unit="length", low=0.0,
           low_open=True)
@@ -67,6 +69,16 @@ def _check_gaussian(s: dict[str, Any]) -> None:
 def _check_vgroove(s: dict[str, Any]) -> None:
     if ("slope" in s) == ("alpha" in s):
         raise InputError("surface: a vgroove surface takes exactly one of slope, alpha")
+    if "micro_alpha" not in s:
+        return
+    if "slope" not in s:
+        raise InputError("surface.micro_alpha: needs slope (one slope for every groove), "
+                         "not alpha")
+    n = s.get("micro_resolution", MICRO_RESOLUTION)
+    if n % (2 * s["grooves"]):
+        raise InputError(f"surface.micro_resolution = {n!r}: must be a "
+                         f"multiple of 2 * grooves = {2 * s['grooves']} (whole grid columns "
+                         "per groove face)")
 
 
 def _check_velvet(s: dict[str, Any]) -> None:
@@ -133,7 +145,8 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
     ),
     "vgroove": SurfaceKind(
         "Symmetric V-grooves along y (Torrance-Sparrow cavities): one slope angle for "
-        "every groove, or slopes drawn from a Beckmann distribution of roughness alpha.",
+        "every groove, or slopes drawn from a Beckmann distribution of roughness alpha; "
+        "with slope, optionally Gaussian micro-roughness on every face (micro_alpha).",
         ("base",),
         {
             "slope": _f("Slope angle of every groove face (give slope or alpha).", None,
@@ -142,11 +155,21 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
                         "this roughness (give slope or alpha).", None, low=0.0,
                         low_open=True, high=10.0),
             "grooves": Key("int", 64, "Grooves per tile.", low=1, high=1_000_000),
+            "micro_alpha": _f("Gaussian micro-roughness alpha of every groove face, "
+                              "displaced along the face's normal (with slope); optional.",
+                              None, low=0.0, low_open=True, high=2.0),
+            "micro_resolution": Key("int", None, "Grid columns (and rows) of a tile with "
+                                    f"micro_alpha; a multiple of 2 * grooves. Default: "
+                                    f"{MICRO_RESOLUTION}.", low=8, high=8192),
+            "micro_correlation": _f("Correlation length of the micro-roughness along a "
+                                    "face. Default: 8 grid cells measured along the face.",
+                                    None, unit="length", low=0.0, low_open=True),
             "size": SIZE,
             "seed": SEED,
         },
         _check_vgroove,
-        lambda s: 4 * s["grooves"],
+        lambda s: (2 * s.get("micro_resolution", MICRO_RESOLUTION) ** 2
+                   if "micro_alpha" in s else 4 * s["grooves"]),
     ),
     "cylinders": SurfaceKind(
         "Parallel circular cylinders along y lying on (or sunk into) a flat base plane: "

@@ -1,4 +1,10 @@
-"""Symmetric V-grooves along y: Torrance & Sparrow's (1967) cavities as a periodic tile."""
+"""Symmetric V-grooves along y: Torrance & Sparrow's (1967) cavities as a periodic tile.
+
+With ``micro_alpha`` every groove face also carries a Gaussian random micro-roughness,
+displaced along the face's own normal, so that in each face's frame the roughness is the
+same stationary field a flat ``gaussian`` surface has: the direct (one-level) geometry of
+a two-level hierarchy of scale (docs/materials.md).
+"""
 
 from __future__ import annotations
 
@@ -8,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from microsim.surfaces.gaussian import DEFAULT_CELLS, heights
+from microsim.surfaces.params import MICRO_RESOLUTION
 from microsim.surfaces.tile import Tile, grid_faces
 
 
@@ -21,11 +29,13 @@ def build(surface: Mapping[str, Any]) -> Tile:
     represented in the projected area). With ``alpha``, tan s of each groove is
     |N(0, α²/2)|: the per-axis slope distribution of a Beckmann surface of roughness α
     across the grooves (Walter et al. 2007: Beckmann slopes have per-axis variance α²/2).
+    With ``micro_alpha`` (and ``slope``) the faces are rough: see ``rough_faces``.
 
     Parameters
     ----------
     surface : mapping
-        Kind ``vgroove``: ``slope`` (degrees) or ``alpha``, ``grooves``, ``size``, ``seed``.
+        Kind ``vgroove``: ``slope`` (degrees) or ``alpha``, ``grooves``, ``size``, ``seed``,
+        optionally ``micro_alpha``, ``micro_resolution``, ``micro_correlation``.
 
     Returns
     -------
@@ -33,6 +43,8 @@ def build(surface: Mapping[str, Any]) -> Tile:
         Anisotropic (``info["isotropic"] = False``); ``info["slopes_deg"]`` per groove.
     """
     size, grooves = float(surface["size"]), int(surface["grooves"])
+    if "micro_alpha" in surface:
+        return rough_faces(surface)
     if "slope" in surface:
         tan_s = np.full(grooves, math.tan(math.radians(surface["slope"])))
     else:
@@ -52,4 +64,110 @@ def build(surface: Mapping[str, Any]) -> Tile:
     if "alpha" in surface:
         rx, ry = tile.realised_alpha()
         tile.info.update(alpha_target=surface["alpha"], alpha_realised_x=rx)
+    return tile
+
+
+def _face_field(surface: Mapping[str, Any]) -> tuple[int, float, float, np.ndarray]:
+    """The micro-roughness of a rough V-groove tile: grid size n, slope s (radians),
+    correlation length τ along a face, and the heights h (n, n) (see ``rough_faces``)."""
+    size = float(surface["size"])
+    n = int(surface.get("micro_resolution", MICRO_RESOLUTION))
+    s = math.radians(surface["slope"])
+    tau = surface.get("micro_correlation", DEFAULT_CELLS * size / n / math.cos(s))
+    h = heights(n, size, surface["micro_alpha"] * tau / 2, tau * math.cos(s), tau, 0.0,
+                np.random.default_rng(surface["seed"]))
+    return n, s, tau, h
+
+
+def face_roughness_tile(surface: Mapping[str, Any]) -> Tile:
+    """The micro-roughness a rough V-groove tile lays on its faces, laid flat instead.
+
+    The lower level of the matching two-level hierarchy of scale: the same heights h on
+    the grid x' = i·size/(n cos s), y = j·size/n (distances along a face), so the table
+    of this tile is the reflectance of exactly the roughness the faces carry
+    (docs/materials.md).
+
+    Parameters
+    ----------
+    surface : mapping
+        A resolved ``vgroove`` section with ``micro_alpha`` (see ``rough_faces``).
+
+    Returns
+    -------
+    Tile
+        Period (size / cos s, size); isotropic; ``info["alpha_realised"]``.
+    """
+    size = float(surface["size"])
+    n, s, tau, h = _face_field(surface)
+    g = np.linspace(0.0, size, n + 1)
+    x, y = np.meshgrid(g / math.cos(s), g, indexing="ij")
+    z = np.pad(h, ((0, 1), (0, 1)), mode="wrap")
+    faces = grid_faces(n + 1, n + 1)
+    tile = Tile(np.column_stack([x.ravel(), y.ravel(), z.ravel()]), faces,
+                np.zeros(len(faces), np.int32), ("base",), (size / math.cos(s), size),
+                info={"kind": "vgroove-face-roughness", "isotropic": True,
+                      "alpha_target": surface["micro_alpha"], "correlation_length": tau})
+    tile.info["alpha_realised"] = list(tile.realised_alpha())
+    return tile
+
+
+def rough_faces(surface: Mapping[str, Any]) -> Tile:
+    """V-grooves of one slope s whose faces carry Gaussian micro-roughness.
+
+    An n × n grid (n = ``micro_resolution``, columns x_i = i·size/n) follows the grooves;
+    a periodic Gaussian field h (``microsim.surfaces.gaussian.heights``, autocorrelation
+    σ² exp(−(x'² + y²)/τ²) in the face's coordinates, σ = micro_alpha·τ/2) displaces
+    every vertex of a face by h along that face's normal. Distances along a face are
+    x' = x / cos s, so the field is synthesised with correlation length τ cos s along x.
+    Vertices on a ridge or valley line, shared by two faces, move by h / cos s along +z
+    (the bisector of the two normals), which keeps the mesh closed; a few facets there
+    may overhang.
+
+    Parameters
+    ----------
+    surface : mapping
+        Kind ``vgroove`` with ``slope`` (degrees), ``micro_alpha``, optional
+        ``micro_resolution`` (a multiple of 2·grooves; default ``MICRO_RESOLUTION``) and
+        ``micro_correlation``, ``grooves``, ``size``, ``seed``.
+
+    Returns
+    -------
+    Tile
+        2 n² faces; ``info`` adds ``micro_alpha_target`` and ``micro_alpha_realised``
+        (from the facet normals in their face's frame, x' and y; see
+        ``Tile.realised_alpha``).
+    """
+    size, grooves = float(surface["size"]), int(surface["grooves"])
+    n, s, tau, h = _face_field(surface)
+    cell = size / n
+    m = n // (2 * grooves)  # grid columns per face
+    k = np.arange(n) % (2 * m)
+    junction = (k == 0) | (k == m)
+    # face of each column: +1 falling (normal (sin s, 0, cos s)), -1 rising, 0 on a line
+    side = np.where(junction, 0.0, np.where(k < m, 1.0, -1.0))
+    shift_x = h * (side * math.sin(s))[:, None]
+    shift_z = h * np.where(junction, 1.0 / math.cos(s), math.cos(s))[:, None]
+    z0 = -math.tan(s) * cell * np.minimum(k, 2 * m - k)
+    g = np.linspace(0.0, size, n + 1)
+    x, y = np.meshgrid(g, g, indexing="ij")
+    x = x + np.pad(shift_x, ((0, 1), (0, 1)), mode="wrap")
+    z = np.pad(z0[:, None] + shift_z, ((0, 1), (0, 1)), mode="wrap")
+    faces = grid_faces(n + 1, n + 1)
+    tile = Tile(np.column_stack([x.ravel(), y.ravel(), z.ravel()]), faces,
+                np.zeros(len(faces), np.int32), ("base",), (size, size),
+                info={"kind": "vgroove", "isotropic": False,
+                      "slopes_deg": [surface["slope"]] * grooves,
+                      "micro_alpha_target": surface["micro_alpha"],
+                      "micro_correlation_length": tau})
+    # facet normals in their face's frame (face of the grid column a facet starts in)
+    normals, areas = tile.face_normals_areas()
+    face_side = np.where(k < m, 1.0, -1.0)[faces[:, 0] // (n + 1)]
+    sin_f, cos_f = face_side * math.sin(s), math.cos(s)
+    nz = normals[:, 0] * sin_f + normals[:, 2] * cos_f
+    nx = normals[:, 0] * cos_f - normals[:, 2] * sin_f
+    up = nz > 0
+    weight = areas[up] * nz[up]
+    ax, ay = (math.sqrt(2 * np.sum(weight * (c[up] / nz[up]) ** 2) / weight.sum())
+              for c in (nx, normals[:, 1]))
+    tile.info.update(micro_alpha_realised=[ax, ay])
     return tile

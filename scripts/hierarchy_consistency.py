@@ -1,0 +1,48 @@
+"""Two tables of the same surface against each other: a hierarchy of scale and its
+one-level reference (docs/materials.md).
+
+Usage::
+
+    microsim simulate surfaces/gaussian-0.3-facets.toml
+    microsim simulate surfaces/vgroove-rough-facets.toml
+    microsim simulate surfaces/vgroove-rough-direct.toml
+    python scripts/hierarchy_consistency.py tables/vgroove-rough-facets.exr \\
+        tables/vgroove-rough-direct.exr [--json]
+
+Prints per incidence the albedos (mean over RGB) and their difference with its standard
+error, the share of reflected energy the first table places differently from the second
+(L1), the L1 that noise alone gives, and the RMS z of the bin differences.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from microsim.compare import table_difference
+from microsim.tables.exr import read_table
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("a", help="table (.exr), e.g. the two-level simulation")
+    parser.add_argument("b", help="table (.exr) with the same axes, e.g. the one-level one")
+    parser.add_argument("--component", choices=("total", "single"), default="total")
+    parser.add_argument("--json", action="store_true", help="print JSON")
+    args = parser.parse_args()
+    rows = table_difference(read_table(args.a), read_table(args.b), args.component)
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return
+    print(f"{'theta_i':>7} {'phi_i':>6} {'albedo a':>9} {'albedo b':>9} "
+          f"{'a - b':>18} {'L1':>7} {'noise L1':>9} {'z rms':>6}")
+    for r in rows:
+        diff = sum(r["albedo_difference"]) / 3
+        err = sum(r["albedo_difference_err"]) / 3
+        print(f"{r['theta_i']:7.1f} {r['phi_i']:6.1f} {sum(r['albedo_a']) / 3:9.5f} "
+              f"{sum(r['albedo_b']) / 3:9.5f} {diff:+9.5f} ± {err:.5f} "
+              f"{100 * r['l1']:6.2f}% {100 * r['l1_noise']:8.2f}% {r['z_rms']:6.2f}")
+
+
+if __name__ == "__main__":
+    main()
