@@ -47,6 +47,14 @@ MATERIAL_KINDS: dict[str, dict[str, Key]] = {
     "dielectric": {
         "eta": _n("Relative index of refraction (outside medium is air). The transmitted "
                   "part is absorbed and reported.", 1.5, low=1.0, high=10.0),
+        "refract": Key("bool", False, "Refract as well as reflect: a Fresnel-weighted "
+                       "choice, Snell's law, total internal reflection; the part's faces "
+                       "enclose a medium behind them (docs/materials.md). false: reflect "
+                       "with weight F, report 1 - F as transmitted."),
+        "absorption": Key("rgb", 0.0, "Beer-Lambert absorption coefficient inside the "
+                          "medium, per tile unit of path length (R, G, B); needs refract = "
+                          "true.",
+                          low=0.0),
     },
     "lambertian": {
         "albedo": Key("rgb", 0.8, "Diffuse reflectance (R, G, B).", low=0.0, high=1.0),
@@ -56,7 +64,8 @@ MATERIAL_DOCS = {
     "mirror": "Perfect specular reflection, F = 1.",
     "conductor": "Specular reflection with exact conductor Fresnel per colour channel.",
     "dielectric": "Specular reflection with dielectric Fresnel; the refracted part is "
-    "absorbed and reported as lost energy.",
+    "absorbed and reported as lost energy, or, with refract = true, refracted into the "
+    "medium behind the faces (absorbing per unit length) and out again.",
     "lambertian": "Cosine-weighted diffuse reflection with the given albedo.",
 }
 
@@ -103,7 +112,17 @@ def _material(raw: Mapping[str, Any], where: str) -> dict:
                          + ", ".join(repr(k) for k in MATERIAL_KINDS)
                          + suggest(str(kind), MATERIAL_KINDS))
     rest = {k: v for k, v in raw.items() if k != "kind"}
-    return {"kind": kind, **check_section(rest, MATERIAL_KINDS[kind], where)}
+    out = {"kind": kind, **check_section(rest, MATERIAL_KINDS[kind], where)}
+    if kind == "dielectric" and not out["refract"] and any(
+            a > 0 for a in _rgb(out["absorption"])):
+        raise InputError(f"{where}absorption = {out['absorption']!r}: needs refract = true "
+                         "(without refraction no light enters the medium)")
+    return out
+
+
+def _rgb(value: Any) -> list[float]:
+    """An ``rgb`` key's value as three numbers."""
+    return list(value) if isinstance(value, list) else [value] * 3
 
 
 def _materials(raw: Any, parts: tuple[str, ...]) -> dict:
