@@ -125,5 +125,6 @@ def attenuation(sigma: np.ndarray, length: np.ndarray) -> np.ndarray:
     (k, 3) float
         Transmittance in [0, 1]; 1 where sigma is 0, whatever the length.
     """
-    product = np.where(sigma > 0, sigma * length[:, None], 0.0)
+    product = np.multiply(sigma, length[:, None], out=np.zeros(sigma.shape),
+                          where=sigma > 0)
     return np.exp(-product)
