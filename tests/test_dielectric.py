@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 from scipy import integrate
 
+from microsim.analytic.layered import CoatedLambertian
+from microsim.analytic.registry import parse_model_spec
 from microsim.compare import direction
 from microsim.materials import FacetMaterials
 from microsim.refraction import attenuation, fresnel_choice, reflect, refract
@@ -250,3 +252,32 @@ def test_free_standing_slab_transmits_what_it_does_not_reflect() -> None:
     np.testing.assert_allclose(paths.transmitted / rays, 1 - escaped, atol=1e-12)
     assert paths.fate_counts["transmitted"] == rays - paths.fate_counts["escaped"]
     assert not paths.lost.any()
+
+
+def test_coated_lambertian_model_agrees_with_the_quadrature() -> None:
+    """The registered model: its r_i equals the mpmath quadrature, and its diffuse f_r
+    integrated over the hemisphere (scipy quad) plus the specular F is the albedo of the
+    closed form above, for a scalar and an RGB albedo."""
+    _, _, spec_model = parse_model_spec("coated-lambertian:albedo=0.5,eta=1.5")
+    model = CoatedLambertian(0.5, ETA)
+    assert abs(model.r_i - hemispherical_reflectance(1 / ETA)) < 1e-10
+    wi, wo = direction(np.radians(30.0), 0.0), direction(np.radians(50.0), 2.0)
+    assert np.allclose(spec_model.eval(wi, wo), model.eval(wi, wo))  # RGB from the spec
+    rgb = CoatedLambertian([0.2, 0.5, 1.0], ETA)
+    for theta_i in (0.0, 45.0, 80.0):
+        wi = direction(np.radians(theta_i), 0.0)
+
+        def projected(t: float, m=model, wi=wi) -> float:
+            return float(m.eval(wi, direction(t, 1.0))) * np.sin(2 * t) * np.pi
+
+        diffuse, _ = integrate.quad(projected, 0.0, np.pi / 2, epsabs=1e-12)
+        f_i = fresnel_reference(np.cos(np.radians(theta_i)), ETA)
+        r_i = hemispherical_reflectance(1 / ETA)
+        closed = f_i + (1 - f_i) * 0.5 * (1 - r_i) / (1 - 0.5 * r_i)
+        assert abs(f_i + diffuse - closed) < 1e-9
+        assert abs(float(model.directional_albedo(wi[2])) - closed) < 1e-9
+        rho = np.array([0.2, 0.5, 1.0])
+        np.testing.assert_allclose(rgb.directional_albedo(wi[2]),
+                                   f_i + (1 - f_i) * rho * (1 - r_i) / (1 - rho * r_i),
+                                   atol=1e-9)
+    assert np.all(model.eval(wi, direction(np.radians(95.0), 0.0)) == 0)
