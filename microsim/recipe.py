@@ -145,6 +145,24 @@ def _materials(raw: Any, parts: tuple[str, ...]) -> dict:
     return {p: _material(_table(raw[p], f"material.{p}"), f"material.{p}.") for p in parts}
 
 
+def _check_media(surface: Mapping[str, Any], materials: Mapping[str, Mapping[str, Any]]
+                 ) -> None:
+    """A refracting part encloses a medium with air on its faces' front side: nested media
+    (a refracting part inside another's medium) are not modelled. In paint only the
+    binder may refract, and a dielectric binder must (else no light reaches the
+    pigment)."""
+    if surface["kind"] != "paint":
+        return
+    for part in ("pigment", "substrate"):
+        if materials[part]["kind"] == "dielectric" and materials[part]["refract"]:
+            raise InputError(f"material.{part}.refract = true: only the binder of a paint "
+                             "may refract (nested media are not modelled)")
+    binder = materials["binder"]
+    if binder["kind"] == "dielectric" and not binder["refract"]:
+        raise InputError("material.binder.refract = false: a paint's dielectric binder "
+                         "must refract (set refract = true), else no light enters it")
+
+
 def resolve(raw: Mapping[str, Any]) -> dict:
     """Validate a whole recipe and fill in every default.
 
@@ -186,10 +204,12 @@ def resolve(raw: Mapping[str, Any]) -> dict:
     surf = {"kind": kind, **check_section(rest, spec.keys, "surface.")}
     if spec.check is not None:
         spec.check(surf)
+    materials = _materials(raw.get("material", {}), spec.parts)
+    _check_media(surf, materials)
     return {
         "description": description,
         "surface": surf,
-        "material": _materials(raw.get("material", {}), spec.parts),
+        "material": materials,
         "simulation": check_section(_table(raw.get("simulation", {}), "simulation"),
                                     SIMULATION, "simulation."),
         "table": check_section(_table(raw.get("table", {}), "table"), TABLE, "table."),

@@ -190,3 +190,14 @@ def test_paint_recipe_budget_closes_with_absorption() -> None:
     np.testing.assert_allclose(budget(paths, rays), 1.0, atol=1e-12)
     a = paths.weight.sum(axis=0) / rays
     assert a[0] > a[1] > a[2]  # more absorption, less light back
+
+
+def test_paint_media_rules_are_input_errors() -> None:
+    surface = {"kind": "paint"}
+    lam = {"kind": "lambertian"}
+    with pytest.raises(InputError, match="material.binder.refract"):
+        resolve({"surface": surface, "material": {
+            "binder": {"kind": "dielectric"}, "pigment": lam, "substrate": lam}})
+    with pytest.raises(InputError, match="material.pigment.refract"):
+        resolve({"surface": surface, "material": {
+            "binder": BINDER, "pigment": BINDER, "substrate": lam}})
