@@ -416,7 +416,7 @@ def _trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nd
         w = w * factor
         o = scene.offset(point, n_f, d)
         if medium is not None:
-            medium, through = _cross(materials, face, n_f, d_in, d, medium[hit])
+            medium, through = next_medium(materials, face, n_f, d_in, d, medium[hit])
             crossed |= through
     return Paths(direction, weight, order, lost, transmitted, absorbed, counts), segments
 
@@ -453,7 +453,7 @@ def _absorb(scene: PeriodicScene, materials: FacetMaterials, hits: Hits, o: np.n
     return w, (before - w[sel]).sum(axis=0)
 
 
-def _cross(materials: FacetMaterials, face: np.ndarray, n_f: np.ndarray, d_in: np.ndarray,
+def next_medium(materials: FacetMaterials, face: np.ndarray, n_f: np.ndarray, d_in: np.ndarray,
            d_out: np.ndarray, medium: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The media of paths after scattering: a path that went through a refracting face
     (its direction kept the sign of ``d . n``) enters the face's part when it now goes

@@ -201,3 +201,17 @@ def test_paint_media_rules_are_input_errors() -> None:
     with pytest.raises(InputError, match="material.pigment.refract"):
         resolve({"surface": surface, "material": {
             "binder": BINDER, "pigment": BINDER, "substrate": lam}})
+
+
+def test_view_ray_paths_go_through_the_binder() -> None:
+    """``microsim view --rays`` traces with the media too: under a flat binder over a white
+    substrate every drawn path escapes (none stops at the binder's back face), and most
+    went in and out (order >= 3)."""
+    from microsim.view import ray_paths
+
+    tile = paint_tile(pigment_fraction=0.0)
+    white = {"kind": "lambertian", "albedo": 1.0}
+    paths = ray_paths(tile, {"binder": BINDER, "pigment": white, "substrate": white},
+                      np.radians(30.0), 40, 200, 0)
+    orders = np.array([order for _, order in paths])
+    assert np.all(orders > 0) and (orders >= 3).mean() > 0.8
