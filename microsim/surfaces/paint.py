@@ -7,14 +7,18 @@ thin discs, "flakes") and the flat substrate at z = 0. The binder is the medium 
 the top and the substrate: give it a refracting dielectric material (``refract = true``)
 so light enters, meets the particles and the substrate, and leaves again.
 
-Particles are placed by random sequential addition (Widom 1966; Feder 1980): candidates
-uniform in the binder's volume are accepted when they clear the substrate, the top and
-every particle already placed (by a gap of 1% of their radius), until the pigment volume
-reaches ``pigment_fraction`` of the binder's or the attempts run out (a warning then gives
-the fraction reached). Spheres keep their centres ≥ r1 + r2 apart; flakes keep their
-vertical bounding cylinders disjoint, so they may stack as in metallic paint. Distances
-are minimum-image, and particles crossing a side are cut there and continue from the
-opposite side: the tile is periodic.
+Particles are placed by random sequential addition (Widom 1966; Feder 1980): each
+particle's shape (radius, flake tilt) is drawn, then positions uniform in the binder's
+volume are tried until one clears the substrate, the top and every particle already
+placed (by a gap of 1% of its radius); retrying the same particle keeps the size and tilt
+distributions unbiased (skipping to a new one would favour small, flat particles). It
+goes on until the pigment volume reaches ``pigment_fraction`` of the binder's. Near
+jamming a particle may find no place in ``PER_PARTICLE`` tries: it is given up and the
+next one drawn (a warning says how many, since the placed ones then lean to small, flat
+shapes); when the positions run out, a warning gives the fraction reached. Spheres keep
+their centres ≥ r1 + r2 apart; flakes keep their vertical bounding cylinders disjoint,
+so they may stack as in metallic paint. Distances are minimum-image, and particles
+crossing a side are cut there and continue from the opposite side: the tile is periodic.
 """
 
 from __future__ import annotations
@@ -36,7 +40,9 @@ surfaces come closer than the tracer's offsets can resolve."""
 MAX_TILT = 80.0
 """Flake tilts are clipped to this many degrees."""
 ATTEMPTS = 200
-"""Placement attempts per particle the target fraction asks for, before giving up."""
+"""Positions drawn per particle the target fraction asks for (the most tried in all)."""
+PER_PARTICLE = 1000
+"""Positions tried for one particle before it is given up (and the next one drawn)."""
 
 
 def uv_sphere(sides: int) -> tuple[np.ndarray, np.ndarray]:
@@ -188,8 +194,9 @@ def _place(surface: Mapping[str, Any], top: _Top, unit_volume: float,
         Flake normals (+z for spheres).
     target_volume : float
         Pigment volume the fraction asks for.
-    complete : bool
-        The target was reached.
+    skipped : int
+        Particles given up after ``PER_PARTICLE`` positions (the placed ones are then
+        biased towards small, flat shapes).
     """
     size = top.size
     flakes = surface["pigment_shape"] == "flake"
@@ -219,35 +226,41 @@ def _place(surface: Mapping[str, Any], top: _Top, unit_volume: float,
     placed = 0.0
     xy = np.empty((0, 2))
     zs, halves, reaches = np.empty(0), np.empty(0), np.empty(0)
-    for c in range(tries):
-        if placed >= target:
+    k = fails = skipped = 0  # the particle being placed (shape k), its failed positions
+    for c in range(tries):  # position c
+        if placed >= target or k == tries:
             break
-        lo, hi = half[c] + gap[c], z_max - half[c] - gap[c]
-        if hi <= lo:
+        if fails == PER_PARTICLE:  # no room for this one: the next, and say so
+            k, fails, skipped = k + 1, 0, skipped + 1
+            continue
+        lo, hi = half[k] + gap[k], z_max - half[k] - gap[k]
+        if hi <= lo:  # taller than the binder anywhere: the next particle
+            k += 1
             continue
         x, y = u[c, 0] * size, u[c, 1] * size
         z = lo + u[c, 2] * (hi - lo)
-        if z + half[c] + gap[c] > top.lowest(x, y, reach[c]):
-            continue
-        if len(chosen):
+        clash = z + half[k] + gap[k] > top.lowest(x, y, reach[k])
+        if len(chosen) and not clash:
             dxy = xy - (x, y)
             dxy -= np.round(dxy / size) * size  # minimum image
             dist = np.hypot(dxy[:, 0], dxy[:, 1])
             if flakes:
-                clash = (dist < reaches + reach[c] + gap[c]) & (
-                    np.abs(zs - z) < halves + half[c] + gap[c])
+                clash = bool(np.any((dist < reaches + reach[k] + gap[k])
+                                    & (np.abs(zs - z) < halves + half[k] + gap[k])))
             else:
-                clash = np.hypot(dist, zs - z) < reaches + reach[c] + gap[c]
-            if clash.any():
-                continue
-        chosen.append(c)
-        placed += volume(radii[c])
+                clash = bool(np.any(np.hypot(dist, zs - z) < reaches + reach[k] + gap[k]))
+        if clash:
+            fails += 1
+            continue
+        chosen.append(k)
+        placed += volume(radii[k])
         xy = np.vstack([xy, (x, y)])
-        zs, halves, reaches = np.append(zs, z), np.append(halves, half[c]), np.append(
-            reaches, reach[c])
+        zs, halves, reaches = np.append(zs, z), np.append(halves, half[k]), np.append(
+            reaches, reach[k])
+        k, fails = k + 1, 0
     idx = np.array(chosen, int)
     centres = np.column_stack([xy, zs]) if len(idx) else np.empty((0, 3))
-    return centres, radii[idx], axes[idx], target, placed >= target
+    return centres, radii[idx], axes[idx], target, skipped
 
 
 def build(surface: Mapping[str, Any]) -> Tile:
@@ -280,7 +293,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
     flakes = surface["pigment_shape"] == "flake"
     sides = int(surface["sides"])
     unit_v, unit_f = disc(sides) if flakes else uv_sphere(sides)
-    centres, radii, axes, target, complete = _place(surface, top, polyhedron_volume(
+    centres, radii, axes, target, skipped = _place(surface, top, polyhedron_volume(
         unit_v, unit_f), rng)
     thick = float(surface["flake_thickness"])
     u, v = frames(axes)
@@ -334,7 +347,12 @@ def build(surface: Mapping[str, Any]) -> Tile:
         info.update(flake_tilt_rms_target_deg=float(surface["flake_tilt_spread"]),
                     flake_tilt_rms_deg=math.degrees(rms),
                     flake_tilt_rms_stderr_deg=math.degrees(se))
-    if not complete:
+    if skipped:
+        warnings.append(
+            f"surface: {skipped} particles found no room in {PER_PARTICLE} tries each and "
+            "were left out: the placed ones lean to smaller radii (and flatter flakes) "
+            "than drawn; see pigment_radius_mean (and flake_tilt_rms_deg)")
+    if pigment_volume < (1 - 1e-9) * target:  # the unit volumes scale exactly
         warnings.append(
             f"surface: {n_part} particles fill {100 * pigment_volume / binder_volume:.1f}% "
             f"of the binder, short of pigment_fraction = {surface['pigment_fraction']:g} "
