@@ -36,7 +36,7 @@ def test_particle_meshes_are_closed_and_wound_outward(make) -> None:
 
 
 @pytest.mark.parametrize("shape, keys", [
-    ("sphere", {"pigment_fraction": 0.2, "top_alpha": 0.3, "resolution": 32}),
+    ("sphere", {"pigment_fraction": 0.15, "top_alpha": 0.3, "resolution": 32}),
     ("flake", {"pigment_fraction": 0.02, "pigment_radius": 0.05}),
 ])
 def test_particles_stay_inside_the_binder_apart_and_periodic(shape: str, keys: dict) -> None:
