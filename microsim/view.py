@@ -39,6 +39,13 @@ def import_pyvista(off_screen: bool) -> Any:
     return pv
 
 
+def plt_colours(name: str) -> tuple:
+    """The colours of a qualitative matplotlib colour map."""
+    from matplotlib import colormaps
+
+    return colormaps[name].colors
+
+
 def finish(plotter: Any, screenshot: str | Path | None) -> np.ndarray | None:
     """Write the off-screen image and return it, or open the interactive window."""
     if screenshot is None:
@@ -127,8 +134,14 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
         title = f"{title}  (see-through: {', '.join(translucent)})".strip()
     if color == "material":
         labels = {i: name for i, name in enumerate(tile.parts)}
-        plotter.add_mesh(mesh, scalars="material", categories=True, cmap="Set2",
-                         annotations=labels, scalar_bar_args={"title": "part"})
+        # part i gets Set2's colour i, also when see-through parts are drawn apart
+        from matplotlib.colors import ListedColormap
+
+        n = len(tile.parts)
+        cmap = ListedColormap(list(plt_colours("Set2"))[:max(n, 2)])
+        plotter.add_mesh(mesh, scalars="material", cmap=cmap, n_colors=max(n, 2),
+                         clim=(-0.5, max(n, 2) - 0.5), annotations=labels,
+                         scalar_bar_args={"title": "part", "n_labels": 0})
     else:
         top = float(np.ceil(np.percentile(mesh.cell_data["slope"], 99.5) / 5) * 5)
         plotter.add_mesh(mesh, scalars="slope", cmap="viridis", clim=(0, max(top, 5.0)),
