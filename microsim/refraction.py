@@ -128,3 +128,36 @@ def attenuation(sigma: np.ndarray, length: np.ndarray) -> np.ndarray:
     product = np.multiply(sigma, length[:, None], out=np.zeros(sigma.shape),
                           where=sigma > 0)
     return np.exp(-product)
+
+
+def next_medium(part: np.ndarray, refracts: np.ndarray, n: np.ndarray, d_in: np.ndarray,
+                d_out: np.ndarray, medium: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The media of paths after scattering at faces: a path that went through a refracting
+    face (its direction kept the sign of ``d . n``) enters the face's part when it now
+    goes behind the face, and returns to air when it now goes in front; every other path
+    stays where it was.
+
+    Parameters
+    ----------
+    part : (k,) int
+        Part (material id) of each face hit.
+    refracts : (k,) bool
+        That part refracts.
+    n : (k, 3) float
+        Unit face normals.
+    d_in, d_out : (k, 3) float
+        Directions of travel before and after the event.
+    medium : (k,) int
+        Part whose medium each path was in (-1: air).
+
+    Returns
+    -------
+    medium : (k,) int
+        Part whose medium each path is in now.
+    through : (k,) bool
+        The path went through a refracting face.
+    """
+    side_in = np.einsum("ij,ij->i", d_in, n)
+    side_out = np.einsum("ij,ij->i", d_out, n)
+    through = refracts & (side_in * side_out > 0)
+    return np.where(through, np.where(side_out < 0, part, -1), medium), through

@@ -25,7 +25,7 @@ import numpy as np
 from embreex.mesh_construction import TriangleMesh
 from embreex.rtcore_scene import EmbreeScene
 
-from microsim.refraction import attenuation
+from microsim.refraction import attenuation, next_medium
 from microsim.surfaces.tile import Tile
 
 if TYPE_CHECKING:
@@ -416,7 +416,9 @@ def _trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nd
         w = w * factor
         o = scene.offset(point, n_f, d)
         if medium is not None:
-            medium, through = next_medium(materials, face, n_f, d_in, d, medium[hit])
+            part = np.take(materials.face_material, face)
+            medium, through = next_medium(part, np.take(materials.refracting, part), n_f,
+                                          d_in, d, medium[hit])
             crossed |= through
     return Paths(direction, weight, order, lost, transmitted, absorbed, counts), segments
 
@@ -451,24 +453,3 @@ def _absorb(scene: PeriodicScene, materials: FacetMaterials, hits: Hits, o: np.n
     w = w.copy()
     w[sel] = before * attenuation(sigma[sel], length)
     return w, (before - w[sel]).sum(axis=0)
-
-
-def next_medium(materials: FacetMaterials, face: np.ndarray, n_f: np.ndarray, d_in: np.ndarray,
-           d_out: np.ndarray, medium: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The media of paths after scattering: a path that went through a refracting face
-    (its direction kept the sign of ``d . n``) enters the face's part when it now goes
-    behind the face and returns to air when it now goes in front.
-
-    Returns
-    -------
-    medium : (k,) int
-        Part whose medium each path is in (-1: air).
-    crossed : (k,) bool
-        The path went through a refracting face at this event.
-    """
-    part = np.take(materials.face_material, face)
-    side_in = np.einsum("ij,ij->i", d_in, n_f)
-    side_out = np.einsum("ij,ij->i", d_out, n_f)
-    through = np.take(materials.refracting, part) & (side_in * side_out > 0)
-    medium = np.where(through, np.where(side_out < 0, part, -1), medium)
-    return medium, through

@@ -287,7 +287,8 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
     """
     from microsim.compare import direction
     from microsim.materials import FacetMaterials
-    from microsim.trace import ESCAPED, HIT, PeriodicScene, next_medium
+    from microsim.refraction import next_medium
+    from microsim.trace import ESCAPED, HIT, PeriodicScene
 
     rng = np.random.default_rng(seed)
     facets = FacetMaterials(tile.material, tile.parts, materials)
@@ -318,7 +319,9 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
             n = scene.normals[hits.face[hit]]
             new, _, _ = facets.scatter(hits.face[hit], d[idx], n, rng)
             o[idx] = p + (scene.offset(hits.point[hit], n, new) - hits.point[hit])
-            medium[idx] = next_medium(facets, hits.face[hit], n, d[idx], new, medium[idx])[0]
+            part = facets.face_material[hits.face[hit]]
+            medium[idx] = next_medium(part, facets.refracting[part], n, d[idx], new,
+                                      medium[idx])[0]
             d[idx] = new
             alive = idx
     return [(np.array(v), int(order[k])) for k, v in enumerate(points)]
