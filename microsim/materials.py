@@ -80,10 +80,9 @@ class FacetMaterials:
         self.refracting = np.array([s["kind"] == "dielectric" and bool(s.get("refract"))
                                     for s in self.specs] + [False])
         """(parts + 1,) bool: which parts refract (the last entry, for part -1, is False)."""
-        self.absorption = np.array([np.broadcast_to(s.get("absorption", 0.0), 3)
-                                    if r else np.zeros(3)
-                                    for s, r in zip(self.specs, self.refracting, strict=False)]
-                                   + [np.zeros(3)], float)
+        self.absorption = np.zeros((len(self.specs) + 1, 3))
+        for m in np.flatnonzero(self.refracting):
+            self.absorption[m] = self.specs[m].get("absorption", 0.0)
         """(parts + 1, 3) float: Beer-Lambert coefficient per unit length inside each
         refracting part (0 elsewhere; the last row, for part -1 = air, is 0)."""
 
