@@ -243,3 +243,16 @@ def test_shipped_paint_recipes_simulate_and_compare_from_the_cli(cli, tmp_path) 
     code, out, err = cli("generate", "surfaces/paint-metallic.toml", "-o",
                          str(tmp_path / "t.ply"), "--json")
     assert code == 0 and "flake_tilt_rms_stderr_deg" in out, err
+
+
+def test_view_renders_the_paint_layer_headless(cli, tmp_path) -> None:
+    """``microsim view`` of a paint recipe: the binder drawn see-through, the pigment seen
+    through it (the picture is not one flat colour), written as a PNG."""
+    png = tmp_path / "paint.png"
+    code, out, err = cli("view", "surfaces/paint.toml", "--screenshot", str(png), "--color",
+                         "material", "--tiles", "1", "--set", "surface.resolution=16")
+    assert code == 0, err
+    import matplotlib.image
+
+    image = matplotlib.image.imread(png)
+    assert image.shape[0] > 100 and np.unique(image.reshape(-1, image.shape[2]), axis=0).shape[0] > 50
