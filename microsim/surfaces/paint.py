@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from microsim.errors import InputError
-from microsim.surfaces.gaussian import DEFAULT_CELLS, heights
+from microsim.surfaces.gaussian import DEFAULT_CELLS, MIN_LENGTHS, heights
 from microsim.surfaces.periodic import wrap_into_box
 from microsim.surfaces.tile import Tile, grid_faces
 
@@ -180,7 +180,7 @@ class _Top:
 
 
 def _place(surface: Mapping[str, Any], top: _Top, unit_volume: float,
-           rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, bool]:
+           rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, int]:
     """Random sequential addition of particles (see the module docstring).
 
     ``unit_volume`` is the volume of the particle mesh at radius (and thickness) 1, so
@@ -334,6 +334,12 @@ def build(surface: Mapping[str, Any]) -> Tile:
     else:
         info.update(top_alpha_target=0.0, top_alpha_realised=0.0)
     warnings = []
+    if top.n > 1 and size / top.tau < MIN_LENGTHS:
+        warnings.append(
+            f"surface: the top holds {size / top.tau:.1f} correlation lengths per side "
+            f"(< {MIN_LENGTHS}): few independent slopes, so its realised roughness "
+            "scatters about top_alpha (see top_alpha_realised); raise resolution or lower "
+            "top_correlation_length")
     if flakes and n_part:
         tilt = np.arccos(np.clip(axes[:, 2], -1.0, 1.0))
         area = radii**2

@@ -269,7 +269,7 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
             "top_correlation_length": _f("Correlation length of the top's heights. "
                                          "Default: 8 grid cells.", None, unit="length",
                                          low=0.0, low_open=True),
-            "resolution": Key("int", 64, "Vertices per tile side of a rough top.", low=4,
+            "resolution": Key("int", 256, "Vertices per tile side of a rough top.", low=4,
                               high=8192),
             "pigment_fraction": _f("Pigment volume over binder volume (pigment included); "
                                    "0 = none.", 0.1, low=0.0, high=0.4),
