@@ -7,7 +7,7 @@ from the medium (behind it). A ray arriving from the front sees the relative ind
 totally reflected beyond the critical angle. The scattering event picks reflection with
 probability F (the exact unpolarised Fresnel reflectance) and refraction otherwise, with
 path weight 1 either way: an unbiased estimator of the reflected and the transmitted
-energy (Pharr, Jakob & Humphreys, PBR 4th ed., sec. 9.5.2, ``DielectricBxDF::Sample_f``).
+energy (Pharr, Jakob & Humphreys, PBR 4th ed., sec. 9.5, the dielectric BSDF's sampling).
 Radiance scaling by 1/η² on crossing is not applied: the goniophotometer carries power
 (importance), for which the crossing is weight 1 (Veach 1997, thesis, sec. 5.2).
 """
@@ -43,7 +43,7 @@ def refract(d: np.ndarray, n: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, 
     With i = −d (pointing away from the interface), c = i · n and the relative index
     η = n_t / n_i: t = −i / η + (c / η − cos θt) n, cos θt = √(1 − (1 − c²) / η²)
     (Walter et al. 2007, "Microfacet models for refraction through rough surfaces",
-    eq. 40 with their η = n_i / n_t; PBR 4th ed., sec. 9.3.2, eq. 9.4 and ``Refract``).
+    eq. 40 with their η = n_i / n_t; PBR 4th ed., sec. 9.3, ``Refract``).
 
     Parameters
     ----------
@@ -78,7 +78,7 @@ def fresnel_choice(d: np.ndarray, n: np.ndarray, eta: float,
     A ray with ``d . n < 0`` arrives from the front (air) and sees η; one with
     ``d . n > 0`` arrives from inside and sees 1 / η about the flipped normal. It reflects
     with probability F(cos θi, η) (1 under total internal reflection) and refracts
-    otherwise; the path weight is 1 in both cases (PBR 4th ed., sec. 9.5.2).
+    otherwise; the path weight is 1 in both cases (PBR 4th ed., sec. 9.5).
 
     Parameters
     ----------
@@ -110,7 +110,7 @@ def fresnel_choice(d: np.ndarray, n: np.ndarray, eta: float,
 
 def attenuation(sigma: np.ndarray, length: np.ndarray) -> np.ndarray:
     """Beer-Lambert transmittance exp(−σ ℓ) over path lengths inside a medium (PBR 4th
-    ed., sec. 11.2, eq. 11.9 for a homogeneous medium).
+    ed., sec. 11.2, transmittance of a homogeneous medium).
 
     Parameters
     ----------

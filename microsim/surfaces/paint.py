@@ -1,5 +1,5 @@
 """Paint: a dielectric binder layer with pigment particles inside, over a substrate
-(Gondek, Meyer & Newman 1994, "Wavelength dependent reflectance functions", sec. 4).
+(Gondek, Meyer & Newman 1994, "Wavelength dependent reflectance functions", SIGGRAPH).
 
 The tile holds three parts: the binder's top interface (flat, or a Gaussian random height
 field made by ``microsim.surfaces.gaussian``), the pigment particles (closed spheres or
