@@ -176,7 +176,7 @@ def test_white_furnace_under_a_flat_binder_conserves_energy() -> None:
 @pytest.mark.parametrize("theta_deg", [30.0, 70.0])
 def test_lambertian_under_a_smooth_layer_matches_the_closed_form(theta_deg: float) -> None:
     """Albedo rho under a smooth dielectric layer (Weidlich & Wilkie 2007, "Arbitrarily
-    layered micro-facet surfaces", sec. 4; Kelemen & Szirmay-Kalos 2001): light enters
+    layered micro-facet surfaces"; Kelemen & Szirmay-Kalos 2001): light enters
     with 1 - F(theta_i), the substrate turns it diffuse, a fraction 1 - r_i of diffuse
     light leaves, r_i returns to the substrate, so
 

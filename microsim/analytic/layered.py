@@ -6,8 +6,8 @@ the interface and r_i is reflected back to the substrate (r_i the cosine-weighte
 hemispherical Fresnel reflectance from inside, total internal reflection included). Summing
 the bounces between substrate and interface (Kelemen & Szirmay-Kalos 2001, "A microfacet
 based coupled specular-matte BRDF model with importance sampling", Eurographics short
-papers, sec. 3; Weidlich & Wilkie 2007, "Arbitrarily layered micro-facet surfaces",
-GRAPHITE, sec. 4) gives the diffuse BRDF
+papers; Weidlich & Wilkie 2007, "Arbitrarily layered micro-facet surfaces",
+GRAPHITE) gives the diffuse BRDF
 
     f_r(ωi, ωo) = ρ (1 − F(θi, η)) (1 − F(θo, η)) / (π η² (1 − ρ r_i)),
 
