@@ -40,13 +40,16 @@ MATERIAL_KINDS: dict[str, dict[str, Key]] = {
     "mirror": {},
     "conductor": {
         "eta": Key("rgb", [0.2, 0.92, 1.1], "Real part of the complex index of refraction "
-                   "(R, G, B); default gold.", low=0.0, low_open=True),
+                   "(R, G, B) relative to the medium in front of the faces (air, or a "
+                   "paint's binder: divide by its eta, as for k); default gold in air.",
+                   low=0.0, low_open=True),
         "k": Key("rgb", [3.9, 2.45, 2.14], "Extinction coefficient (R, G, B); default gold.",
                  low=0.0),
     },
     "dielectric": {
-        "eta": _n("Relative index of refraction (outside medium is air). The transmitted "
-                  "part is absorbed and reported.", 1.5, low=1.0, high=10.0),
+        "eta": _n("Index of refraction relative to the medium in front of the faces (air; "
+                  "for particles inside a paint's binder, relative to the binder).", 1.5,
+                  low=1.0, high=10.0),
         "refract": Key("bool", False, "Refract as well as reflect: a Fresnel-weighted "
                        "choice, Snell's law, total internal reflection; the part's faces "
                        "enclose a medium behind them (docs/materials.md). false: reflect "
@@ -348,6 +351,8 @@ def schema_markdown() -> str:
             return "required"
         if key.default is None:
             return "optional"
+        if isinstance(key.default, bool):  # as TOML writes it
+            return "`true`" if key.default else "`false`"
         return f"`{key.default}`"
 
     def rows(keys: Mapping[str, Key]) -> list[str]:
