@@ -39,13 +39,6 @@ def import_pyvista(off_screen: bool) -> Any:
     return pv
 
 
-def plt_colours(name: str) -> tuple:
-    """The colours of a qualitative matplotlib colour map."""
-    from matplotlib import colormaps
-
-    return colormaps[name].colors
-
-
 def finish(plotter: Any, screenshot: str | Path | None) -> np.ndarray | None:
     """Write the off-screen image and return it, or open the interactive window."""
     if screenshot is None:
@@ -127,7 +120,7 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
     mesh = tile_polydata(pv, tile, tiles, z_scale)
     plotter = pv.Plotter(off_screen=off, window_size=WINDOW)
     glass = np.isin(np.asarray(tile.parts)[mesh.cell_data["material"]], translucent)
-    if glass.any():
+    if glass.any() and not glass.all():  # (a tile all glass is drawn as it is)
         plotter.add_mesh(mesh.extract_cells(np.flatnonzero(glass)), color="lightblue",
                          opacity=GLASS, smooth_shading=True)
         mesh = mesh.extract_cells(np.flatnonzero(~glass))
@@ -135,10 +128,11 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
     if color == "material":
         labels = {i: name for i, name in enumerate(tile.parts)}
         # part i gets Set2's colour i, also when see-through parts are drawn apart
+        from matplotlib import colormaps
         from matplotlib.colors import ListedColormap
 
         n = len(tile.parts)
-        cmap = ListedColormap(list(plt_colours("Set2"))[:max(n, 2)])
+        cmap = ListedColormap(colormaps["Set2"].colors[:max(n, 2)])
         plotter.add_mesh(mesh, scalars="material", cmap=cmap, n_colors=max(n, 2),
                          clim=(-0.5, max(n, 2) - 0.5), annotations=labels,
                          scalar_bar_args={"title": "part", "n_labels": 0})
