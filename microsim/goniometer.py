@@ -158,8 +158,9 @@ class _Sums:
     sums, sums_sq : dict of str to (b, 3) float
         Per bin, the sum of exit weights w and of w**2, per component.
     lost, transmitted, absorbed : (3,) float
-        Summed weight of paths ended by the simulation (bounce limit, leaks), refracted into
-        dielectrics, and absorbed by the other materials.
+        Summed weight of paths ended by the simulation (bounce limit, leaks), transmitted
+        (1 - F at non-refracting dielectrics; refracted paths out through the bottom), and
+        absorbed (by the other materials and inside absorbing media).
     fates : dict of str to int
         Paths per ending.
     """

@@ -3,14 +3,17 @@
 Each face carries a material id (an index into the tile's parts); each part has a resolved
 ``[material.<part>]`` section of the recipe. Scattering returns the new direction, the
 factor (RGB) by which the path weight is multiplied, and the fraction transmitted into the
-material (a dielectric's 1 - F, reported as lost energy); the rest, ``1 - factor -
-transmitted``, is absorbed (by a conductor or a diffuse facet).
+material (a non-refracting dielectric's 1 - F, reported as lost energy); the rest,
+``1 - factor - transmitted``, is absorbed (by a conductor or a diffuse facet).
 
 - ``mirror``: specular reflection, factor 1.
 - ``conductor``: specular reflection, factor the exact conductor Fresnel reflectance per
   channel at the facet's incidence angle.
 - ``dielectric``: specular reflection, factor the dielectric Fresnel reflectance; the
-  refracted part is absorbed inside and reported as lost.
+  refracted part is absorbed inside and reported as lost. With ``refract = true``: a
+  Fresnel-weighted choice between reflection and refraction from either side, factor 1
+  (``microsim.refraction.fresnel_choice``); the tracer keeps track of which paths are
+  inside the medium and applies its ``absorption`` (docs/materials.md).
 - ``lambertian``: cosine-weighted direction about the facet normal, factor the albedo (the
   cosine-weighted pdf cancels the BRDF's cosine: Pharr, Jakob & Humphreys, PBR 4th ed.,
   sec. 13.6.3 and 4.5.1).
@@ -26,25 +29,8 @@ from typing import Any
 import numpy as np
 
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
+from microsim.refraction import fresnel_choice, reflect
 from microsim.tabulated import TabulatedMaterial
-
-
-def reflect(d: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """Mirror a direction of travel about a plane: d - 2 (d . n) n.
-
-    Parameters
-    ----------
-    d : (k, 3) float
-        Unit directions of travel (towards the surface).
-    n : (k, 3) float
-        Unit facet normals.
-
-    Returns
-    -------
-    (k, 3) float
-        Reflected directions (away from the surface).
-    """
-    return d - 2.0 * np.einsum("ij,ij->i", d, n)[:, None] * n
 
 
 def cosine_about(n: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -95,6 +81,11 @@ class FacetMaterials:
         The loaded table of each part of kind ``table`` (by material id).
     inputs : list of dict
         Provenance of those tables: ``part``, ``path``, ``sha256``, ``component``.
+    refracting : (parts + 1,) bool
+        Which parts refract (the last entry, for part -1 = air, is False).
+    absorption : (parts + 1, 3) float
+        Beer-Lambert coefficient per unit length inside each refracting part (0 elsewhere;
+        the last row, for part -1 = air, is 0).
 
     Raises
     ------
@@ -110,6 +101,11 @@ class FacetMaterials:
                                                  f"material.{parts[m]}.path", spec["axis"])
                        for m, spec in enumerate(self.specs) if spec["kind"] == "table"}
         self.inputs = [{"part": parts[m], **t.source} for m, t in self.tables.items()]
+        self.refracting = np.array([s["kind"] == "dielectric" and bool(s.get("refract"))
+                                    for s in self.specs] + [False])
+        self.absorption = np.zeros((len(self.specs) + 1, 3))
+        for m in np.flatnonzero(self.refracting):
+            self.absorption[m] = self.specs[m].get("absorption", 0.0)
 
     def scatter(self, faces: np.ndarray, d: np.ndarray, n: np.ndarray,
                 rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -120,7 +116,8 @@ class FacetMaterials:
         faces : (k,) int
             Faces hit.
         d : (k, 3) float
-            Unit directions of travel (``d . n < 0``).
+            Unit directions of travel (``d . n < 0``, except at refracting faces, which
+            are hit from either side).
         n : (k, 3) float
             Unit normals of the faces.
         rng : numpy.random.Generator
@@ -157,6 +154,10 @@ class FacetMaterials:
                 continue
             if kind == "table":
                 out[sel], factor[sel] = self.tables[m].scatter(ds, ns, rng)
+                continue
+            if self.refracting[m]:
+                out[sel] = fresnel_choice(ds, ns, spec["eta"], rng.random(count))[0]
+                factor[sel] = 1.0
                 continue
             out[sel] = reflect(ds, ns)
             if kind == "mirror":

@@ -40,13 +40,24 @@ MATERIAL_KINDS: dict[str, dict[str, Key]] = {
     "mirror": {},
     "conductor": {
         "eta": Key("rgb", [0.2, 0.92, 1.1], "Real part of the complex index of refraction "
-                   "(R, G, B); default gold.", low=0.0, low_open=True),
+                   "(R, G, B) relative to the medium in front of the faces (air, or a "
+                   "paint's binder: divide by its eta, as for k); default gold in air.",
+                   low=0.0, low_open=True),
         "k": Key("rgb", [3.9, 2.45, 2.14], "Extinction coefficient (R, G, B); default gold.",
                  low=0.0),
     },
     "dielectric": {
-        "eta": _n("Relative index of refraction (outside medium is air). The transmitted "
-                  "part is absorbed and reported.", 1.5, low=1.0, high=10.0),
+        "eta": _n("Index of refraction relative to the medium in front of the faces (air; "
+                  "for particles inside a paint's binder, relative to the binder).", 1.5,
+                  low=1.0, high=10.0),
+        "refract": Key("bool", False, "Refract as well as reflect: a Fresnel-weighted "
+                       "choice, Snell's law, total internal reflection; the part's faces "
+                       "enclose a medium behind them (docs/materials.md). false: reflect "
+                       "with weight F, report 1 - F as transmitted."),
+        "absorption": Key("rgb", 0.0, "Beer-Lambert absorption coefficient inside the "
+                          "medium, per tile unit of path length (R, G, B); needs refract = "
+                          "true.",
+                          low=0.0),
     },
     "lambertian": {
         "albedo": Key("rgb", 0.8, "Diffuse reflectance (R, G, B).", low=0.0, high=1.0),
@@ -67,7 +78,8 @@ MATERIAL_DOCS = {
     "mirror": "Perfect specular reflection, F = 1.",
     "conductor": "Specular reflection with exact conductor Fresnel per colour channel.",
     "dielectric": "Specular reflection with dielectric Fresnel; the refracted part is "
-    "absorbed and reported as lost energy.",
+    "absorbed and reported as lost energy, or, with refract = true, refracted into the "
+    "medium behind the faces (absorbing per unit length) and out again.",
     "lambertian": "Cosine-weighted diffuse reflection with the given albedo.",
     "table": "Reflection importance-sampled from a simulated BRDF table in the facet's "
     "local frame, weighted by the table's albedo (hierarchies of scale; "
@@ -117,7 +129,17 @@ def _material(raw: Mapping[str, Any], where: str) -> dict:
                          + ", ".join(repr(k) for k in MATERIAL_KINDS)
                          + suggest(str(kind), MATERIAL_KINDS))
     rest = {k: v for k, v in raw.items() if k != "kind"}
-    return {"kind": kind, **check_section(rest, MATERIAL_KINDS[kind], where)}
+    out = {"kind": kind, **check_section(rest, MATERIAL_KINDS[kind], where)}
+    if kind == "dielectric" and not out["refract"] and any(
+            a > 0 for a in _rgb(out["absorption"])):
+        raise InputError(f"{where}absorption = {out['absorption']!r}: needs refract = true "
+                         "(without refraction no light enters the medium)")
+    return out
+
+
+def _rgb(value: Any) -> list[float]:
+    """An ``rgb`` key's value as three numbers."""
+    return list(value) if isinstance(value, list) else [value] * 3
 
 
 def _materials(raw: Any, parts: tuple[str, ...]) -> dict:
@@ -138,6 +160,24 @@ def _materials(raw: Any, parts: tuple[str, ...]) -> dict:
                          f"(parts of this surface: {', '.join(parts)}) or one [material] "
                          "for all parts")
     return {p: _material(_table(raw[p], f"material.{p}"), f"material.{p}.") for p in parts}
+
+
+def _check_media(surface: Mapping[str, Any], materials: Mapping[str, Mapping[str, Any]]
+                 ) -> None:
+    """A refracting part encloses a medium with air on its faces' front side: nested media
+    (a refracting part inside another's medium) are not modelled. In paint only the
+    binder may refract, and a dielectric binder must (else no light reaches the
+    pigment)."""
+    if surface["kind"] != "paint":
+        return
+    for part in ("pigment", "substrate"):
+        if materials[part]["kind"] == "dielectric" and materials[part]["refract"]:
+            raise InputError(f"material.{part}.refract = true: only the binder of a paint "
+                             "may refract (nested media are not modelled)")
+    binder = materials["binder"]
+    if binder["kind"] == "dielectric" and not binder["refract"]:
+        raise InputError("material.binder.refract = false: a paint's dielectric binder "
+                         "must refract (set refract = true), else no light enters it")
 
 
 def resolve(raw: Mapping[str, Any]) -> dict:
@@ -181,10 +221,12 @@ def resolve(raw: Mapping[str, Any]) -> dict:
     surf = {"kind": kind, **check_section(rest, spec.keys, "surface.")}
     if spec.check is not None:
         spec.check(surf)
+    materials = _materials(raw.get("material", {}), spec.parts)
+    _check_media(surf, materials)
     return {
         "description": description,
         "surface": surf,
-        "material": _materials(raw.get("material", {}), spec.parts),
+        "material": materials,
         "simulation": check_section(_table(raw.get("simulation", {}), "simulation"),
                                     SIMULATION, "simulation."),
         "table": check_section(_table(raw.get("table", {}), "table"), TABLE, "table."),
@@ -338,6 +380,8 @@ def schema_markdown() -> str:
             return "required"
         if key.default is None:
             return "optional"
+        if isinstance(key.default, bool):  # as TOML writes it
+            return "`true`" if key.default else "`false`"
         return f"`{key.default}`"
 
     def rows(keys: Mapping[str, Key]) -> list[str]:

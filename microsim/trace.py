@@ -25,6 +25,7 @@ import numpy as np
 from embreex.mesh_construction import TriangleMesh
 from embreex.rtcore_scene import EmbreeScene
 
+from microsim.refraction import attenuation, next_medium
 from microsim.surfaces.tile import Tile
 
 if TYPE_CHECKING:
@@ -43,8 +44,9 @@ MAX_SEGMENTS = 10_000
 more side crossings to cross the slab is reported as trapped."""
 
 HIT, ESCAPED, LEAKED, TRAPPED, BACKFACE = range(5)
-"""Outcomes of a query: a front-face hit, out through the top, out through the bottom, out
-of side crossings, or a hit on the back of a face (numerical leakage into the material)."""
+"""Outcomes of a query: a hit on the side of a face the ray can reach (the front; the back
+of a refracting face for a ray inside its medium), out through the top, out through the
+bottom, out of side crossings, or a hit on the other side (numerical leakage)."""
 FATES = ("hit", "escaped", "leaked", "trapped", "backface")
 T = TypeVar("T")
 
@@ -159,7 +161,8 @@ class PeriodicScene:
         crossings = reach / np.maximum(a[:, 2], 1e-300)
         return np.minimum(2 * np.ceil(crossings) + 8, MAX_SEGMENTS).astype(np.int64)
 
-    def closest_hit(self, origins: np.ndarray, dirs: np.ndarray) -> Hits:
+    def closest_hit(self, origins: np.ndarray, dirs: np.ndarray,
+                    inside: np.ndarray | None = None) -> Hits:
         """First face each ray meets in the periodic continuation of the tile.
 
         Chunks of ``chunk`` rays are traced on the worker threads; the result does not
@@ -171,19 +174,24 @@ class PeriodicScene:
             Ray origins, within the slab; x and y may lie outside the box (wrapped).
         dirs : (n, 3) float
             Unit directions of travel.
+        inside : (n,) int or None
+            Per ray, the part (material id) whose medium it travels in, -1 for none: the
+            back faces of that part are hits for it, their fronts leakage.
 
         Returns
         -------
         Hits
         """
         c = self.chunk
-        parts = self.map(lambda i: self._closest_hit(origins[i:i + c], dirs[i:i + c]),
-                         range(0, len(origins), c))
+        parts = self.map(lambda i: self._closest_hit(
+            origins[i:i + c], dirs[i:i + c], None if inside is None else inside[i:i + c]),
+            range(0, len(origins), c))
         self.segments += sum(seg for _, seg in parts)
         return Hits(*(np.concatenate([getattr(h, f) for h, _ in parts])
                       for f in ("status", "face", "point")))
 
-    def _closest_hit(self, origins: np.ndarray, dirs: np.ndarray) -> tuple[Hits, int]:
+    def _closest_hit(self, origins: np.ndarray, dirs: np.ndarray,
+                     inside: np.ndarray | None = None) -> tuple[Hits, int]:
         """``closest_hit`` in the calling thread; also returns the Embree queries made."""
         n = len(origins)
         status = np.full(n, -1, np.int8)
@@ -223,11 +231,15 @@ class PeriodicScene:
             t_hit = np.divide(num, den, out=np.zeros(len(p)), where=den != 0)
             point[idx] = o_g + np.maximum(t_hit, 0.0)[:, None] * d_g
             face[idx] = p
-            status[idx] = np.where(den < 0, HIT, BACKFACE)
-            # a back face whose plane the origin lies just behind (at most 2 eps: where an
-            # offset crossed a neighbour's plane at a concave edge) is the offset's artefact:
-            # the ray goes on from that face's front
-            again = np.flatnonzero((den >= 0) & (num <= 2 * self.eps))
+            back = den >= 0
+            # the side a ray can reach: the back of its own medium's faces, else the front
+            real = back == (False if inside is None else
+                            np.take(self.tile.material, p) == np.take(inside, idx))
+            status[idx] = np.where(real, HIT, BACKFACE)
+            # a face hit from the wrong side whose plane the origin lies just beyond (at
+            # most 2 eps: where an offset crossed a neighbour's plane at a concave edge) is
+            # the offset's artefact: the ray goes on through it
+            again = np.flatnonzero(~real & (np.where(back, num, -num) <= 2 * self.eps))
             resume = idx[again]
             status[resume] = -1
             point[resume] = self.wrap(self.offset(point[resume], n_f[again], d_g[again]))
@@ -286,13 +298,16 @@ class Paths:
         escaped without touching the surface, which a closed surface does not allow).
     lost : (3,) float
         Summed RGB weight of paths ended by the simulation: alive after the last bounce,
-        leaked, trapped, or through a back face.
+        leaked (without having refracted), trapped, or through a back face.
     transmitted : (3,) float
-        Summed RGB weight refracted into dielectric facets (absorbed there).
+        Summed RGB weight transmitted: 1 - F at non-refracting dielectric facets, and paths
+        that left through the bottom of the slab after refracting.
     absorbed : (3,) float
-        Summed RGB weight absorbed by conductor and lambertian facets.
+        Summed RGB weight absorbed by conductor and lambertian facets and inside
+        absorbing media (Beer-Lambert).
     fate_counts : dict of str to int
-        Paths per ending (``"escaped"``, ``"bounces"``, and the ``FATES`` of lost paths).
+        Paths per ending (``"escaped"``, ``"bounces"``, ``"transmitted"``, and the
+        ``FATES`` of lost paths).
     """
 
     direction: np.ndarray
@@ -355,15 +370,23 @@ def _trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nd
     weight = np.zeros((n, 3))
     order = np.zeros(n, np.int64)
     lost, transmitted, absorbed = np.zeros(3), np.zeros(3), np.zeros(3)
-    counts = dict.fromkeys(("escaped", "bounces") + FATES[2:], 0)
+    counts = dict.fromkeys(("escaped", "bounces", "transmitted") + FATES[2:], 0)
     # the paths still alive: their rows, weights, origins and directions
     alive, w, o, d = np.arange(n), np.ones((n, 3)), origins, dirs
+    # with refracting facets: the medium each path is in (its part, -1: air) and whether
+    # it has refracted (then leaving through the bottom is transmission, not leakage)
+    refracting = bool(materials.refracting.any())
+    medium = np.full(n, -1, np.int64) if refracting else None
+    crossed = np.zeros(n, bool)
     segments = 0
     for bounce in range(bounces + 1):
         if alive.size == 0:
             break
-        hits, seg = scene._closest_hit(o, d)
+        hits, seg = scene._closest_hit(o, d, medium)
         segments += seg
+        if medium is not None:
+            w, lose = _absorb(scene, materials, hits, o, d, w, medium)
+            absorbed += lose
         out = np.flatnonzero(hits.status == ESCAPED)
         direction[alive[out]] = np.take(d, out, axis=0)
         weight[alive[out]] = np.take(w, out, axis=0)
@@ -372,18 +395,61 @@ def _trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nd
         hit = np.flatnonzero(hits.status == HIT)
         for code in (LEAKED, TRAPPED, BACKFACE) if out.size + hit.size < alive.size else ():
             ended = hits.status == code
+            if code == LEAKED:  # through the bottom after refracting: transmitted
+                through = ended & crossed
+                transmitted += w[through].sum(axis=0)
+                counts["transmitted"] += int(through.sum())
+                ended &= ~crossed
             lost += w[ended].sum(axis=0)
             counts[FATES[code]] += int(ended.sum())
-        alive, face = alive[hit], hits.face[hit]
+        alive, face, crossed = alive[hit], hits.face[hit], crossed[hit]
         w, d, point = (np.take(a, hit, axis=0) for a in (w, d, hits.point))
         if bounce == bounces:
             lost += w.sum(axis=0)
             counts["bounces"] += alive.size
             break
         n_f = np.take(scene.normals, face, axis=0)
+        d_in = d
         d, factor, into = materials.scatter(face, d, n_f, rng)
         transmitted += (w * into).sum(axis=0)
         absorbed += (w * (1.0 - factor - into)).sum(axis=0)
         w = w * factor
         o = scene.offset(point, n_f, d)
+        if medium is not None:
+            part = np.take(materials.face_material, face)
+            medium, through = next_medium(part, np.take(materials.refracting, part), n_f,
+                                          d_in, d, medium[hit])
+            crossed |= through
     return Paths(direction, weight, order, lost, transmitted, absorbed, counts), segments
+
+
+def _absorb(scene: PeriodicScene, materials: FacetMaterials, hits: Hits, o: np.ndarray,
+            d: np.ndarray, w: np.ndarray, medium: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Beer-Lambert attenuation of one query's segments travelled inside a medium.
+
+    A segment's length is its height change over |d_z| (``_closest_hit`` wraps x and y,
+    not z), from the origin to the face hit, or to the top or bottom of the slab.
+
+    Returns
+    -------
+    w : (k, 3) float
+        Weights after the segment.
+    absorbed : (3,) float
+        Weight absorbed on the way.
+    """
+    sigma = np.take(materials.absorption, medium, axis=0)
+    sel = np.flatnonzero((sigma > 0).any(axis=1) & (hits.status != TRAPPED))
+    if sel.size == 0:
+        return w, np.zeros(3)
+    status = hits.status[sel]
+    z_end = np.where(status == ESCAPED, scene.z_top,
+                     np.where(status == LEAKED, scene.z_bottom, hits.point[sel, 2]))
+    dz = np.abs(z_end - o[sel, 2])
+    d_z = np.abs(d[sel, 2])
+    # a segment exactly parallel to the slab has no length from heights: it is taken as
+    # never leaving the medium (a set of measure zero)
+    length = np.divide(dz, d_z, out=np.full(sel.size, np.inf), where=d_z > 0)
+    before = w[sel]
+    w = w.copy()
+    w[sel] = before * attenuation(sigma[sel], length)
+    return w, (before - w[sel]).sum(axis=0)

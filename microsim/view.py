@@ -13,6 +13,8 @@ from microsim.errors import InputError
 from microsim.surfaces.tile import Tile
 
 WINDOW = (800, 600)
+GLASS = 0.3
+"""Opacity of see-through (refracting) parts."""
 THIN = 0.1
 """A tile whose height range is below this fraction of its period is drawn with its z axis
 stretched to reach it (said in the title): true scale would show a flat sheet."""
@@ -82,7 +84,8 @@ def tile_polydata(pv: Any, tile: Tile, tiles: int = 1, z_scale: float = 1.0) -> 
 
 def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
               color: str = "slope", title: str = "",
-              paths: list[tuple[np.ndarray, int]] | None = None) -> np.ndarray | None:
+              paths: list[tuple[np.ndarray, int]] | None = None,
+              translucent: tuple[str, ...] = ()) -> np.ndarray | None:
     """View a tile interactively, or render it off screen to a PNG.
 
     Parameters
@@ -98,6 +101,9 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
         Text in the corner.
     paths : list of ((k, 3) float, int) or None
         Ray paths (``ray_paths``) to draw, coloured by scattering order.
+    translucent : tuple of str
+        Parts drawn see-through (light blue, opacity ``GLASS``), e.g. a paint's refracting
+        binder, so that what lies inside shows.
 
     Returns
     -------
@@ -113,10 +119,23 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
         title = f"{title}  (z drawn x{z_scale:.3g})".strip()
     mesh = tile_polydata(pv, tile, tiles, z_scale)
     plotter = pv.Plotter(off_screen=off, window_size=WINDOW)
+    glass = np.isin(np.asarray(tile.parts)[mesh.cell_data["material"]], translucent)
+    if glass.any() and not glass.all():  # (a tile all glass is drawn as it is)
+        plotter.add_mesh(mesh.extract_cells(np.flatnonzero(glass)), color="lightblue",
+                         opacity=GLASS, smooth_shading=True)
+        mesh = mesh.extract_cells(np.flatnonzero(~glass))
+        title = f"{title}  (see-through: {', '.join(translucent)})".strip()
     if color == "material":
         labels = {i: name for i, name in enumerate(tile.parts)}
-        plotter.add_mesh(mesh, scalars="material", categories=True, cmap="Set2",
-                         annotations=labels, scalar_bar_args={"title": "part"})
+        # part i gets Set2's colour i, also when see-through parts are drawn apart
+        from matplotlib import colormaps
+        from matplotlib.colors import ListedColormap
+
+        n = len(tile.parts)
+        cmap = ListedColormap(colormaps["Set2"].colors[:max(n, 2)])
+        plotter.add_mesh(mesh, scalars="material", cmap=cmap, n_colors=max(n, 2),
+                         clim=(-0.5, max(n, 2) - 0.5), annotations=labels,
+                         scalar_bar_args={"title": "part", "n_labels": 0})
     else:
         top = float(np.ceil(np.percentile(mesh.cell_data["slope"], 99.5) / 5) * 5)
         plotter.add_mesh(mesh, scalars="slope", cmap="viridis", clim=(0, max(top, 5.0)),
@@ -262,6 +281,7 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
     """
     from microsim.compare import direction
     from microsim.materials import FacetMaterials
+    from microsim.refraction import next_medium
     from microsim.trace import ESCAPED, HIT, PeriodicScene
 
     rng = np.random.default_rng(seed)
@@ -274,9 +294,10 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
         reach = 0.3 * max(lx, ly)  # drawn length of the incoming and escaping legs
         points = [[p - reach * q, p.copy()] for p, q in zip(o, d, strict=True)]
         order = np.zeros(rays, int)
+        medium = np.full(rays, -1)  # the part whose medium each ray is in (-1: air)
         alive = np.arange(rays)
         for bounce in range(bounces + 1):
-            hits = scene.closest_hit(o[alive], d[alive])
+            hits = scene.closest_hit(o[alive], d[alive], medium[alive])
             up = hits.status == ESCAPED
             for k in alive[up]:
                 points[k].append(o[k] + reach * d[k])
@@ -292,6 +313,9 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
             n = scene.normals[hits.face[hit]]
             new, _, _ = facets.scatter(hits.face[hit], d[idx], n, rng)
             o[idx] = p + (scene.offset(hits.point[hit], n, new) - hits.point[hit])
+            part = facets.face_material[hits.face[hit]]
+            medium[idx] = next_medium(part, facets.refracting[part], n, d[idx], new,
+                                      medium[idx])[0]
             d[idx] = new
             alive = idx
     return [(np.array(v), int(order[k])) for k, v in enumerate(points)]

@@ -95,7 +95,8 @@ def test_per_part_materials():
                         "material": {"base": {"kind": "lambertian", "albedo": 0.5},
                                      "fibre": {"kind": "dielectric"}}})
     assert r["material"]["base"] == {"kind": "lambertian", "albedo": [0.5, 0.5, 0.5]}
-    assert r["material"]["fibre"] == {"kind": "dielectric", "eta": 1.5}
+    assert r["material"]["fibre"] == {"kind": "dielectric", "eta": 1.5, "refract": False,
+                                     "absorption": 0.0}
 
 
 def test_one_material_applies_to_every_part():

@@ -103,6 +103,14 @@ MODELS: dict[str, ModelSpec] = {
                             {"albedo": Key("rgb", 0.8, "Albedo, one or three (R, G, B) "
                                            "values.", low=0.0, high=1.0)},
                             lambda p: _brdf("Lambertian")(p["albedo"])),
+    "coated-lambertian": ModelSpec(
+        "Lambertian substrate under a smooth dielectric layer, internal reflections "
+        "summed (diffuse part; the specular F(theta_i) is a Dirac peak not evaluated).",
+        {"albedo": Key("rgb", 0.8, "Substrate albedo, one or three values.", low=0.0,
+                       high=1.0),
+         "eta": Key("float", 1.5, "Index of the layer relative to air.", low=1.0,
+                    low_open=True, high=10.0)},
+        lambda p: _layered()(p["albedo"], p["eta"])),
     "oren-nayar": ModelSpec(
         "Oren-Nayar rough diffuse reflection (full model with interreflection, or the "
         "qualitative A/B model).",
@@ -136,6 +144,12 @@ def _brdf(name: str) -> Any:
     from microsim.analytic import brdf
 
     return getattr(brdf, name)
+
+
+def _layered() -> Any:
+    from microsim.analytic.layered import CoatedLambertian
+
+    return CoatedLambertian
 
 
 def _tangent(p: Mapping[str, Any]) -> list[float]:

@@ -56,7 +56,8 @@ def tile_facts(tile: Any) -> dict[str, Any]:
              "height_range": [z0, z1], "parts": list(tile.parts),
              "memory_bytes": int(tile.vertices.nbytes + tile.faces.nbytes
                                  + tile.material.nbytes)}
-    facts.update({k: v for k, v in tile.info.items() if k.startswith("alpha")})
+    # everything else the generator reports (realised roughness, paint fractions, ...)
+    facts.update({k: v for k, v in tile.info.items() if k not in facts})
     facts["warnings"] = list(tile.warnings)
     return facts
 

@@ -123,7 +123,10 @@ def run(args: argparse.Namespace) -> int:
         check_theta(theta)
         paths = ray_paths(tile, resolved["material"], math.radians(theta), args.rays,
                           sim["bounces"], sim["seed"])
-    show_tile(tile, args.screenshot, args.tiles, args.color, title, paths)
+    # refracting parts enclose a medium: drawn see-through so their contents show
+    glass = tuple(part for part, m in (resolved or {}).get("material", {}).items()
+                  if m["kind"] == "dielectric" and m["refract"])
+    show_tile(tile, args.screenshot, args.tiles, args.color, title, paths, glass)
     if args.screenshot is not None:
         print(f"wrote {args.screenshot}")
     return 0

@@ -7,6 +7,7 @@ start fast.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -107,6 +108,43 @@ def _check_cylinders(s: dict[str, Any]) -> None:
     if s["sink"] >= 2 * s["radius"]:
         raise InputError(f"surface.sink = {s['sink']!r}: must be < 2 * radius "
                          f"= {2 * s['radius']:g} (the cylinder would vanish)")
+
+
+def _check_paint(s: dict[str, Any]) -> None:
+    """Particles must fit in the binder and be small against the tile (the periodic wrap
+    moves a cut piece by one period at most)."""
+    r_max = s["pigment_radius"] * math.exp(2 * s["radius_spread"])  # radii are clipped there
+    flake = s["pigment_shape"] == "flake"
+    height = s["flake_thickness"] if flake else 2 * r_max
+    if s["pigment_fraction"] > 0 and height * (1 + PAINT_GAP) >= s["binder_thickness"]:
+        raise InputError(f"surface.binder_thickness = {s['binder_thickness']!r}: must exceed "
+                         f"the largest particle's height {height:g} (pigment_radius "
+                         "e^(2 radius_spread), doubled for spheres); raise it or lower "
+                         "pigment_radius")
+    if r_max > 0.25 * s["size"]:
+        raise InputError(f"surface.pigment_radius = {s['pigment_radius']!r}: the largest "
+                         f"radius {r_max:g} must be <= a quarter of the tile size "
+                         f"({0.25 * s['size']:g}); raise size")
+    if flake and s["flake_thickness"] >= s["pigment_radius"]:
+        raise InputError(f"surface.flake_thickness = {s['flake_thickness']!r}: must be below "
+                         f"pigment_radius = {s['pigment_radius']!r} (a flake is thin)")
+
+
+PAINT_GAP = 0.02
+"""Particles keep 1% of their radius off every other surface (microsim.surfaces.paint.GAP),
+on both sides: the binder must exceed a particle's height by this fraction."""
+
+
+def _paint_triangles(s: dict[str, Any]) -> float:
+    """Top grid, substrate, and the particles the fraction asks for at the smallest radius
+    (each cut by the wrap into at most a few pieces: times 2)."""
+    top = 2 * s["resolution"] ** 2 if s["top_alpha"] > 0 else 2
+    r = s["pigment_radius"] * math.exp(-2 * s["radius_spread"])
+    flake = s["pigment_shape"] == "flake"
+    volume = math.pi * r * r * s["flake_thickness"] if flake else 4 / 3 * math.pi * r**3
+    count = s["pigment_fraction"] * s["size"] ** 2 * s["binder_thickness"] / volume
+    per = 4 * s["sides"] if flake else 2 * s["sides"] * (s["sides"] // 2 - 1)
+    return top + 2 + 2 * count * per
 
 
 SURFACE_KINDS: dict[str, SurfaceKind] = {
@@ -239,6 +277,45 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
         },
         _check_weave,
         lambda s: 4 * s["segments"] * s["sides"] * (s["float"][0] + s["float"][1]) ** 2,
+    ),
+    "paint": SurfaceKind(
+        "A pigmented coating (Gondek, Meyer & Newman 1994): a dielectric binder layer with "
+        "a flat or Gaussian rough top, pigment spheres or thin flakes inside it (seeded "
+        "random sequential addition, no overlaps, periodic), over a flat substrate at "
+        "z = 0. Give the binder a dielectric material with refract = true.",
+        ("binder", "pigment", "substrate"),
+        {
+            "binder_thickness": _f("Mean thickness of the binder layer.", 0.2,
+                                   unit="length", low=0.0, low_open=True),
+            "top_alpha": _f("Roughness alpha of the binder's top (a Gaussian height "
+                            "field); 0 = flat.", 0.0, low=0.0, high=2.0),
+            "top_correlation_length": _f("Correlation length of the top's heights. "
+                                         "Default: 8 grid cells.", None, unit="length",
+                                         low=0.0, low_open=True),
+            "resolution": Key("int", 256, "Vertices per tile side of a rough top.", low=4,
+                              high=8192),
+            "pigment_fraction": _f("Pigment volume over binder volume (pigment included); "
+                                   "0 = none.", 0.1, low=0.0, high=0.4),
+            "pigment_shape": Key("str", "sphere", "Particle shape: spheres, or thin discs "
+                                 "(flakes) with tilted normals.",
+                                 choices=("sphere", "flake")),
+            "pigment_radius": _f("Median particle radius (a flake's disc radius).", 0.03,
+                                 unit="length", low=0.0, low_open=True),
+            "radius_spread": _f("Log-standard deviation of the lognormal radius (clipped "
+                                "at 2 standard deviations); 0 = all equal.", 0.2, low=0.0,
+                                high=1.0),
+            "flake_thickness": _f("Thickness of a flake.", 0.002, unit="length", low=0.0,
+                                  low_open=True),
+            "flake_tilt_spread": _f("RMS tilt of the flake normals from +z (tilt vector "
+                                    "Gaussian, azimuth uniform).", 10.0, unit="deg",
+                                    low=0.0, high=60.0),
+            "sides": Key("int", 12, "Facets around a particle (sphere meridians, disc "
+                         "edges).", low=4, high=256),
+            "size": SIZE,
+            "seed": SEED,
+        },
+        _check_paint,
+        _paint_triangles,
     ),
     "mesh": SurfaceKind(
         "A user tile (PLY, OBJ or STL, read by trimesh) with its period given here. The "
