@@ -266,11 +266,32 @@ def load(path: str | Path, overrides: Iterable[str] = ()) -> dict:
         surface) are made absolute against the recipe's folder.
     """
     path = Path(path)
-    recipe = resolve(apply_overrides(read_toml(path), overrides))
+    return resolve_in(read_toml(path), path.parent, overrides)
+
+
+def resolve_in(raw: Mapping[str, Any], folder: str | Path, overrides: Iterable[str] = ()
+               ) -> dict:
+    """Override and resolve a parsed recipe whose relative paths start at ``folder``.
+
+    Parameters
+    ----------
+    raw : mapping
+        The parsed TOML.
+    folder : str or Path
+        Where relative ``path`` keys point from (the recipe file's folder).
+    overrides : iterable of str
+        ``section.key=value`` strings, applied in order.
+
+    Returns
+    -------
+    dict
+        The resolved recipe, ``path`` keys absolute.
+    """
+    recipe = resolve(apply_overrides(dict(raw), overrides))
     for section in ("surface",):
         for name, key in SURFACE_KINDS[recipe["surface"]["kind"]].keys.items():
             if key.kind == "path" and name in recipe[section]:
-                recipe[section][name] = str((path.parent / recipe[section][name]).resolve())
+                recipe[section][name] = str((Path(folder) / recipe[section][name]).resolve())
     return recipe
 
 
