@@ -54,7 +54,7 @@ def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     if scheduler is None:
         n = workers or os.cpu_count() or 1
         with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                          dashboard_address=None, silence_logs=logging.ERROR) as cluster, \
+                          dashboard_address=None, silence_logs=logging.CRITICAL) as cluster, \
                 Client(cluster) as client:
             yield client
         return
