@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -185,7 +186,7 @@ def test_one_failing_point_the_rest_complete(tmp_path: Path, cli: Callable) -> N
 # --- interruption ----------------------------------------------------------------------
 def test_sigkill_then_resume_equals_an_uninterrupted_run(tmp_path: Path, cli: Callable
                                                          ) -> None:
-    """Kill -9 the batch (and its workers) as soon as its first table is written; a
+    """Kill -9 the batch as soon as its first table is written; a
     stale temporary file of a dead writer is planted too; the re-run finishes the rest,
     leaves no temporary file, and gives the bytes of an uninterrupted run."""
     axes = '[sweep]\n"surface.alpha" = [0.2, 0.3, 0.4, 0.5, 0.6, 0.7]\n'
@@ -198,8 +199,11 @@ def test_sigkill_then_resume_equals_an_uninterrupted_run(tmp_path: Path, cli: Ca
         deadline = time.monotonic() + 60
         while not list(out.glob("*.exr")) and time.monotonic() < deadline:
             time.sleep(0.005)
+        os.kill(process.pid, signal.SIGKILL)  # the batch alone; its workers follow it
+        process.wait()
     finally:
-        os.killpg(process.pid, signal.SIGKILL)
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
         process.wait()
     written = len(list(out.glob("*.exr")))
     assert 1 <= written < 6, "the kill must come after the first table, before the last"
@@ -255,3 +259,9 @@ def test_a_real_cluster_gives_the_same_bytes(tmp_path: Path, cli: Callable,
                        dask_cluster, "--json")
     assert code == 0 and json.loads(out)["jobs"] == 8
     assert table_bytes(tmp_path / "out") == table_bytes(reference[1])
+
+
+def test_the_shipped_example_sweep_loads() -> None:
+    sweep = load_sweep(Path(__file__).parents[1] / "scripts" / "sweep-roughness.toml")
+    assert len(sweep.points) == 12 and sweep.points[0].name == "alpha=0.1_kind=mirror"
+    assert sweep.points[-1].recipe["material"]["base"] == {"kind": "dielectric", "eta": 1.5}
