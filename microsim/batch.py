@@ -55,7 +55,7 @@ def _tile(surface: str) -> Tile:
 
 
 def run_job(recipe: Mapping[str, Any], thetas: tuple[int, ...], threads: int = 1
-            ) -> tuple[Measurement, list[str]]:
+            ) -> tuple[Measurement, list[str], float]:
     """Trace some incident polar angles of a resolved recipe (runs on a worker).
 
     Parameters
@@ -72,13 +72,16 @@ def run_job(recipe: Mapping[str, Any], thetas: tuple[int, ...], threads: int = 1
     measurement : Measurement
     warnings : list of str
         The tile's warnings.
+    seconds : float
+        Wall-clock time of the job on the worker, building the tile included.
     """
     from microsim.goniometer import measure_directions
 
+    start = time.perf_counter()
     tile = _tile(canonical(recipe["surface"]))
     measured = measure_directions(tile, recipe["material"], recipe["simulation"],
                                   recipe["table"], thetas, threads=threads)
-    return measured, list(tile.warnings)
+    return measured, list(tile.warnings), time.perf_counter() - start
 
 
 @dataclass(frozen=True)
@@ -241,6 +244,7 @@ def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool 
                 futures[future] = job
         parts: dict[str, list[Any]] = {name: [] for name in jobs}
         warnings: dict[str, list[str]] = {name: [] for name in jobs}
+        job_time = dict.fromkeys(jobs, 0.0)
         failed: dict[str, str] = {}
         computed: list[str] = []
         rays = jobs_done = 0
@@ -257,15 +261,16 @@ def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool 
                     if other_job.table == job.table:
                         other.cancel()
                 continue
-            measured, tile_warnings = future.result()
+            measured, tile_warnings, seconds = future.result()
             future.release()
             parts[job.table].append(measured)
             warnings[job.table] = tile_warnings
+            job_time[job.table] += seconds
             rays += sum(acc.rays for row in measured.rows.values() for acc, _, _ in row)
             if len(parts[job.table]) == len(jobs[job.table]):
                 computed.append(job.table)
                 _finish(folder, manifest, points[job.table], parts.pop(job.table),
-                        warnings[job.table])
+                        warnings[job.table], job_time[job.table])
             if progress is not None:
                 progress({"tables_done": len(keep) + len(computed) + len(failed),
                           "tables": len(sweep.points), "jobs_done": jobs_done,
@@ -278,8 +283,9 @@ def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool 
 
 
 def _finish(folder: Path, manifest: Manifest, point: Point, parts: list[Measurement],
-            warnings: list[str]) -> None:
-    """Merge a table's jobs, write the table, then record it as done."""
+            warnings: list[str], seconds: float) -> None:
+    """Merge a table's jobs, write the table, then record it as done (``seconds``: the
+    jobs' summed wall-clock time on the workers)."""
     from microsim.goniometer import assemble_table
 
     recipe = point.recipe
@@ -288,7 +294,7 @@ def _finish(folder: Path, manifest: Manifest, point: Point, parts: list[Measurem
     table.write(folder / f"{point.name}.exr")
     manifest.update(
         point.name, status="done", error=None, rays=int(table.rays.sum()),
-        segments=int(table.meta["segments"]), jobs=len(parts),
+        segments=int(table.meta["segments"]), jobs=len(parts), wall_s=seconds,
         scene_s=sum(p.scene_time for p in parts), trace_s=sum(p.trace_time for p in parts),
         median_rel_error=_finite(table.median_rel_error("total")),
         albedo=table.albedo.reshape(-1, 3).mean(axis=1).tolist(),

@@ -132,7 +132,9 @@ def test_one_worker_gives_the_same_bytes_as_two(tmp_path: Path, cli: Callable,
     assert sorted(table_bytes(ref)) == sorted(f"{n}.exr" for n in NAMES)
     assert table_bytes(tmp_path / "out") == table_bytes(ref)
     manifest = json.loads((ref / "manifest.json").read_text())
-    assert {e["status"] for e in manifest["tables"].values()} == {"done"}
+    for entry in manifest["tables"].values():
+        assert entry["status"] == "done" and entry["rays"] == 3 * 2000 and entry["jobs"] == 3
+        assert entry["wall_s"] >= entry["trace_s"] > 0
     point = load_sweep(sweep_path).points[1]
     alone = simulate_recipe(point.recipe, threads=1)
     merged = read_table(ref / f"{point.name}.exr")
@@ -265,3 +267,21 @@ def test_the_shipped_example_sweep_loads() -> None:
     sweep = load_sweep(Path(__file__).parents[1] / "scripts" / "sweep-roughness.toml")
     assert len(sweep.points) == 12 and sweep.points[0].name == "alpha=0.1_kind=mirror"
     assert sweep.points[-1].recipe["material"]["base"] == {"kind": "dielectric", "eta": 1.5}
+
+
+def test_progress_reports_every_job(tmp_path: Path) -> None:
+    """The callback sees every job and table; the rich bar renders its states."""
+    from microsim.batch import run_batch
+    from microsim.commands.batch import dask_client, progress_bar
+
+    sweep = load_sweep(write_sweep(tmp_path, axes='[sweep]\n"surface.alpha" = [0.2, 0.5]\n',
+                                   rays=300))
+    states: list[dict] = []
+    with dask_client(1, None) as client:
+        summary = run_batch(sweep, tmp_path / "out", client, progress=states.append)
+    assert [s["jobs_done"] for s in states] == list(range(1, 7))
+    assert states[-1]["tables_done"] == states[-1]["tables"] == 2
+    assert states[-1]["rays"] == summary["rays"] == 2 * 3 * 300
+    with progress_bar(True) as show:
+        for state in states:
+            show(state)
