@@ -164,7 +164,8 @@ class Manifest:
 
     def __init__(self, folder: Path, sweep: Sweep, entries: dict[str, Any]) -> None:
         self.path = folder / MANIFEST
-        self.head = {"sweep": str(sweep.path.resolve()), "seed": sweep.seed,
+        self.head = {"sweep": str(sweep.path.resolve()), "description": sweep.description,
+                     "seed": sweep.seed,
                      "thetas_per_job": sweep.thetas_per_job,
                      "microsim_version": microsim.__version__}
         self.tables = entries

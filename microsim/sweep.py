@@ -114,12 +114,14 @@ class Sweep:
     seed : int or None
         The sweep seed as given.
     thetas_per_job : int
+    description : str
     """
 
     path: Path
     points: list[Point]
     seed: int | None
     thetas_per_job: int
+    description: str = ""
 
 
 def _label(value: Any) -> str:
@@ -230,4 +232,5 @@ def load_sweep(path: str | Path) -> Sweep:
             sweep_seed = options.get("seed", recipe["simulation"]["seed"])
             recipe["simulation"]["seed"] = point_seed(sweep_seed, values)
         points.append(Point(name, values, recipe, recipe_hash(recipe)))
-    return Sweep(path, points, options.get("seed"), options["thetas_per_job"])
+    return Sweep(path, points, options.get("seed"), options["thetas_per_job"],
+                 options.get("description", ""))
