@@ -285,3 +285,61 @@ def test_progress_reports_every_job(tmp_path: Path) -> None:
     with progress_bar(True) as show:
         for state in states:
             show(state)
+
+
+def dying_job(recipe: dict, thetas: tuple[int, ...], threads: int = 1) -> object:
+    """``run_job``, except that the worker process of alpha = 0.5 dies (imported by the
+    workers by name)."""
+    from microsim.batch import run_job
+
+    if recipe["surface"]["alpha"] == 0.5:
+        os._exit(1)
+    return run_job(recipe, thetas, threads)
+
+
+def test_a_dying_worker_fails_its_table_alone(tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """A job that kills its worker is tried twice (the nanny restarts the worker), then
+    its table fails with KilledWorker; the other table completes."""
+    from microsim import batch
+    from microsim.commands.batch import dask_client
+
+    sweep = load_sweep(write_sweep(tmp_path, "thetas_per_job = 3",
+                                   '[sweep]\n"surface.alpha" = [0.2, 0.5]\n', rays=300))
+    monkeypatch.setattr(batch, "run_job", dying_job)
+    with dask_client(1, None) as client:
+        summary = batch.run_batch(sweep, tmp_path / "out", client)
+    assert summary["computed"] == ["alpha=0.2"]
+    assert [f["table"] for f in summary["failed"]] == ["alpha=0.5"]
+    assert "KilledWorker" in summary["failed"][0]["error"]
+    assert "2 different workers" in summary["failed"][0]["error"]
+
+
+def test_a_raising_job_is_retried_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+                                       ) -> None:
+    """On an in-process cluster: a job that raises once succeeds on its retry; one that
+    always raises is tried exactly twice and fails its table with the error."""
+    from distributed import Client, LocalCluster
+
+    from microsim import batch
+
+    log = tmp_path / "calls.txt"
+    real = batch.run_job
+
+    def flaky(recipe: dict, thetas: tuple[int, ...], threads: int = 1) -> object:
+        alpha = recipe["surface"]["alpha"]
+        with open(log, "a", encoding="utf-8") as f:
+            f.write(f"{alpha}\n")
+        if alpha == 0.5 or log.read_text().split().count(str(alpha)) == 1:
+            raise RuntimeError(f"boom {alpha}")
+        return real(recipe, thetas, threads)
+
+    sweep = load_sweep(write_sweep(tmp_path, "thetas_per_job = 3",
+                                   '[sweep]\n"surface.alpha" = [0.2, 0.5]\n', rays=300))
+    monkeypatch.setattr(batch, "run_job", flaky)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        summary = batch.run_batch(sweep, tmp_path / "out", client)
+    assert sorted(log.read_text().split()) == ["0.2", "0.2", "0.5", "0.5"]
+    assert summary["computed"] == ["alpha=0.2"]
+    assert summary["failed"] == [{"table": "alpha=0.5", "error": "RuntimeError: boom 0.5"}]

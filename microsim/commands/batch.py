@@ -49,12 +49,17 @@ def register(sub: argparse._SubParsersAction) -> None:
 @contextlib.contextmanager
 def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     """A client of a new local cluster (processes, one thread each) or of ``scheduler``."""
+    import dask
     from distributed import Client, LocalCluster
+
+    from microsim.batch import RETRIES
 
     if scheduler is None:
         n = workers or os.cpu_count() or 1
-        with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                          dashboard_address=None, silence_logs=logging.CRITICAL) as cluster, \
+        # a job whose worker dies is run once more, as one that raised (Dask's default is 3)
+        with dask.config.set({"distributed.scheduler.allowed-failures": RETRIES}), \
+                LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                             dashboard_address=None, silence_logs=logging.CRITICAL) as cluster, \
                 Client(cluster) as client:
             yield client
         return
