@@ -21,6 +21,7 @@ import functools
 import json
 import os
 import re
+import threading
 import time
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
@@ -37,6 +38,7 @@ if TYPE_CHECKING:
 
     from microsim.goniometer import Measurement
     from microsim.surfaces.tile import Tile
+    from microsim.trace import PeriodicScene
 
 MANIFEST = "manifest.json"
 LOCK = ".batch.lock"
@@ -46,12 +48,34 @@ RETRIES = 1
 """Times a job that raised is run again before its table is marked failed."""
 
 
-@functools.lru_cache(maxsize=4)
+TILES_KEPT = 2
+"""Tiles a worker process keeps (the most recently used), so that a surface is generated
+once per worker while its tables run."""
+_scenes = threading.local()
+
+
+@functools.lru_cache(maxsize=TILES_KEPT)
 def _tile(surface: str) -> Tile:
     """The tile of a surface section (canonical JSON), built once per worker process."""
     from microsim.surfaces import build_tile
 
     return build_tile(json.loads(surface))
+
+
+def _scene(surface: str, threads: int) -> tuple[Tile, PeriodicScene]:
+    """The tile of a surface section and an open Embree scene of it, kept per worker
+    thread (a scene is used by one job at a time) until another surface needs one."""
+    from microsim.trace import PeriodicScene
+
+    kept = getattr(_scenes, "kept", None)
+    if kept is not None and kept[0] == (surface, threads):
+        return kept[1], kept[2]
+    if kept is not None:
+        kept[2].close()
+        _scenes.kept = None
+    tile = _tile(surface)
+    _scenes.kept = ((surface, threads), tile, PeriodicScene(tile, threads))
+    return _scenes.kept[1], _scenes.kept[2]
 
 
 def run_job(recipe: Mapping[str, Any], thetas: tuple[int, ...], threads: int = 1
@@ -78,9 +102,9 @@ def run_job(recipe: Mapping[str, Any], thetas: tuple[int, ...], threads: int = 1
     from microsim.goniometer import measure_directions
 
     start = time.perf_counter()
-    tile = _tile(canonical(recipe["surface"]))
+    tile, scene = _scene(canonical(recipe["surface"]), threads)
     measured = measure_directions(tile, recipe["material"], recipe["simulation"],
-                                  recipe["table"], thetas, threads=threads)
+                                  recipe["table"], thetas, scene=scene)
     return measured, list(tile.warnings), time.perf_counter() - start
 
 
@@ -296,7 +320,7 @@ def _finish(folder: Path, manifest: Manifest, point: Point, parts: list[Measurem
     manifest.update(
         point.name, status="done", error=None, rays=int(table.rays.sum()),
         segments=int(table.meta["segments"]), jobs=len(parts), wall_s=seconds,
-        scene_s=sum(p.scene_time for p in parts), trace_s=sum(p.trace_time for p in parts),
+        trace_s=sum(p.trace_time for p in parts),
         median_rel_error=_finite(table.median_rel_error("total")),
         albedo=table.albedo.reshape(-1, 3).mean(axis=1).tolist(),
         albedo_err=table.albedo_err.reshape(-1, 3).mean(axis=1).tolist(),

@@ -17,6 +17,7 @@ error bars and the adaptive stop.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -298,8 +299,8 @@ def incident_azimuths(isotropic: bool, simulation: Mapping[str, Any]) -> list[fl
 def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
                        simulation: Mapping[str, Any], table: Mapping[str, Any],
                        thetas: Sequence[int] | None = None, *, threads: int | None = None,
-                       progress: Callable[[dict[str, Any]], None] | None = None
-                       ) -> Measurement:
+                       progress: Callable[[dict[str, Any]], None] | None = None,
+                       scene: PeriodicScene | None = None) -> Measurement:
     """Trace the incident directions of some polar angles of a table (see ``simulate``).
 
     Parameters
@@ -311,6 +312,9 @@ def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
         (default: all). Direction (l, k) draws the same random numbers whichever other
         directions are measured with it, so measurements of disjoint index sets merge
         (``assemble_table``) into exactly the table of one measurement of all of them.
+    scene : PeriodicScene or None
+        An open scene of ``tile`` to trace in (left open; ``threads`` is then unused), or
+        None to build one for this call. The numbers do not depend on it.
 
     Returns
     -------
@@ -323,12 +327,14 @@ def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
     bins = HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
     facets = FacetMaterials(tile.material, tile.parts, materials)
     chosen = range(len(theta_deg)) if thetas is None else thetas
-    with PeriodicScene(tile, threads) as scene:
-        built = time.perf_counter()
+    with contextlib.ExitStack() as stack:
+        if scene is None:
+            scene = stack.enter_context(PeriodicScene(tile, threads))
+        built, before = time.perf_counter(), scene.segments
         rows = {l: [_measure_direction(scene, facets, bins, simulation, theta_deg[l], phi,
                                        isotropic, (l, k), progress)
                     for k, phi in enumerate(phi_deg)] for l in chosen}
-        segments, eps = scene.segments, scene.eps
+        segments, eps = scene.segments - before, scene.eps
     return Measurement(rows, dict(tile.info), isotropic, segments, eps, built - start,
                        time.perf_counter() - built)
 
