@@ -16,10 +16,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tilefixtures import random_tile
 
-from microsim.goniometer import simulate_recipe
+from microsim.goniometer import assemble_table, measure_directions, simulate, simulate_recipe
+from microsim.recipe import resolve
 from microsim.sweep import load_sweep, point_seed
 from microsim.tables.exr import read_table
+from microsim.trace import PeriodicScene
 
 BASE = """
 [base.surface]
@@ -343,3 +346,27 @@ def test_a_raising_job_is_retried_once(tmp_path: Path, monkeypatch: pytest.Monke
     assert sorted(log.read_text().split()) == ["0.2", "0.2", "0.5", "0.5"]
     assert summary["computed"] == ["alpha=0.2"]
     assert summary["failed"] == [{"table": "alpha=0.5", "error": "RuntimeError: boom 0.5"}]
+
+
+def test_measurements_of_disjoint_angles_merge_into_simulate() -> None:
+    """Angles traced apart (one in a shared scene, in another order) assemble into the
+    sums of ``simulate``; a set of parts that misses or repeats an angle is refused."""
+    tile = random_tile(16, rms_slope=0.4, cells=3.0, seed=2)
+    recipe = resolve({"surface": {"kind": "flat"}, "material": {"kind": "lambertian"},
+                      "simulation": {"theta_i": [0, 30, 60], "rays": 700, "seed": 9},
+                      "table": {"theta_bins": 4, "phi_bins": 8}})
+    sections = recipe["material"], recipe["simulation"], recipe["table"]
+    whole = simulate(tile, *sections, threads=1)
+    with PeriodicScene(tile, 1) as scene:
+        last = measure_directions(tile, *sections, [2], scene=scene)
+        first = measure_directions(tile, *sections, [1, 0], scene=scene)
+    merged = assemble_table([last, first], *sections)
+    for c in ("total", "single"):
+        assert merged.sums[c].tobytes() == whole.sums[c].tobytes()
+        assert merged.sums_sq[c].tobytes() == whole.sums_sq[c].tobytes()
+    assert merged.meta["segments"] == whole.meta["segments"]
+    assert merged.meta["directions"] == whole.meta["directions"]
+    assert "wall_time" in whole.meta and "wall_time" not in merged.meta
+    for parts in ([first], [first, last, last]):
+        with pytest.raises(ValueError, match="every incident polar angle once"):
+            assemble_table(parts, *sections)
