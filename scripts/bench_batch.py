@@ -8,7 +8,8 @@ Runs the sweep (default: the first 4 points of scripts/sweep-roughness.toml, i.e
 tables of 256² Gaussian tiles, 4 incident angles each, one angle per job) with
 ``run_batch`` on a fresh ``LocalCluster`` of 1 and of 2 worker processes (one thread
 each, one tracing thread per job), alternating, ``--repeats`` times. The time is
-``run_batch``'s wall time (cluster start-up excluded, reported apart). Every run writes
+``run_batch``'s wall time (cluster start-up excluded, reported apart); the workers'
+occupancy comes from Dask's task stream. Every run writes
 tables of identical bytes, which the script checks. Prints the times, the speed-up per
 repeat (pairs run back to back) with its mean and range, and the load average; with
 ``--write`` it replaces the batch section of docs/performance.md.
@@ -28,7 +29,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from distributed import Client, LocalCluster
+from distributed import Client, LocalCluster, get_task_stream
 
 from microsim.batch import run_batch
 from microsim.sweep import load_sweep
@@ -45,16 +46,24 @@ def digest(folder: Path) -> str:
     return h.hexdigest()
 
 
-def timed_run(sweep, workers: int) -> tuple[float, float, str, int]:
-    """(cluster start-up s, run_batch wall s, tables digest, rays) on ``workers``."""
+def timed_run(sweep, workers: int) -> tuple[float, float, float, str, int]:
+    """(cluster start-up s, run_batch wall s, worker occupancy, tables digest, rays) on
+    ``workers``. Occupancy: the jobs' summed compute time over workers × the span from the
+    first job's start to the last one's end (Dask's task stream)."""
     start = time.perf_counter()
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                       dashboard_address=None, silence_logs=logging.CRITICAL) as cluster, \
             Client(cluster) as client, tempfile.TemporaryDirectory() as folder:
         up = time.perf_counter() - start
-        summary = run_batch(sweep, folder, client, resume=False)
+        with get_task_stream(client) as stream:
+            summary = run_batch(sweep, folder, client, resume=False)
         assert not summary["failed"], summary["failed"]
-        return up, summary["wall_s"], digest(Path(folder)), summary["rays"]
+        spans = [(s["start"], s["stop"]) for task in stream.data
+                 for s in task["startstops"] if s["action"] == "compute"]
+        busy = sum(b - a for a, b in spans)
+        span = max(b for _, b in spans) - min(a for a, _ in spans)
+        return up, summary["wall_s"], busy / (workers * span), digest(Path(folder)), \
+            summary["rays"]
 
 
 def main() -> None:
@@ -73,11 +82,13 @@ def main() -> None:
     sweep = dataclasses.replace(sweep, points=points)
     load_before = os.getloadavg()
     times: dict[int, list[float]] = {1: [], 2: []}
+    busy: dict[int, list[float]] = {1: [], 2: []}
     ups, digests, rays = [], set(), 0
     for _ in range(args.repeats):
         for workers in (1, 2):
-            up, wall, dig, rays = timed_run(sweep, workers)
+            up, wall, occupancy, dig, rays = timed_run(sweep, workers)
             times[workers].append(wall)
+            busy[workers].append(occupancy)
             ups.append(up)
             digests.add(dig)
             print(f"{workers} worker(s): {wall:.2f} s (cluster start {up:.2f} s)", flush=True)
@@ -96,10 +107,14 @@ def main() -> None:
         f"({sum(len(p.recipe['simulation']['theta_i']) for p in points)} jobs), a fresh "
         "`LocalCluster` per run (processes, one thread each), runs alternating.",
         "",
-        "| workers | `run_batch` wall time, s (per repeat) | median |",
-        "| --- | --- | --- |",
-        *[f"| {w} | {', '.join(f'{t:.2f}' for t in ts)} | {statistics.median(ts):.2f} |"
-          for w, ts in times.items()],
+        "| workers | `run_batch` wall time, s (per repeat) | median | worker occupancy |",
+        "| --- | --- | --- | --- |",
+        *[f"| {w} | {', '.join(f'{t:.2f}' for t in ts)} | {statistics.median(ts):.2f} | "
+          f"{min(busy[w]):.2f}–{max(busy[w]):.2f} |" for w, ts in times.items()],
+        "",
+        "Worker occupancy: the jobs' summed compute time over (workers × the span from the "
+        "first job's start to the last one's end), from Dask's task stream; near 1 means "
+        "no worker waited for work, whatever the load of the machine.",
         "",
         f"Speed-up of 2 workers over 1, per repeat: {', '.join(f'{r:.2f}' for r in ratios)} "
         f"(mean {statistics.mean(ratios):.2f}, range {min(ratios):.2f}–{max(ratios):.2f}). "
