@@ -277,25 +277,25 @@ def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool 
             job = futures[future]
             jobs_done += 1
             if job.table in failed:
-                continue
-            if future.status != "finished":
+                pass  # cancelled with its table
+            elif future.status != "finished":
                 exc = future.exception()
                 failed[job.table] = f"{type(exc).__name__}: {exc}"
                 manifest.update(job.table, status="failed", error=failed[job.table])
                 for other, other_job in futures.items():
                     if other_job.table == job.table:
                         other.cancel()
-                continue
-            measured, tile_warnings, seconds = future.result()
-            future.release()
-            parts[job.table].append(measured)
-            warnings[job.table] = tile_warnings
-            job_time[job.table] += seconds
-            rays += sum(acc.rays for row in measured.rows.values() for acc, _, _ in row)
-            if len(parts[job.table]) == len(jobs[job.table]):
-                computed.append(job.table)
-                _finish(folder, manifest, points[job.table], parts.pop(job.table),
-                        warnings[job.table], job_time[job.table])
+            else:
+                measured, tile_warnings, seconds = future.result()
+                future.release()
+                parts[job.table].append(measured)
+                warnings[job.table] = tile_warnings
+                job_time[job.table] += seconds
+                rays += sum(acc.rays for row in measured.rows.values() for acc, _, _ in row)
+                if len(parts[job.table]) == len(jobs[job.table]):
+                    computed.append(job.table)
+                    _finish(folder, manifest, points[job.table], parts.pop(job.table),
+                            warnings[job.table], job_time[job.table])
             if progress is not None:
                 progress({"tables_done": len(keep) + len(computed) + len(failed),
                           "tables": len(sweep.points), "jobs_done": jobs_done,
