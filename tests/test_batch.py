@@ -230,16 +230,19 @@ def free_port() -> int:
 
 
 @pytest.fixture
-def dask_cluster() -> Iterator[str]:
+def dask_cluster(tmp_path: Path) -> Iterator[tuple[str, Path]]:
     """A ``dask scheduler`` and two ``dask worker`` processes on 127.0.0.1 (each ends by
-    itself after 120 s at most; killed at teardown); yields the scheduler's address."""
+    itself after 120 s at most; killed at teardown); yields the scheduler's address and
+    its scheduler file."""
     from distributed import Client
 
     dask = str(Path(sys.executable).with_name("dask"))
     address = f"tcp://127.0.0.1:{free_port()}"
+    scheduler_file = tmp_path / "scheduler.json"
     started = [subprocess.Popen(
         [dask, "scheduler", "--host", "127.0.0.1", "--port", address.rsplit(":", 1)[1],
-         "--no-dashboard", "--idle-timeout", "120s"], start_new_session=True,
+         "--scheduler-file", str(scheduler_file), "--no-dashboard", "--idle-timeout",
+         "120s"], start_new_session=True,
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
     try:
         for _ in range(2):
@@ -249,7 +252,7 @@ def dask_cluster() -> Iterator[str]:
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
         with Client(address, timeout=60) as client:
             client.wait_for_workers(2, timeout=60)
-        yield address
+        yield address, scheduler_file
     finally:
         for p in started:
             os.killpg(p.pid, signal.SIGKILL)
@@ -257,13 +260,15 @@ def dask_cluster() -> Iterator[str]:
 
 
 def test_a_real_cluster_gives_the_same_bytes(tmp_path: Path, cli: Callable,
-                                             dask_cluster: str,
+                                             dask_cluster: tuple[str, Path],
                                              reference: tuple[Path, Path]) -> None:
+    """Reached by address and by scheduler file, with 2 angles per job."""
     sweep = write_sweep(tmp_path, "seed = 3\nthetas_per_job = 2")
-    code, out, _ = cli("batch", str(sweep), "-o", str(tmp_path / "out"), "--scheduler",
-                       dask_cluster, "--json")
-    assert code == 0 and json.loads(out)["jobs"] == 8
-    assert table_bytes(tmp_path / "out") == table_bytes(reference[1])
+    for how, target in zip(("address", "file"), dask_cluster, strict=True):
+        code, out, _ = cli("batch", str(sweep), "-o", str(tmp_path / how), "--scheduler",
+                           str(target), "--json")
+        assert code == 0 and json.loads(out)["jobs"] == 8
+        assert table_bytes(tmp_path / how) == table_bytes(reference[1])
 
 
 def test_the_shipped_example_sweep_loads() -> None:
