@@ -204,6 +204,9 @@ def load_sweep(path: str | Path) -> Sweep:
         raise InputError(f"{where}base = {base!r}: must be a recipe file (relative to the "
                          "sweep file, or absolute) or a [base] table")
     axes = _axes(raw.get("sweep"), where)
+    if "seed" in options and "simulation.seed" in axes:
+        raise InputError(f"{where}seed: unused when simulation.seed is an axis (the tables "
+                         "take the axis' seeds); remove one of them")
     keys = list(axes)
     if options["mode"] == "zip":
         lengths = {len(v) for v in axes.values()}

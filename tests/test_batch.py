@@ -85,6 +85,7 @@ def reference(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     ('mode = "cross"', AXES, "mode = 'cross'"),
     ("sead = 1", AXES, "sead: unknown key (did you mean 'seed'?)"),
     ("", "", "sweep: missing or empty"),
+    ("seed = 1", '[sweep]\n"simulation.seed" = [1, 2]\n', "seed: unused"),
 ])
 def test_bad_sweep_exits_2_before_any_work(tmp_path: Path, cli: Callable, head: str,
                                            axes: str, message: str) -> None:
