@@ -17,9 +17,11 @@ error bars and the adaptive stop.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -259,6 +261,158 @@ def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: Hemis
         planned = min(acc.rays + BATCH, most)
 
 
+@dataclass
+class Measurement:
+    """What tracing some incident polar angles of one table gives; see ``measure_directions``.
+
+    Attributes
+    ----------
+    rows : dict of int to list of (_Sums, str, float)
+        For each measured index l of ``simulation["theta_i"]``, one entry per incident
+        azimuth k: the direction's sums, why its batches stopped, and its median relative
+        error over the lobe (``_measure_direction``).
+    surface : dict
+        The tile's ``info``.
+    inputs : list of dict
+        Provenance of the tables its facet materials read (``FacetMaterials.inputs``).
+    isotropic : bool
+        Whether one incident azimuth (0) was measured.
+    segments : int
+        Embree queries traced.
+    offset : float
+        The scene's ray offset (``PeriodicScene.eps``).
+    scene_time, trace_time : float
+        Wall-clock seconds to build the scene and to trace.
+    """
+
+    rows: dict[int, list[tuple[_Sums, str, float]]]
+    surface: dict[str, Any]
+    inputs: list[dict[str, Any]]
+    isotropic: bool
+    segments: int
+    offset: float
+    scene_time: float
+    trace_time: float
+
+
+def incident_azimuths(isotropic: bool, simulation: Mapping[str, Any]) -> list[float]:
+    """Incident azimuths (degrees) a table measures: ``[0]`` when isotropic."""
+    return [0.0] if isotropic else [float(p) for p in simulation["phi_i"]]
+
+
+def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
+                       simulation: Mapping[str, Any], table: Mapping[str, Any],
+                       thetas: Sequence[int] | None = None, *, threads: int | None = None,
+                       progress: Callable[[dict[str, Any]], None] | None = None,
+                       scene: PeriodicScene | None = None) -> Measurement:
+    """Trace the incident directions of some polar angles of a table (see ``simulate``).
+
+    Parameters
+    ----------
+    tile, materials, simulation, table, threads, progress
+        As for ``simulate``.
+    thetas : sequence of int or None
+        Indices into ``simulation["theta_i"]`` to measure, every incident azimuth of each
+        (default: all). Direction (l, k) draws the same random numbers whichever other
+        directions are measured with it, so measurements of disjoint index sets merge
+        (``assemble_table``) into exactly the table of one measurement of all of them.
+    scene : PeriodicScene or None
+        An open scene of ``tile`` to trace in (left open; ``threads`` is then unused), or
+        None to build one for this call. The numbers do not depend on it.
+
+    Returns
+    -------
+    Measurement
+    """
+    start = time.perf_counter()
+    isotropic = bool(tile.info.get("isotropic", False))
+    theta_deg = [float(t) for t in simulation["theta_i"]]
+    phi_deg = incident_azimuths(isotropic, simulation)
+    bins = HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
+    facets = FacetMaterials(tile.material, tile.parts, materials)
+    chosen = range(len(theta_deg)) if thetas is None else thetas
+    with contextlib.ExitStack() as stack:
+        if scene is None:
+            scene = stack.enter_context(PeriodicScene(tile, threads))
+        built, before = time.perf_counter(), scene.segments
+        rows = {l: [_measure_direction(scene, facets, bins, simulation, theta_deg[l], phi,
+                                       isotropic, (l, k), progress)
+                    for k, phi in enumerate(phi_deg)] for l in chosen}
+        segments, eps = scene.segments - before, scene.eps
+    return Measurement(rows, dict(tile.info), facets.inputs, isotropic, segments, eps,
+                       built - start, time.perf_counter() - built)
+
+
+def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Mapping[str, Any]],
+                   simulation: Mapping[str, Any], table: Mapping[str, Any], *,
+                   recipe: Mapping[str, Any] | None = None, wall_time: float | None = None
+                   ) -> BRDFTable:
+    """The table of measurements that together cover every incident polar angle once.
+
+    Parameters
+    ----------
+    parts : sequence of Measurement
+        Of the same tile, materials, simulation and table, in any order.
+    materials, simulation, table, recipe
+        As for ``simulate``.
+    wall_time : float or None
+        Seconds the whole measurement took. Given, the metadata holds the timings
+        (``wall_time``, ``scene_time``, ``rays_per_second``, ``segments_per_second``);
+        None leaves them out, so the table depends on nothing but the recipe.
+
+    Returns
+    -------
+    BRDFTable
+        As ``simulate`` returns it.
+
+    Raises
+    ------
+    ValueError
+        If the parts do not cover each polar angle exactly once.
+    """
+    rows = {l: row for part in parts for l, row in part.rows.items()}
+    theta_deg = [float(t) for t in simulation["theta_i"]]
+    if sorted(rows) != list(range(len(theta_deg))) or \
+            sum(len(part.rows) for part in parts) != len(theta_deg):
+        raise ValueError("the measurements do not cover every incident polar angle once")
+    runs = [rows[l] for l in range(len(theta_deg))]
+    first = parts[0]
+    phi_deg = incident_azimuths(first.isotropic, simulation)
+    bins = HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
+    rays = sum(acc.rays for row in runs for acc, _, _ in row)
+    segments = sum(part.segments for part in parts)
+    meta = {
+        "recipe": dict(recipe) if recipe is not None else
+        {"material": dict(materials), "simulation": dict(simulation), "table": dict(table)},
+        "microsim_version": microsim.__version__,
+        "surface": dict(first.surface),
+        "inputs": first.inputs,
+        "seed": int(simulation["seed"]),
+        "isotropic": first.isotropic,
+        "directions": [{"theta_i": theta_deg[l], "phi_i": phi_deg[k], "rays": acc.rays,
+                        "lost": (acc.lost / acc.rays).tolist(),
+                        "transmitted": (acc.transmitted / acc.rays).tolist(),
+                        "absorbed": (acc.absorbed / acc.rays).tolist(),
+                        "fates": acc.fates, "stop": stop, "rel_error": error}
+                       for l, row in enumerate(runs)
+                       for k, (acc, stop, error) in enumerate(row)],
+        "stop": sorted({stop for row in runs for _, stop, _ in row}),
+        "segments": segments,
+        "batch": BATCH,
+        "offset": first.offset,
+    }
+    if wall_time is not None:
+        traced = sum(part.trace_time for part in parts)
+        meta.update(wall_time=wall_time, scene_time=sum(part.scene_time for part in parts),
+                    rays_per_second=rays / traced, segments_per_second=segments / traced)
+    result = _table(bins, theta_deg, phi_deg, first.isotropic,
+                    [[acc for acc, _, _ in row] for row in runs], meta)
+    for entry, albedo in zip(result.meta["directions"], result.albedo.reshape(-1, 3),
+                             strict=True):
+        entry["albedo"] = albedo.tolist()
+    return result
+
+
 def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
              simulation: Mapping[str, Any], table: Mapping[str, Any], *,
              recipe: Mapping[str, Any] | None = None, threads: int | None = None,
@@ -303,50 +457,10 @@ def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
     reached.
     """
     start = time.perf_counter()
-    isotropic = bool(tile.info.get("isotropic", False))
-    theta_deg = [float(t) for t in simulation["theta_i"]]
-    phi_deg = [0.0] if isotropic else [float(p) for p in simulation["phi_i"]]
-    bins = HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
-    facets = FacetMaterials(tile.material, tile.parts, materials)
-    with PeriodicScene(tile, threads) as scene:
-        built = time.perf_counter()
-        runs = [[_measure_direction(scene, facets, bins, simulation, theta, phi, isotropic,
-                                    (l, k), progress)
-                 for k, phi in enumerate(phi_deg)] for l, theta in enumerate(theta_deg)]
-        segments, eps = scene.segments, scene.eps
-    traced = time.perf_counter() - built
-    wall = time.perf_counter() - start
-    rays = sum(acc.rays for row in runs for acc, _, _ in row)
-    meta = {
-        "recipe": dict(recipe) if recipe is not None else
-        {"material": dict(materials), "simulation": dict(simulation), "table": dict(table)},
-        "microsim_version": microsim.__version__,
-        "surface": dict(tile.info),
-        "inputs": facets.inputs,
-        "seed": int(simulation["seed"]),
-        "isotropic": isotropic,
-        "directions": [{"theta_i": theta_deg[l], "phi_i": phi_deg[k], "rays": acc.rays,
-                        "lost": (acc.lost / acc.rays).tolist(),
-                        "transmitted": (acc.transmitted / acc.rays).tolist(),
-                        "absorbed": (acc.absorbed / acc.rays).tolist(),
-                        "fates": acc.fates, "stop": stop, "rel_error": error}
-                       for l, row in enumerate(runs)
-                       for k, (acc, stop, error) in enumerate(row)],
-        "stop": sorted({stop for row in runs for _, stop, _ in row}),
-        "wall_time": wall,
-        "scene_time": built - start,
-        "segments": segments,
-        "rays_per_second": rays / traced,
-        "segments_per_second": segments / traced,
-        "batch": BATCH,
-        "offset": eps,
-    }
-    result = _table(bins, theta_deg, phi_deg, isotropic,
-                    [[acc for acc, _, _ in row] for row in runs], meta)
-    for entry, albedo in zip(result.meta["directions"], result.albedo.reshape(-1, 3),
-                             strict=True):
-        entry["albedo"] = albedo.tolist()
-    return result
+    measured = measure_directions(tile, materials, simulation, table, threads=threads,
+                                  progress=progress)
+    return assemble_table([measured], materials, simulation, table, recipe=recipe,
+                          wall_time=time.perf_counter() - start)
 
 
 def simulate_recipe(recipe: Mapping[str, Any], progress: Callable[[dict[str, Any]], None]

@@ -328,7 +328,33 @@ def load(path: str | Path, overrides: Iterable[str] = ()) -> dict:
         Also when a material's ``path`` names no file.
     """
     path = Path(path)
-    raw = apply_overrides(read_toml(path), overrides)
+    return resolve_in(read_toml(path), path.parent, overrides)
+
+
+def resolve_in(raw: Mapping[str, Any], folder: str | Path, overrides: Iterable[str] = ()
+               ) -> dict:
+    """Override and resolve a parsed recipe whose relative paths start at ``folder``.
+
+    Parameters
+    ----------
+    raw : mapping
+        The parsed TOML.
+    folder : str or Path
+        Where relative ``path`` keys point from (the recipe file's folder).
+    overrides : iterable of str
+        ``section.key=value`` strings, applied in order.
+
+    Returns
+    -------
+    dict
+        The resolved recipe, ``path`` keys absolute.
+
+    Raises
+    ------
+    InputError
+        Also when a material's ``path`` names no file.
+    """
+    raw = apply_overrides(dict(raw), overrides)
     recipe = resolve(raw)
     one = "kind" in raw.get("material", {})  # one [material] for every part
     sections = [(recipe["surface"], SURFACE_KINDS[recipe["surface"]["kind"]].keys, "")]
@@ -338,7 +364,7 @@ def load(path: str | Path, overrides: Iterable[str] = ()) -> dict:
         for name, key in keys.items():
             if key.kind == "path" and name in section:
                 given = section[name]
-                section[name] = str((path.parent / given).resolve())
+                section[name] = str((Path(folder) / given).resolve())
                 if where and not Path(section[name]).is_file():
                     raise InputError(f"{where}{name} = {given!r}: no such file "
                                      f"({section[name]})")

@@ -1,0 +1,327 @@
+"""Batch runs of a sweep on Dask: jobs, merging, the manifest, resuming.
+
+A sweep point is one table; its incident polar angles are cut into jobs of
+``Sweep.thetas_per_job`` angles. A job (``run_job``) traces its angles on a worker with
+``microsim.goniometer.measure_directions``; the client merges a table's jobs with
+``assemble_table`` and writes it. Direction (l, k) of a table draws its batches from
+``SeedSequence(seed, spawn_key=(l, k, b))`` whichever job traces it, so a table is the same,
+bit for bit, whatever the number of workers, the job size or the order of completion, and
+equals ``simulate`` of the point's recipe (without the timings, which go to the manifest).
+
+``DIR/manifest.json`` records every table (status, recipe hash, seed, rays, times, error
+metrics, error message) and is replaced atomically after every change; tables are written
+atomically too. docs/batch.md describes the format and the resuming rules.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import functools
+import json
+import os
+import re
+import threading
+import time
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import microsim
+from microsim.errors import InputError
+from microsim.files import atomic_path
+from microsim.sweep import Point, Sweep, canonical
+
+if TYPE_CHECKING:
+    from distributed import Client
+
+    from microsim.goniometer import Measurement
+    from microsim.surfaces.tile import Tile
+    from microsim.trace import PeriodicScene
+
+MANIFEST = "manifest.json"
+LOCK = ".batch.lock"
+TEMPORARY = re.compile(r"^\.(.+\.exr|manifest\.json)\.(\d+)\.[0-9a-f]{8}\.tmp$")
+"""Names ``microsim.files.atomic_path`` gives the temporary files of this folder's outputs."""
+RETRIES = 1
+"""Times a job that raised is run again before its table is marked failed."""
+
+
+TILES_KEPT = 2
+"""Tiles a worker process keeps (the most recently used), so that a surface is generated
+once per worker while its tables run."""
+_scenes = threading.local()
+
+
+@functools.lru_cache(maxsize=TILES_KEPT)
+def _tile(surface: str) -> Tile:
+    """The tile of a surface section (canonical JSON), built once per worker process."""
+    from microsim.surfaces import build_tile
+
+    return build_tile(json.loads(surface))
+
+
+def _scene(surface: str, threads: int) -> tuple[Tile, PeriodicScene]:
+    """The tile of a surface section and an open Embree scene of it, kept per worker
+    thread (a scene is used by one job at a time) until another surface needs one."""
+    from microsim.trace import PeriodicScene
+
+    kept = getattr(_scenes, "kept", None)
+    if kept is not None and kept[0] == (surface, threads):
+        return kept[1], kept[2]
+    if kept is not None:
+        kept[2].close()
+        _scenes.kept = None
+    tile = _tile(surface)
+    _scenes.kept = ((surface, threads), tile, PeriodicScene(tile, threads))
+    return _scenes.kept[1], _scenes.kept[2]
+
+
+def run_job(recipe: Mapping[str, Any], thetas: tuple[int, ...], threads: int = 1
+            ) -> tuple[Measurement, list[str], float]:
+    """Trace some incident polar angles of a resolved recipe (runs on a worker).
+
+    Parameters
+    ----------
+    recipe : mapping
+        A resolved recipe.
+    thetas : tuple of int
+        Indices into ``recipe["simulation"]["theta_i"]``.
+    threads : int
+        Tracing threads.
+
+    Returns
+    -------
+    measurement : Measurement
+    warnings : list of str
+        The tile's warnings.
+    seconds : float
+        Wall-clock time of the job on the worker, building the tile included.
+    """
+    from microsim.goniometer import measure_directions
+
+    start = time.perf_counter()
+    tile, scene = _scene(canonical(recipe["surface"]), threads)
+    measured = measure_directions(tile, recipe["material"], recipe["simulation"],
+                                  recipe["table"], thetas, scene=scene)
+    return measured, list(tile.warnings), time.perf_counter() - start
+
+
+@dataclass(frozen=True)
+class Job:
+    """One unit of work: a table's name and the indices of the polar angles it traces."""
+
+    table: str
+    thetas: tuple[int, ...]
+
+
+def jobs_of(point: Point, thetas_per_job: int) -> list[Job]:
+    """A point's jobs: its incident polar angles in chunks of ``thetas_per_job``."""
+    n = len(point.recipe["simulation"]["theta_i"])
+    return [Job(point.name, tuple(range(i, min(i + thetas_per_job, n))))
+            for i in range(0, n, thetas_per_job)]
+
+
+def remove_stale_temporaries(folder: Path) -> list[Path]:
+    """Remove temporary files a killed batch left in ``folder`` (their writer is gone).
+
+    Returns
+    -------
+    list of Path
+        The files removed.
+    """
+    removed = []
+    for path in folder.glob(".*.tmp"):
+        match = TEMPORARY.match(path.name)
+        if match is None:
+            continue
+        try:
+            os.kill(int(match.group(2)), 0)
+            continue  # the writer still runs
+        except ProcessLookupError:
+            pass
+        except PermissionError:
+            continue
+        path.unlink(missing_ok=True)
+        removed.append(path)
+    return removed
+
+
+@contextlib.contextmanager
+def output_lock(folder: Path) -> Iterator[None]:
+    """Hold ``folder/.batch.lock``: one batch at a time writes a folder."""
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder / LOCK, "a") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError(f"{folder}: another batch is writing this folder") from None
+        yield
+
+
+def read_manifest(folder: Path) -> dict[str, Any]:
+    """The manifest's table entries by name (empty when there is none)."""
+    path = folder / MANIFEST
+    if not path.exists():
+        return {}
+    try:
+        tables = json.loads(path.read_text(encoding="utf-8"))["tables"]
+        if not isinstance(tables, dict):
+            raise TypeError
+        return tables
+    except (json.JSONDecodeError, KeyError, TypeError, UnicodeDecodeError):
+        raise InputError(f"{path}: not a batch manifest; move it away or use "
+                         "--no-resume") from None
+
+
+class Manifest:
+    """``DIR/manifest.json``: the sweep and one entry per table, replaced atomically.
+
+    Parameters
+    ----------
+    folder : Path
+    sweep : Sweep
+    entries : dict of str to dict
+        The table entries to start from.
+    """
+
+    def __init__(self, folder: Path, sweep: Sweep, entries: dict[str, Any]) -> None:
+        self.path = folder / MANIFEST
+        self.head = {"sweep": str(sweep.path.resolve()), "description": sweep.description,
+                     "seed": sweep.seed,
+                     "thetas_per_job": sweep.thetas_per_job,
+                     "microsim_version": microsim.__version__}
+        self.tables = entries
+
+    def update(self, name: str, **fields: Any) -> None:
+        """Change a table's entry and rewrite the file."""
+        self.tables[name] = {**self.tables.get(name, {}), **fields}
+        self.write()
+
+    def write(self) -> None:
+        """Replace the file with the current state (temporary file + rename)."""
+        with atomic_path(self.path) as tmp:
+            tmp.write_text(json.dumps({**self.head, "tables": self.tables}, indent=1,
+                                      allow_nan=False, default=float) + "\n",
+                           encoding="utf-8")
+
+
+def _finite(x: float) -> float | None:
+    """``x``, or None where it is not finite (the manifest is strict JSON)."""
+    return x if x == x and abs(x) != float("inf") else None
+
+
+def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool = True,
+              threads: int = 1, progress: Callable[[dict[str, Any]], None] | None = None
+              ) -> dict[str, Any]:
+    """Run a sweep on a Dask client; write ``folder/<point>.exr`` and the manifest.
+
+    Parameters
+    ----------
+    sweep : Sweep
+        A loaded sweep (every point resolved).
+    folder : str or Path
+        Output folder, created if missing.
+    client : distributed.Client
+        Where jobs run; workers must be able to import microsim.
+    resume : bool
+        Skip tables the manifest lists as done with the same recipe hash whose file
+        exists; False recomputes every table.
+    threads : int
+        Tracing threads per job.
+    progress : callable or None
+        Called after every finished job with ``tables_done``, ``tables``, ``jobs_done``,
+        ``jobs``, ``rays`` (traced in this run) and ``elapsed`` (seconds).
+
+    Returns
+    -------
+    dict
+        ``output``, ``tables`` (count), ``computed``, ``skipped`` and ``failed`` (lists of
+        names; ``failed`` with the errors), ``jobs``, ``rays``, ``wall_s``.
+    """
+    from distributed import as_completed
+
+    folder = Path(folder)
+    start = time.perf_counter()
+    with output_lock(folder):
+        remove_stale_temporaries(folder)
+        old = read_manifest(folder) if resume else {}
+        keep = {p.name: old[p.name] for p in sweep.points
+                if p.name in old and old[p.name].get("status") == "done"
+                and old[p.name].get("recipe_hash") == p.hash
+                and (folder / f"{p.name}.exr").is_file()}
+        todo = [p for p in sweep.points if p.name not in keep]
+        manifest = Manifest(folder, sweep, {
+            p.name: keep.get(p.name) or {
+                "file": f"{p.name}.exr", "status": "pending", "recipe_hash": p.hash,
+                "seed": p.recipe["simulation"]["seed"], "point": p.values}
+            for p in sweep.points})
+        manifest.write()
+        points = {p.name: p for p in todo}
+        jobs = {p.name: jobs_of(p, sweep.thetas_per_job) for p in todo}
+        futures = {}
+        for name, table_jobs in jobs.items():
+            for job in table_jobs:
+                key = f"microsim-{name}-{job.thetas[0]}-{os.urandom(4).hex()}"
+                future = client.submit(run_job, points[name].recipe, job.thetas, threads,
+                                       key=key, pure=False, retries=RETRIES)
+                futures[future] = job
+        parts: dict[str, list[Any]] = {name: [] for name in jobs}
+        warnings: dict[str, list[str]] = {name: [] for name in jobs}
+        job_time = dict.fromkeys(jobs, 0.0)
+        failed: dict[str, str] = {}
+        computed: list[str] = []
+        rays = jobs_done = 0
+        for future in as_completed(list(futures)):
+            job = futures[future]
+            jobs_done += 1
+            if job.table in failed:
+                pass  # cancelled with its table
+            elif future.status != "finished":
+                exc = future.exception()
+                failed[job.table] = f"{type(exc).__name__}: {exc}"
+                manifest.update(job.table, status="failed", error=failed[job.table])
+                for other, other_job in futures.items():
+                    if other_job.table == job.table:
+                        other.cancel()
+            else:
+                measured, tile_warnings, seconds = future.result()
+                future.release()
+                parts[job.table].append(measured)
+                warnings[job.table] = tile_warnings
+                job_time[job.table] += seconds
+                rays += sum(acc.rays for row in measured.rows.values() for acc, _, _ in row)
+                if len(parts[job.table]) == len(jobs[job.table]):
+                    computed.append(job.table)
+                    _finish(folder, manifest, points[job.table], parts.pop(job.table),
+                            warnings[job.table], job_time[job.table])
+            if progress is not None:
+                progress({"tables_done": len(keep) + len(computed) + len(failed),
+                          "tables": len(sweep.points), "jobs_done": jobs_done,
+                          "jobs": len(futures), "rays": rays,
+                          "elapsed": time.perf_counter() - start})
+    return {"output": str(folder), "tables": len(sweep.points), "computed": computed,
+            "skipped": sorted(keep), "failed": [{"table": n, "error": e}
+                                                for n, e in failed.items()],
+            "jobs": len(futures), "rays": rays, "wall_s": time.perf_counter() - start}
+
+
+def _finish(folder: Path, manifest: Manifest, point: Point, parts: list[Measurement],
+            warnings: list[str], seconds: float) -> None:
+    """Merge a table's jobs, write the table, then record it as done (``seconds``: the
+    jobs' summed wall-clock time on the workers)."""
+    from microsim.goniometer import assemble_table
+
+    recipe = point.recipe
+    table = assemble_table(parts, recipe["material"], recipe["simulation"], recipe["table"],
+                     recipe=recipe)
+    table.write(folder / f"{point.name}.exr")
+    manifest.update(
+        point.name, status="done", error=None, rays=int(table.rays.sum()),
+        segments=int(table.meta["segments"]), jobs=len(parts), wall_s=seconds,
+        trace_s=sum(p.trace_time for p in parts),
+        median_rel_error=_finite(table.median_rel_error("total")),
+        albedo=table.albedo.reshape(-1, 3).mean(axis=1).tolist(),
+        albedo_err=table.albedo_err.reshape(-1, 3).mean(axis=1).tolist(),
+        warnings=warnings)

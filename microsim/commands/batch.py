@@ -1,0 +1,137 @@
+"""``microsim batch SWEEP -o DIR``: run a sweep of tables on a Dask cluster."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import logging
+import os
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from microsim.cli import add_json_arg, positive_int, print_json
+from microsim.errors import InputError
+
+CONNECT_TIMEOUT = 20
+"""Seconds to wait for ``--scheduler`` before giving up."""
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``batch`` command."""
+    p = sub.add_parser(
+        "batch",
+        help="run a sweep of recipes (one BRDF table each) on a local or remote Dask cluster",
+        description="Trace every point of a sweep file (a base recipe and axes over its "
+                    "keys, docs/batch.md) as jobs on Dask workers and write one OpenEXR "
+                    "table per point to DIR, with DIR/manifest.json. Re-running resumes: "
+                    "tables done with an unchanged recipe are skipped. Exit status 1 when "
+                    "a table failed (the summary and the manifest name it).",
+    )
+    p.add_argument("sweep", metavar="SWEEP", type=Path, help="sweep file (TOML)")
+    p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR",
+                   help="output folder (created if missing)")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="worker processes of the local cluster (default: every CPU)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="use a running Dask cluster: its address (tcp://host:port) or a "
+                        "scheduler file, instead of a local cluster")
+    p.add_argument("--threads", type=positive_int, default=1,
+                   help="tracing threads per job (default 1: one job per worker thread)")
+    p.add_argument("--resume", action=argparse.BooleanOptionalAction, default=True,
+                   help="skip tables already done with the same recipe (default); "
+                        "--no-resume recomputes every table")
+    add_json_arg(p)
+    p.set_defaults(func=run)
+
+
+@contextlib.contextmanager
+def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
+    """A client of a new local cluster (processes, one thread each) or of ``scheduler``."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    from microsim.batch import RETRIES
+
+    if scheduler is None:
+        n = workers or os.cpu_count() or 1
+        # a job whose worker dies is run once more, as one that raised (Dask's default is 3)
+        with dask.config.set({"distributed.scheduler.allowed-failures": RETRIES}), \
+                LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                             dashboard_address=None, silence_logs=logging.CRITICAL) as cluster, \
+                Client(cluster) as client:
+            yield client
+        return
+    if workers is not None:
+        raise InputError("--workers: only for the local cluster; the cluster of "
+                         "--scheduler has its own workers")
+    if "://" in scheduler:
+        target: dict[str, Any] = {"address": scheduler}
+    elif Path(scheduler).is_file():
+        target = {"scheduler_file": scheduler}
+    else:
+        raise InputError(f"--scheduler {scheduler!r}: neither an address "
+                         "(tcp://host:port) nor an existing scheduler file")
+    try:
+        client = Client(**target, timeout=CONNECT_TIMEOUT)
+    except (OSError, TimeoutError) as exc:
+        raise InputError(f"--scheduler {scheduler!r}: cannot connect: {exc}") from None
+    with client:
+        yield client
+
+
+@contextlib.contextmanager
+def progress_bar(enabled: bool) -> Iterator[Any]:
+    """A rich progress bar on stderr and its callback for ``run_batch``, or None."""
+    if not enabled:
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    with Progress(TextColumn("tables {task.fields[tables]}"), BarColumn(),
+                  TextColumn("jobs"), MofNCompleteColumn(), TextColumn("{task.fields[rate]}"),
+                  TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+                  console=Console(stderr=True)) as bar:
+        task = bar.add_task("batch", total=None, tables="", rate="")
+
+        def show(state: dict[str, Any]) -> None:
+            rate = state["rays"] / max(state["elapsed"], 1e-9)
+            bar.update(task, total=state["jobs"], completed=state["jobs_done"],
+                       tables=f"{state['tables_done']}/{state['tables']}",
+                       rate=f"{rate:,.0f} rays/s")
+
+        yield show
+
+
+def print_summary(s: dict[str, Any]) -> None:
+    """Text for people."""
+    print(f"{s['tables']} tables in {s['output']}: {len(s['computed'])} computed, "
+          f"{len(s['skipped'])} already done, {len(s['failed'])} failed; {s['jobs']} jobs, "
+          f"{s['rays']:,} rays in {s['wall_s']:.1f} s")
+    for failure in s["failed"]:
+        print(f"failed: {failure['table']}: {failure['error']}")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Load and check the whole sweep, run it, print the summary; 1 if a table failed."""
+    from microsim.batch import run_batch
+    from microsim.sweep import load_sweep
+
+    sweep = load_sweep(args.sweep)
+    if args.output.exists() and not args.output.is_dir():
+        raise InputError(f"--output {args.output}: not a folder")
+    with dask_client(args.workers, args.scheduler) as client, \
+            progress_bar(sys.stderr.isatty() and not args.json) as show:
+        summary = run_batch(sweep, args.output, client, resume=args.resume,
+                            threads=args.threads, progress=show)
+    print_json(summary) if args.json else print_summary(summary)
+    return 1 if summary["failed"] else 0
