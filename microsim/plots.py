@@ -207,3 +207,36 @@ def ndf_plot(theta_deg: np.ndarray, measured: np.ndarray, stderr: np.ndarray,
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def sh_error_plot(rows: list[dict[str, Any]], path: str | Path, title: str = "") -> None:
+    """Relative L2 error of truncated spherical harmonics against the table, per order
+    (``microsim.tables.sh_error.order_errors`` rows): hemisphere and lobe, with and without
+    the window, and the two noise floors. Written atomically as PNG."""
+    from microsim.files import atomic_path
+
+    plt = _pyplot()
+    order = [r["order"] for r in rows]
+    fig, ax = plt.subplots(figsize=(5.5, 4))
+    window = rows[0]["window"]
+    ax.plot(order, [r["rel_l2_error"] for r in rows], "o-", label=f"hemisphere ({window})")
+    ax.plot(order, [r["rel_l2_error_lobe"] for r in rows], "s-", label=f"lobe ({window})")
+    if window != "none":
+        ax.plot(order, [r["rel_l2_error_unwindowed"] for r in rows], "o--",
+                label="hemisphere (none)")
+        ax.plot(order, [r["rel_l2_error_lobe_unwindowed"] for r in rows], "s--",
+                label="lobe (none)")
+    ax.plot(order, [r["table_noise"] for r in rows], ":", color="grey", label="table noise")
+    ax.plot(order, [r["sh_noise"] for r in rows], "-.", color="grey", label="SH noise")
+    ax.set_xscale("log", base=2)
+    ax.set_yscale("log")
+    ax.set_xlabel("SH order L ((L+1)² coefficients)")
+    ax.set_ylabel("relative L2 error of f_r cos θo")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
