@@ -347,3 +347,25 @@ def test_cli_table_without_harmonics(tmp_path, cli) -> None:
     assert code == 2 and "no spherical harmonics" in err and "sh_order" in err
     code, _, err = cli("sh", str(tmp_path / "missing.exr"))
     assert code == 2 and err.startswith("error:")
+
+
+def test_bin_integrals_sum_to_hemisphere_integrals() -> None:
+    """Σ over bins of ∫_bin Y_k dω is ∫ over the hemisphere (by scipy quadrature), for
+    full and folded azimuths; bin by bin, the integrals match a fine midpoint rule."""
+    order = 6
+    hemisphere = lobe_coefficients(lambda wi, wo: 1.0 / wo[:, 2], np.zeros(1), order)[0]
+    for bins in (HemisphereBins(8, 16), HemisphereBins(8, 8, np.pi)):
+        integrals, omega = bin_integrals(order, bins)
+        assert np.allclose(integrals.sum(axis=0), hemisphere, atol=1e-12)
+        assert np.isclose(omega.sum(), 2 * np.pi)
+    bins = HemisphereBins(3, 4)
+    integrals, _ = bin_integrals(order, bins)
+    x, phi = np.meshgrid((np.arange(600) + 0.5) / 600, (np.arange(800) + 0.5) * np.pi / 400,
+                         indexing="ij")
+    cos, sin = x.ravel(), np.sqrt(1 - x.ravel() ** 2)
+    weights = np.full(len(cos), (1 / 600) * (np.pi / 400))          # dω = d(cos θ) dφ
+    wo = np.stack([sin * np.cos(phi.ravel()), sin * np.sin(phi.ravel()), cos], -1)
+    index = bins.index(wo)
+    y = sh.basis(order, cos, phi.ravel()) * weights[:, None]
+    fine = np.stack([y[index == b].sum(axis=0) for b in range(bins.size)])
+    assert np.abs(fine - integrals).max() < 2e-3
