@@ -220,6 +220,31 @@ def test_sh_eval_is_the_series_over_cos_theta(rough: BRDFTable) -> None:
         rough.eval(wi, wo, representation="bins")
 
 
+def test_sums_pickle_and_same_seed_gives_same_harmonics_whatever_the_threads() -> None:
+    """Batch runners ship ``_Sums`` between processes; the harmonics travel with them."""
+    import pickle
+
+    from tilefixtures import random_tile
+
+    recipe = resolve({"surface": {"kind": "flat"},
+                      "simulation": {"theta_i": [30.0], "rays": 2000, "seed": 1},
+                      "table": {"theta_bins": 4, "phi_bins": 8, "sh_order": 6}})
+    tile = random_tile()
+    one = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"], threads=1)
+    two = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"], threads=2)
+    for c in COMPONENTS:
+        assert np.array_equal(one.sh[c], two.sh[c]) and np.array_equal(one.sh_err[c],
+                                                                       two.sh_err[c])
+    acc = _Sums(8, 6)
+    acc.add(np.zeros(1, np.int64), Paths(np.array([[0.0, 0.6, 0.8]]), np.ones((1, 3)),
+                                         np.ones(1, np.int64), np.zeros(3), np.zeros(3),
+                                         np.zeros(3), {}))
+    back = pickle.loads(pickle.dumps(acc))
+    assert back.sh_order == 6
+    assert all(np.array_equal(back.sh_sums[c], acc.sh_sums[c])
+               and np.array_equal(back.sh_sums_sq[c], acc.sh_sums_sq[c]) for c in COMPONENTS)
+
+
 def test_merged_tables_merge_their_harmonics() -> None:
     """Two runs with other seeds: the merged coefficients are the ray-weighted mean."""
     from tilefixtures import random_tile
