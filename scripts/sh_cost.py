@@ -8,7 +8,9 @@ Traces one batch (``microsim.goniometer.BATCH`` rays) of the recipe's tile (defa
 surfaces/gaussian-0.3.toml) at θi = 30°, then times ``_Sums.add`` on it without harmonics
 and with orders 8, 16, 32, 64 (median of the repeats), for the recipe's grey mirror
 facets (RGB weights equal: 2 + 2 transforms) and for a gold conductor (RGB weights
-differ: 6 + 6 transforms), next to the time of tracing the batch. With ``--write-docs``
+differ: 6 + 6 transforms), next to the time of tracing the batch, and for comparison the
+direct method (the explicit (n, (L + 1)²) basis and a matrix product per moment). With
+``--write-docs``
 the Markdown replaces the section between the ``sh-cost`` markers in
 docs/performance.md.
 """
@@ -29,6 +31,7 @@ from microsim.goniometer import BATCH, _Sums
 from microsim.materials import FacetMaterials
 from microsim.recipe import MATERIAL_KINDS, load
 from microsim.surfaces import build_tile
+from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
 from microsim.trace import PeriodicScene, trace_paths
 
@@ -79,6 +82,18 @@ def main() -> None:
 
                 t = median_time(accumulate, args.repeats)
                 rows.append((name, order, t, t_trace))
+        loc = sh.angles(paths.direction[index >= 0])
+        w = np.repeat(paths.weight[index >= 0], 2, axis=1)
+
+        def explicit(order: int = 32) -> None:
+            y = sh.basis(order, np.cos(loc[:, 0]), loc[:, 1])
+            y.T @ w, (y * y).T @ (w * w)
+
+        def fast(order: int = 32) -> None:
+            sh.project(loc, w, order), sh.project(loc, w * w, 2 * order)
+
+        direct = [(order, median_time(lambda o=order: explicit(o), 3),
+                   median_time(lambda o=order: fast(o), args.repeats)) for order in (16, 32)]
     base = {name: t for name, order, t, _ in rows if order == 0}
     lines = [MARKERS[0], "",
              f"`python scripts/sh_cost.py --write-docs` ({platform.machine()}, "
@@ -92,6 +107,13 @@ def main() -> None:
         extra = t - base[name]
         lines.append(f"| {name} | {order} | {1000 * t:.1f} ms | {1000 * extra:.1f} ms | "
                      f"{1000 * t_trace:.1f} ms | {100 * extra / t_trace:.0f}% |")
+    lines += ["", "Projecting the same batch (escaping rays, six weight columns: both components, "
+              "RGB all different) with the first and second moments:", "",
+              "| order | explicit basis + matrix products "
+              "| ducc0 (`sh.project`, orders L and 2L) |",
+              "| --- | --- | --- |"]
+    lines += [f"| {order} | {1000 * te:.0f} ms | {1000 * tf:.0f} ms |"
+              for order, te, tf in direct]
     lines += ["", MARKERS[1]]
     text = "\n".join(lines)
     print(text)
