@@ -172,7 +172,8 @@ def test_projection_of_rays_is_unbiased_with_honest_errors() -> None:
 def rough() -> BRDFTable:
     """Gaussian α = 0.5, mirror facets, 256² tile, θi = 0 and 45°, 2 x 65 536 rays, order
     16. (A 64² tile has too few facets: its mirror-reflected lobe is a spiky sum of a few
-    thousand directions that no order-16 series follows.)"""
+    thousand directions that no order-16 series follows; a 256² tile still has a speckle of
+    its own NDF realisation, which scripts/sh_error_vs_order.py avoids with 1024².)"""
     from microsim.surfaces import build_tile
 
     recipe = resolve({"surface": {"kind": "gaussian", "alpha": 0.5, "resolution": 256,
