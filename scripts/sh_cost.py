@@ -83,7 +83,8 @@ def main() -> None:
                 t = median_time(accumulate, args.repeats)
                 rows.append((name, order, t, t_trace))
         loc = sh.angles(paths.direction[index >= 0])
-        w = np.repeat(paths.weight[index >= 0], 2, axis=1)
+        w = paths.weight[index >= 0]
+        w = np.concatenate([w, 0.5 * w], axis=1)           # six different columns
 
         def explicit(order: int = 32) -> None:
             y = sh.basis(order, np.cos(loc[:, 0]), loc[:, 1])
