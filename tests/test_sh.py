@@ -351,6 +351,29 @@ def test_cli_reports_error_against_order(rough: BRDFTable, tmp_path, cli) -> Non
     assert code == 0 and "order" in out
 
 
+def test_cli_writes_westin_matrix_and_npz_carries_harmonics(rough: BRDFTable, tmp_path,
+                                                           cli) -> None:
+    rough.write(tmp_path / "t.exr")
+    code, out, err = cli("sh", str(tmp_path / "t.exr"), "--orders", "2,6", "--json",
+                         "--matrix", str(tmp_path / "m.npz"))
+    assert code == 0, err
+    rows = json.loads(out)
+    data = np.load(tmp_path / "m.npz")
+    matrix, asymmetry = brdf_matrix(microsim.read_table(tmp_path / "t.exr"), 6)
+    assert int(data["order"]) == 6 and np.allclose(data["matrix"], matrix)
+    assert rows[-1]["matrix_asymmetry"] == pytest.approx(asymmetry.tolist())
+    assert "matrix_asymmetry" not in rows[0]
+    code, _, err = cli("sh", str(tmp_path / "t.exr"), "--orders", "4", "--matrix",
+                       str(tmp_path / "m.txt"))
+    assert code == 2 and "--matrix" in err
+    assert cli("export", str(tmp_path / "t.exr"), "--format", "npz", "-o",
+               str(tmp_path / "t.npz"))[0] == 0
+    arrays = np.load(tmp_path / "t.npz")
+    assert int(arrays["sh_order"]) == 16
+    assert np.allclose(arrays["sh_total"], rough.sh["total"], rtol=1e-6, atol=1e-9)
+    assert arrays["sh_single_err"].shape == rough.sh_err["single"].shape
+
+
 @pytest.mark.parametrize("args, words", [
     (["--orders", "2,17"], "--orders 17"),
     (["--orders", "two"], "--orders"),

@@ -45,6 +45,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="all scattering orders (default) or single scattering")
     p.add_argument("--plot", type=Path, default=None, metavar="PNG",
                    help="draw the error against the order")
+    p.add_argument("--matrix", type=Path, default=None, metavar="NPZ",
+                   help="also write Westin's BRDF matrix b_ij (reciprocity enforced) at the "
+                        "highest of --orders as .npz (isotropic tables only), and report "
+                        "its asymmetry before symmetrisation (JSON: matrix_asymmetry in "
+                        "the row of that order)")
     add_json_arg(p)
     p.set_defaults(func=run)
 
@@ -61,7 +66,19 @@ def run(args: argparse.Namespace) -> int:
     if max(args.orders) > table.sh_order:
         raise InputError(f"--orders {max(args.orders)}: {args.table} stores order "
                          f"{table.sh_order}; each order must be 0..{table.sh_order}")
+    if args.matrix is not None and not table.isotropic:
+        raise InputError(f"--matrix: Westin's matrix is built for isotropic tables; "
+                         f"{args.table} is anisotropic")
+    if args.matrix is not None and args.matrix.suffix.lower() != ".npz":
+        raise InputError(f"--matrix {args.matrix}: must end in .npz")
     rows = order_errors(table, args.orders, args.window, args.component)
+    if args.matrix is not None:
+        from microsim.tables.sh_matrix import brdf_matrix, write_matrix
+
+        matrix, asymmetry = brdf_matrix(table, max(args.orders), args.component)
+        write_matrix(args.matrix, matrix, asymmetry)
+        # the row of the matrix's order (the highest) carries it
+        rows[-1].update(matrix=str(args.matrix), matrix_asymmetry=asymmetry.tolist())
     if args.plot is not None:
         from microsim.plots import sh_error_plot
 
@@ -80,4 +97,8 @@ def run(args: argparse.Namespace) -> int:
               f"{r['min_value']:10.4g} {r['min_relative']:8.3f} {r['bytes']:9d}")
     if args.plot is not None:
         print(f"wrote {args.plot}")
+    if args.matrix is not None:
+        print(f"wrote {args.matrix}: Westin's matrix at order {max(args.orders)}, asymmetry "
+              f"before symmetrisation {100 * max(rows[-1]['matrix_asymmetry']):.2f}% "
+              "(the theta_i interpolation error)")
     return 0

@@ -30,6 +30,7 @@ the Frobenius norm.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -126,3 +127,20 @@ def matrix_eval(matrix: np.ndarray, wi: np.ndarray, wo: np.ndarray) -> np.ndarra
     above = (wi[:, 2] > 0) & (wo[:, 2] > 0)
     cos = np.where(above, wi[:, 2] * wo[:, 2], 1.0)
     return np.where(above[:, None], h / cos[:, None], 0.0)
+
+
+def write_matrix(path: str | Path, matrix: np.ndarray, asymmetry: np.ndarray) -> None:
+    """Write Westin's matrix as ``.npz``, atomically.
+
+    Keys: ``matrix`` ((L + 1)², (L + 1)², 3) b_ij (rows: incident harmonic), ``order``,
+    ``asymmetry`` (3,) before symmetrisation, and ``convention`` (a string: the function,
+    the basis and the index).
+    """
+    from microsim.files import atomic_path
+
+    convention = ("f_r cos(theta_i) cos(theta_o) = sum_ij b_ij Y_i(wi) Y_j(wo); real "
+                  "orthonormal spherical harmonics, Condon-Shortley phase, index l*l + l + m "
+                  "(docs/table-format.md)")
+    with atomic_path(path) as tmp, tmp.open("wb") as f:
+        np.savez(f, matrix=matrix, order=np.array(sh.order_of(matrix.shape[0])),
+                 asymmetry=asymmetry, convention=np.array(convention))
