@@ -12,13 +12,14 @@ import pytest
 from scipy.special import sph_harm_y
 
 import microsim
+from microsim.commands.sh import MATRIX_MAX_ORDER as CLI_MATRIX_MAX_ORDER
 from microsim.commands.sh import WINDOWS as CLI_WINDOWS
 from microsim.goniometer import _Sums, _table, simulate
 from microsim.recipe import resolve
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.sh_error import bin_integrals, order_errors
-from microsim.tables.sh_matrix import brdf_matrix, matrix_eval
+from microsim.tables.sh_matrix import MAX_ORDER, brdf_matrix, matrix_eval
 from microsim.tables.table import COMPONENTS, BRDFTable
 from microsim.trace import Paths
 
@@ -125,7 +126,7 @@ def test_ducc0_projection_and_second_moments_equal_direct_sums() -> None:
 
 
 def test_windows() -> None:
-    assert CLI_WINDOWS == sh.WINDOWS
+    assert CLI_WINDOWS == sh.WINDOWS and CLI_MATRIX_MAX_ORDER == MAX_ORDER
     l, _ = sh.degrees(7)
     assert np.allclose(sh.window(7, "lanczos")[l == 4], 2 / np.pi)      # sinc(1/2)
     assert np.allclose(sh.window(7, "hanning")[l == 4], 0.5)

@@ -10,6 +10,8 @@ from microsim.errors import InputError
 
 WINDOWS = ("none", "lanczos", "hanning")
 """``microsim.tables.sh.WINDOWS``, spelled out so that ``--help`` does not import numpy."""
+MATRIX_MAX_ORDER = 32
+"""``microsim.tables.sh_matrix.MAX_ORDER``, likewise."""
 
 
 def order_list(text: str) -> list[int]:
@@ -71,6 +73,9 @@ def run(args: argparse.Namespace) -> int:
                          f"{args.table} is anisotropic")
     if args.matrix is not None and args.matrix.suffix.lower() != ".npz":
         raise InputError(f"--matrix {args.matrix}: must end in .npz")
+    if args.matrix is not None and max(args.orders) > MATRIX_MAX_ORDER:
+        raise InputError(f"--matrix: built up to order {MATRIX_MAX_ORDER} (a dense "
+                         f"(L+1)^4 x 3 array); the highest of --orders is {max(args.orders)}")
     rows = order_errors(table, args.orders, args.window, args.component)
     if args.matrix is not None:
         from microsim.tables.sh_matrix import brdf_matrix, write_matrix

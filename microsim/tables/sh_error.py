@@ -23,7 +23,7 @@ import numpy as np
 
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.table import BRDFTable
+from microsim.tables.table import SH_CHUNK, BRDFTable
 
 NODES = 8
 """Gauss-Legendre nodes in cos θ per θo ring for the bin integrals."""
@@ -77,6 +77,19 @@ def _grid(bins: HemisphereBins) -> tuple[np.ndarray, np.ndarray]:
     phi = (np.arange(GRID * bins.phi_bins) + 0.5) * bins.phi_period / (GRID * bins.phi_bins)
     uu, pp = np.meshgrid(u, phi, indexing="ij")
     return np.sqrt(1.0 - uu.ravel()), pp.ravel()
+
+
+def _extremes(order: int, cos_theta: np.ndarray, phi: np.ndarray, c: np.ndarray
+              ) -> tuple[float, float]:
+    """Smallest and largest value of the series ``c`` (a, b, (L + 1)², 3) at the points,
+    with the basis evaluated ``SH_CHUNK`` values at a time."""
+    step = max(1, SH_CHUNK // sh.size(order))
+    low, high = np.inf, -np.inf
+    for start in range(0, len(phi), step):
+        y = sh.basis(order, cos_theta[start:start + step], phi[start:start + step])
+        g = np.einsum("pk,abkc->abpc", y, c)
+        low, high = min(low, float(g.min())), max(high, float(g.max()))
+    return low, high
 
 
 def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
@@ -143,7 +156,7 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
 
         windowed = plain * factors
         g = bins_of(windowed)
-        points = np.einsum("pk,abkc->abpc", sh.basis(order, cos_theta, phi), windowed)
+        low, high = _extremes(order, cos_theta, phi, windowed)
         g_plain = bins_of(plain)
         rows.append({
             "order": order, "window": window, "coefficients": n,
@@ -153,8 +166,8 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
             "table_noise": math.sqrt(float((w * e_table ** 2).sum()) / norm),
             "sh_noise": math.sqrt(float((np.nan_to_num(errors * factors) ** 2).sum())
                                   / norm),
-            "min_value": min(float(points.min()), 0.0),
-            "min_relative": min(float(points.min()), 0.0) / float(points.max()),
+            "min_value": min(low, 0.0),
+            "min_relative": min(low, 0.0) / high,
             "bytes": n * a * b * 3 * 4,
         })
     return rows

@@ -37,6 +37,9 @@ import numpy as np
 from microsim.tables import sh
 from microsim.tables.table import BRDFTable, _linear_weights
 
+MAX_ORDER = 32
+"""Highest order of the (dense) matrix: (L + 1)⁴ × 3 float64, 28 MB at 32, 430 MB at 64."""
+
 
 def _theta_quadrature(theta_i: np.ndarray, nodes: int) -> tuple[np.ndarray, np.ndarray]:
     """Gauss-Legendre nodes and weights over θi ∈ [0, π/2], ``nodes`` per interval
@@ -56,7 +59,7 @@ def brdf_matrix(table: BRDFTable, order: int | None = None, component: str = "to
     table : BRDFTable
         An isotropic table with harmonics.
     order : int or None
-        Order L of both bases (default: the stored order).
+        Order L of both bases (default: the stored order, at most ``MAX_ORDER``).
     component : str
         ``"total"`` or ``"single"``.
     nodes : int or None
@@ -74,13 +77,16 @@ def brdf_matrix(table: BRDFTable, order: int | None = None, component: str = "to
     Raises
     ------
     ValueError
-        If the table is anisotropic, holds no harmonics, or ``order`` exceeds the stored.
+        If the table is anisotropic, holds no harmonics, or ``order`` exceeds the stored
+        one or ``MAX_ORDER``.
     """
     if not table.isotropic:
         raise ValueError("Westin's matrix is built for isotropic tables only")
     if table.sh is None:
         raise ValueError("the table holds no spherical harmonics")
-    order = table.sh_order if order is None else order
+    order = min(table.sh_order, MAX_ORDER) if order is None else order
+    if order > MAX_ORDER:
+        raise ValueError(f"order {order}: the dense matrix is built up to order {MAX_ORDER}")
     a = sh.truncate(table.sh[component], order)[:, 0]            # (n_theta_i, n, 3)
     theta, w = _theta_quadrature(table.theta_i, order + 8 if nodes is None else nodes)
     i0, i1, w1 = _linear_weights(theta, table.theta_i)

@@ -21,8 +21,8 @@ from microsim.tables.binning import TWO_PI, HemisphereBins
 COMPONENTS = ("total", "single")
 CHUNK = 65536
 """Direction pairs interpolated at once by ``eval`` and ``stderr``."""
-SH_CHUNK = 4096
-"""Direction pairs evaluated at once from spherical harmonics (a (4096, (L+1)²) basis)."""
+SH_CHUNK = 1 << 22
+"""Basis values (pairs × (L + 1)²) evaluated at once from spherical harmonics (32 MB)."""
 REPRESENTATIONS = ("table", "sh")
 LOBE_FRACTION = 0.1
 """Lobe bins: where f_r (mean over RGB) is at least this fraction of the incidence's peak."""
@@ -405,7 +405,7 @@ class BRDFTable:
                               wi, wo)
 
     def _eval_sh(self, wi: np.ndarray, wo: np.ndarray, component: str) -> np.ndarray:
-        """f_r from the harmonics (see ``eval``), in chunks of ``SH_CHUNK`` pairs."""
+        """f_r from the harmonics (see ``eval``), in chunks of ``SH_CHUNK`` basis values."""
         if self.sh is None:
             raise ValueError("this table holds no spherical harmonics (simulate it with "
                              "[table] sh_order > 0)")
@@ -415,8 +415,9 @@ class BRDFTable:
         shape = wi.shape[:-1]
         wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
         out = np.zeros((len(wi), 3))
-        for start in range(0, len(wi), SH_CHUNK):
-            i, o = wi[start:start + SH_CHUNK], wo[start:start + SH_CHUNK]
+        step = max(1, SH_CHUNK // n)
+        for start in range(0, len(wi), step):
+            i, o = wi[start:start + step], wo[start:start + step]
             phi_in = np.arctan2(i[:, 1], i[:, 0])
             t0, t1, wt = _linear_weights(np.arccos(np.clip(i[:, 2], -1.0, 1.0)),
                                          self.theta_i)
@@ -429,7 +430,7 @@ class BRDFTable:
                 for p, w_p in ((p0, 1.0 - wp), (p1, wp)):
                     total += (w_t * w_p)[:, None] * g[rows, t * b + p]
             above = (i[:, 2] > 0) & (o[:, 2] > 0)
-            out[start:start + SH_CHUNK] = np.where(
+            out[start:start + step] = np.where(
                 above[:, None], total / np.where(above, o[:, 2], 1.0)[:, None], 0.0)
         return out.reshape(shape + (3,))
 
