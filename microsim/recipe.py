@@ -85,7 +85,7 @@ TABLE: dict[str, Key] = {
     "sh_order": Key("int", 32, "Order L of the real spherical harmonics projected from the "
                     "escaping rays ((L+1)^2 coefficients of f_r cos theta_o per incidence, "
                     "with standard errors; docs/table-format.md); 0: none.", low=0,
-                    high=128),
+                    high=64),
 }
 SECTIONS = ("surface", "material", "simulation", "table")
 TOP_KEYS = ("description",) + SECTIONS
