@@ -422,3 +422,33 @@ def test_bin_integrals_sum_to_hemisphere_integrals() -> None:
     y = sh.basis(order, cos, phi.ravel()) * weights[:, None]
     fine = np.stack([y[index == b].sum(axis=0) for b in range(bins.size)])
     assert np.abs(fine - integrals).max() < 2e-3
+
+
+def test_anisotropic_table_evaluates_a_lambertian_floor() -> None:
+    """A flat Lambertian tile that does not say it is isotropic is measured at φi = 0 and
+    90° with absolute azimuths; between and at the incidences, eval(representation="sh")
+    must equal the exact order-8 series of ρ/π cos θo (scipy quadrature) within 4 standard
+    errors of the estimated series (propagated from the coefficients' errors as if
+    independent) plus 1e-9."""
+    from tilefixtures import height_field_tile
+
+    recipe = resolve({"surface": {"kind": "flat"},
+                      "material": {"kind": "lambertian", "albedo": 0.6},
+                      "simulation": {"theta_i": [20.0, 50.0], "phi_i": [0.0, 90.0],
+                                     "rays": 20_000, "seed": 5},
+                      "table": {"theta_bins": 4, "phi_bins": 8, "sh_order": 8}})
+    tile = height_field_tile(np.zeros((4, 4)))              # says nothing: anisotropic
+    table = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"])
+    assert not table.isotropic and table.sh["total"].shape == (2, 2, 81, 3)
+    exact = lobe_coefficients(lambda wi, wo: np.full(len(wo), 0.6 / np.pi), np.zeros(1), 8)[0]
+    rng = np.random.default_rng(1)
+    wo = unit(rng.normal(size=(30, 3)) * [1, 1, 0.3] + [0, 0, 0.8])
+    l, m = sh.degrees(8)
+    theta, phi = np.arccos(wo[:, 2]), np.arctan2(wo[:, 1], wo[:, 0])
+    y = np.stack([real_y(a, b, theta, phi) for a, b in zip(l, m, strict=True)], -1)
+    for k, phi_i in ((0, 0.0), (1, np.pi / 2)):
+        wi = np.array([np.sin(np.radians(20)) * np.cos(phi_i),
+                       np.sin(np.radians(20)) * np.sin(phi_i), np.cos(np.radians(20))])
+        got = table.eval(wi, wo, representation="sh")[:, 0]
+        sigma = np.sqrt((y ** 2) @ table.sh_err["total"][0, k, :, 0] ** 2) / wo[:, 2]
+        assert np.all(np.abs(got - y @ exact / wo[:, 2]) < 4 * sigma + 1e-9)
