@@ -125,7 +125,7 @@ def write_table(table: BRDFTable, path: str | Path) -> None:
     channels = _channels(table.values, table.errors, a * b * nt)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
               ATTRIBUTE: json.dumps(header_json(table))}
-    if table.sh is None:
+    if table.sh is None or table.sh_err is None:
         image = OpenEXR.File(header, channels)
     else:
         sh_header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
