@@ -46,7 +46,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--component", choices=("total", "single"), default="total",
                    help="all scattering orders (default) or single scattering")
     p.add_argument("--plot", type=Path, default=None, metavar="PNG",
-                   help="draw the error against the order")
+                   help="draw the error against the order, and the plane of incidence of "
+                        "the last incidence: table against the series at each order")
     p.add_argument("--matrix", type=Path, default=None, metavar="NPZ",
                    help="also write Westin's BRDF matrix b_ij (reciprocity enforced) at the "
                         "highest of --orders as .npz (isotropic tables only), and report "
@@ -87,7 +88,8 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None:
         from microsim.plots import sh_error_plot
 
-        sh_error_plot(rows, args.plot, f"{args.table}: {args.component}")
+        sh_error_plot(rows, table, args.plot, args.component,
+                      f"{args.table}: {args.component}")
     if args.json:
         print_json(rows)
         return 0
