@@ -98,7 +98,7 @@ def test_basis_against_scipy_closed_forms_and_mpmath() -> None:
     l, m = sh.degrees(order)
     scipy_y = np.stack([real_y(a, b, theta, phi) for a, b in zip(l, m, strict=True)], -1)
     assert np.abs(y - scipy_y).max() < 1e-10
-    # closed forms (Condon-Shortley: Y_11 ∝ −x); Sloan 2013, JCGT 2(2), appendix A2
+    # closed forms, written out by hand (Condon-Shortley: Y_11 ∝ −x)
     s, c = np.sin(theta), np.cos(theta)
     assert np.allclose(y[:, 3], -math.sqrt(3 / (4 * np.pi)) * s * np.cos(phi))
     assert np.allclose(y[:, 1], -math.sqrt(3 / (4 * np.pi)) * s * np.sin(phi))

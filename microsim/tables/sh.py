@@ -9,8 +9,10 @@ Condon-Shortley phase (−1)^m (as scipy's ``lpmv`` and ``sph_harm_y``),
     Y_l0 = P̄_l^0(cos θ),  Y_lm = √2 P̄_l^m(cos θ) cos mφ,  Y_l,−m = √2 P̄_l^m(cos θ) sin mφ
 
 for m > 0, so Y_lm = √2 Re Y_l^m and Y_l,−m = √2 Im Y_l^m of the complex harmonics
-(Sloan 2013, "Efficient spherical harmonic evaluation", JCGT 2(2), eq. 6, with the
-Condon-Shortley phase kept in P_l^m).
+Y_l^m = P̄_l^m(cos θ) e^{imφ} (DLMF 14.30.1, whose Ferrers function P_l^m carries the
+Condon-Shortley phase, DLMF 14.6.1). Some graphics papers drop that phase (Ramamoorthi &
+Hanrahan 2001, "An efficient representation for irradiance environment maps", eq. 3:
+Y_11 = +0.488603 x): their Y_lm is (−1)^m times this one, whose Y_11 = −√(3/4π) x.
 
 The coefficients of a goniophotometer lobe are those of g(ωo) = f_r(ωi, ωo) cos θo over
 the whole sphere (g = 0 below the horizon): an escaping ray of exit weight w estimates
@@ -63,7 +65,9 @@ def legendre(order: int, x: np.ndarray) -> np.ndarray:
 
     Evaluated by the standard three-term recurrence in l at fixed m, started from the
     sectoral P̄_m^m = −√((2m + 1)/(2m)) sin θ P̄_{m−1}^{m−1}, which is stable to high
-    orders (Holmes & Featherstone 2002, J. Geodesy 76, eq. 11-13 and 20).
+    orders (the standard forward-column recursion; Holmes & Featherstone 2002, "A unified
+    approach to the Clenshaw summation and the recursive computation of very high degree
+    and order normalised associated Legendre functions", J. Geodesy 76, 279-299).
 
     Parameters
     ----------
@@ -244,8 +248,8 @@ def window(order: int, kind: str) -> np.ndarray:
     """Per-coefficient factors of a smoothing window over l, ((L + 1)²,) float.
 
     ``"lanczos"``: Lanczos σ-factors sinc(l / (L + 1)) = sin(πl/(L+1)) / (πl/(L+1))
-    (Lanczos 1956, Applied Analysis, ch. IV sec. 6; Sloan 2008, "Stupid spherical
-    harmonics tricks", sec. "Windowing"). ``"hanning"``: ½ (1 + cos(πl / (L + 1))). Both
+    (Lanczos 1956, Applied Analysis, on σ-factors; Sloan 2008, "Stupid spherical harmonics
+    (SH) tricks", on windowing). ``"hanning"``: ½ (1 + cos(πl / (L + 1))). Both
     are 1 at l = 0, so the albedo is kept; ``"none"``: ones.
 
     Raises

@@ -1,7 +1,7 @@
 """Westin's BRDF matrix: spherical harmonics over both the incident and outgoing direction.
 
 Westin, Arvo & Torrance 1992 ("Predicting reflectance functions from complex surfaces",
-SIGGRAPH '92, sec. 4.2) expand the reflectance as a double series
+Computer Graphics 26(2), SIGGRAPH '92) expand the reflectance as a double series
 h(ωi, ωo) = Σ_ij b_ij Y_i(ωi) Y_j(ωo). Here h = f_r cos θi cos θo, which Helmholtz
 reciprocity makes symmetric, h(ωi, ωo) = h(ωo, ωi), so b_ij = b_ji in one basis for both
 directions (``microsim.tables.sh``'s real harmonics).
