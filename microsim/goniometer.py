@@ -184,9 +184,11 @@ class _Sums:
         self.lost, self.transmitted, self.absorbed = np.zeros(3), np.zeros(3), np.zeros(3)
         self.fates: dict[str, int] = {}
 
-    def add(self, index: np.ndarray, paths: Paths, phi_ref: float = 0.0) -> None:
-        """Add one batch: the traced ``paths``, the bin ``index`` (-1: none) of each, and
-        the azimuth ``phi_ref`` (radians) the bins and harmonics measure φo from."""
+    def add(self, index: np.ndarray, paths: Paths, phi_ref: float = 0.0,
+            mapper: sh.Mapper | None = None) -> None:
+        """Add one batch: the traced ``paths``, the bin ``index`` (-1: none) of each, the
+        azimuth ``phi_ref`` (radians) the bins and harmonics measure φo from, and what runs
+        the harmonic transforms (``sh.moments``; the sums do not depend on it)."""
         self.rays += len(index)
         binned = index >= 0
         size = self.sums["total"].size
@@ -198,7 +200,7 @@ class _Sums:
             self.sums[comp] += np.bincount(slot, w, minlength=size).reshape(-1, 3)
             self.sums_sq[comp] += np.bincount(slot, w * w, minlength=size).reshape(-1, 3)
         if self.sh_order:
-            self._add_sh(paths, binned, phi_ref)
+            self._add_sh(paths, binned, phi_ref, mapper)
         # an escaping ray the bins do not take (none for a closed surface) is lost, not hidden
         self.lost += paths.lost + paths.weight[~binned & (paths.order > 0)].sum(axis=0)
         self.transmitted += paths.transmitted
@@ -206,13 +208,13 @@ class _Sums:
         for name, count in paths.fate_counts.items():
             self.fates[name] = self.fates.get(name, 0) + count
 
-    def _add_sh(self, paths: Paths, binned: np.ndarray, phi_ref: float) -> None:
+    def _add_sh(self, paths: Paths, binned: np.ndarray, phi_ref: float,
+                mapper: sh.Mapper | None) -> None:
         """Moments of the escaping rays' exit weights against the real harmonics."""
         loc = sh.angles(paths.direction[binned], phi_ref)
         w = paths.weight[binned]
         w = np.concatenate([w, w * (paths.order[binned] == 1)[:, None]], axis=1)  # (n, 6)
-        s1 = sh.project(loc, w, self.sh_order)
-        s2 = sh.project(loc, w * w, 2 * self.sh_order)
+        s1, s2 = sh.moments(loc, w, self.sh_order, mapper)
         for j, comp in enumerate(COMPONENTS):
             self.sh_sums[comp] += s1[:, 3 * j:3 * j + 3]
             self.sh_sums_sq[comp] += s2[:, 3 * j:3 * j + 3]
@@ -275,7 +277,7 @@ def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: Hemis
         paths = trace_paths(scene, facets, origins, np.broadcast_to(-wi, (n, 3)),
                             int(simulation["bounces"]), seed)
         acc.add(np.where(paths.order > 0, bins.index(paths.direction, phi_ref), -1), paths,
-                phi_ref)
+                phi_ref, scene.map)
         batch += 1
         # the figure the table reports, for this direction alone
         error = _table(bins, [theta], [phi], isotropic, [[acc]], {}).median_rel_error()

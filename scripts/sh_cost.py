@@ -78,7 +78,7 @@ def main() -> None:
             index = np.where(paths.order > 0, bins.index(paths.direction), -1)
             for order in ORDERS:
                 def accumulate(order=order, index=index, paths=paths):
-                    _Sums(bins.size, order).add(index, paths)
+                    _Sums(bins.size, order).add(index, paths, 0.0, scene.map)
 
                 t = median_time(accumulate, args.repeats)
                 rows.append((name, order, t, t_trace))
@@ -91,7 +91,7 @@ def main() -> None:
             y.T @ w, (y * y).T @ (w * w)
 
         def fast(order: int = 32) -> None:
-            sh.project(loc, w, order), sh.project(loc, w * w, 2 * order)
+            sh.moments(loc, w, order)
 
         direct = [(order, median_time(lambda o=order: explicit(o), 3),
                    median_time(lambda o=order: fast(o), args.repeats)) for order in (16, 32)]
@@ -111,7 +111,7 @@ def main() -> None:
     lines += ["", "Projecting the same batch (escaping rays, six weight columns: both components, "
               "RGB all different) with the first and second moments:", "",
               "| order | explicit basis + matrix products "
-              "| ducc0 (`sh.project`, orders L and 2L) |",
+              "| ducc0 (`sh.moments`, orders L and 2L, one thread) |",
               "| --- | --- | --- |"]
     lines += [f"| {order} | {1000 * te:.0f} ms | {1000 * tf:.0f} ms |"
               for order, te, tf in direct]

@@ -23,6 +23,7 @@ itself would need the weight w / cos θo, whose variance is infinite for a diffu
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from functools import lru_cache
 from typing import Any
 
@@ -143,44 +144,95 @@ def _from_healpy(order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         m < 0, -root2, 0.0)
 
 
-def project(loc: np.ndarray, weights: np.ndarray, order: int) -> np.ndarray:
-    """Σ_i w_i Y_k(ω_i) for every real harmonic, with ducc0's adjoint non-uniform SHT.
+Mapper = Callable[[Callable[[int], np.ndarray], range], list[np.ndarray]]
+"""``mapper(fn, range(n))`` returns ``[fn(0), …, fn(n − 1)]``, in any schedule (e.g.
+``PeriodicScene.map`` on the tracer's worker threads)."""
+
+
+def _in_order(fn: Callable[[int], np.ndarray], jobs: range) -> list[np.ndarray]:
+    return [fn(j) for j in jobs]
+
+
+def _transform(loc: np.ndarray, w: np.ndarray, order: int) -> np.ndarray:
+    """Σ_i w_i Y_k(ω_i), ((L + 1)²,): one call of ducc0's adjoint non-uniform SHT.
 
     ``ducc0.sht.adjoint_synthesis_general`` returns Σ_i w_i conj(Y_l^m(ω_i)) for m ≥ 0
-    (healpy's complex harmonics, Condon-Shortley phase), from which Y_lm = √2 Re Y_l^m
-    and Y_l,−m = √2 Im Y_l^m give the real sums. It runs on one thread, so the sums are
-    the same bit for bit however the caller is scheduled. A column equal to an earlier one
-    (RGB weights of a grey material) reuses its transform.
+    (healpy's complex harmonics, Condon-Shortley phase), from which Y_lm = √2 Re Y_l^m and
+    Y_l,−m = √2 Im Y_l^m give the real sums. It runs on one thread: its result is the same
+    bit for bit whatever thread calls it (with two threads ducc0's last bits vary).
+    """
+    import ducc0
+
+    source, f_re, f_im = _from_healpy(order)
+    if len(loc) == 0:
+        return np.zeros(size(order))
+    alm = ducc0.sht.adjoint_synthesis_general(
+        map=np.ascontiguousarray(w[None, :], float), spin=0, lmax=order, loc=loc,
+        epsilon=EPSILON, nthreads=1)[0]
+    return alm.real[source] * f_re + alm.imag[source] * f_im
+
+
+def _distinct(weights: np.ndarray) -> tuple[list[int], list[int]]:
+    """The first of every group of equal columns (RGB weights of a grey material), and for
+    every column the position of its group's first in that list."""
+    first: list[int] = []
+    which = []
+    for j in range(weights.shape[1]):
+        same = [p for p, k in enumerate(first) if np.array_equal(weights[:, k], weights[:, j])]
+        if not same:
+            first.append(j)
+        which.append(same[0] if same else len(first) - 1)
+    return first, which
+
+
+def project(loc: np.ndarray, weights: np.ndarray, order: int,
+            mapper: Mapper | None = None) -> np.ndarray:
+    """Σ_i w_i Y_k(ω_i) for every real harmonic and weight column (``_transform``); a
+    column equal to an earlier one reuses its transform.
 
     Parameters
     ----------
     loc : (n, 2) float
         Colatitude and azimuth of each sample (``angles``).
     weights : (n, c) float
-        Weights; one transform per column.
     order : int
         L ≥ 0.
+    mapper : Mapper or None
+        Runs the transforms (default: one after the other).
 
     Returns
     -------
-    (L + 1)², c) float
+    ((L + 1)², c) float
     """
-    import ducc0
+    return moments(loc, weights, order, mapper, second=False)[0]
 
-    source, f_re, f_im = _from_healpy(order)
-    out = np.zeros((size(order), weights.shape[1]))
-    if len(loc) == 0:
-        return out
-    for j in range(weights.shape[1]):
-        same = [k for k in range(j) if np.array_equal(weights[:, k], weights[:, j])]
-        if same:
-            out[:, j] = out[:, same[0]]
-            continue
-        alm = ducc0.sht.adjoint_synthesis_general(
-            map=np.ascontiguousarray(weights[None, :, j], float), spin=0, lmax=order,
-            loc=loc, epsilon=EPSILON, nthreads=1)[0]
-        out[:, j] = alm.real[source] * f_re + alm.imag[source] * f_im
-    return out
+
+def moments(loc: np.ndarray, weights: np.ndarray, order: int, mapper: Mapper | None = None,
+            second: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    """Σ w Y_k to order L and Σ w² Y_K to order 2L (``second_moments`` turns the latter
+    into Σ (w Y_k)²), one transform per distinct column and moment, run by ``mapper``.
+
+    Parameters
+    ----------
+    loc : (n, 2) float
+    weights : (n, c) float
+    order : int
+    mapper : Mapper or None
+    second : bool
+        Also the order-2L sums of w².
+
+    Returns
+    -------
+    sums : ((L + 1)², c) float
+    sums_sq_wide : ((2L + 1)², c) float, or None without ``second``
+    """
+    first, which = _distinct(weights)
+    jobs = [(weights[:, j], order) for j in first]
+    if second:
+        jobs += [(weights[:, j] ** 2, 2 * order) for j in first]
+    done = (mapper or _in_order)(lambda i: _transform(loc, *jobs[i]), range(len(jobs)))
+    sums = np.stack(done[:len(first)], axis=1)[:, which]
+    return sums, np.stack(done[len(first):], axis=1)[:, which] if second else None
 
 
 @lru_cache(maxsize=8)
