@@ -452,3 +452,20 @@ def test_anisotropic_table_evaluates_a_lambertian_floor() -> None:
         got = table.eval(wi, wo, representation="sh")[:, 0]
         sigma = np.sqrt((y ** 2) @ table.sh_err["total"][0, k, :, 0] ** 2) / wo[:, 2]
         assert np.all(np.abs(got - y @ exact / wo[:, 2]) < 4 * sigma + 1e-9)
+
+
+def test_black_table_reports_nan_not_a_traceback(tmp_path, cli) -> None:
+    """A black Lambertian floor reflects nothing: the relative errors are undefined (null
+    in JSON), the rest is 0."""
+    from tilefixtures import flat_tile
+
+    recipe = resolve({"surface": {"kind": "flat"},
+                      "material": {"kind": "lambertian", "albedo": 0.0},
+                      "simulation": {"theta_i": [10.0], "rays": 500},
+                      "table": {"theta_bins": 4, "phi_bins": 8, "sh_order": 4}})
+    simulate(flat_tile(), recipe["material"], recipe["simulation"], recipe["table"]).write(
+        tmp_path / "black.exr")
+    code, out, err = cli("sh", str(tmp_path / "black.exr"), "--orders", "2,4", "--json")
+    assert code == 0, err
+    row = json.loads(out)[0]
+    assert row["rel_l2_error"] is None and row["min_value"] == 0 and row["bytes"] == 108

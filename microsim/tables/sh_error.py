@@ -118,7 +118,8 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
         side's standard errors (the noise floor of the error: ``sh_noise`` by Parseval
         over the sphere, an upper bound); ``min_value``, the most negative f_r cos θo
         (1/sr) at ``GRID``² points per bin over every incidence and colour (0 if none),
-        and ``min_relative``, it over the largest value; ``bytes``, the float32 size of
+        and ``min_relative``, it over the largest value (ratios are NaN for a table
+        without reflected light); ``bytes``, the float32 size of
         the coefficients of one component (all incidences, RGB).
 
     Raises
@@ -138,10 +139,14 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
     w = np.broadcast_to(omega[None, None, :, None], g_table.shape)
     cos_theta, phi = _grid(table.bins)
 
+    def ratio(num: float, den: float) -> float:
+        """num / den, NaN for an empty table (no reflected light: nothing to compare)."""
+        return num / den if den > 0 else math.nan
+
     def rel(g: np.ndarray, where: np.ndarray | None = None) -> float:
         sel = np.ones(g.shape, bool) if where is None else where
-        return math.sqrt(float((w * (g - g_table) ** 2)[sel].sum())
-                         / float((w * g_table ** 2)[sel].sum()))
+        return math.sqrt(ratio(float((w * (g - g_table) ** 2)[sel].sum()),
+                               float((w * g_table ** 2)[sel].sum())))
 
     norm = float((w * g_table ** 2).sum())
     rows = []
@@ -163,11 +168,11 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
             "rel_l2_error": rel(g), "rel_l2_error_lobe": rel(g, lobe),
             "rel_l2_error_unwindowed": rel(g_plain),
             "rel_l2_error_lobe_unwindowed": rel(g_plain, lobe),
-            "table_noise": math.sqrt(float((w * e_table ** 2).sum()) / norm),
-            "sh_noise": math.sqrt(float((np.nan_to_num(errors * factors) ** 2).sum())
-                                  / norm),
+            "table_noise": math.sqrt(ratio(float((w * e_table ** 2).sum()), norm)),
+            "sh_noise": math.sqrt(ratio(float((np.nan_to_num(errors * factors) ** 2).sum()),
+                                        norm)),
             "min_value": min(low, 0.0),
-            "min_relative": min(low, 0.0) / high,
+            "min_relative": ratio(min(low, 0.0), high),
             "bytes": n * a * b * 3 * 4,
         })
     return rows
