@@ -249,7 +249,7 @@ def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path
                       yerr=np.nan_to_num(table.errors[component][k, 0, :, side, 1]) * cos_o,
                       fmt="o", ms=3, color="black", label="table" if sign > 0 else None)
     signed = np.linspace(-89.5, 89.5, 359)
-    phi = np.where(signed < 0, 0.0, np.pi) + (0.0 if table.isotropic else table.phi_i[0])
+    phi = np.where(signed < 0, 0.0, np.pi)                # the azimuths of the bins drawn
     for row in rows:
         c = sh.truncate(table.sh[component][k, 0], row["order"])[:, 1] * sh.window(
             row["order"], window)
