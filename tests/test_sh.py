@@ -348,8 +348,10 @@ def test_cli_reports_error_against_order(rough: BRDFTable, tmp_path, cli) -> Non
                 "rel_l2_error_unwindowed", "table_noise", "sh_noise"):
         assert all(key in r for r in rows)
     assert rows[0]["window"] == "hanning" and (tmp_path / "e.png").stat().st_size > 1000
+    code, out, _ = cli("sh", str(tmp_path / "t.exr"), "--json")        # stored order 16
+    assert code == 0 and [r["order"] for r in json.loads(out)] == [2, 4, 8, 16]
     code, out, _ = cli("sh", str(tmp_path / "t.exr"), "--orders", "4")
-    assert code == 0 and "order" in out
+    assert code == 0 and "hemisphere" in out and len(out.strip().splitlines()) == 3
 
 
 def test_cli_writes_westin_matrix_and_npz_carries_harmonics(rough: BRDFTable, tmp_path,

@@ -10,6 +10,7 @@ from microsim.errors import InputError
 
 WINDOWS = ("none", "lanczos", "hanning")
 """``microsim.tables.sh.WINDOWS``, spelled out so that ``--help`` does not import numpy."""
+DEFAULT_ORDERS = (2, 4, 8, 16, 32)
 MATRIX_MAX_ORDER = 32
 """``microsim.tables.sh_matrix.MAX_ORDER``, likewise."""
 
@@ -37,9 +38,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "floors of both, the most negative value, and the size in bytes. See "
                     "docs/table-format.md.")
     p.add_argument("table", metavar="TABLE", help="table file (.exr) with harmonics")
-    p.add_argument("--orders", type=order_list, default=[2, 4, 8, 16, 32], metavar="L,L,...",
-                   help="orders to report, each at most the stored order "
-                        "(default 2,4,8,16,32)")
+    p.add_argument("--orders", type=order_list, default=None, metavar="L,L,...",
+                   help="orders to report, each at most the stored order (default "
+                        "2,4,8,16,32 below the stored order, and the stored order)")
     p.add_argument("--window", choices=WINDOWS, default="none",
                    help="smoothing window against ringing: none (default), lanczos "
                         "(sigma factors) or hanning; the unwindowed error is reported too")
@@ -66,6 +67,8 @@ def run(args: argparse.Namespace) -> int:
     if table.sh is None:
         raise InputError(f"{args.table}: holds no spherical harmonics (simulate it with "
                          "[table] sh_order > 0)")
+    if args.orders is None:
+        args.orders = [o for o in DEFAULT_ORDERS if o < table.sh_order] + [table.sh_order]
     if max(args.orders) > table.sh_order:
         raise InputError(f"--orders {max(args.orders)}: {args.table} stores order "
                          f"{table.sh_order}; each order must be 0..{table.sh_order}")
