@@ -30,6 +30,7 @@ import microsim
 from microsim.compare import direction
 from microsim.materials import FacetMaterials
 from microsim.surfaces.tile import Tile
+from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.table import COMPONENTS, BRDFTable
 from microsim.trace import ESCAPED, Paths, PeriodicScene, trace_paths
@@ -165,17 +166,32 @@ class _Sums:
         absorbed (by the other materials and inside absorbing media).
     fates : dict of str to int
         Paths per ending.
+    sh_order : int
+        Order L of the spherical-harmonic moments (0: none).
+    sh_sums : dict of str to ((L + 1)², 3) float, or None
+        Σ w Y_k(ωo) over the escaping rays the bins take, per component
+        (``microsim.tables.sh``; ωo's azimuth relative to ``phi_ref`` of ``add``).
+    sh_sums_sq : dict of str to ((2L + 1)², 3) float, or None
+        Σ w² Y_K(ωo) to order 2L, from which ``sh.second_moments`` gives Σ (w Y_k)².
     """
 
-    def __init__(self, bins: int) -> None:
+    def __init__(self, bins: int, sh_order: int = 0) -> None:
         self.rays = 0
         self.sums = {c: np.zeros((bins, 3)) for c in COMPONENTS}
         self.sums_sq = {c: np.zeros((bins, 3)) for c in COMPONENTS}
+        self.sh_order = int(sh_order)
+        self.sh_sums = {c: np.zeros((sh.size(sh_order), 3)) for c in COMPONENTS
+                        } if sh_order else None
+        self.sh_sums_sq = {c: np.zeros((sh.size(2 * sh_order), 3)) for c in COMPONENTS
+                           } if sh_order else None
         self.lost, self.transmitted, self.absorbed = np.zeros(3), np.zeros(3), np.zeros(3)
         self.fates: dict[str, int] = {}
 
-    def add(self, index: np.ndarray, paths: Paths) -> None:
-        """Add one batch: the traced ``paths`` and the bin ``index`` (-1: none) of each."""
+    def add(self, index: np.ndarray, paths: Paths, phi_ref: float = 0.0,
+            mapper: sh.Mapper | None = None) -> None:
+        """Add one batch: the traced ``paths``, the bin ``index`` (-1: none) of each, the
+        azimuth ``phi_ref`` (radians) the bins and harmonics measure φo from, and what runs
+        the harmonic transforms (``sh.moments``; the sums do not depend on it)."""
         self.rays += len(index)
         binned = index >= 0
         size = self.sums["total"].size
@@ -186,12 +202,25 @@ class _Sums:
             w = (paths.weight * sel[:, None]).ravel()
             self.sums[comp] += np.bincount(slot, w, minlength=size).reshape(-1, 3)
             self.sums_sq[comp] += np.bincount(slot, w * w, minlength=size).reshape(-1, 3)
+        if self.sh_order:
+            self._add_sh(paths, binned, phi_ref, mapper)
         # an escaping ray the bins do not take (none for a closed surface) is lost, not hidden
         self.lost += paths.lost + paths.weight[~binned & (paths.order > 0)].sum(axis=0)
         self.transmitted += paths.transmitted
         self.absorbed += paths.absorbed
         for name, count in paths.fate_counts.items():
             self.fates[name] = self.fates.get(name, 0) + count
+
+    def _add_sh(self, paths: Paths, binned: np.ndarray, phi_ref: float,
+                mapper: sh.Mapper | None) -> None:
+        """Moments of the escaping rays' exit weights against the real harmonics."""
+        loc = sh.angles(paths.direction[binned], phi_ref)
+        w = paths.weight[binned]
+        w = np.concatenate([w, w * (paths.order[binned] == 1)[:, None]], axis=1)  # (n, 6)
+        s1, s2 = sh.moments(loc, w, self.sh_order, mapper)
+        for j, comp in enumerate(COMPONENTS):
+            self.sh_sums[comp] += s1[:, 3 * j:3 * j + 3]
+            self.sh_sums_sq[comp] += s2[:, 3 * j:3 * j + 3]
 
     @property
     def lost_energy(self) -> np.ndarray:
@@ -210,8 +239,14 @@ def _table(bins: HemisphereBins, theta_deg: Sequence[float], phi_deg: Sequence[f
     rays = np.array([[acc.rays for acc in row] for row in runs], np.int64)
     sums = {c: stacked(lambda a, c=c: a.sums[c]) for c in COMPONENTS}
     sums_sq = {c: stacked(lambda a, c=c: a.sums_sq[c]) for c in COMPONENTS}
+    harmonics = runs[0][0].sh_order > 0
+    sh_sums = {c: stacked(lambda a, c=c: a.sh_sums[c]) for c in COMPONENTS
+               } if harmonics else None
+    sh_sums_sq = {c: stacked(lambda a, c=c: a.sh_sums_sq[c]) for c in COMPONENTS
+                  } if harmonics else None
     return BRDFTable.from_sums(bins, np.radians(theta_deg), np.radians(phi_deg), isotropic,
-                               rays, sums, sums_sq, stacked(lambda a: a.lost_energy), meta)
+                               rays, sums, sums_sq, stacked(lambda a: a.lost_energy), meta,
+                               sh_sums=sh_sums, sh_sums_sq=sh_sums_sq)
 
 
 MAX_RAYS_FACTOR = 100
@@ -221,7 +256,7 @@ MAX_RAYS_FACTOR = 100
 def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: HemisphereBins,
                        simulation: Mapping[str, Any], theta: float, phi: float,
                        isotropic: bool, streams: tuple[int, int],
-                       progress: Callable[[dict[str, Any]], None] | None
+                       progress: Callable[[dict[str, Any]], None] | None, sh_order: int = 0
                        ) -> tuple[_Sums, str, float]:
     """Run the batches of one incident direction (degrees); see ``simulate``.
 
@@ -232,7 +267,7 @@ def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: Hemis
     """
     phi_ref = math.radians(phi) if isotropic else 0.0
     wi = direction(math.radians(theta), math.radians(phi))
-    acc = _Sums(bins.size)
+    acc = _Sums(bins.size, sh_order)
     planned = int(simulation["rays"])
     target = simulation.get("target_error")
     most = simulation.get("max_rays") or MAX_RAYS_FACTOR * planned
@@ -244,7 +279,8 @@ def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: Hemis
         origins = np.column_stack([xy, np.full(n, scene.z_top)])
         paths = trace_paths(scene, facets, origins, np.broadcast_to(-wi, (n, 3)),
                             int(simulation["bounces"]), seed)
-        acc.add(np.where(paths.order > 0, bins.index(paths.direction, phi_ref), -1), paths)
+        acc.add(np.where(paths.order > 0, bins.index(paths.direction, phi_ref), -1), paths,
+                phi_ref, scene.map)
         batch += 1
         # the figure the table reports, for this direction alone
         error = _table(bins, [theta], [phi], isotropic, [[acc]], {}).median_rel_error()
@@ -336,7 +372,8 @@ def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
             scene = stack.enter_context(PeriodicScene(tile, threads))
         built, before = time.perf_counter(), scene.segments
         rows = {l: [_measure_direction(scene, facets, bins, simulation, theta_deg[l], phi,
-                                       isotropic, (l, k), progress)
+                                       isotropic, (l, k), progress,
+                                       int(table.get("sh_order", 0)))
                     for k, phi in enumerate(phi_deg)] for l in chosen}
         segments, eps = scene.segments - before, scene.eps
     return Measurement(rows, dict(tile.info), facets.inputs, isotropic, segments, eps,
@@ -430,7 +467,8 @@ def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
         Resolved ``[simulation]``: ``theta_i``, ``phi_i`` (degrees), ``rays``,
         ``bounces``, ``seed``, and optionally ``target_error`` and ``max_rays``.
     table : mapping
-        Resolved ``[table]``: ``theta_bins``, ``phi_bins``.
+        Resolved ``[table]``: ``theta_bins``, ``phi_bins``, and optionally ``sh_order``
+        (spherical-harmonic order of the escaping rays' moments; 0 or absent: none).
     recipe : mapping or None
         The full resolved recipe, stored in the table's metadata (default: the three
         sections given).

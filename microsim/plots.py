@@ -207,3 +207,64 @@ def ndf_plot(theta_deg: np.ndarray, measured: np.ndarray, stderr: np.ndarray,
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path,
+                  component: str = "total", title: str = "") -> None:
+    """Two panels, written atomically as PNG. Left: relative L2 error of truncated
+    spherical harmonics against the table per order (``microsim.tables.sh_error.order_errors``
+    rows): hemisphere and lobe, with and without the window, and the two noise floors.
+    Right: f_r cos θo in the plane of incidence at the last (most grazing) incidence, the
+    table's bins (±1 standard error) against the series at each order, with the window;
+    green channel."""
+    from microsim.files import atomic_path
+    from microsim.tables import sh
+
+    plt = _pyplot()
+    order = [r["order"] for r in rows]
+    fig, (ax, lobe) = plt.subplots(1, 2, figsize=(11, 4))
+    window = rows[0]["window"]
+    ax.plot(order, [r["rel_l2_error"] for r in rows], "o-", label=f"hemisphere ({window})")
+    ax.plot(order, [r["rel_l2_error_lobe"] for r in rows], "s-", label=f"lobe ({window})")
+    if window != "none":
+        ax.plot(order, [r["rel_l2_error_unwindowed"] for r in rows], "o--",
+                label="hemisphere (none)")
+        ax.plot(order, [r["rel_l2_error_lobe_unwindowed"] for r in rows], "s--",
+                label="lobe (none)")
+    ax.plot(order, [r["table_noise"] for r in rows], ":", color="grey", label="table noise")
+    ax.plot(order, [r["sh_noise"] for r in rows], "-.", color="grey", label="SH noise")
+    ax.set_xscale("log", base=2)
+    ax.set_yscale("log")
+    ax.set_xlabel("SH order L ((L+1)² coefficients)")
+    ax.set_ylabel("relative L2 error of f_r cos θo")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+
+    k = len(table.theta_i) - 1
+    back, forward = incidence_plane_bins(table)
+    theta = np.degrees(table.bins.theta_centers)
+    cos_o = np.cos(table.bins.theta_centers)
+    for side, sign in ((back, -1), (forward, 1)):
+        lobe.errorbar(sign * theta, table.values[component][k, 0, :, side, 1] * cos_o,
+                      yerr=np.nan_to_num(table.errors[component][k, 0, :, side, 1]) * cos_o,
+                      fmt="o", ms=3, color="black", label="table" if sign > 0 else None)
+    signed = np.linspace(-89.5, 89.5, 359)
+    phi = np.where(signed < 0, 0.0, np.pi)                # the azimuths of the bins drawn
+    for row in rows:
+        c = sh.truncate(table.sh[component][k, 0], row["order"])[:, 1] * sh.window(
+            row["order"], window)
+        lobe.plot(signed, sh.basis(row["order"], np.cos(np.radians(signed)), phi) @ c,
+                  label=f"L = {row['order']}")
+    lobe.axhline(0.0, color="grey", lw=0.5)
+    lobe.set_xlim(-90, 90)
+    lobe.set_xlabel("θo in the plane of incidence (°), forward > 0")
+    lobe.set_ylabel("f_r cos θo (1/sr), green")
+    lobe.set_title(f"θi = {np.degrees(table.theta_i[k]):.0f}°, window {window}", fontsize=9)
+    lobe.grid(alpha=0.3)
+    lobe.legend(fontsize=7)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)

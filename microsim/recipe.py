@@ -108,6 +108,10 @@ TABLE: dict[str, Key] = {
                       "(uniform in cos^2 theta_o).", low=1, high=2048),
     "phi_bins": Key("int", 64, "Bins in phi_o - phi_i over [0, 360) degrees.", low=1,
                     high=4096),
+    "sh_order": Key("int", 32, "Order L of the real spherical harmonics projected from the "
+                    "escaping rays ((L+1)^2 coefficients of f_r cos theta_o per incidence, "
+                    "with standard errors; docs/table-format.md); 0: none.", low=0,
+                    high=64),
 }
 SECTIONS = ("surface", "material", "simulation", "table")
 TOP_KEYS = ("description",) + SECTIONS

@@ -56,8 +56,11 @@ def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
 
     if scheduler is None:
         n = workers or os.cpu_count() or 1
-        # a job whose worker dies is run once more, as one that raised (Dask's default is 3)
-        with dask.config.set({"distributed.scheduler.allowed-failures": RETRIES}), \
+        # a job whose worker dies is run once more, as one that raised (Dask's default is 3);
+        # a worker holds only the job it runs (no queue of its own), so its death is
+        # charged to that job alone and not to jobs merely waiting there
+        with dask.config.set({"distributed.scheduler.allowed-failures": RETRIES,
+                              "distributed.scheduler.worker-saturation": 1.0}), \
                 LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                              dashboard_address=None, silence_logs=logging.CRITICAL) as cluster, \
                 Client(cluster) as client:

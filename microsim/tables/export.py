@@ -30,7 +30,9 @@ def write_npz(table: BRDFTable, path: str | Path) -> None:
     ``total``, ``total_err``, ``single``, ``single_err`` ((n_theta_i, n_phi_i, theta_bins,
     phi_bins, 3), f_r in 1/sr and standard errors, NaN where undefined), ``albedo``,
     ``albedo_err``, ``lost_energy`` ((n_theta_i, n_phi_i, 3)), ``isotropic`` (bool), and
-    ``meta`` (the table's metadata as a JSON string).
+    ``meta`` (the table's metadata as a JSON string); with spherical harmonics also
+    ``sh_order`` and ``sh_total``, ``sh_total_err``, ``sh_single``, ``sh_single_err``
+    ((n_theta_i, n_phi_i, (L + 1)², 3), docs/table-format.md).
     """
     arrays = {"theta_i": table.theta_i, "phi_i": table.phi_i,
               "theta_o_edges": table.bins.theta_edges, "phi_o_edges": table.bins.phi_edges,
@@ -39,6 +41,9 @@ def write_npz(table: BRDFTable, path: str | Path) -> None:
               "meta": np.array(json.dumps(table.meta, default=str))}
     for c in COMPONENTS:
         arrays[c], arrays[f"{c}_err"] = table.values[c], table.errors[c]
+        if table.sh is not None and table.sh_err is not None:
+            arrays[f"sh_{c}"], arrays[f"sh_{c}_err"] = table.sh[c], table.sh_err[c]
+            arrays["sh_order"] = np.array(table.sh_order)
     with atomic_path(path) as tmp, tmp.open("wb") as f:
         np.savez(f, **arrays)
 

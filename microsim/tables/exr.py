@@ -3,8 +3,11 @@
 One scanline image of float32 channels ``{total,single}{,_err}.{R,G,B}``. Image rows run
 over (θi, φi, θo) in row-major order, columns over φo. The string attribute ``microsim``
 holds JSON with the axes (bin edges in radians), the channel layout, the per-incidence
-albedo, errors and lost energy at full precision, and the caller's metadata. Files are
-written atomically: a temporary file in the same folder, renamed over the target.
+albedo, errors and lost energy at full precision, and the caller's metadata. A table with
+spherical harmonics is a two-part file: the bins in part 0 (``table``), the coefficients
+in part 1 (``sh``: rows over (θi, φi), columns over the flat index l² + l + m, the same
+channel names, and a ``microsim_sh`` JSON attribute). Files are written atomically: a
+temporary file in the same folder, renamed over the target.
 """
 
 from __future__ import annotations
@@ -23,6 +26,8 @@ from microsim.tables.table import COMPONENTS, BRDFTable
 
 FORMAT_VERSION = 1
 ATTRIBUTE = "microsim"
+SH_ATTRIBUTE = "microsim_sh"
+SH_PART = "sh"
 COLOURS = ("R", "G", "B")
 
 
@@ -72,6 +77,37 @@ def header_json(table: BRDFTable) -> dict[str, Any]:
     })
 
 
+def sh_header_json(table: BRDFTable) -> dict[str, Any]:
+    """The ``microsim_sh`` attribute of the ``sh`` part, as a dict."""
+    a, b = table.rays.shape
+    return {"order": table.sh_order, "coefficients": (table.sh_order + 1) ** 2,
+            "function": "f_r(wi, wo) cos(theta_o) over wo on the whole sphere (0 below "
+                        "the horizon)",
+            "basis": "real orthonormal spherical harmonics, Condon-Shortley phase in "
+                     "P_l^m; Y_l0 = N P_l^0, Y_lm = sqrt2 N P_l^m cos(m phi), "
+                     "Y_l,-m = sqrt2 N P_l^m sin(m phi) for m > 0",
+            "index": "l * l + l + m",
+            "azimuth": "phi_o - phi_i" if table.isotropic else "phi_o",
+            "rows": "i_theta_i * n_phi_i + i_phi_i", "shape": [a, b],
+            "channels": [f"{c}{s}.{k}" for c in COMPONENTS for s in ("", "_err")
+                         for k in COLOURS],
+            "value": "*_err: standard error of the coefficient"}
+
+
+def _channels(values: dict[str, np.ndarray], errors: dict[str, np.ndarray], rows: int
+              ) -> dict[str, np.ndarray]:
+    """float32 channels ``{c}{,_err}.{R,G,B}`` of (..., columns, 3) arrays as images of
+    ``rows`` rows."""
+    channels = {}
+    for c in COMPONENTS:
+        for suffix, data in (("", values[c]), ("_err", errors[c])):
+            image = data.reshape(rows, -1, 3)
+            for k, colour in enumerate(COLOURS):
+                channels[f"{c}{suffix}.{colour}"] = np.ascontiguousarray(image[..., k],
+                                                                         np.float32)
+    return channels
+
+
 def write_table(table: BRDFTable, path: str | Path) -> None:
     """Write ``table`` to ``path`` atomically.
 
@@ -86,17 +122,22 @@ def write_table(table: BRDFTable, path: str | Path) -> None:
 
     a, b = table.rays.shape
     nt, np_ = table.bins.shape
-    channels = {}
-    for c in COMPONENTS:
-        for suffix, data in (("", table.values[c]), ("_err", table.errors[c])):
-            image = data.reshape(a * b * nt, np_, 3)
-            for k, colour in enumerate(COLOURS):
-                channels[f"{c}{suffix}.{colour}"] = np.ascontiguousarray(image[..., k],
-                                                                         np.float32)
+    channels = _channels(table.values, table.errors, a * b * nt)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
               ATTRIBUTE: json.dumps(header_json(table))}
+    if table.sh is None or table.sh_err is None:
+        image = OpenEXR.File(header, channels)
+    else:
+        sh_header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+                     SH_ATTRIBUTE: json.dumps(sh_header_json(table)),
+                     # every part of a multi-part file shares the display window
+                     "displayWindow": (np.array([0, 0], np.int32),
+                                       np.array([np_ - 1, a * b * nt - 1], np.int32))}
+        image = OpenEXR.File([OpenEXR.Part(header, channels, "table"),
+                              OpenEXR.Part(sh_header, _channels(table.sh, table.sh_err,
+                                                                a * b), SH_PART)])
     with atomic_path(path) as tmp:
-        OpenEXR.File(header, channels).write(str(tmp))
+        image.write(str(tmp))
 
 
 def read_table(path: str | Path) -> BRDFTable:
@@ -126,6 +167,10 @@ def read_table(path: str | Path) -> BRDFTable:
             # copies: the file's header and pixel views do not outlive the file object
             header = dict(f.header())
             pixels = {name: np.array(ch.pixels) for name, ch in f.channels().items()}
+            sh_part = next((p for p in f.parts if p.name() == SH_PART), None)
+            sh_header = {} if sh_part is None else dict(sh_part.header)
+            sh_pixels = {} if sh_part is None else {
+                name: np.array(ch.pixels) for name, ch in sh_part.channels.items()}
     except RuntimeError:
         raise InputError(f"{path}: not an OpenEXR file") from None
     if ATTRIBUTE not in header:
@@ -142,9 +187,16 @@ def read_table(path: str | Path) -> BRDFTable:
     bins = HemisphereBins.from_dict(axes)
     shape = tuple(info["layout"]["shape"]) + (3,)
 
-    def load(name: str) -> np.ndarray:
-        return np.stack([pixels[f"{name}.{k}"] for k in COLOURS], axis=-1).astype(
+    def load(name: str, source: dict[str, np.ndarray] = pixels,
+             shape: tuple[int, ...] = shape) -> np.ndarray:
+        return np.stack([source[f"{name}.{k}"] for k in COLOURS], axis=-1).astype(
             float).reshape(shape)
+
+    sh = sh_err = None
+    if SH_ATTRIBUTE in sh_header:
+        sh_shape = tuple(shape[:2]) + (json.loads(sh_header[SH_ATTRIBUTE])["coefficients"], 3)
+        sh = {c: load(c, sh_pixels, sh_shape) for c in COMPONENTS}
+        sh_err = {c: load(f"{c}_err", sh_pixels, sh_shape) for c in COMPONENTS}
 
     return BRDFTable(
         bins, _array(axes["theta_i"]["values"]), _array(axes["phi_i"]["values"]),
@@ -153,4 +205,4 @@ def read_table(path: str | Path) -> BRDFTable:
         np.array(info["rays"], np.int64),
         {"total": _array(info["albedo"]), "single": _array(info["single_albedo"])},
         {"total": _array(info["albedo_err"]), "single": _array(info["single_albedo_err"])},
-        _array(info["lost_energy"]), info["meta"])
+        _array(info["lost_energy"]), info["meta"], sh=sh, sh_err=sh_err)

@@ -15,11 +15,15 @@ from typing import Any
 
 import numpy as np
 
+from microsim.tables import sh
 from microsim.tables.binning import TWO_PI, HemisphereBins
 
 COMPONENTS = ("total", "single")
 CHUNK = 65536
 """Direction pairs interpolated at once by ``eval`` and ``stderr``."""
+SH_CHUNK = 1 << 22
+"""Basis values (pairs × (L + 1)²) evaluated at once from spherical harmonics (32 MB)."""
+REPRESENTATIONS = ("table", "sh")
 LOBE_FRACTION = 0.1
 """Lobe bins: where f_r (mean over RGB) is at least this fraction of the incidence's peak."""
 
@@ -108,6 +112,13 @@ class BRDFTable:
         here: tables of the same set-up and independent rays merge exactly with ``+``.
     lost : (a, b, 3) float or None
         Raw summed lost weight.
+    sh, sh_err : dict of str to (a, b, (L + 1)², 3) float, or None
+        Real spherical-harmonic coefficients of f_r cos θo over ωo per incidence and
+        component, and their standard errors (``microsim.tables.sh`` has the convention);
+        None when the table was simulated without them.
+    sh_sums, sh_sums_sq : dict or None
+        Raw sums Σ w Y_k (a, b, (L + 1)², 3) and Σ w² Y_K to order 2L (a, b, (2L + 1)², 3)
+        of fresh estimates, merged by ``+``.
     """
 
     def __init__(self, bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
@@ -117,7 +128,11 @@ class BRDFTable:
                  lost_energy: np.ndarray, meta: Mapping[str, Any], *,
                  sums: Mapping[str, np.ndarray] | None = None,
                  sums_sq: Mapping[str, np.ndarray] | None = None,
-                 lost: np.ndarray | None = None) -> None:
+                 lost: np.ndarray | None = None,
+                 sh: Mapping[str, np.ndarray] | None = None,
+                 sh_err: Mapping[str, np.ndarray] | None = None,
+                 sh_sums: Mapping[str, np.ndarray] | None = None,
+                 sh_sums_sq: Mapping[str, np.ndarray] | None = None) -> None:
         self.bins = bins
         self.theta_i = np.asarray(theta_i, float)
         self.phi_i = np.asarray(phi_i, float)
@@ -130,12 +145,18 @@ class BRDFTable:
         self.lost_energy = np.asarray(lost_energy, float)
         self.meta = dict(meta)
         self.sums, self.sums_sq, self.lost = sums, sums_sq, lost
+        self.sh = None if sh is None else {c: np.asarray(sh[c], float) for c in COMPONENTS}
+        self.sh_err = None if sh_err is None else {c: np.asarray(sh_err[c], float)
+                                                   for c in COMPONENTS}
+        self.sh_sums, self.sh_sums_sq = sh_sums, sh_sums_sq
 
     @classmethod
     def from_sums(cls, bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
                   isotropic: bool, rays: np.ndarray, sums: Mapping[str, np.ndarray],
                   sums_sq: Mapping[str, np.ndarray], lost: np.ndarray,
-                  meta: Mapping[str, Any]) -> BRDFTable:
+                  meta: Mapping[str, Any], *,
+                  sh_sums: Mapping[str, np.ndarray] | None = None,
+                  sh_sums_sq: Mapping[str, np.ndarray] | None = None) -> BRDFTable:
         """The goniophotometer's estimator from per-bin sums of exit weights.
 
         Each launched ray contributes its exit weight w to at most one bin, so per bin the
@@ -143,6 +164,8 @@ class BRDFTable:
         et al. 1977, NBS Monograph 160, eq. 4: reflected over incident power per
         projected solid angle). The albedo is the mean of the per-ray total exit weight
         W = Σ_bins X, whose Σ W² equals Σ over bins of Σw², because a ray exits once.
+        Spherical-harmonic coefficients are the same sample mean of X = w Y_k(ωo), with
+        Σ X² from the order-2L sums (``microsim.tables.sh.second_moments``).
 
         Parameters
         ----------
@@ -157,6 +180,10 @@ class BRDFTable:
         lost : (a, b, 3) float
             Summed weight of paths lost (bounce limit, transmission).
         meta : dict
+        sh_sums : dict of str to (a, b, (L + 1)², 3) float, or None
+            Σ w Y_k(ωo) of the escaping rays, per component.
+        sh_sums_sq : dict of str to (a, b, (2L + 1)², 3) float, or None
+            Σ w² Y_K(ωo) to order 2L.
 
         Returns
         -------
@@ -186,11 +213,24 @@ class BRDFTable:
             a, e = _mean_and_error(s1.sum(axis=2, keepdims=True),
                                    s2.sum(axis=2, keepdims=True), rays)
             albedo[c], albedo_err[c] = a[:, :, 0], e[:, :, 0]
+        sh_values = sh_errors = None
+        if sh_sums is not None and sh_sums_sq is not None:
+            sh_values, sh_errors = {}, {}
+            for c in COMPONENTS:
+                s1 = np.asarray(sh_sums[c], float)
+                order = sh.order_of(s1.shape[-2])
+                if s1.shape != rays.shape + (sh.size(order), 3) or np.shape(
+                        sh_sums_sq[c]) != rays.shape + (sh.size(2 * order), 3):
+                    raise ValueError(f"sh_sums[{c!r}] and sh_sums_sq[{c!r}] must have shapes "
+                                     f"(a, b, (L+1)^2, 3) and (a, b, (2L+1)^2, 3)")
+                sh_values[c], sh_errors[c] = _mean_and_error(
+                    s1, sh.second_moments(sh_sums_sq[c], order), rays)
         return cls(bins, theta_i, phi_i, isotropic, values, errors, rays, albedo, albedo_err,
                    np.asarray(lost, float) / rays[..., None], meta,
                    sums={c: np.asarray(sums[c], float) for c in COMPONENTS},
                    sums_sq={c: np.asarray(sums_sq[c], float) for c in COMPONENTS},
-                   lost=np.asarray(lost, float))
+                   lost=np.asarray(lost, float), sh=sh_values, sh_err=sh_errors,
+                   sh_sums=sh_sums, sh_sums_sq=sh_sums_sq)
 
     def __add__(self, other: BRDFTable) -> BRDFTable:
         """Merge two estimates of the same set-up made with independent rays."""
@@ -201,13 +241,28 @@ class BRDFTable:
                 and np.array_equal(self.phi_i, other.phi_i))
         if not same:
             raise ValueError("tables with different axes do not merge")
+        harmonics = (self.sh_sums is not None and other.sh_sums is not None
+                     and self.sh_order == other.sh_order)
+
+        def merged(a: Mapping[str, np.ndarray] | None, b: Mapping[str, np.ndarray] | None
+                   ) -> dict[str, np.ndarray] | None:
+            return {c: a[c] + b[c] for c in COMPONENTS} if harmonics else None
+
         return BRDFTable.from_sums(
             self.bins, self.theta_i, self.phi_i, self.isotropic, self.rays + other.rays,
             {c: self.sums[c] + other.sums[c] for c in COMPONENTS},
             {c: self.sums_sq[c] + other.sums_sq[c] for c in COMPONENTS},
-            self.lost + other.lost, self.meta)
+            self.lost + other.lost, self.meta, sh_sums=merged(self.sh_sums, other.sh_sums),
+            sh_sums_sq=merged(self.sh_sums_sq, other.sh_sums_sq))
 
     # --- derived quantities ------------------------------------------------------------
+    @property
+    def sh_order(self) -> int:
+        """Order L of the stored spherical harmonics (0 when there are none)."""
+        if self.sh is None:
+            return 0
+        return sh.order_of(self.sh["total"].shape[-2])
+
     @property
     def albedo(self) -> np.ndarray:
         """(a, b, 3) directional albedo of all escaping light (all orders)."""
@@ -309,8 +364,9 @@ class BRDFTable:
             out[sl] = np.where(above[:, None], kernel(nodes, weights), 0.0)
         return out.reshape(shape + (3,))
 
-    def eval(self, wi: np.ndarray, wo: np.ndarray, component: str = "total") -> np.ndarray:
-        """Interpolated f_r.
+    def eval(self, wi: np.ndarray, wo: np.ndarray, component: str = "total",
+             representation: str = "table") -> np.ndarray:
+        """Interpolated f_r, from the bins (default) or from the spherical harmonics.
 
         Linear in θi (and periodically in φi for anisotropic tables) between the table's
         incidences, clamped outside them; bilinear in (sin²θo, φo) between bin centres,
@@ -323,15 +379,60 @@ class BRDFTable:
             Unit directions towards the light and the viewer, local frame.
         component : str
             ``"total"`` or ``"single"``.
+        representation : str
+            ``"table"`` (the bins, as above) or ``"sh"``: f_r = Σ_k c_k Y_k(ωo) / cos θo
+            from the coefficients of f_r cos θo, interpolated linearly in θi (and φi) as
+            the bins are; the truncated series may be negative (``microsim sh`` reports
+            how much).
 
         Returns
         -------
         (..., 3) float
             f_r in 1/sr per colour; 0 where either direction is at or below the horizon.
+
+        Raises
+        ------
+        ValueError
+            For an unknown ``representation``, or ``"sh"`` on a table without harmonics.
         """
+        if representation == "sh":
+            return self._eval_sh(wi, wo, self._component(component))
+        if representation != "table":
+            raise ValueError(f"representation must be one of {REPRESENTATIONS}, "
+                             f"got {representation!r}")
         data = self.values[self._component(component)].reshape(-1, 3)
         return self._per_pair(lambda nodes, w: np.einsum("nk,nkc->nc", w, data[nodes]),
                               wi, wo)
+
+    def _eval_sh(self, wi: np.ndarray, wo: np.ndarray, component: str) -> np.ndarray:
+        """f_r from the harmonics (see ``eval``), in chunks of ``SH_CHUNK`` basis values."""
+        if self.sh is None:
+            raise ValueError("this table holds no spherical harmonics (simulate it with "
+                             "[table] sh_order > 0)")
+        a, b, n, _ = self.sh[component].shape
+        coef = np.moveaxis(self.sh[component], 2, 0).reshape(n, a * b * 3)
+        wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
+        shape = wi.shape[:-1]
+        wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
+        out = np.zeros((len(wi), 3))
+        step = max(1, SH_CHUNK // n)
+        for start in range(0, len(wi), step):
+            i, o = wi[start:start + step], wo[start:start + step]
+            phi_in = np.arctan2(i[:, 1], i[:, 0])
+            t0, t1, wt = _linear_weights(np.arccos(np.clip(i[:, 2], -1.0, 1.0)),
+                                         self.theta_i)
+            p0, p1, wp = _linear_weights(np.mod(phi_in, TWO_PI), self.phi_i, TWO_PI)
+            phi_out = np.arctan2(o[:, 1], o[:, 0]) - (phi_in if self.isotropic else 0.0)
+            g = (sh.basis(sh.order_of(n), o[:, 2], phi_out) @ coef).reshape(len(i), a * b, 3)
+            rows = np.arange(len(i))
+            total = np.zeros((len(i), 3))
+            for t, w_t in ((t0, 1.0 - wt), (t1, wt)):
+                for p, w_p in ((p0, 1.0 - wp), (p1, wp)):
+                    total += (w_t * w_p)[:, None] * g[rows, t * b + p]
+            above = (i[:, 2] > 0) & (o[:, 2] > 0)
+            out[start:start + step] = np.where(
+                above[:, None], total / np.where(above, o[:, 2], 1.0)[:, None], 0.0)
+        return out.reshape(shape + (3,))
 
     def stderr(self, wi: np.ndarray, wo: np.ndarray, component: str = "total") -> np.ndarray:
         """Interpolated standard error of f_r, with the nodes of ``eval``.

@@ -1,0 +1,114 @@
+"""``microsim sh TABLE --orders 2,4,8,16,32``: what truncated spherical harmonics lose."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from microsim.cli import add_json_arg, print_json
+from microsim.errors import InputError
+
+WINDOWS = ("none", "lanczos", "hanning")
+"""``microsim.tables.sh.WINDOWS``, spelled out so that ``--help`` does not import numpy."""
+DEFAULT_ORDERS = (2, 4, 8, 16, 32)
+MATRIX_MAX_ORDER = 32
+"""``microsim.tables.sh_matrix.MAX_ORDER``, likewise."""
+
+
+def order_list(text: str) -> list[int]:
+    """argparse type: comma-separated integers >= 0, increasing order not required."""
+    try:
+        orders = [int(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        orders = []
+    if not orders or min(orders) < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of "
+                                         "integers >= 0")
+    return sorted(set(orders))
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``sh`` command."""
+    p = sub.add_parser(
+        "sh", help="error, negativity and size of the table's spherical harmonics per order",
+        description="Truncate the spherical harmonics stored in a table (projected from the "
+                    "escaping rays during the simulation; [table] sh_order) at each order "
+                    "and compare them with the binned table: relative L2 error of "
+                    "f_r cos theta_o over the hemisphere and over the lobe bins, the noise "
+                    "floors of both, the most negative value, and the size in bytes. See "
+                    "docs/table-format.md.")
+    p.add_argument("table", metavar="TABLE", help="table file (.exr) with harmonics")
+    p.add_argument("--orders", type=order_list, default=None, metavar="L,L,...",
+                   help="orders to report, each at most the stored order (default "
+                        "2,4,8,16,32 below the stored order, and the stored order)")
+    p.add_argument("--window", choices=WINDOWS, default="none",
+                   help="smoothing window against ringing: none (default), lanczos "
+                        "(sigma factors) or hanning; the unwindowed error is reported too")
+    p.add_argument("--component", choices=("total", "single"), default="total",
+                   help="all scattering orders (default) or single scattering")
+    p.add_argument("--plot", type=Path, default=None, metavar="PNG",
+                   help="draw the error against the order, and the plane of incidence of "
+                        "the last incidence: table against the series at each order")
+    p.add_argument("--matrix", type=Path, default=None, metavar="NPZ",
+                   help="also write Westin's BRDF matrix b_ij (reciprocity enforced) at the "
+                        "highest of --orders as .npz (isotropic tables only), and report "
+                        "its asymmetry before symmetrisation (JSON: matrix_asymmetry in "
+                        "the row of that order)")
+    add_json_arg(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Compare and report."""
+    import microsim
+    from microsim.tables.sh_error import order_errors
+
+    table = microsim.read_table(args.table)
+    if table.sh is None:
+        raise InputError(f"{args.table}: holds no spherical harmonics (simulate it with "
+                         "[table] sh_order > 0)")
+    if args.orders is None:
+        args.orders = [o for o in DEFAULT_ORDERS if o < table.sh_order] + [table.sh_order]
+    if max(args.orders) > table.sh_order:
+        raise InputError(f"--orders {max(args.orders)}: {args.table} stores order "
+                         f"{table.sh_order}; each order must be 0..{table.sh_order}")
+    if args.matrix is not None and not table.isotropic:
+        raise InputError(f"--matrix: Westin's matrix is built for isotropic tables; "
+                         f"{args.table} is anisotropic")
+    if args.matrix is not None and args.matrix.suffix.lower() != ".npz":
+        raise InputError(f"--matrix {args.matrix}: must end in .npz")
+    if args.matrix is not None and max(args.orders) > MATRIX_MAX_ORDER:
+        raise InputError(f"--matrix: built up to order {MATRIX_MAX_ORDER} (a dense "
+                         f"(L+1)^4 x 3 array); the highest of --orders is {max(args.orders)}")
+    rows = order_errors(table, args.orders, args.window, args.component)
+    if args.matrix is not None:
+        from microsim.tables.sh_matrix import brdf_matrix, write_matrix
+
+        matrix, asymmetry = brdf_matrix(table, max(args.orders), args.component)
+        write_matrix(args.matrix, matrix, asymmetry)
+        # the row of the matrix's order (the highest) carries it
+        rows[-1].update(matrix=str(args.matrix), matrix_asymmetry=asymmetry.tolist())
+    if args.plot is not None:
+        from microsim.plots import sh_error_plot
+
+        sh_error_plot(rows, table, args.plot, args.component,
+                      f"{args.table}: {args.component}")
+    if args.json:
+        print_json(rows)
+        return 0
+    print(f"spherical harmonics of {args.table} ({args.component}, window {args.window}) "
+          f"against the table; noise floors: table {100 * rows[0]['table_noise']:.2f}%")
+    print(f"{'order':>5} {'hemisphere':>10} {'lobe':>8} {'unwindowed':>10} "
+          f"{'SH noise':>8} {'min f cos':>10} {'min/max':>8} {'bytes':>9}")
+    for r in rows:
+        print(f"{r['order']:5d} {100 * r['rel_l2_error']:9.2f}% "
+              f"{100 * r['rel_l2_error_lobe']:7.2f}% "
+              f"{100 * r['rel_l2_error_unwindowed']:9.2f}% {100 * r['sh_noise']:7.2f}% "
+              f"{r['min_value']:10.4g} {r['min_relative']:8.3f} {r['bytes']:9d}")
+    if args.plot is not None:
+        print(f"wrote {args.plot}")
+    if args.matrix is not None:
+        print(f"wrote {args.matrix}: Westin's matrix at order {max(args.orders)}, asymmetry "
+              f"before symmetrisation {100 * max(rows[-1]['matrix_asymmetry']):.2f}% "
+              "(the theta_i interpolation error)")
+    return 0

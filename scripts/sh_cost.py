@@ -1,0 +1,135 @@
+"""What projecting the escaping rays on spherical harmonics costs per batch.
+
+Usage::
+
+    python scripts/sh_cost.py [RECIPE] [--repeats 7] [--write-docs]
+
+Traces one batch (``microsim.goniometer.BATCH`` rays) of the recipe's tile (default
+surfaces/gaussian-0.3.toml) at θi = 30°, then times ``_Sums.add`` on it without harmonics
+and with orders 8, 16, 32, 64 (median of the repeats), for the recipe's grey mirror
+facets (RGB weights equal: 2 + 2 transforms) and for a gold conductor (RGB weights
+differ: 6 + 6 transforms), next to the time of tracing the batch, and for comparison the
+direct method (the explicit (n, (L + 1)²) basis and a matrix product per moment). With
+``--write-docs``
+the Markdown replaces the section between the ``sh-cost`` markers in
+docs/performance.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import platform
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+from microsim.compare import direction
+from microsim.goniometer import BATCH, _Sums
+from microsim.materials import FacetMaterials
+from microsim.recipe import MATERIAL_KINDS, load
+from microsim.surfaces import build_tile
+from microsim.tables import sh
+from microsim.tables.binning import HemisphereBins
+from microsim.trace import PeriodicScene, trace_paths
+
+ROOT = Path(__file__).resolve().parent.parent
+MARKERS = ("<!-- sh-cost -->", "<!-- /sh-cost -->")
+ORDERS = (0, 8, 16, 32, 64)
+
+
+def median_time(fn, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("recipe", nargs="?", default=str(ROOT / "surfaces/gaussian-0.3.toml"))
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--write-docs", action="store_true")
+    args = parser.parse_args()
+    recipe = load(args.recipe)
+    tile = build_tile(recipe["surface"])
+    bins = HemisphereBins(recipe["table"]["theta_bins"], recipe["table"]["phi_bins"])
+    wi = direction(math.radians(30.0), 0.0)
+    gold = {"kind": "conductor", **{k: v.default for k, v in MATERIAL_KINDS["conductor"].items()}}
+    rows = []
+    with PeriodicScene(tile, None) as scene:
+        for name, material in (("mirror", {"kind": "mirror"}), ("gold conductor", gold)):
+            facets = FacetMaterials(tile.material, tile.parts,
+                                    {p: material for p in tile.parts})
+            seed = np.random.SeedSequence(1)
+            xy = np.random.default_rng(seed).random((BATCH, 2)) * scene.period
+            origins = np.column_stack([xy, np.full(BATCH, scene.z_top)])
+
+            def trace(facets=facets, origins=origins, seed=seed):
+                return trace_paths(scene, facets, origins, np.broadcast_to(-wi, (BATCH, 3)),
+                                   16, seed)
+
+            t_trace = median_time(trace, args.repeats)
+            paths = trace()
+            index = np.where(paths.order > 0, bins.index(paths.direction), -1)
+            for order in ORDERS:
+                def accumulate(order=order, index=index, paths=paths):
+                    _Sums(bins.size, order).add(index, paths, 0.0, scene.map)
+
+                t = median_time(accumulate, args.repeats)
+                rows.append((name, order, t, t_trace))
+        loc = sh.angles(paths.direction[index >= 0])
+        w = paths.weight[index >= 0]
+        w = np.concatenate([w, 0.5 * w], axis=1)           # six different columns
+
+        def explicit(order: int = 32) -> None:
+            y = sh.basis(order, np.cos(loc[:, 0]), loc[:, 1])
+            y.T @ w, (y * y).T @ (w * w)
+
+        def fast(order: int = 32) -> None:
+            sh.moments(loc, w, order)
+
+        direct = [(order, median_time(lambda o=order: explicit(o), 3),
+                   median_time(lambda o=order: fast(o), args.repeats)) for order in (16, 32)]
+    base = {name: t for name, order, t, _ in rows if order == 0}
+    lines = [MARKERS[0], "",
+             f"`python scripts/sh_cost.py --write-docs` ({platform.machine()}, "
+             f"{time.strftime('%Y-%m-%d')}, machine shared): one batch of {BATCH} rays of "
+             f"`{Path(args.recipe).name}` at θi = 30°, 16 bounces; median of "
+             f"{args.repeats}. `add` is the per-batch accumulation (bins, and the harmonics "
+             "when the order is > 0); tracing is `trace_paths` on every core.", "",
+             "| facets | order | `add` per batch | extra for the harmonics | tracing the batch "
+             "| extra / tracing |", "| --- | --- | --- | --- | --- | --- |"]
+    for name, order, t, t_trace in rows:
+        extra = t - base[name]
+        lines.append(f"| {name} | {order} | {1000 * t:.1f} ms | {1000 * extra:.1f} ms | "
+                     f"{1000 * t_trace:.1f} ms | {100 * extra / t_trace:.0f}% |")
+    lines += ["", "Projecting the same batch (escaping rays, six weight columns: both components, "
+              "RGB all different) with the first and second moments:", "",
+              "| order | explicit basis + matrix products "
+              "| ducc0 (`sh.moments`, orders L and 2L, one thread) |",
+              "| --- | --- | --- |"]
+    lines += [f"| {order} | {1000 * te:.0f} ms | {1000 * tf:.0f} ms |"
+              for order, te, tf in direct]
+    lines += ["", MARKERS[1]]
+    text = "\n".join(lines)
+    print(text)
+    if args.write_docs:
+        path = ROOT / "docs" / "performance.md"
+        doc = path.read_text()
+        if MARKERS[0] in doc:
+            head, rest = doc.split(MARKERS[0], 1)
+            doc = head + text + rest.split(MARKERS[1], 1)[1]
+        else:
+            doc = doc.rstrip("\n") + "\n\n## Spherical harmonics: cost per batch\n\n" \
+                + text + "\n"
+        path.write_text(doc)
+        print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()
