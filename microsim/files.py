@@ -39,3 +39,33 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def replace_marked(path: str | Path, block: str, begin: str, end: str,
+                   heading: str | None = None) -> None:
+    """Put ``block`` in place of the part of a text file from ``begin`` to ``end``.
+
+    Benchmark scripts keep their figures in docs this way: the rest of the page is kept.
+
+    Parameters
+    ----------
+    path : str or Path
+        The text file (UTF-8), rewritten atomically.
+    block : str
+        The new part, itself starting with ``begin`` and ending with ``end``.
+    begin, end : str
+        The markers (e.g. HTML comments in Markdown).
+    heading : str or None
+        Where the file has no ``begin`` yet, the block is appended, after this heading
+        line when given.
+    """
+    path = Path(path)
+    page = path.read_text(encoding="utf-8")
+    if begin in page:
+        head, rest = page.split(begin, 1)
+        page = head + block + rest.split(end, 1)[1]
+    else:
+        intro = f"{heading}\n\n" if heading else ""
+        page = f"{page.rstrip()}\n\n{intro}{block}\n"
+    with atomic_path(path) as tmp:
+        tmp.write_text(page, encoding="utf-8")

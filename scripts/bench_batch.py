@@ -32,6 +32,7 @@ from pathlib import Path
 from distributed import Client, LocalCluster, get_task_stream
 
 from microsim.batch import run_batch
+from microsim.files import replace_marked
 from microsim.sweep import load_sweep
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -128,14 +129,7 @@ def main() -> None:
     text = "\n".join(lines)
     print(text)
     if args.write:
-        doc = ROOT / "docs/performance.md"
-        old = doc.read_text(encoding="utf-8")
-        if BEGIN in old:
-            head, rest = old.split(BEGIN, 1)
-            new = head + text + rest.split(END, 1)[1]
-        else:
-            new = old.rstrip("\n") + "\n\n" + text + "\n"
-        doc.write_text(new, encoding="utf-8")
+        replace_marked(ROOT / "docs/performance.md", text, BEGIN, END)
 
 
 if __name__ == "__main__":

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from microsim.compare import direction
+from microsim.files import replace_marked
 from microsim.goniometer import BATCH, _Sums
 from microsim.materials import FacetMaterials
 from microsim.recipe import MATERIAL_KINDS, load
@@ -120,14 +121,7 @@ def main() -> None:
     print(text)
     if args.write_docs:
         path = ROOT / "docs" / "performance.md"
-        doc = path.read_text()
-        if MARKERS[0] in doc:
-            head, rest = doc.split(MARKERS[0], 1)
-            doc = head + text + rest.split(MARKERS[1], 1)[1]
-        else:
-            doc = doc.rstrip("\n") + "\n\n## Spherical harmonics: cost per batch\n\n" \
-                + text + "\n"
-        path.write_text(doc)
+        replace_marked(path, text, *MARKERS, heading="## Spherical harmonics: cost per batch")
         print(f"wrote {path}")
 
 

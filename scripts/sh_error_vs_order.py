@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from microsim.files import replace_marked
 from microsim.goniometer import simulate
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
@@ -110,14 +111,8 @@ def main() -> None:
     text = "\n".join(lines)
     if args.write_docs:
         path = ROOT / "docs" / "performance.md"
-        doc = path.read_text()
-        if MARKERS[0] in doc:
-            head, rest = doc.split(MARKERS[0], 1)
-            doc = head + text + rest.split(MARKERS[1], 1)[1]
-        else:
-            doc = doc.rstrip("\n") + "\n\n## Spherical harmonics: error against order\n\n" \
-                + text + "\n"
-        path.write_text(doc)
+        replace_marked(path, text, *MARKERS,
+                       heading="## Spherical harmonics: error against order")
         print(f"wrote {path}")
 
 
