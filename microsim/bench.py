@@ -123,7 +123,7 @@ def score_furnace(table: Any) -> tuple[float, float]:
 def g1_rows(case: str, tile: Any, resolution: int, theta: list[float], rays: int,
             reference: np.ndarray, seed: int) -> dict[str, Any]:
     """Trace G1 at ``theta`` (degrees, φ = 0) and score it against ``reference``."""
-    from microsim.goniometer import measure_g1
+    from microsim.masking import measure_g1
 
     with PeriodicScene(tile) as scene:
         start = time.perf_counter()

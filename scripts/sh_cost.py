@@ -30,11 +30,12 @@ from microsim.compare import direction
 from microsim.files import replace_marked
 from microsim.goniometer import BATCH, _Sums
 from microsim.materials import FacetMaterials
+from microsim.paths import trace_paths
 from microsim.recipe import MATERIAL_KINDS, load
 from microsim.surfaces import build_tile
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
-from microsim.trace import PeriodicScene, trace_paths
+from microsim.trace import PeriodicScene
 
 ROOT = Path(__file__).resolve().parent.parent
 MARKERS = ("<!-- sh-cost -->", "<!-- /sh-cost -->")

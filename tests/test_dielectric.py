@@ -12,9 +12,10 @@ from microsim.analytic.layered import CoatedLambertian
 from microsim.analytic.registry import parse_model_spec
 from microsim.compare import direction
 from microsim.materials import FacetMaterials
+from microsim.paths import trace_paths
 from microsim.refraction import attenuation, fresnel_choice, reflect, refract
 from microsim.surfaces.tile import Tile
-from microsim.trace import PeriodicScene, trace_paths
+from microsim.trace import PeriodicScene
 
 Z_MAX = 4.0
 """Two-sided z bound per comparison: with at most a dozen comparisons per test the chance

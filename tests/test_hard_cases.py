@@ -15,7 +15,8 @@ import pytest
 from microsim.analytic.fresnel import fresnel_conductor
 from microsim.analytic.ndf import Beckmann
 from microsim.compare import direction
-from microsim.goniometer import measure_g1, simulate
+from microsim.goniometer import simulate
+from microsim.masking import measure_g1
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
 from microsim.surfaces.tile import Tile

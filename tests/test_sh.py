@@ -15,13 +15,13 @@ import microsim
 from microsim.commands.sh import MATRIX_MAX_ORDER as CLI_MATRIX_MAX_ORDER
 from microsim.commands.sh import WINDOWS as CLI_WINDOWS
 from microsim.goniometer import _Sums, _table, simulate
+from microsim.paths import Paths
 from microsim.recipe import resolve
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.sh_error import bin_integrals, order_errors
 from microsim.tables.sh_matrix import MAX_ORDER, brdf_matrix, matrix_eval
 from microsim.tables.table import COMPONENTS, BRDFTable
-from microsim.trace import Paths
 
 Z_MAX = 4.2
 """Two-sided z bound per coefficient: with 81 coefficients (and two components, whose z

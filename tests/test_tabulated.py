@@ -19,6 +19,7 @@ from microsim.compare import direction, table_difference
 from microsim.errors import InputError
 from microsim.goniometer import simulate
 from microsim.materials import FacetMaterials
+from microsim.paths import trace_paths
 from microsim.recipe import load as resolve_recipe
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
@@ -27,7 +28,7 @@ from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import read_table, write_table
 from microsim.tables.table import BRDFTable
 from microsim.tabulated import TabulatedMaterial, facet_frame
-from microsim.trace import PeriodicScene, trace_paths
+from microsim.trace import PeriodicScene
 
 Z_MAX = 5.0
 """Two-sided bound on every single z (normal p = 5.7e-7): with at most ~2000 bins and

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from tilefixtures import bump_tile, flat_tile, random_tile, vgroove_tile
 
-from microsim.goniometer import sample_faces
+from microsim.masking import sample_faces
 from microsim.materials import cosine_about
 from microsim.trace import BACKFACE, ESCAPED, HIT, LEAKED, TRAPPED, PeriodicScene
 

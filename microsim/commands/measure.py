@@ -79,7 +79,7 @@ def run_g1(args: argparse.Namespace) -> int:
     import numpy as np
 
     from microsim.compare import direction
-    from microsim.goniometer import measure_g1_recipe
+    from microsim.masking import measure_g1_recipe
 
     if not math.isfinite(args.phi):
         raise InputError(f"--phi {args.phi}: must be a finite angle in degrees")
