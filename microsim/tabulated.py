@@ -47,7 +47,8 @@ import numpy as np
 from microsim.errors import InputError
 from microsim.tables.binning import TWO_PI
 from microsim.tables.exr import read_table
-from microsim.tables.table import COMPONENTS, BRDFTable, _linear_weights
+from microsim.tables.interpolation import linear_weights
+from microsim.tables.table import COMPONENTS, BRDFTable
 
 
 def file_digest(path: str | Path) -> str:
@@ -221,12 +222,12 @@ class TabulatedMaterial:
         x, y = np.einsum("ij,ij->i", wi, t), np.einsum("ij,ij->i", wi, b)
         theta = np.arccos(np.clip(np.einsum("ij,ij->i", wi, n), -1.0, 1.0))
         phi = np.mod(np.arctan2(y, x), TWO_PI)
-        i0, i1, w1 = _linear_weights(theta, table.theta_i)
+        i0, i1, w1 = linear_weights(theta, table.theta_i)
         it = np.where(u[:, 0] < w1, i1, i0)
         if table.isotropic:
             node = it
         else:
-            j0, j1, v1 = _linear_weights(phi, table.phi_i, period=TWO_PI)
+            j0, j1, v1 = linear_weights(phi, table.phi_i, period=TWO_PI)
             node = it * len(table.phi_i) + np.where(u[:, 1] < v1, j1, j0)
         flat = np.empty(len(d), np.int64)
         for k in np.unique(node):  # a loop over the table's nodes, not over rays

@@ -35,7 +35,8 @@ from pathlib import Path
 import numpy as np
 
 from microsim.tables import sh
-from microsim.tables.table import BRDFTable, _linear_weights
+from microsim.tables.interpolation import linear_weights
+from microsim.tables.table import BRDFTable
 
 MAX_ORDER = 32
 """Highest order of the (dense) matrix: (L + 1)⁴ × 3 float64, 28 MB at 32, 430 MB at 64."""
@@ -89,7 +90,7 @@ def brdf_matrix(table: BRDFTable, order: int | None = None, component: str = "to
         raise ValueError(f"order {order}: the dense matrix is built up to order {MAX_ORDER}")
     a = sh.truncate(table.sh[component], order)[:, 0]            # (n_theta_i, n, 3)
     theta, w = _theta_quadrature(table.theta_i, order + 8 if nodes is None else nodes)
-    i0, i1, w1 = _linear_weights(theta, table.theta_i)
+    i0, i1, w1 = linear_weights(theta, table.theta_i)
     interp = np.zeros((len(theta), len(table.theta_i)))
     np.add.at(interp, (np.arange(len(theta)), i0), 1.0 - w1)
     np.add.at(interp, (np.arange(len(theta)), i1), w1)

@@ -17,6 +17,7 @@ import numpy as np
 
 from microsim.tables import sh
 from microsim.tables.binning import TWO_PI, HemisphereBins
+from microsim.tables.interpolation import linear_weights
 
 COMPONENTS = ("total", "single")
 CHUNK = 65536
@@ -51,36 +52,6 @@ def _mean_and_error(s1: np.ndarray, s2: np.ndarray, n: np.ndarray) -> tuple[np.n
         var = np.maximum(s2 - s1 * mean, 0.0) / (n - 1)
         err = np.sqrt(var / n)
     return mean, np.where((s2 > 0) & (n >= 2), err, np.nan)
-
-
-def _linear_weights(x: np.ndarray, nodes: np.ndarray,
-                    period: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Indices and weights of linear interpolation of ``x`` between sorted ``nodes``.
-
-    Clamped at the ends, or periodic with ``period``.
-
-    Returns
-    -------
-    i0, i1 : (...) int
-    w1 : (...) float
-        Value = (1 − w1) f[i0] + w1 f[i1].
-    """
-    m = len(nodes)
-    if m == 1:
-        zero = np.zeros(np.shape(x), np.int64)
-        return zero, zero, np.zeros(np.shape(x))
-    if period is None:
-        x = np.clip(x, nodes[0], nodes[-1])
-        i1 = np.clip(np.searchsorted(nodes, x, side="right"), 1, m - 1)
-        i0 = i1 - 1
-        w1 = (x - nodes[i0]) / (nodes[i1] - nodes[i0])
-        return i0, i1, np.clip(w1, 0.0, 1.0)
-    ext = np.concatenate([nodes, [nodes[0] + period]])
-    x = nodes[0] + np.mod(x - nodes[0], period)
-    i1 = np.clip(np.searchsorted(ext, x, side="right"), 1, m)
-    i0 = i1 - 1
-    w1 = np.clip((x - ext[i0]) / (ext[i1] - ext[i0]), 0.0, 1.0)
-    return i0, np.mod(i1, m), w1
 
 
 class BRDFTable:
@@ -328,12 +299,12 @@ class BRDFTable:
         if self.isotropic:
             phi_out = phi_out - phi_in
         axes = (
-            _linear_weights(theta_in, self.theta_i),
-            _linear_weights(np.mod(phi_in, TWO_PI), self.phi_i, TWO_PI),
-            _linear_weights(np.clip(wo[:, 0] ** 2 + wo[:, 1] ** 2, 0.0, 1.0),
-                            np.sin(self.bins.theta_centers) ** 2),
-            _linear_weights(self.bins.relative_phi(phi_out), self.bins.phi_centers,
-                            self.bins.phi_period),
+            linear_weights(theta_in, self.theta_i),
+            linear_weights(np.mod(phi_in, TWO_PI), self.phi_i, TWO_PI),
+            linear_weights(np.clip(wo[:, 0] ** 2 + wo[:, 1] ** 2, 0.0, 1.0),
+                           np.sin(self.bins.theta_centers) ** 2),
+            linear_weights(self.bins.relative_phi(phi_out), self.bins.phi_centers,
+                           self.bins.phi_period),
         )
         sizes = (len(self.theta_i), len(self.phi_i)) + self.bins.shape
         nodes = np.zeros((len(wi),) + (1,) * 4, np.int64)
@@ -419,9 +390,9 @@ class BRDFTable:
         for start in range(0, len(wi), step):
             i, o = wi[start:start + step], wo[start:start + step]
             phi_in = np.arctan2(i[:, 1], i[:, 0])
-            t0, t1, wt = _linear_weights(np.arccos(np.clip(i[:, 2], -1.0, 1.0)),
-                                         self.theta_i)
-            p0, p1, wp = _linear_weights(np.mod(phi_in, TWO_PI), self.phi_i, TWO_PI)
+            t0, t1, wt = linear_weights(np.arccos(np.clip(i[:, 2], -1.0, 1.0)),
+                                        self.theta_i)
+            p0, p1, wp = linear_weights(np.mod(phi_in, TWO_PI), self.phi_i, TWO_PI)
             phi_out = np.arctan2(o[:, 1], o[:, 0]) - (phi_in if self.isotropic else 0.0)
             g = (sh.basis(sh.order_of(n), o[:, 2], phi_out) @ coef).reshape(len(i), a * b, 3)
             rows = np.arange(len(i))
