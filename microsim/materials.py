@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
+from microsim.frames import orthonormal_basis
 from microsim.refraction import fresnel_choice, reflect
 from microsim.tabulated import TabulatedMaterial
 
@@ -52,11 +53,7 @@ def cosine_about(n: np.ndarray, u: np.ndarray) -> np.ndarray:
     (k, 3) float
         Unit directions with pdf cos(theta) / pi about ``n``.
     """
-    sign = np.copysign(1.0, n[:, 2])
-    a = -1.0 / (sign + n[:, 2])
-    b = n[:, 0] * n[:, 1] * a
-    t = np.stack([1.0 + sign * n[:, 0] ** 2 * a, sign * b, -sign * n[:, 0]], axis=1)
-    s = np.stack([b, sign + n[:, 1] ** 2 * a, -n[:, 1]], axis=1)
+    t, s = orthonormal_basis(n)
     r = np.sqrt(u[:, 0])
     phi = 2.0 * np.pi * u[:, 1]
     z = np.sqrt(np.maximum(1.0 - u[:, 0], 0.0))

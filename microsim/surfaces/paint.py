@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from microsim.errors import InputError
+from microsim.frames import orthonormal_basis
 from microsim.surfaces.gaussian import DEFAULT_CELLS, MIN_LENGTHS, heights
 from microsim.surfaces.periodic import wrap_into_box
 from microsim.surfaces.tile import Tile, grid_faces
@@ -96,27 +97,6 @@ def disc(sides: int) -> tuple[np.ndarray, np.ndarray]:
         np.column_stack([j, sides + k, k]),
     ])
     return vertices, faces
-
-
-def frames(axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors completing each unit axis to an orthonormal right-handed frame
-    (Duff et al. 2017, JCGT 6(1), listing 3).
-
-    Parameters
-    ----------
-    axes : (n, 3) float
-
-    Returns
-    -------
-    u, v : (n, 3) float
-        With u × v = axis.
-    """
-    sign = np.copysign(1.0, axes[:, 2])
-    a = -1.0 / (sign + axes[:, 2])
-    b = axes[:, 0] * axes[:, 1] * a
-    u = np.stack([1.0 + sign * axes[:, 0] ** 2 * a, sign * b, -sign * axes[:, 0]], axis=1)
-    v = np.stack([b, sign + axes[:, 1] ** 2 * a, -axes[:, 1]], axis=1)
-    return u, v
 
 
 def flake_axes(n: int, tilt_rms_deg: float, rng: np.random.Generator) -> np.ndarray:
@@ -296,7 +276,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
     centres, radii, axes, target, skipped = _place(surface, top, polyhedron_volume(
         unit_v, unit_f), rng)
     thick = float(surface["flake_thickness"])
-    u, v = frames(axes)
+    u, v = orthonormal_basis(axes)
     scale = np.column_stack([radii, radii, np.full(len(radii), thick) if flakes else radii])
     local = unit_v[None] * scale[:, None]  # (n, p, 3)
     pv = (centres[:, None] + local[..., :1] * u[:, None] + local[..., 1:2] * v[:, None]
