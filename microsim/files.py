@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import os
 import secrets
 from collections.abc import Iterator
@@ -69,3 +70,13 @@ def replace_marked(path: str | Path, block: str, begin: str, end: str,
         page = f"{page.rstrip()}\n\n{intro}{block}\n"
     with atomic_path(path) as tmp:
         tmp.write_text(page, encoding="utf-8")
+
+
+def file_digest(path: str | Path) -> str:
+    """SHA-256 of a file's bytes, hex: the provenance of an input (a mesh, a table one scale
+    up)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()

@@ -361,18 +361,30 @@ def resolve_in(raw: Mapping[str, Any], folder: str | Path, overrides: Iterable[s
     raw = apply_overrides(dict(raw), overrides)
     recipe = resolve(raw)
     one = "kind" in raw.get("material", {})  # one [material] for every part
-    sections = [(recipe["surface"], SURFACE_KINDS[recipe["surface"]["kind"]].keys, "")]
-    sections += [(mat, MATERIAL_KINDS[mat["kind"]], "material." if one else
-                  f"material.{part}.") for part, mat in recipe["material"].items()]
-    for section, keys, where in sections:
-        for name, key in keys.items():
-            if key.kind == "path" and name in section:
-                given = section[name]
-                section[name] = str((Path(folder) / given).resolve())
-                if where and not Path(section[name]).is_file():
-                    raise InputError(f"{where}{name} = {given!r}: no such file "
-                                     f"({section[name]})")
+    for section, name, where in path_keys(recipe):
+        given = section[name]
+        section[name] = str((Path(folder) / given).resolve())
+        if where.startswith("material") and not Path(section[name]).is_file():
+            where = "material." if one else where
+            raise InputError(f"{where}{name} = {given!r}: no such file ({section[name]})")
     return recipe
+
+
+def path_keys(recipe: Mapping[str, Any]) -> list[tuple[dict, str, str]]:
+    """The keys of a resolved recipe that name files (a mesh, a table material's table).
+
+    Returns
+    -------
+    list of (section, name, where)
+        The section dict holding the key, the key's name, and its dotted prefix
+        (``"surface."`` or ``"material.<part>."``).
+    """
+    sections = [(recipe["surface"], SURFACE_KINDS[recipe["surface"]["kind"]].keys,
+                 "surface.")]
+    sections += [(mat, MATERIAL_KINDS[mat["kind"]], f"material.{part}.")
+                 for part, mat in recipe["material"].items()]
+    return [(section, name, where) for section, keys, where in sections
+            for name, key in keys.items() if key.kind == "path" and name in section]
 
 
 def to_toml(recipe: Mapping[str, Any]) -> str:

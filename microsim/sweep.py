@@ -28,8 +28,10 @@ from typing import Any
 
 import numpy as np
 
+from microsim import __version__
 from microsim.errors import InputError
-from microsim.recipe import SECTIONS, read_toml, resolve_in
+from microsim.files import file_digest
+from microsim.recipe import SECTIONS, path_keys, read_toml, resolve_in
 from microsim.schema import Key, check_section, unknown_key
 
 OPTIONS: dict[str, Key] = {
@@ -52,8 +54,17 @@ def canonical(obj: Any) -> str:
 
 
 def recipe_hash(recipe: Mapping[str, Any]) -> str:
-    """SHA-256 (hex) of a resolved recipe's canonical JSON."""
-    return hashlib.sha256(canonical(recipe).encode()).hexdigest()
+    """SHA-256 (hex) of what a table is made from.
+
+    The canonical JSON of the resolved recipe, of the contents (SHA-256) of every file it
+    names (a mesh, a table material's table; None for a file that is missing now), and of
+    the microsim version: a table is recomputed when any of them changes.
+    """
+    inputs = {f"{where}{name}": file_digest(section[name])
+              if Path(section[name]).is_file() else None
+              for section, name, where in path_keys(recipe)}
+    made_of = {"recipe": recipe, "inputs": inputs, "microsim_version": __version__}
+    return hashlib.sha256(canonical(made_of).encode()).hexdigest()
 
 
 def point_seed(seed: int, values: Mapping[str, Any]) -> int:

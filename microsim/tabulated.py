@@ -38,27 +38,17 @@ runs along (docs/materials.md).
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from microsim.errors import InputError
+from microsim.files import file_digest
 from microsim.tables.binning import TWO_PI
 from microsim.tables.exr import read_table
 from microsim.tables.interpolation import linear_weights
 from microsim.tables.table import COMPONENTS, BRDFTable
-
-
-def file_digest(path: str | Path) -> str:
-    """SHA-256 of a file's bytes, hex (the provenance of a table one scale up)."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
 
 AXES = ("x", "y")
 """World axes a table material may name (``axis`` in a recipe)."""

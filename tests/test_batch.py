@@ -162,6 +162,29 @@ def test_resume_skips_done_tables_and_redoes_changed_ones(tmp_path: Path, cli: C
     assert read_table(out / "alpha=0.5.exr").rays.sum() == 3 * 600
 
 
+def test_resume_redoes_a_table_whose_input_file_changed(tmp_path: Path, cli: Callable
+                                                         ) -> None:
+    """The recipe hash covers the contents of the files a recipe names: a mesh edited in
+    place (same path, same recipe) makes its table be recomputed."""
+    ply = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+           "property float z\nelement face 2\nproperty list uchar int vertex_indices\n"
+           "end_header\n0 0 0\n1 0 0\n1 1 {z}\n0 1 {z}\n3 0 1 2\n3 0 2 3\n")
+    mesh = tmp_path / "ramp.ply"
+    mesh.write_text(ply.format(z=0), encoding="ascii")
+    sweep = tmp_path / "s.toml"
+    sweep.write_text('[base.surface]\nkind = "mesh"\npath = "ramp.ply"\nperiod = [1.0, 1.0]\n'
+                     '[base.simulation]\ntheta_i = [30]\nrays = 300\n'
+                     '[base.table]\ntheta_bins = 2\nphi_bins = 4\n'
+                     '[sweep]\n"simulation.bounces" = [4]\n', encoding="utf-8")
+    out = tmp_path / "out"
+    assert cli("batch", str(sweep), "-o", str(out), "--workers", "1")[0] == 0
+    code, text, _ = cli("batch", str(sweep), "-o", str(out), "--workers", "1", "--json")
+    assert code == 0 and json.loads(text)["skipped"] == ["bounces=4"]
+    mesh.write_text(ply.format(z=0.0), encoding="ascii")        # same numbers, other bytes
+    code, text, _ = cli("batch", str(sweep), "-o", str(out), "--workers", "1", "--json")
+    assert code == 0 and json.loads(text)["computed"] == ["bounces=4"]
+
+
 # --- failures --------------------------------------------------------------------------
 def test_one_failing_point_the_rest_complete(tmp_path: Path, cli: Callable) -> None:
     """A mesh file that is missing at run time fails its table (after the retry); the
