@@ -240,6 +240,50 @@ def model_defaults(meta: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
+def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float = 0.0,
+                rng: np.random.Generator | None = None,
+                meta: Mapping[str, Any] | None = None) -> Any:
+    """A table whose bins hold an analytic model's bin averages: a noiseless reference,
+    or one with Gaussian noise of known relative standard deviation.
+
+    Parameters
+    ----------
+    model : Model
+        The analytic BRDF (isotropic: incidences at φi = 0).
+    theta_i : (a,) float
+        Incident polar angles, radians.
+    bins : HemisphereBins
+        Outgoing bins.
+    sigma_rel : float
+        Relative standard deviation of the noise added to each bin and channel (0: none);
+        the bins' standard error is reported as ``sigma_rel`` × the bin average (with a
+        floor of 1e-12 so no error is zero).
+    rng : numpy.random.Generator or None
+        Source of the noise (required when ``sigma_rel`` > 0).
+    meta : mapping or None
+        The table's metadata (default: a surface of kind ``"analytic"``).
+
+    Returns
+    -------
+    BRDFTable
+        Components ``total`` and ``single`` alike; albedo = Σ f_r Ω_proj over the bins of
+        the (noisy) values, with zero error; no lost energy.
+    """
+    from microsim.tables.table import COMPONENTS, BRDFTable
+
+    theta_i = np.asarray(theta_i, float)
+    avg = np.stack([bin_average(model, direction(t, 0.0), bins.theta_edges, bins.phi_edges)
+                    for t in theta_i])[:, None]
+    err = sigma_rel * avg + 1e-12
+    values = avg + rng.standard_normal(avg.shape) * err if sigma_rel else avg
+    albedo = (values * bins.projected_solid_angle[None, None, :, :, None]).sum(axis=(2, 3))
+    zeros = np.zeros_like(albedo)
+    return BRDFTable(bins, theta_i, [0.0], True, {c: values for c in COMPONENTS},
+                     {c: err for c in COMPONENTS}, np.full((len(theta_i), 1), 10**6),
+                     {c: albedo for c in COMPONENTS}, {c: zeros for c in COMPONENTS},
+                     zeros, dict(meta or {"surface": {"kind": "analytic"}}))
+
+
 def compare_table(table: Any, model: Model, component: str = "total") -> dict[str, Any]:
     """Every incidence of a table against a model: per-incidence and pooled metrics.
 

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from microsim.analytic.registry import parse_model_spec
-from microsim.compare import bin_average, compare_table, direction, model_defaults
+from microsim.compare import compare_table, model_defaults
+from microsim.compare import model_table as analytic_table
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.table import COMPONENTS, BRDFTable
 
 THETA_I = np.radians([0.0, 40.0, 70.0])
 
@@ -19,18 +19,8 @@ def model_table(spec, sigma_rel=0.0, seed=0, meta=None):
     """A table whose bins hold the model's exact bin averages, plus Gaussian noise of a
     known relative standard deviation reported as the bins' standard error."""
     _, _, model = parse_model_spec(spec)
-    bins = HemisphereBins(12, 24)
-    avg = np.stack([bin_average(model, direction(t, 0.0), bins.theta_edges, bins.phi_edges)
-                    for t in THETA_I])[:, None]
-    rng = np.random.default_rng(seed)
-    err = sigma_rel * avg + 1e-12
-    values = avg + (rng.standard_normal(avg.shape) * err if sigma_rel else 0.0)
-    albedo = (values * bins.projected_solid_angle[None, None, :, :, None]).sum(axis=(2, 3))
-    zeros = np.zeros_like(albedo)
-    return BRDFTable(bins, THETA_I, [0.0], True, {c: values for c in COMPONENTS},
-                     {c: err for c in COMPONENTS}, np.full((3, 1), 10**6),
-                     {c: albedo for c in COMPONENTS}, {c: zeros for c in COMPONENTS},
-                     zeros, meta or {"surface": {"kind": "test"}})
+    return analytic_table(model, THETA_I, HemisphereBins(12, 24), sigma_rel,
+                          np.random.default_rng(seed), meta or {"surface": {"kind": "test"}})
 
 
 def test_same_model_gives_zero_error():

@@ -151,3 +151,48 @@ def write_rgl(table: BRDFTable, path: str | Path, resolution: int = 32,
                         f"microsim {component} BRDF of a {surface.get('kind', '')} surface")
     with atomic_path(path) as tmp:
         tmp.write_bytes(_tensor_file(fields))
+
+
+def rgl_through_mitsuba(table: BRDFTable, path: str | Path, pairs: int,
+                        rng: np.random.Generator, lobe_fraction: float = 0.1
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """Evaluate an RGL file with Mitsuba 3's ``measured`` plugin against the table.
+
+    Direction pairs are drawn around the mirror direction (θi among the table's
+    incidences, θo uniform in [0, 85°], φo normal about π with σ = 0.5) and kept where
+    f_r cos θo is at least ``lobe_fraction`` of its value in the mirror direction.
+    Needs the ``mitsuba`` package (a development dependency); sets its ``scalar_rgb``
+    variant.
+
+    Parameters
+    ----------
+    table : BRDFTable
+        The table the file was written from (isotropic).
+    path : str or Path
+        The ``.bsdf`` file.
+    pairs : int
+        Direction pairs to keep.
+    rng : numpy.random.Generator
+    lobe_fraction : float
+
+    Returns
+    -------
+    reference, mitsuba : (pairs, 3) float
+        ``table.eval · cos θo`` and Mitsuba's ``eval`` (which includes cos θo).
+    """
+    import mitsuba as mi
+
+    mi.set_variant("scalar_rgb")
+    bsdf = mi.load_dict({"type": "measured", "filename": str(path)})
+    rows: list[tuple[np.ndarray, np.ndarray]] = []
+    while len(rows) < pairs:
+        wi = direction(rng.choice(table.theta_i), 0.0)
+        wo = direction(np.radians(rng.uniform(0, 85)), np.pi + rng.normal(0, 0.5))
+        ref = table.eval(wi, wo) * wo[2]
+        if ref.mean() < lobe_fraction * table.eval(wi, wi * [-1, -1, 1]).mean() * wi[2]:
+            continue
+        si = mi.SurfaceInteraction3f()
+        si.wi = mi.Vector3f(*wi)
+        value = bsdf.eval(mi.BSDFContext(), si, mi.Vector3f(*wo))
+        rows.append((ref, np.array([value[0], value[1], value[2]])))
+    return np.array([r for r, _ in rows]), np.array([g for _, g in rows])
