@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import platform
 import statistics
 import time
@@ -57,6 +58,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--write-docs", action="store_true")
     args = parser.parse_args()
+    loadavg = os.getloadavg()[0]
     recipe = load(args.recipe)
     tile = build_tile(recipe["surface"])
     bins = HemisphereBins(recipe["table"]["theta_bins"], recipe["table"]["phi_bins"])
@@ -100,7 +102,8 @@ def main() -> None:
     base = {name: t for name, order, t, _ in rows if order == 0}
     lines = [MARKERS[0], "",
              f"`python scripts/sh_cost.py --write-docs` ({platform.machine()}, "
-             f"{time.strftime('%Y-%m-%d')}, machine shared): one batch of {BATCH} rays of "
+             f"{time.strftime('%Y-%m-%d')}, load average {loadavg:.1f} on {os.cpu_count()} "
+             f"CPUs before the run): one batch of {BATCH} rays of "
              f"`{Path(args.recipe).name}` at θi = 30°, 16 bounces; median of "
              f"{args.repeats}. `add` is the per-batch accumulation (bins, and the harmonics "
              "when the order is > 0); tracing is `trace_paths` on every core.", "",
