@@ -92,6 +92,7 @@ def summary(table: Any, output: Path | None) -> dict[str, Any]:
         "single_albedo": table.albedo_of["single"].reshape(-1, 3),
         "lost_energy": table.lost_energy.reshape(-1, 3),
         "median_rel_error": table.median_rel_error("total"),
+        "sh_order": table.sh_order,
         "stop": [d["stop"] for d in meta["directions"]],
         "surface": meta["surface"],
     }
@@ -113,6 +114,9 @@ def print_summary(s: dict[str, Any]) -> None:
     print(f"{s['rays']:,} rays, {s['segments']:,} segments in {s['wall_s']:.1f} s "
           f"({s['segments_per_s']:,.0f} segments/s); median relative error over lobe "
           f"bins {100 * s['median_rel_error']:.2f}%")
+    if s["sh_order"]:
+        print(f"spherical harmonics to order {s['sh_order']} stored beside the bins "
+              "(microsim sh TABLE: their error against the bins)")
     if s["output"]:
         print(f"wrote {s['output']}")
 
