@@ -47,3 +47,13 @@ def test_ndf_json_and_plot(cli, tmp_path):
 def test_bad_flags(cli, argv, needle):
     code, _, err = cli(*argv)
     assert code == 2 and err.startswith("error: ") and needle in err
+
+
+def test_g1_of_a_refracting_layer_warns(cli):
+    """G1 samples every face, so for a paint layer it also counts faces inside the binder:
+    the command says so (and still measures)."""
+    paint = str(ROOT / "surfaces" / "paint.toml")
+    code, out, err = cli("measure", "g1", paint, "--theta", "30", "--rays", "500",
+                         "--set", "surface.top_alpha=0", "--json")
+    assert code == 0 and json.loads(out)["theta"] == [30.0]
+    assert err.startswith("warning: part 'binder' refracts")

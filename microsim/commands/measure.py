@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from typing import Any
 
 from microsim import recipe
@@ -84,6 +85,11 @@ def run_g1(args: argparse.Namespace) -> int:
     if not math.isfinite(args.phi):
         raise InputError(f"--phi {args.phi}: must be a finite angle in degrees")
     resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "simulation")])
+    inside = [part for part, m in resolved["material"].items() if m.get("refract")]
+    if inside:
+        print(f"warning: part {inside[0]!r} refracts: G1 samples every face, also those "
+              "inside its medium (particles, substrate), so it is not the masking of the "
+              "surface light meets first", file=sys.stderr)
     result = measure_g1_recipe(resolved, args.theta, args.rays, args.phi, args.threads)
     info = result["surface"]
     model = smith_model(info)
