@@ -9,9 +9,9 @@ import pytest
 
 from microsim.analytic.brdf import OrenNayar, TorranceSparrow
 from microsim.analytic.ndf import Beckmann
-from microsim.fit import fit_table, model_bins
+from microsim.compare import model_table
+from microsim.fit import fit_table
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.table import COMPONENTS, BRDFTable
 
 THETA_I = np.radians([0.0, 30.0, 60.0])
 
@@ -19,19 +19,8 @@ THETA_I = np.radians([0.0, 30.0, 60.0])
 def table_of(model, sigma_rel=0.0, seed=0):
     """Bins = the model's bin averages (8² midpoints per bin), optionally with Gaussian
     noise of known relative σ, reported as the error."""
-    bins = HemisphereBins(16, 32)
-    t = BRDFTable(bins, THETA_I, [0.0], True, {c: np.zeros((3, 1, 16, 32, 3)) for c in
-                                              COMPONENTS}, {c: np.zeros((3, 1, 16, 32, 3))
-                                                            for c in COMPONENTS},
-                  np.full((3, 1), 10**6), {c: np.zeros((3, 1, 3)) for c in COMPONENTS},
-                  {c: np.zeros((3, 1, 3)) for c in COMPONENTS}, np.zeros((3, 1, 3)), {})
-    avg = model_bins(model, t, 8)
-    rng = np.random.default_rng(seed)
-    err = sigma_rel * avg + 1e-9
-    values = avg * (1 + sigma_rel * rng.standard_normal(avg.shape)) if sigma_rel else avg
-    for c in COMPONENTS:
-        t.values[c], t.errors[c] = values, err
-    return t
+    return model_table(model, THETA_I, HemisphereBins(16, 32), sigma_rel,
+                       np.random.default_rng(seed))
 
 
 def test_beckmann_without_noise_comes_back_within_one_percent():
