@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
+from microsim.errors import InputError
 from microsim.frames import orthonormal_basis
 from microsim.refraction import fresnel_choice, reflect
 from microsim.tabulated import TabulatedMaterial
@@ -71,6 +72,9 @@ class FacetMaterials:
         Part names.
     materials : mapping of str to dict
         A resolved ``[material.<part>]`` section per part (``kind`` and its keys).
+    tangents : (m, 3) float or None
+        Unit tangent per face from the generator (``Tile.tangents``), for table materials
+        with ``axis = "tangent"``.
 
     Attributes
     ----------
@@ -91,12 +95,18 @@ class FacetMaterials:
     """
 
     def __init__(self, face_material: np.ndarray, parts: Sequence[str],
-                 materials: Mapping[str, Mapping[str, Any]]) -> None:
+                 materials: Mapping[str, Mapping[str, Any]],
+                 tangents: np.ndarray | None = None) -> None:
         self.face_material = np.asarray(face_material, np.int64)
         self.specs = [dict(materials[p]) for p in parts]
+        self.tangents = tangents
         self.tables = {m: TabulatedMaterial.load(spec["path"], spec["component"],
                                                  f"material.{parts[m]}.path", spec["axis"])
                        for m, spec in enumerate(self.specs) if spec["kind"] == "table"}
+        for m, table in self.tables.items():
+            if table.uses_tangents and tangents is None:
+                raise InputError(f"material.{parts[m]}.axis = 'tangent': this surface gives "
+                                 "its faces no tangents (velvet does); use 'x' or 'y'")
         self.inputs = [{"part": parts[m], **t.source} for m, t in self.tables.items()]
         self.refracting = np.array([s["kind"] == "dielectric" and bool(s.get("refract"))
                                     for s in self.specs] + [False])
@@ -150,7 +160,10 @@ class FacetMaterials:
                 factor[sel] = np.broadcast_to(spec["albedo"], (count, 3))
                 continue
             if kind == "table":
-                out[sel], factor[sel] = self.tables[m].scatter(ds, ns, rng)
+                table = self.tables[m]
+                along = (np.take(self.tangents, faces[sel], axis=0)
+                         if table.uses_tangents else None)
+                out[sel], factor[sel] = table.scatter(ds, ns, rng, along)
                 continue
             if self.refracting[m]:
                 out[sel] = fresnel_choice(ds, ns, spec["eta"], rng.random(count))[0]

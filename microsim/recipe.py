@@ -70,8 +70,9 @@ MATERIAL_KINDS: dict[str, dict[str, Key]] = {
                          choices=("total", "single")),
         "axis": Key("str", "y", "World axis whose projection onto each facet is the "
                     "table's y axis (its x axis, phi = 0, is that projection times the "
-                    "normal), e.g. the axis a yarn runs along. Matters for anisotropic "
-                    "tables only.", choices=("x", "y")),
+                    "normal), e.g. the axis a yarn runs along; or \"tangent\": each face's "
+                    "own direction from the generator (a velvet fibre's axis). Matters "
+                    "for anisotropic tables only.", choices=("x", "y", "tangent")),
     },
 }
 MATERIAL_DOCS = {

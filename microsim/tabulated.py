@@ -27,8 +27,9 @@ table's own piecewise-constant model), so an estimate made over a table reproduc
 table's bin values exactly in expectation.
 
 The facet frame: normal n (the face's unit normal), bitangent b the projection of the
-material's ``axis`` (+y by default, or +x) onto the facet plane, normalised (the other
-axis where n lies along it), tangent t = b × n. The table's x axis (φ = 0) lies along t,
+material's ``axis`` (+y by default, +x, or the face's own tangent from the generator, such
+as a velvet fibre's axis) onto the facet plane, normalised (another axis where n lies
+along it), tangent t = b × n. The table's x axis (φ = 0) lies along t,
 its y axis along b. An isotropic table's azimuths are relative to the incidence's, so only
 an anisotropic table depends on this choice. On a flat facet the default frame is the
 world's; a facet of a V-groove or a cylinder along y keeps b along the groove or the
@@ -50,8 +51,9 @@ from microsim.tables.exr import read_table
 from microsim.tables.interpolation import linear_weights
 from microsim.tables.table import COMPONENTS, BRDFTable
 
-AXES = ("x", "y")
-"""World axes a table material may name (``axis`` in a recipe)."""
+AXES = ("x", "y", "tangent")
+"""What a table material's ``axis`` may name: a world axis, or the per-face tangent a
+generator gives (``Tile.tangents``: a velvet fibre's axis)."""
 
 
 def _frame_along(n: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
@@ -69,7 +71,8 @@ def _frame_along(n: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
     return t / r[:, None], b / r[:, None]
 
 
-def facet_frame(n: np.ndarray, axis: int = 1) -> tuple[np.ndarray, np.ndarray]:
+def facet_frame(n: np.ndarray, axis: int = 1, tangents: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
     """Tangent and bitangent of each facet (the convention in the module docstring).
 
     Parameters
@@ -79,6 +82,10 @@ def facet_frame(n: np.ndarray, axis: int = 1) -> tuple[np.ndarray, np.ndarray]:
     axis : int
         0 (x) or 1 (y): the world axis whose projection onto the facet plane is the
         bitangent. Where n lies along it (|n·e| > 1 − 1e-6) the other axis is used.
+    tangents : (k, 3) float or None
+        Per-facet unit directions to project instead of the world axis (a recipe's
+        ``axis = "tangent"``);
+        where one lies along n (|n·e| > 1 − 1e-6) the world y axis is used.
 
     Returns
     -------
@@ -86,6 +93,16 @@ def facet_frame(n: np.ndarray, axis: int = 1) -> tuple[np.ndarray, np.ndarray]:
         Unit tangent t = b × n (the table's x axis) and bitangent b (its y axis), so that
         (t, b, n) is right-handed.
     """
+    if tangents is not None:
+        e_n = np.einsum("ij,ij->i", tangents, n)
+        b = tangents - e_n[:, None] * n
+        r = np.linalg.norm(b, axis=1)
+        ok = 1.0 - np.abs(e_n) >= 1e-6
+        b = np.divide(b, r[:, None], out=np.zeros_like(b), where=ok[:, None])
+        t = np.cross(b, n)
+        if not ok.all():
+            t[~ok], b[~ok] = facet_frame(n[~ok])
+        return t, b
     t, b = _frame_along(n, axis)
     along = 1.0 - np.abs(n[:, axis]) < 1e-6
     if along.any():
@@ -105,7 +122,8 @@ class TabulatedMaterial:
         ``"total"`` (all scattering orders of the lower scale) or ``"single"``.
     axis : str
         ``"y"`` or ``"x"``: the world axis whose projection onto a facet is the table's
-        y axis (``facet_frame``).
+        y axis (``facet_frame``); ``"tangent"``: the facet's own tangent (``scatter``'s
+        ``tangents``) projected so.
     source : dict or None
         Provenance recorded by tables made with this material (path, digest, component).
 
@@ -127,7 +145,8 @@ class TabulatedMaterial:
             raise ValueError(f"component must be one of {COMPONENTS}, got {component!r}")
         if axis not in AXES:
             raise ValueError(f"axis must be one of {AXES}, got {axis!r}")
-        self.axis = AXES.index(axis)
+        self.uses_tangents = axis == "tangent"
+        self.axis = 1 if self.uses_tangents else AXES.index(axis)
         values = table.values[component]
         if not np.all(np.isfinite(values)) or np.any(values < 0):
             raise ValueError("a table material needs finite, non-negative values")
@@ -166,7 +185,7 @@ class TabulatedMaterial:
         key : str
             The recipe key naming the file, for error messages (``material.<part>.path``).
         axis : str
-            ``"y"`` or ``"x"`` (see the class).
+            ``"y"``, ``"x"`` or ``"tangent"`` (see the class).
 
         Raises
         ------
@@ -184,8 +203,8 @@ class TabulatedMaterial:
         except ValueError as exc:
             raise InputError(f"{key} = {str(path)!r}: {exc}") from None
 
-    def scatter(self, d: np.ndarray, n: np.ndarray, rng: np.random.Generator
-                ) -> tuple[np.ndarray, np.ndarray]:
+    def scatter(self, d: np.ndarray, n: np.ndarray, rng: np.random.Generator,
+                tangents: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Sample outgoing directions and weights at facets of this material.
 
         Parameters
@@ -196,6 +215,8 @@ class TabulatedMaterial:
             Unit facet normals.
         rng : numpy.random.Generator
             Six uniform numbers are drawn per ray.
+        tangents : (k, 3) float or None
+            The facets' tangents; required with ``axis = "tangent"``, unused otherwise.
 
         Returns
         -------
@@ -207,7 +228,9 @@ class TabulatedMaterial:
         """
         table, bins = self.table, self.table.bins
         u = rng.random((len(d), 6))
-        t, b = facet_frame(n, self.axis)
+        if self.uses_tangents and tangents is None:
+            raise ValueError("this table material follows the facets' tangents: give them")
+        t, b = facet_frame(n, self.axis, tangents if self.uses_tangents else None)
         wi = -d
         x, y = np.einsum("ij,ij->i", wi, t), np.einsum("ij,ij->i", wi, b)
         theta = np.arccos(np.clip(np.einsum("ij,ij->i", wi, n), -1.0, 1.0))

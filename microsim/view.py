@@ -285,7 +285,7 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
     from microsim.trace import ESCAPED, HIT, PeriodicScene
 
     rng = np.random.default_rng(seed)
-    facets = FacetMaterials(tile.material, tile.parts, materials)
+    facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents)
     lx, ly = tile.period
     d = np.broadcast_to(-direction(theta_i, 0.0), (rays, 3)).copy()
     with PeriodicScene(tile, threads=1) as scene:

@@ -264,6 +264,69 @@ def test_rough_vgroove_bad_keys(extra: dict, message: str) -> None:
         resolve({"surface": {"kind": "vgroove", "grooves": 4, "micro_alpha": 0.3, **extra}})
 
 
+def test_velvet_faces_carry_their_fibres_axis_into_the_facet_frame() -> None:
+    """A velvet tile gives each face its fibre's axis (kept through the periodic cut): on
+    a fibre's side faces the axis lies in the face, so the frame's bitangent is the axis
+    itself; on every face (cone tips, caps along the axis) the frame is orthonormal and
+    right-handed."""
+    from microsim.recipe import resolve
+    from microsim.surfaces import build_tile
+
+    surface = resolve({"surface": {"kind": "velvet", "density": 300, "tilt": 30.0,
+                                   "seed": 5}})["surface"]
+    tile = build_tile(surface)
+    n, _ = tile.face_normals_areas()
+    fibre = tile.material == 1
+    # a fibre's side faces lie in planes holding the fibre (so does the tangent), and
+    # those the periodic cut left whole (no vertex on a tile side) have an edge along it:
+    # checked on the geometry (no other edge of a prism runs that way)
+    assert np.allclose(np.linalg.norm(tile.tangents, axis=1), 1.0)
+    side = fibre & (np.abs(np.einsum("ij,ij->i", tile.tangents, n)) < 1e-9)
+    assert side.mean() > 0.4  # the tubes' sides: half of a fibre's faces
+    v = tile.vertices[tile.faces]
+    xy = v[:, :, :2]
+    on_side = ((xy < 1e-9) | (xy > surface["size"] - 1e-9)).any(axis=(1, 2))
+    whole = side & ~on_side
+    assert whole.sum() > 0.5 * side.sum()
+    v = v[whole]
+    edges = v - np.roll(v, 1, axis=1)
+    edges /= np.linalg.norm(edges, axis=2, keepdims=True)
+    parallel = np.linalg.norm(np.cross(edges, tile.tangents[whole][:, None]), axis=2)
+    assert parallel.min(axis=1).max() < 1e-9
+    t, b = facet_frame(n, 1, tile.tangents)
+    frame = np.stack([t, b, n], axis=1)
+    assert np.abs(frame @ frame.transpose(0, 2, 1) - np.eye(3)).max() < 1e-9
+    assert np.abs(np.cross(t, b) - n).max() < 1e-9
+    assert np.abs(b[side] - tile.tangents[side]).max() < 1e-9
+
+
+def test_tangent_axis_along_x_samples_as_the_world_x_axis(gold_table) -> None:
+    """On flat facets with tangents along +x, axis "tangent" builds the frame of axis "x"
+    (b = x, t = b × n = −y), so the same random numbers give the same directions and
+    weights; without tangents it refuses."""
+    _, table = gold_table
+    count = 1000
+    d = np.broadcast_to(-direction(0.6, 1.0), (count, 3))
+    n = np.broadcast_to([0.0, 0.0, 1.0], (count, 3))
+    along = np.broadcast_to([1.0, 0.0, 0.0], (count, 3))
+    got = TabulatedMaterial(table, axis="tangent").scatter(d, n, np.random.default_rng(2),
+                                                           along)
+    want = TabulatedMaterial(table, axis="x").scatter(d, n, np.random.default_rng(2))
+    np.testing.assert_allclose(got[0], want[0], atol=1e-12)
+    np.testing.assert_array_equal(got[1], want[1])
+    with pytest.raises(ValueError, match="tangents"):
+        TabulatedMaterial(table, axis="tangent").scatter(d, n, np.random.default_rng(2))
+
+
+def test_tangent_axis_on_a_surface_without_tangents_is_an_input_error(
+        gold_table, tmp_path: Path, cli) -> None:
+    source, _ = gold_table
+    recipe = write_recipe(tmp_path, f'path = "{source}"\naxis = "tangent"')
+    code, _, err = cli("simulate", str(recipe), "-o", str(tmp_path / "x.exr"))
+    assert code == 2 and err.startswith("error: material.base.axis = 'tangent'")
+    assert err.count("\n") == 1
+
+
 # --- recipes and the command line ------------------------------------------------------
 def write_recipe(folder: Path, material: str) -> Path:
     recipe = folder / "upper.toml"

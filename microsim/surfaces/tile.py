@@ -35,6 +35,9 @@ class Tile:
         Facts the generator reports (``alpha_target``, ``alpha_realised``, ...), JSON-able.
     warnings : list of str
         Things the user should know (e.g. a correlation length of too few grid cells).
+    tangents : (m, 3) float or None
+        A unit direction per face that a generator knows (a velvet fibre's axis), for
+        facet materials whose frame follows it; None where the generator gives none.
     """
 
     vertices: np.ndarray
@@ -44,6 +47,7 @@ class Tile:
     period: tuple[float, float]
     info: dict[str, Any] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    tangents: np.ndarray | None = None
 
     @property
     def z_range(self) -> tuple[float, float]:

@@ -114,9 +114,15 @@ def build(surface: Mapping[str, Any]) -> Tile:
     base_v = np.array([[0, 0, 0], [size, 0, 0], [size, size, 0], [0, size, 0]], float)
     vertices = np.concatenate([base_v, fv])
     faces = np.concatenate([[[0, 1, 2], [0, 2, 3]], ff + 4])
-    material = np.concatenate([[0, 0], np.ones(len(ff), int)])
     groups = np.concatenate([[0, 0], 1 + np.repeat(np.arange(n), 4 * sides)])
-    vertices, faces, material = wrap_into_box(vertices, faces, material, (size, size), groups)
+    # the cut carries one integer per face: the material (0 base, 1 fibre) and the group
+    # (0 base, 1 + k fibre k), as material + 2 group, so cut pieces keep their fibre's axis
+    label = np.minimum(groups, 1) + 2 * groups
+    vertices, faces, label = wrap_into_box(vertices, faces, label, (size, size), groups)
+    material, group = label % 2, label // 2
+    # per face: the base's +y, a fibre's axis (its side faces contain it)
+    tangents = np.concatenate([[[0.0, 1.0, 0.0]], axes])[group]
     isotropic = surface["azimuth_spread"] >= 360.0 or surface["tilt"] == 0
     return Tile(vertices, faces, material, ("base", "fibre"), (size, size),
-                info={"kind": "velvet", "isotropic": bool(isotropic), "fibres": n})
+                info={"kind": "velvet", "isotropic": bool(isotropic), "fibres": n},
+                tangents=tangents)
