@@ -279,7 +279,9 @@ def test_velvet_faces_carry_their_fibres_axis_into_the_facet_frame() -> None:
     fibre = tile.material == 1
     # a fibre's side faces lie in planes holding the fibre (so does the tangent), and
     # those the periodic cut left whole (no vertex on a tile side) have an edge along it:
-    # checked on the geometry (no other edge of a prism runs that way)
+    # checked on the geometry (no other edge of a prism runs that way). Tolerances 1e-9:
+    # round-off of the tube construction and the cut at coordinates of order 1 is ~1e-15,
+    # while a face off the fibre's plane is off by the tube's facet angle (~0.1 rad)
     assert np.allclose(np.linalg.norm(tile.tangents, axis=1), 1.0)
     side = fibre & (np.abs(np.einsum("ij,ij->i", tile.tangents, n)) < 1e-9)
     assert side.mean() > 0.4  # the tubes' sides: half of a fibre's faces
