@@ -26,8 +26,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Trace every point of a sweep file (a base recipe and axes over its "
                     "keys, docs/batch.md) as jobs on Dask workers and write one OpenEXR "
                     "table per point to DIR, with DIR/manifest.json. Re-running resumes: "
-                    "tables done with an unchanged recipe and unchanged input files are skipped. Exit status 1 when "
-                    "a table failed (the summary and the manifest name it).",
+                    "tables done with an unchanged recipe and input files are skipped. "
+                    "Exit status 1 when a table failed (the summary and the manifest name "
+                    "it).",
     )
     p.add_argument("sweep", metavar="SWEEP", type=Path, help="sweep file (TOML)")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR",
