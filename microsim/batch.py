@@ -311,7 +311,7 @@ def _finish(folder: Path, manifest: Manifest, point: Point, parts: list[Measurem
             warnings: list[str], seconds: float) -> None:
     """Merge a table's jobs, write the table, then record it as done (``seconds``: the
     jobs' summed wall-clock time on the workers)."""
-    from microsim.goniometer import assemble_table
+    from microsim.simulation import assemble_table
 
     recipe = point.recipe
     table = assemble_table(parts, recipe["material"], recipe["simulation"], recipe["table"],

@@ -89,7 +89,7 @@ def run_tables(case: str, surface: dict[str, Any], material: str, theta: list[fl
                rays: int, bins: int, bounces: int, seed: int,
                score: Callable[[Any], tuple[float, float]]) -> dict[str, Any]:
     """Simulate one table and score it; the row of the CSV."""
-    from microsim.goniometer import simulate
+    from microsim.simulation import simulate
 
     r = resolve({"surface": surface, "material": {"kind": material},
                  "simulation": {"theta_i": theta, "rays": rays, "bounces": bounces,

@@ -1,8 +1,11 @@
-"""The virtual goniophotometer's BRDF estimator: binned f_r with standard errors.
+"""The virtual goniophotometer on one tile: per incident direction, binned exit weights.
 
 It samples the tile as a real instrument does and counts what the paths over the periodic
-tracer (``microsim.paths``) return; docs/goniometer.md explains the sampling, the weights,
-the error bars and the adaptive stop. (Masking G1 is measured by ``microsim.masking``.)
+tracer (``microsim.paths``) return, into per-direction sums from which
+``microsim.tables.table.BRDFTable`` makes f_r and its errors; ``microsim.simulation``
+runs it over the realisations of a surface, with the adaptive stop, and assembles the
+table. docs/goniometer.md explains the sampling, the weights and the error bars. (Masking
+G1 is measured by ``microsim.masking``.)
 
 Rays -wi start at uniform points of the tile's top plane (uniform irradiance over
 the projected area, as a collimated beam gives) and scatter until they escape; an escaping
@@ -16,20 +19,19 @@ from __future__ import annotations
 import contextlib
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-import microsim
 from microsim.compare import direction
 from microsim.materials import FacetMaterials
 from microsim.paths import Paths, trace_paths
 from microsim.surfaces.tile import Tile
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.table import COMPONENTS, BRDFTable
+from microsim.tables.table import COMPONENTS
 from microsim.trace import PeriodicScene
 
 BATCH = 65536
@@ -113,51 +115,23 @@ class _Sums:
         return self.lost + self.transmitted
 
 
-def _table(bins: HemisphereBins, theta_deg: Sequence[float], phi_deg: Sequence[float],
-           isotropic: bool, runs: Sequence[Sequence[_Sums]], meta: Mapping[str, Any]
-           ) -> BRDFTable:
-    """The table of the sums of every direction (``runs[l][k]``)."""
-
-    def stacked(get: Callable[[_Sums], np.ndarray]) -> np.ndarray:
-        return np.stack([np.stack([get(acc) for acc in row]) for row in runs])
-
-    rays = np.array([[acc.rays for acc in row] for row in runs], np.int64)
-    sums = {c: stacked(lambda a, c=c: a.sums[c]) for c in COMPONENTS}
-    sums_sq = {c: stacked(lambda a, c=c: a.sums_sq[c]) for c in COMPONENTS}
-    harmonics = runs[0][0].sh_order > 0
-    sh_sums = {c: stacked(lambda a, c=c: a.sh_sums[c]) for c in COMPONENTS
-               } if harmonics else None
-    sh_sums_sq = {c: stacked(lambda a, c=c: a.sh_sums_sq[c]) for c in COMPONENTS
-                  } if harmonics else None
-    return BRDFTable.from_sums(bins, np.radians(theta_deg), np.radians(phi_deg), isotropic,
-                               rays, sums, sums_sq, stacked(lambda a: a.lost_energy), meta,
-                               sh_sums=sh_sums, sh_sums_sq=sh_sums_sq)
-
-
-MAX_RAYS_FACTOR = 100
-"""With ``target_error`` and no ``max_rays``, at most this many times ``rays`` are traced."""
-
-
 def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: HemisphereBins,
                        simulation: Mapping[str, Any], theta: float, phi: float,
-                       isotropic: bool, streams: tuple[int, int],
-                       progress: Callable[[dict[str, Any]], None] | None, sh_order: int = 0
-                       ) -> tuple[_Sums, str, float]:
-    """Run the batches of one incident direction (degrees); see ``simulate``.
+                       isotropic: bool, streams: tuple[int, ...], acc: _Sums, rays: int,
+                       first: int, progress: Callable[[int], None] | None = None) -> int:
+    """Trace ``rays`` more rays of one incident direction (degrees) of one tile into ``acc``.
 
     Outgoing azimuths are binned relative to ``phi`` for isotropic tables, absolute
-    otherwise (the table's convention). Returns the sums, why the batches stopped
-    (``"rays"``: the fixed count, ``"target_error"`` or ``"max_rays"``), and the median
-    relative error over the lobe.
+    otherwise (the table's convention). Batches of ``BATCH`` rays (the last one may be
+    shorter) are numbered from ``first``; batch b draws from
+    ``SeedSequence(seed, spawn_key=(*streams, b))``. ``progress`` is called with the rays
+    traced after every batch. Returns the number of the next batch.
     """
     phi_ref = math.radians(phi) if isotropic else 0.0
     wi = direction(math.radians(theta), math.radians(phi))
-    acc = _Sums(bins.size, sh_order)
-    planned = int(simulation["rays"])
-    target = simulation.get("target_error")
-    most = simulation.get("max_rays") or MAX_RAYS_FACTOR * planned
-    batch = 0
-    while True:
+    planned = acc.rays + rays
+    batch = first
+    while acc.rays < planned:
         n = min(BATCH, planned - acc.rays)
         seed = np.random.SeedSequence(int(simulation["seed"]), spawn_key=(*streams, batch))
         xy = np.random.default_rng(seed).random((n, 2)) * scene.period
@@ -167,33 +141,31 @@ def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: Hemis
         acc.add(np.where(paths.order > 0, bins.index(paths.direction, phi_ref), -1), paths,
                 phi_ref, scene.map)
         batch += 1
-        # the figure the table reports, for this direction alone
-        error = _table(bins, [theta], [phi], isotropic, [[acc]], {}).median_rel_error()
         if progress is not None:
-            progress({"theta_i": theta, "phi_i": phi, "rays": acc.rays, "rel_error": error})
-        if acc.rays < planned:
-            continue
-        if target is None:
-            return acc, "rays", error
-        if error <= target:
-            return acc, "target_error", error
-        if acc.rays >= most:
-            return acc, "max_rays", error
-        planned = min(acc.rays + BATCH, most)
+            progress(n)
+    return batch
+
+
+@dataclass
+class Run:
+    """One incident direction of one realisation: its sums and the batches they took."""
+
+    sums: _Sums
+    batches: int = 0
 
 
 @dataclass
 class Measurement:
-    """What tracing some incident polar angles of one table gives; see ``measure_directions``.
+    """What tracing some incident directions of some realisations gives; the pieces a table
+    is assembled from (``microsim.simulation.assemble_table``).
 
     Attributes
     ----------
-    rows : dict of int to list of (_Sums, str, float)
-        For each measured index l of ``simulation["theta_i"]``, one entry per incident
-        azimuth k: the direction's sums, why its batches stopped, and its median relative
-        error over the lobe (``_measure_direction``).
-    surface : dict
-        The tile's ``info``.
+    runs : dict of (int, int, int) to Run
+        Per traced (l, k, r): incident polar angle index l into ``simulation["theta_i"]``,
+        azimuth index k, realisation r.
+    surfaces : dict of int to dict
+        The ``info`` of each realisation's tile, with its surface ``seed``.
     inputs : list of dict
         Provenance of the tables its facet materials read (``FacetMaterials.inputs``).
     isotropic : bool
@@ -201,19 +173,26 @@ class Measurement:
     segments : int
         Embree queries traced.
     offset : float
-        The scene's ray offset (``PeriodicScene.eps``).
+        The scene's ray offset (``PeriodicScene.eps``; of realisation 0 when traced).
     scene_time, trace_time : float
-        Wall-clock seconds to build the scene and to trace.
+        Wall-clock seconds to build the tiles and scenes, and to trace.
+    stops : dict of (int, int) to str
+        Why each direction's adaptive stop ended (``microsim.simulation``); directions
+        traced with a fixed count are absent.
+    warnings : list of str
+        The tiles' warnings, each once.
     """
 
-    rows: dict[int, list[tuple[_Sums, str, float]]]
-    surface: dict[str, Any]
+    runs: dict[tuple[int, int, int], Run]
+    surfaces: dict[int, dict[str, Any]]
     inputs: list[dict[str, Any]]
     isotropic: bool
-    segments: int
-    offset: float
-    scene_time: float
-    trace_time: float
+    segments: int = 0
+    offset: float = math.nan
+    scene_time: float = 0.0
+    trace_time: float = 0.0
+    stops: dict[tuple[int, int], str] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
 
 
 def incident_azimuths(isotropic: bool, simulation: Mapping[str, Any]) -> list[float]:
@@ -221,22 +200,38 @@ def incident_azimuths(isotropic: bool, simulation: Mapping[str, Any]) -> list[fl
     return [0.0] if isotropic else [float(p) for p in simulation["phi_i"]]
 
 
+def rays_per_realisation(simulation: Mapping[str, Any]) -> int:
+    """``simulation.rays`` split over ``simulation.realisations``, rounded up."""
+    return -(-int(simulation["rays"]) // int(simulation.get("realisations", 1)))
+
+
 def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
                        simulation: Mapping[str, Any], table: Mapping[str, Any],
-                       thetas: Sequence[int] | None = None, *, threads: int | None = None,
+                       work: Mapping[tuple[int, int], int] | None = None, *,
+                       realisation: int = 0, runs: dict[tuple[int, int, int], Run] | None
+                       = None, threads: int | None = None,
                        progress: Callable[[dict[str, Any]], None] | None = None,
                        scene: PeriodicScene | None = None) -> Measurement:
-    """Trace the incident directions of some polar angles of a table (see ``simulate``).
+    """Trace incident directions of one realisation's tile.
 
     Parameters
     ----------
-    tile, materials, simulation, table, threads, progress
-        As for ``simulate``.
-    thetas : sequence of int or None
-        Indices into ``simulation["theta_i"]`` to measure, every incident azimuth of each
-        (default: all). Direction (l, k) draws the same random numbers whichever other
-        directions are measured with it, so measurements of disjoint index sets merge
-        (``assemble_table``) into exactly the table of one measurement of all of them.
+    tile : Tile
+        Realisation ``realisation`` of the recipe's surface.
+    materials, simulation, table
+        Resolved recipe sections (``microsim.simulation.simulate``).
+    work : mapping of (int, int) to int, or None
+        Rays to add per direction (l, k): l indexes ``simulation["theta_i"]``, k the
+        incident azimuths. None: every azimuth of every polar angle, each with
+        ``rays_per_realisation(simulation)`` rays.
+    realisation : int
+        Its index r: direction (l, k) draws its batches from
+        ``SeedSequence(seed, spawn_key=(l, k, r, b))``, so the numbers do not depend on
+        which other directions or realisations are traced with it, or where.
+    runs : dict or None
+        Runs to continue (their sums grow, batches keep their numbers); None: fresh ones.
+    threads, progress
+        As for ``microsim.simulation.simulate``.
     scene : PeriodicScene or None
         An open scene of ``tile`` to trace in (left open; ``threads`` is then unused), or
         None to build one for this call. The numbers do not depend on it.
@@ -244,153 +239,41 @@ def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
     Returns
     -------
     Measurement
+        With the runs of this realisation that were traced (continued ones included).
     """
     start = time.perf_counter()
     isotropic = bool(tile.info.get("isotropic", False))
     theta_deg = [float(t) for t in simulation["theta_i"]]
     phi_deg = incident_azimuths(isotropic, simulation)
+    if work is None:
+        n = rays_per_realisation(simulation)
+        work = {(l, k): n for l in range(len(theta_deg)) for k in range(len(phi_deg))}
     bins = HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
     facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents)
-    chosen = range(len(theta_deg)) if thetas is None else thetas
+    runs = {} if runs is None else runs
+    traced = {}
     with contextlib.ExitStack() as stack:
         if scene is None:
             scene = stack.enter_context(PeriodicScene(tile, threads))
         built, before = time.perf_counter(), scene.segments
-        rows = {l: [_measure_direction(scene, facets, bins, simulation, theta_deg[l], phi,
-                                       isotropic, (l, k), progress,
-                                       int(table.get("sh_order", 0)))
-                    for k, phi in enumerate(phi_deg)] for l in chosen}
+        for (l, k), rays in work.items():
+            key = (l, k, realisation)
+            run = runs.get(key) or Run(_Sums(bins.size, int(table.get("sh_order", 0))))
+            report = None if progress is None else _reporter(
+                progress, theta_deg[l], phi_deg[k], realisation, run.sums)
+            run.batches = _measure_direction(scene, facets, bins, simulation, theta_deg[l],
+                                             phi_deg[k], isotropic, key, run.sums, rays,
+                                             run.batches, report)
+            traced[key] = runs[key] = run
         segments, eps = scene.segments - before, scene.eps
-    return Measurement(rows, dict(tile.info), facets.inputs, isotropic, segments, eps,
-                       built - start, time.perf_counter() - built)
+    return Measurement(traced, {realisation: dict(tile.info)}, facets.inputs, isotropic,
+                       segments, eps, built - start, time.perf_counter() - built,
+                       warnings=list(dict.fromkeys(tile.warnings)))
 
 
-def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Mapping[str, Any]],
-                   simulation: Mapping[str, Any], table: Mapping[str, Any], *,
-                   recipe: Mapping[str, Any] | None = None, wall_time: float | None = None
-                   ) -> BRDFTable:
-    """The table of measurements that together cover every incident polar angle once.
+def _reporter(progress: Callable[[dict[str, Any]], None], theta: float, phi: float,
+              realisation: int, acc: _Sums) -> Callable[[int], None]:
+    """The per-batch callback of one direction: ``progress`` with its state."""
+    return lambda _: progress({"theta_i": theta, "phi_i": phi, "realisation": realisation,
+                               "rays": acc.rays})
 
-    Parameters
-    ----------
-    parts : sequence of Measurement
-        Of the same tile, materials, simulation and table, in any order.
-    materials, simulation, table, recipe
-        As for ``simulate``.
-    wall_time : float or None
-        Seconds the whole measurement took. Given, the metadata holds the timings
-        (``wall_time``, ``scene_time``, ``rays_per_second``, ``segments_per_second``);
-        None leaves them out, so the table depends on nothing but the recipe.
-
-    Returns
-    -------
-    BRDFTable
-        As ``simulate`` returns it.
-
-    Raises
-    ------
-    ValueError
-        If the parts do not cover each polar angle exactly once.
-    """
-    rows = {l: row for part in parts for l, row in part.rows.items()}
-    theta_deg = [float(t) for t in simulation["theta_i"]]
-    if sorted(rows) != list(range(len(theta_deg))) or \
-            sum(len(part.rows) for part in parts) != len(theta_deg):
-        raise ValueError("the measurements do not cover every incident polar angle once")
-    runs = [rows[l] for l in range(len(theta_deg))]
-    first = parts[0]
-    phi_deg = incident_azimuths(first.isotropic, simulation)
-    bins = HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
-    rays = sum(acc.rays for row in runs for acc, _, _ in row)
-    segments = sum(part.segments for part in parts)
-    meta = {
-        "recipe": dict(recipe) if recipe is not None else
-        {"material": dict(materials), "simulation": dict(simulation), "table": dict(table)},
-        "microsim_version": microsim.__version__,
-        "surface": dict(first.surface),
-        "inputs": first.inputs,
-        "seed": int(simulation["seed"]),
-        "isotropic": first.isotropic,
-        "directions": [{"theta_i": theta_deg[l], "phi_i": phi_deg[k], "rays": acc.rays,
-                        "lost": (acc.lost / acc.rays).tolist(),
-                        "transmitted": (acc.transmitted / acc.rays).tolist(),
-                        "absorbed": (acc.absorbed / acc.rays).tolist(),
-                        "fates": acc.fates, "stop": stop, "rel_error": error}
-                       for l, row in enumerate(runs)
-                       for k, (acc, stop, error) in enumerate(row)],
-        "stop": sorted({stop for row in runs for _, stop, _ in row}),
-        "segments": segments,
-        "batch": BATCH,
-        "offset": first.offset,
-    }
-    if wall_time is not None:
-        traced = sum(part.trace_time for part in parts)
-        meta.update(wall_time=wall_time, scene_time=sum(part.scene_time for part in parts),
-                    rays_per_second=rays / traced, segments_per_second=segments / traced)
-    result = _table(bins, theta_deg, phi_deg, first.isotropic,
-                    [[acc for acc, _, _ in row] for row in runs], meta)
-    for entry, albedo in zip(result.meta["directions"], result.albedo.reshape(-1, 3),
-                             strict=True):
-        entry["albedo"] = albedo.tolist()
-    return result
-
-
-def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
-             simulation: Mapping[str, Any], table: Mapping[str, Any], *,
-             recipe: Mapping[str, Any] | None = None, threads: int | None = None,
-             progress: Callable[[dict[str, Any]], None] | None = None) -> BRDFTable:
-    """Measure the tile's BRDF table with the virtual goniophotometer.
-
-    Parameters
-    ----------
-    tile : Tile
-        The surface. ``tile.info["isotropic"]`` (default False) says whether one incident
-        azimuth (0) suffices; otherwise every ``simulation["phi_i"]`` is measured.
-    materials : mapping
-        Resolved ``[material]``: one section per part of the tile.
-    simulation : mapping
-        Resolved ``[simulation]``: ``theta_i``, ``phi_i`` (degrees), ``rays``,
-        ``bounces``, ``seed``, and optionally ``target_error`` and ``max_rays``.
-    table : mapping
-        Resolved ``[table]``: ``theta_bins``, ``phi_bins``, and optionally ``sh_order``
-        (spherical-harmonic order of the escaping rays' moments; 0 or absent: none).
-    recipe : mapping or None
-        The full resolved recipe, stored in the table's metadata (default: the three
-        sections given).
-    threads : int or None
-        Tracing threads (default: every CPU). The result does not depend on it.
-    progress : callable or None
-        Called after every batch with a dict: ``theta_i``, ``phi_i`` (degrees),
-        ``rays`` (so far, this direction), ``rel_error`` (median over the lobe, or None
-        without a target).
-
-    Returns
-    -------
-    BRDFTable
-        Sums per bin for the components ``"total"`` and ``"single"`` (first-order
-        scattering), with metadata (see docs/goniometer.md).
-
-    Notes
-    -----
-    Direction (l, k) runs batches of ``BATCH`` rays (the last one of the planned rays may
-    be shorter); batch b draws from ``SeedSequence(seed, spawn_key=(l, k, b))``, so the
-    numbers depend on neither the thread count nor the chunking. With ``target_error``,
-    batches are added after the first ``rays`` until the median relative error over the
-    lobe is at most the target, or ``max_rays`` (default ``MAX_RAYS_FACTOR * rays``) is
-    reached.
-    """
-    start = time.perf_counter()
-    measured = measure_directions(tile, materials, simulation, table, threads=threads,
-                                  progress=progress)
-    return assemble_table([measured], materials, simulation, table, recipe=recipe,
-                          wall_time=time.perf_counter() - start)
-
-
-def simulate_recipe(recipe: Mapping[str, Any], progress: Callable[[dict[str, Any]], None]
-                    | None = None, threads: int | None = None) -> BRDFTable:
-    """Build a resolved recipe's surface and measure its BRDF table (see ``simulate``)."""
-    from microsim.surfaces import build_tile
-
-    tile = build_tile(dict(recipe["surface"]))
-    return simulate(tile, recipe["material"], recipe["simulation"], recipe["table"],
-                    recipe=recipe, threads=threads, progress=progress)

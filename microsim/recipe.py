@@ -93,16 +93,25 @@ SIMULATION: dict[str, Key] = {
                    low=0.0, high=90.0, high_open=True),
     "phi_i": Key("floats", [0.0], "Incident azimuths (used for anisotropic surfaces).",
                  unit="deg", low=0.0, high=360.0, high_open=True),
-    "rays": Key("int", 200_000, "Rays launched per incident direction.", low=1,
+    "rays": Key("int", 200_000, "Rays launched per incident direction, over all "
+                "realisations (each traces rays / realisations, rounded up).", low=1,
                 high=10**10),
+    "realisations": Key("int", None, "Independent realisations of a surface with random "
+                        "geometry (tiles from seeds derived from surface.seed) the table "
+                        "averages; its errors then include their spread. Default: the "
+                        "generator's (docs/goniometer.md); 1 for deterministic geometry, "
+                        "which allows no more.", low=1, high=4096),
     "bounces": Key("int", 16, "Maximum scattering order; paths alive after it are "
                    "reported as lost energy.", low=1, high=10_000),
     "seed": Key("int", 0, "Seed of the tracer's random numbers.", low=0, high=2**63 - 1),
-    "target_error": _n("Adaptive stop: add batches until the median relative standard "
-                       "error over lobe bins is at most this.", None, low=0.0, low_open=True,
-                       high=1.0),
+    "target_error": _n("Adaptive stop: add rays and realisations until the median "
+                       "relative standard error over lobe bins is at most this.", None,
+                       low=0.0, low_open=True, high=1.0),
     "max_rays": Key("int", None, "Adaptive stop: upper limit of rays per incident "
-                    "direction.", low=1, high=10**11),
+                    "direction (over all realisations).", low=1, high=10**11),
+    "max_realisations": Key("int", None, "Adaptive stop: upper limit of realisations per "
+                            "incident direction (default: 16 x realisations).", low=1,
+                            high=65536),
 }
 TABLE: dict[str, Key] = {
     "theta_bins": Key("int", 32, "Bins in theta_o, equal in projected solid angle "
@@ -232,10 +241,33 @@ def resolve(raw: Mapping[str, Any]) -> dict:
         "description": description,
         "surface": surf,
         "material": materials,
-        "simulation": check_section(_table(raw.get("simulation", {}), "simulation"),
-                                    SIMULATION, "simulation."),
+        "simulation": _simulation(raw.get("simulation", {}), surf),
         "table": check_section(_table(raw.get("table", {}), "table"), TABLE, "table."),
     }
+
+
+def _simulation(raw: Any, surface: Mapping[str, Any]) -> dict:
+    """Resolve ``[simulation]``; ``realisations`` defaults to the generator's choice for
+    random geometry and must be 1 for deterministic geometry (every realisation would be
+    the same tile: more rays, not more tiles, lower its error)."""
+    sim = check_section(_table(raw, "simulation"), SIMULATION, "simulation.")
+    spec = SURFACE_KINDS[surface["kind"]]
+    default = spec.realisations(dict(surface)) if spec.realisations is not None else None
+    given = sim.get("realisations")
+    if default is None and given is not None and given > 1:
+        raise InputError(f"simulation.realisations = {given!r}: must be 1 for this "
+                         f"{surface['kind']} surface, whose geometry has nothing random "
+                         "(every realisation would be the same tile); raise "
+                         "simulation.rays instead")
+    sim["realisations"] = given if given is not None else (default or 1)
+    if sim.get("max_realisations", sim["realisations"]) < sim["realisations"]:
+        raise InputError(f"simulation.max_realisations = {sim['max_realisations']!r}: must "
+                         f"be >= simulation.realisations = {sim['realisations']}")
+    if default is None and sim.get("max_realisations", 1) > 1:
+        raise InputError(f"simulation.max_realisations = {sim['max_realisations']!r}: must "
+                         f"be 1 for this {surface['kind']} surface, whose geometry has "
+                         "nothing random")
+    return sim
 
 
 # --- loading and overrides --------------------------------------------------------------

@@ -29,8 +29,8 @@ import numpy as np
 
 from microsim.bench import bare_rays_per_second, bare_scene
 from microsim.compare import direction
-from microsim.goniometer import simulate
 from microsim.recipe import load
+from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.trace import CHUNK, PeriodicScene
 

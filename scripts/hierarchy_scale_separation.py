@@ -23,8 +23,8 @@ import tempfile
 from pathlib import Path
 
 from microsim.compare import table_difference
-from microsim.goniometer import simulate
 from microsim.recipe import resolve
+from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.vgroove import face_roughness_tile
 

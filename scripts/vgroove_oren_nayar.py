@@ -21,8 +21,8 @@ import numpy as np
 
 from microsim.analytic.brdf import OrenNayar
 from microsim.compare import bin_average, direction, metrics
-from microsim.goniometer import simulate
 from microsim.recipe import resolve
+from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 
 

@@ -18,8 +18,9 @@ import numpy as np
 import pytest
 from tilefixtures import random_tile
 
-from microsim.goniometer import assemble_table, measure_directions, simulate, simulate_recipe
+from microsim.goniometer import measure_directions
 from microsim.recipe import resolve
+from microsim.simulation import assemble_table, simulate, simulate_recipe
 from microsim.sweep import load_sweep, point_seed
 from microsim.tables.exr import read_table
 from microsim.trace import PeriodicScene

@@ -9,11 +9,11 @@ from tilefixtures import beckmann_vgroove_tile, flat_tile, random_tile, vgroove_
 import microsim
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
 from microsim.compare import bin_average, direction, metrics, microfacet_model
-from microsim.goniometer import simulate, simulate_recipe
 from microsim.masking import measure_g1, measure_g1_recipe
 from microsim.materials import FacetMaterials
 from microsim.paths import trace_paths
 from microsim.recipe import resolve
+from microsim.simulation import simulate, simulate_recipe
 from microsim.tables.binning import HemisphereBins
 from microsim.trace import PeriodicScene
 

@@ -15,9 +15,9 @@ import pytest
 from microsim.analytic.fresnel import fresnel_conductor
 from microsim.analytic.ndf import Beckmann
 from microsim.compare import direction
-from microsim.goniometer import simulate
 from microsim.masking import measure_g1
 from microsim.recipe import resolve
+from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.tile import Tile
 from microsim.trace import PeriodicScene

@@ -14,9 +14,10 @@ from scipy.special import sph_harm_y
 import microsim
 from microsim.commands.sh import MATRIX_MAX_ORDER as CLI_MATRIX_MAX_ORDER
 from microsim.commands.sh import WINDOWS as CLI_WINDOWS
-from microsim.goniometer import _Sums, _table, simulate
+from microsim.goniometer import Run, _Sums
 from microsim.paths import Paths
 from microsim.recipe import resolve
+from microsim.simulation import _table, simulate
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.sh_error import bin_integrals, order_errors
@@ -157,7 +158,7 @@ def test_projection_of_rays_is_unbiased_with_honest_errors() -> None:
         orders = np.where(rng.random(n) < 1 / 3, 2, 1)
         paths = Paths(wo, weight, orders, np.zeros(3), np.zeros(3), np.zeros(3), {})
         acc.add(bins.index(wo), paths)
-    table = _table(bins, [40.0], [0.0], True, [[acc]], {})
+    table = _table(bins, [40.0], [0.0], True, {(0, 0, 0): Run(acc)}, [(0, 0)], 1, {})
     exact = lobe_coefficients(phong, np.radians([40.0]), order)[0]
     for comp, share in (("total", 1.0), ("single", 2 / 3)):
         z = (table.sh[comp][0, 0] - share * exact[:, None] * [1.0, 0.5, 0.25]) / table.sh_err[

@@ -186,7 +186,7 @@ def test_velvet_tile_is_periodic_inside_its_box_and_closed():
     """All faces inside the box, both parts, no zero-area faces; the fibres that cross a
     side are cut and wrapped, so a mirror white furnace loses nothing through gaps:
     every ray escapes (albedo exactly 1 with 200 bounces)."""
-    from microsim.goniometer import simulate
+    from microsim.simulation import simulate
     t = tile_of(kind="velvet", density=200, seed=3)
     v = t.vertices
     assert v[:, 0].min() >= 0 and v[:, 0].max() <= 1 and v[:, 1].min() >= 0

@@ -17,11 +17,11 @@ from tilefixtures import flat_tile, height_field_tile, random_tile, vgroove_tile
 
 from microsim.compare import direction, table_difference
 from microsim.errors import InputError
-from microsim.goniometer import simulate
 from microsim.materials import FacetMaterials
 from microsim.paths import trace_paths
 from microsim.recipe import load as resolve_recipe
 from microsim.recipe import resolve
+from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.vgroove import face_roughness_tile
 from microsim.tables.binning import HemisphereBins

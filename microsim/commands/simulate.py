@@ -67,9 +67,8 @@ def progress_printer(enabled: bool):
         return None
 
     def show(state: dict[str, Any]) -> None:
-        err = state["rel_error"]
-        err_text = "" if err is None else f", lobe error {100 * err:.2f}%"
-        print(f"\rtheta_i {state['theta_i']:5.1f} deg: {state['rays']:>11,} rays{err_text}",
+        print(f"\rrealisation {state['realisation'] + 1:>3} of {state['realisations']}, "
+              f"theta_i {state['theta_i']:5.1f} deg: {state['rays']:>11,} rays",
               end="", file=sys.stderr, flush=True)
 
     return show
@@ -122,18 +121,15 @@ def print_summary(s: dict[str, Any]) -> None:
 
 
 def simulate_resolved(resolved: dict[str, Any], threads: int | None, show_progress: bool):
-    """Build the tile (warnings to stderr) and run the goniophotometer."""
-    from microsim.goniometer import simulate
-    from microsim.surfaces import build_tile
+    """Run the goniophotometer over the recipe's realisations (tile warnings to stderr)."""
+    from microsim.simulation import simulate_recipe
 
-    tile = build_tile(resolved["surface"])
-    for warning in tile.warnings:
-        print(f"warning: {warning}", file=sys.stderr)
     progress = progress_printer(show_progress)
-    table = simulate(tile, resolved["material"], resolved["simulation"], resolved["table"],
-                     recipe=resolved, threads=threads, progress=progress)
+    table = simulate_recipe(resolved, progress, threads)
     if progress is not None:
         print(file=sys.stderr)
+    for warning in table.meta["warnings"]:
+        print(f"warning: {warning}", file=sys.stderr)
     return table
 
 

@@ -33,6 +33,10 @@ class SurfaceKind:
     triangles : callable or None
         Upper estimate of the tile's triangle count from the resolved section, for the
         memory guard (None: unknown before building, e.g. an imported mesh).
+    realisations : callable or None
+        For a section whose geometry is random, the default number of independent
+        realisations a table averages (``simulation.realisations``; chosen by measurement,
+        docs/goniometer.md); None for a deterministic section. None: never random.
     """
 
     doc: str
@@ -40,6 +44,7 @@ class SurfaceKind:
     keys: dict[str, Key] = field(default_factory=dict)
     check: Callable[[dict[str, Any]], None] | None = None
     triangles: Callable[[dict[str, Any]], float] | None = None
+    realisations: Callable[[dict[str, Any]], int | None] | None = None
 
 
 def _f(doc: str, default: Any = REQUIRED, **kw: Any) -> Key:
@@ -51,6 +56,70 @@ MICRO_RESOLUTION = 512
 SEED = Key("int", 0, "Seed of the generator's random numbers.", low=0, high=2**63 - 1)
 SIZE = _f("Tile side length (period along x and y).", 1.0, unit="length", low=0.0,
           low_open=True)
+DEFAULT_CELLS = 8
+"""Default correlation length of a Gaussian height field in grid cells (DESIGN.md: τ = 8
+cells gives G1 within 0.005 of Smith)."""
+
+
+def correlation_lengths(surface: dict[str, Any]) -> tuple[float, float, float]:
+    """(σ, τx, τy) of a Gaussian surface from whichever of alpha / alpha_x, alpha_y / sigma
+    the recipe gives.
+
+    Parameters
+    ----------
+    surface : dict
+        Resolved ``[surface]`` of kind ``gaussian``.
+
+    Returns
+    -------
+    sigma, tau_x, tau_y : float
+        RMS height and the correlation lengths along the rotated axes (tile units).
+    """
+    cell = surface["size"] / surface["resolution"]
+    tau = surface.get("correlation_length", DEFAULT_CELLS * cell)
+    if "sigma" in surface:
+        return surface["sigma"], tau, tau
+    if "alpha" in surface:
+        return surface["alpha"] * tau / 2, tau, tau
+    ax, ay = surface["alpha_x"], surface["alpha_y"]
+    sigma = max(ax, ay) * tau / 2  # the rougher axis gets tau, the smoother a longer one
+    return sigma, 2 * sigma / ax, 2 * sigma / ay
+
+
+ENSEMBLE_AREAS = 24 * 32**2
+"""Correlation areas a Gaussian table's realisations hold together by default: 24 tiles of
+32 × 32 correlation lengths (the shipped 256² tile), the count that brings the realisation
+spread of a lobe bin of a 32 × 64 table to the demo's 3% (docs/goniometer.md)."""
+MAX_DEFAULT_REALISATIONS = 64
+"""The default never asks for more realisations than this (tiny tiles)."""
+
+
+def _gaussian_realisations(s: dict[str, Any]) -> int:
+    """Enough realisations for ``ENSEMBLE_AREAS`` correlation areas (size² / (τx τy) each)."""
+    _, tau_x, tau_y = correlation_lengths(s)
+    areas = s["size"] ** 2 / (tau_x * tau_y)
+    return max(1, min(MAX_DEFAULT_REALISATIONS, math.ceil(ENSEMBLE_AREAS / areas - 1e-9)))
+
+
+VELVET_REALISATIONS = 8
+"""Default realisations of a velvet tile (docs/goniometer.md: measured on velvet.toml)."""
+PAINT_REALISATIONS = 8
+"""Default realisations of a paint tile with particles or a rough top (measured on
+paint.toml and paint-metallic.toml)."""
+VGROOVE_REALISATIONS = 8
+"""Default realisations of V-grooves with random slopes or micro-roughness (measured on
+vgroove-rough-direct.toml)."""
+
+
+def _vgroove_realisations(s: dict[str, Any]) -> int | None:
+    """Random slopes (``alpha``) or micro-roughness make the grooves random."""
+    return VGROOVE_REALISATIONS if "alpha" in s or "micro_alpha" in s else None
+
+
+def _paint_realisations(s: dict[str, Any]) -> int | None:
+    """Particles or a rough top make a paint random."""
+    random = s["pigment_fraction"] > 0 or s["top_alpha"] > 0
+    return PAINT_REALISATIONS if random else None
 
 
 def _check_gaussian(s: dict[str, Any]) -> None:
@@ -180,6 +249,7 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
         },
         _check_gaussian,
         lambda s: 2 * s["resolution"] ** 2,
+        _gaussian_realisations,
     ),
     "vgroove": SurfaceKind(
         "Symmetric V-grooves along y (Torrance-Sparrow cavities): one slope angle for "
@@ -208,6 +278,7 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
         _check_vgroove,
         lambda s: (2 * s.get("micro_resolution", MICRO_RESOLUTION) ** 2
                    if "micro_alpha" in s else 4 * s["grooves"]),
+        _vgroove_realisations,
     ),
     "cylinders": SurfaceKind(
         "Parallel circular cylinders along y lying on (or sunk into) a flat base plane: "
@@ -253,6 +324,7 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
         },
         _check_velvet,
         lambda s: 2 + 8 * s["sides"] * s["density"] * s["size"] ** 2,
+        lambda s: VELVET_REALISATIONS,
     ),
     "weave": SurfaceKind(
         "Woven cloth, one pattern repeat: warp yarns along y and weft yarns along x as "
@@ -316,6 +388,7 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
         },
         _check_paint,
         _paint_triangles,
+        _paint_realisations,
     ),
     "mesh": SurfaceKind(
         "A user tile (PLY, OBJ or STL, read by trimesh) with its period given here. The "

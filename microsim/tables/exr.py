@@ -22,6 +22,7 @@ import numpy as np
 from microsim.errors import InputError
 from microsim.files import atomic_path
 from microsim.tables.binning import HemisphereBins
+from microsim.tables.estimator import RAYS
 from microsim.tables.table import COMPONENTS, BRDFTable
 
 FORMAT_VERSION = 1
@@ -73,6 +74,10 @@ def header_json(table: BRDFTable) -> dict[str, Any]:
         "single_albedo": table.albedo_of["single"],
         "single_albedo_err": table.albedo_err_of["single"],
         "lost_energy": table.lost_energy,
+        "error_model": table.error_model,
+        "realisations": table.realisations,
+        "dof": table.dof,
+        "inflation": table.inflation,
         "meta": table.meta,
     })
 
@@ -205,4 +210,12 @@ def read_table(path: str | Path) -> BRDFTable:
         np.array(info["rays"], np.int64),
         {"total": _array(info["albedo"]), "single": _array(info["single_albedo"])},
         {"total": _array(info["albedo_err"]), "single": _array(info["single_albedo_err"])},
-        _array(info["lost_energy"]), info["meta"], sh=sh, sh_err=sh_err)
+        _array(info["lost_energy"]), info["meta"], sh=sh, sh_err=sh_err,
+        # tables written before realisations existed carry ray errors
+        error_model=info.get("error_model", RAYS), realisations=info.get("realisations"),
+        dof=_components(info.get("dof")), inflation=_components(info.get("inflation")))
+
+
+def _components(x: Any) -> dict[str, np.ndarray] | None:
+    """A per-component JSON entry as arrays (None stays None)."""
+    return None if x is None else {c: _array(x[c]) for c in COMPONENTS}

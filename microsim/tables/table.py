@@ -17,6 +17,7 @@ import numpy as np
 
 from microsim.tables import sh
 from microsim.tables.binning import TWO_PI, HemisphereBins
+from microsim.tables.estimator import ENSEMBLE, RAYS, estimate
 from microsim.tables.interpolation import linear_weights
 
 COMPONENTS = ("total", "single")
@@ -27,31 +28,6 @@ SH_CHUNK = 1 << 22
 REPRESENTATIONS = ("table", "sh")
 LOBE_FRACTION = 0.1
 """Lobe bins: where f_r (mean over RGB) is at least this fraction of the incidence's peak."""
-
-
-def _mean_and_error(s1: np.ndarray, s2: np.ndarray, n: np.ndarray) -> tuple[np.ndarray,
-                                                                            np.ndarray]:
-    """Sample mean of a per-ray quantity X and its standard error from Σx and Σx².
-
-    Parameters
-    ----------
-    s1, s2 : (..., m, 3) float
-        Σ X and Σ X² over ``n`` rays (X = 0 for rays that did not contribute).
-    n : (...) int
-        Rays.
-
-    Returns
-    -------
-    mean, stderr : (..., m, 3) float
-        ``stderr`` = √(s² / n) with the unbiased s² = (Σx² − (Σx)²/n) / (n − 1); NaN where
-        Σx² = 0 (no ray contributed, so the variance is unknown) or n < 2.
-    """
-    n = np.asarray(n, float)[..., None, None]
-    mean = s1 / n
-    with np.errstate(invalid="ignore", divide="ignore"):
-        var = np.maximum(s2 - s1 * mean, 0.0) / (n - 1)
-        err = np.sqrt(var / n)
-    return mean, np.where((s2 > 0) & (n >= 2), err, np.nan)
 
 
 class BRDFTable:
@@ -78,18 +54,38 @@ class BRDFTable:
         or absorbed by transmission (per unit incident power).
     meta : dict
         Free-form JSON-able metadata (recipe, surface facts, seed, timings).
+    error_model : str
+        ``"rays"``: the errors count the ray noise of one tile (one realisation, or
+        deterministic geometry); ``"ensemble"``: they include the spread between the
+        surface realisations the table averages (``microsim.tables.estimator``).
+    realisations : (a, b) int or None
+        Realisations per incident direction (default: 1).
+    dof : dict of str to (a, b, 3) float, or None
+        Degrees of freedom of each bin's variance estimate per component, incidence and
+        colour: z = (value − truth) / error is Student-t with them (default: rays − 1).
+        The albedo's and the harmonics' errors are batch means over the realisations:
+        realisations − 1 degrees of freedom (rays − 1 for one).
+    inflation : dict of str to (a, b, 3) float, or None
+        The pooled ratio of each bin's ensemble variance to its ray variance (NaN where
+        not pooled).
+    realisation_rays : (K, a, b) int or None
+        Rays per realisation and incident direction of a fresh estimate (0: absent).
+    ray_errors : dict of str to (a, b, nt, np, 3) float, or None
+        The ray noise's share of ``errors`` in a fresh estimate (equal to it for one
+        realisation): what more rays per realisation can still remove.
     sums, sums_sq : dict or None
-        Raw per-bin sums Σw, Σw² of shape (a, b, nt·np, 3) when the table was estimated
-        here: tables of the same set-up and independent rays merge exactly with ``+``.
-    lost : (a, b, 3) float or None
-        Raw summed lost weight.
+        Raw per-bin sums Σw, Σw² of shape (K, a, b, nt·np, 3), per realisation, when the
+        table was estimated here: tables of the same realisations and independent rays
+        merge exactly with ``+``.
+    lost : (K, a, b, 3) float or None
+        Raw summed lost weight per realisation.
     sh, sh_err : dict of str to (a, b, (L + 1)², 3) float, or None
         Real spherical-harmonic coefficients of f_r cos θo over ωo per incidence and
         component, and their standard errors (``microsim.tables.sh`` has the convention);
         None when the table was simulated without them.
     sh_sums, sh_sums_sq : dict or None
-        Raw sums Σ w Y_k (a, b, (L + 1)², 3) and Σ w² Y_K to order 2L (a, b, (2L + 1)², 3)
-        of fresh estimates, merged by ``+``.
+        Raw sums Σ w Y_k (K, a, b, (L + 1)², 3) and Σ w² Y_K to order 2L
+        (K, a, b, (2L + 1)², 3) of fresh estimates, merged by ``+``.
     """
 
     def __init__(self, bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
@@ -97,6 +93,11 @@ class BRDFTable:
                  errors: Mapping[str, np.ndarray], rays: np.ndarray,
                  albedo: Mapping[str, np.ndarray], albedo_err: Mapping[str, np.ndarray],
                  lost_energy: np.ndarray, meta: Mapping[str, Any], *,
+                 error_model: str = RAYS, realisations: np.ndarray | None = None,
+                 dof: Mapping[str, np.ndarray] | None = None,
+                 inflation: Mapping[str, np.ndarray] | None = None,
+                 realisation_rays: np.ndarray | None = None,
+                 ray_errors: Mapping[str, np.ndarray] | None = None,
                  sums: Mapping[str, np.ndarray] | None = None,
                  sums_sq: Mapping[str, np.ndarray] | None = None,
                  lost: np.ndarray | None = None,
@@ -115,6 +116,15 @@ class BRDFTable:
         self.albedo_err_of = {c: np.asarray(albedo_err[c], float) for c in COMPONENTS}
         self.lost_energy = np.asarray(lost_energy, float)
         self.meta = dict(meta)
+        self.error_model = error_model
+        self.realisations = (np.ones(self.rays.shape, np.int64) if realisations is None
+                             else np.asarray(realisations, np.int64))
+        fallback = np.broadcast_to((self.rays - 1.0)[..., None], self.rays.shape + (3,))
+        self.dof = {c: np.asarray(dof[c], float) if dof is not None else fallback
+                    for c in COMPONENTS}
+        self.inflation = None if inflation is None else {
+            c: np.asarray(inflation[c], float) for c in COMPONENTS}
+        self.realisation_rays, self.ray_errors = realisation_rays, ray_errors
         self.sums, self.sums_sq, self.lost = sums, sums_sq, lost
         self.sh = None if sh is None else {c: np.asarray(sh[c], float) for c in COMPONENTS}
         self.sh_err = None if sh_err is None else {c: np.asarray(sh_err[c], float)
@@ -128,7 +138,26 @@ class BRDFTable:
                   meta: Mapping[str, Any], *,
                   sh_sums: Mapping[str, np.ndarray] | None = None,
                   sh_sums_sq: Mapping[str, np.ndarray] | None = None) -> BRDFTable:
-        """The goniophotometer's estimator from per-bin sums of exit weights.
+        """The estimator of one realisation (one tile): ``from_realisations`` with K = 1,
+        its arrays without the realisation axis (``rays`` (a, b), ``sums`` (a, b, m, 3),
+        ``lost`` (a, b, 3), ...)."""
+
+        def one(x: Mapping[str, np.ndarray] | None) -> dict[str, np.ndarray] | None:
+            return None if x is None else {c: np.asarray(x[c])[None] for c in COMPONENTS}
+
+        return cls.from_realisations(bins, theta_i, phi_i, isotropic,
+                                     np.asarray(rays)[None], one(sums), one(sums_sq),
+                                     np.asarray(lost)[None], meta, sh_sums=one(sh_sums),
+                                     sh_sums_sq=one(sh_sums_sq))
+
+    @classmethod
+    def from_realisations(cls, bins: HemisphereBins, theta_i: np.ndarray,
+                          phi_i: np.ndarray, isotropic: bool, rays: np.ndarray,
+                          sums: Mapping[str, np.ndarray], sums_sq: Mapping[str, np.ndarray],
+                          lost: np.ndarray, meta: Mapping[str, Any], *,
+                          sh_sums: Mapping[str, np.ndarray] | None = None,
+                          sh_sums_sq: Mapping[str, np.ndarray] | None = None) -> BRDFTable:
+        """The goniophotometer's estimator from per-realisation sums of exit weights.
 
         Each launched ray contributes its exit weight w to at most one bin, so per bin the
         per-ray quantity X = w·1[bin] has mean Σw/N and f_r = (Σw/N) / Ω_proj (Nicodemus
@@ -136,7 +165,11 @@ class BRDFTable:
         projected solid angle). The albedo is the mean of the per-ray total exit weight
         W = Σ_bins X, whose Σ W² equals Σ over bins of Σw², because a ray exits once.
         Spherical-harmonic coefficients are the same sample mean of X = w Y_k(ωo), with
-        Σ X² from the order-2L sums (``microsim.tables.sh.second_moments``).
+        Σ X² from the order-2L sums (``microsim.tables.sh.second_moments``). Over
+        realisations every quantity is the mean of the realisations' estimates
+        (``microsim.tables.estimator``): the bins' errors are moderated over the lobe bins
+        of each incidence (bins of the mean f_r at least ``LOBE_FRACTION`` of its peak),
+        the albedo's and the harmonics' are batch means.
 
         Parameters
         ----------
@@ -144,21 +177,24 @@ class BRDFTable:
         theta_i : (a,) float
         phi_i : (b,) float
         isotropic : bool
-        rays : (a, b) int
-            Rays launched per incident direction.
-        sums, sums_sq : dict of str to (a, b, nt·np, 3) float
+        rays : (K, a, b) int
+            Rays per realisation and incident direction; 0 where a realisation did not
+            trace a direction (every direction needs at least one realisation).
+        sums, sums_sq : dict of str to (K, a, b, nt·np, 3) float
             Σw and Σw² per bin for "total" and "single".
-        lost : (a, b, 3) float
+        lost : (K, a, b, 3) float
             Summed weight of paths lost (bounce limit, transmission).
         meta : dict
-        sh_sums : dict of str to (a, b, (L + 1)², 3) float, or None
+        sh_sums : dict of str to (K, a, b, (L + 1)², 3) float, or None
             Σ w Y_k(ωo) of the escaping rays, per component.
-        sh_sums_sq : dict of str to (a, b, (2L + 1)², 3) float, or None
+        sh_sums_sq : dict of str to (K, a, b, (2L + 1)², 3) float, or None
             Σ w² Y_K(ωo) to order 2L.
 
         Returns
         -------
         BRDFTable
+            Error model ``ensemble`` when some direction has two realisations or more,
+            ``rays`` otherwise.
 
         Raises
         ------
@@ -166,24 +202,33 @@ class BRDFTable:
             If an incidence launched no ray or an array has the wrong shape.
         """
         rays = np.asarray(rays, np.int64)
-        shape = rays.shape + bins.shape + (3,)
-        if rays.shape != (len(theta_i), len(phi_i)) or np.any(rays < 1):
-            raise ValueError(f"rays must be (n_theta_i, n_phi_i) = "
-                             f"({len(theta_i)}, {len(phi_i)}) counts >= 1, got shape {rays.shape}")
+        a, b = len(theta_i), len(phi_i)
+        if rays.ndim != 3 or rays.shape[1:] != (a, b) or np.any(rays < 0) or np.any(
+                rays.sum(axis=0) < 1):
+            raise ValueError(f"rays must be (K, n_theta_i, n_phi_i) = (K, {a}, {b}) counts "
+                             f">= 0, each direction traced, got shape {rays.shape}")
+        expected = rays.shape + (bins.size, 3)
         for c in COMPONENTS:
-            expected = rays.shape + (bins.size, 3)
             if not np.shape(sums[c]) == np.shape(sums_sq[c]) == expected:
                 raise ValueError(f"sums[{c!r}] and sums_sq[{c!r}] must have shape {expected}")
         omega = bins.projected_solid_angle.reshape(1, 1, -1, 1)
-        values, errors, albedo, albedo_err = {}, {}, {}, {}
+        shape = (a, b) + bins.shape + (3,)
+        values, errors, ray_errors, albedo, albedo_err = {}, {}, {}, {}, {}
+        dof, inflation = {}, {}
         for c in COMPONENTS:
             s1, s2 = np.asarray(sums[c], float), np.asarray(sums_sq[c], float)
-            mean, err = _mean_and_error(s1, s2, rays)
-            values[c] = (mean / omega).reshape(shape)
-            errors[c] = (err / omega).reshape(shape)
-            a, e = _mean_and_error(s1.sum(axis=2, keepdims=True),
-                                   s2.sum(axis=2, keepdims=True), rays)
-            albedo[c], albedo_err[c] = a[:, :, 0], e[:, :, 0]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                mean = np.nansum(s1 / np.where(rays > 0, rays, np.nan)[..., None, None],
+                                 axis=0)
+            f = mean.mean(axis=-1)
+            lobe = (f >= LOBE_FRACTION * f.max(axis=-1, keepdims=True)) & (f > 0)
+            e = estimate(s1, s2, rays, np.broadcast_to(lobe[..., None], mean.shape))
+            values[c], errors[c] = (e.mean / omega).reshape(shape), (e.stderr / omega
+                                                                      ).reshape(shape)
+            ray_errors[c] = (e.ray_stderr / omega).reshape(shape)
+            dof[c], inflation[c] = e.dof, e.inflation
+            w = estimate(s1.sum(axis=3, keepdims=True), s2.sum(axis=3, keepdims=True), rays)
+            albedo[c], albedo_err[c] = w.mean[:, :, 0], w.stderr[:, :, 0]
         sh_values = sh_errors = None
         if sh_sums is not None and sh_sums_sq is not None:
             sh_values, sh_errors = {}, {}
@@ -193,25 +238,35 @@ class BRDFTable:
                 if s1.shape != rays.shape + (sh.size(order), 3) or np.shape(
                         sh_sums_sq[c]) != rays.shape + (sh.size(2 * order), 3):
                     raise ValueError(f"sh_sums[{c!r}] and sh_sums_sq[{c!r}] must have shapes "
-                                     f"(a, b, (L+1)^2, 3) and (a, b, (2L+1)^2, 3)")
-                sh_values[c], sh_errors[c] = _mean_and_error(
-                    s1, sh.second_moments(sh_sums_sq[c], order), rays)
-        return cls(bins, theta_i, phi_i, isotropic, values, errors, rays, albedo, albedo_err,
-                   np.asarray(lost, float) / rays[..., None], meta,
+                                     f"(K, a, b, (L+1)^2, 3) and (K, a, b, (2L+1)^2, 3)")
+                e = estimate(s1, sh.second_moments(sh_sums_sq[c], order), rays)
+                sh_values[c], sh_errors[c] = e.mean, e.stderr
+        lost = np.asarray(lost, float)
+        realisations = (rays > 0).sum(axis=0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            lost_energy = np.nansum(lost / np.where(rays > 0, rays, np.nan)[..., None],
+                                    axis=0) / realisations[..., None]
+        return cls(bins, theta_i, phi_i, isotropic, values, errors, rays.sum(axis=0), albedo,
+                   albedo_err, lost_energy, meta,
+                   error_model=ENSEMBLE if realisations.max() > 1 else RAYS,
+                   realisations=realisations, dof=dof, inflation=inflation,
+                   realisation_rays=rays, ray_errors=ray_errors,
                    sums={c: np.asarray(sums[c], float) for c in COMPONENTS},
                    sums_sq={c: np.asarray(sums_sq[c], float) for c in COMPONENTS},
-                   lost=np.asarray(lost, float), sh=sh_values, sh_err=sh_errors,
+                   lost=lost, sh=sh_values, sh_err=sh_errors,
                    sh_sums=sh_sums, sh_sums_sq=sh_sums_sq)
 
     def __add__(self, other: BRDFTable) -> BRDFTable:
-        """Merge two estimates of the same set-up made with independent rays."""
+        """Merge two estimates of the same set-up and realisations made with independent
+        rays: realisation by realisation, the rays pool."""
         if self.sums is None or other.sums is None:
             raise ValueError("only tables holding raw sums (fresh estimates) merge")
         same = (self.bins.shape == other.bins.shape and self.isotropic == other.isotropic
                 and np.array_equal(self.theta_i, other.theta_i)
-                and np.array_equal(self.phi_i, other.phi_i))
+                and np.array_equal(self.phi_i, other.phi_i)
+                and self.realisation_rays.shape == other.realisation_rays.shape)
         if not same:
-            raise ValueError("tables with different axes do not merge")
+            raise ValueError("tables with different axes or realisations do not merge")
         harmonics = (self.sh_sums is not None and other.sh_sums is not None
                      and self.sh_order == other.sh_order)
 
@@ -219,8 +274,9 @@ class BRDFTable:
                    ) -> dict[str, np.ndarray] | None:
             return {c: a[c] + b[c] for c in COMPONENTS} if harmonics else None
 
-        return BRDFTable.from_sums(
-            self.bins, self.theta_i, self.phi_i, self.isotropic, self.rays + other.rays,
+        return BRDFTable.from_realisations(
+            self.bins, self.theta_i, self.phi_i, self.isotropic,
+            self.realisation_rays + other.realisation_rays,
             {c: self.sums[c] + other.sums[c] for c in COMPONENTS},
             {c: self.sums_sq[c] + other.sums_sq[c] for c in COMPONENTS},
             self.lost + other.lost, self.meta, sh_sums=merged(self.sh_sums, other.sh_sums),

@@ -1,0 +1,498 @@
+"""Tables of the surface: a recipe's realisations traced one at a time, the adaptive stop
+over rays and realisations, and the assembled table.
+
+A recipe with random geometry names a surface, not a tile: its table is the mean over
+``simulation.realisations`` independent tiles (``microsim.surfaces.realisations``), each
+traced by the goniometer (``microsim.goniometer.measure_directions``) with
+``rays / realisations`` rays per incident direction, its errors the ensemble's
+(``microsim.tables.estimator``). Tiles are built and traced one at a time, so the memory
+is that of one tile. docs/goniometer.md explains the error bars and the adaptive stop.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+import microsim
+from microsim.goniometer import (
+    BATCH,
+    Measurement,
+    Run,
+    incident_azimuths,
+    measure_directions,
+    rays_per_realisation,
+)
+from microsim.surfaces.realisations import pool_info, realisation, realisation_seed
+from microsim.surfaces.tile import Tile
+from microsim.tables.binning import HemisphereBins
+from microsim.tables.table import COMPONENTS, BRDFTable
+from microsim.trace import PeriodicScene
+
+MAX_RAYS_FACTOR = 100
+"""With ``target_error`` and no ``max_rays``, at most this many times ``rays`` are traced."""
+MAX_REALISATIONS_FACTOR = 16
+"""With ``target_error`` and no ``max_realisations``, at most this many times
+``realisations``."""
+GROWTH = 4
+"""Per round of the adaptive stop, rays per realisation and realisations grow at most this
+many times (the variance split that plans a round is itself an estimate)."""
+TILE_COST = 2.0
+"""Building a tile and its Embree scene costs about as much as tracing this many rays per
+triangle (measured: docs/goniometer.md); the adaptive stop weighs new realisations by it."""
+
+
+class Tiles:
+    """The tiles of a surface's realisations, built when asked for.
+
+    Parameters
+    ----------
+    surface : mapping or None
+        A resolved ``[surface]`` section: realisation r is built from
+        ``microsim.surfaces.realisations.realisation(surface, r)``.
+    tile : Tile or None
+        Instead of ``surface``: one given tile, realisation 0 and the only one.
+    """
+
+    def __init__(self, surface: Mapping[str, Any] | None = None, tile: Tile | None = None
+                 ) -> None:
+        self.surface, self.tile = surface, tile
+
+    def __call__(self, r: int) -> Tile:
+        """Realisation r's tile."""
+        if self.surface is None:
+            if r != 0:
+                raise ValueError("a given tile is one realisation; build the others from "
+                                 "the surface section (simulate_surface)")
+            return self.tile
+        from microsim.surfaces import build_tile
+
+        return build_tile(realisation(self.surface, r))
+
+
+def _median(x: np.ndarray) -> float:
+    """Median of a lobe's values, NaN for none."""
+    return float(np.median(x)) if x.size else math.nan
+
+
+def direction_errors(table: BRDFTable, component: str = "total"
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Per incident direction: the median relative standard error over its lobe bins (an
+    empty bin counts as infinitely uncertain), and the median share of the ray noise in
+    the variance of those bins.
+
+    Returns
+    -------
+    rel_error, ray_share : (a, b) float
+    """
+    f = table.values[component].mean(axis=-1)
+    e = table.errors[component].mean(axis=-1)
+    u = table.ray_errors[component].mean(axis=-1)
+    lobe = table.lobe_mask(component)
+    rel, share = np.full(table.rays.shape, np.nan), np.full(table.rays.shape, np.nan)
+    for index in np.ndindex(*table.rays.shape):
+        sel = lobe[index]
+        err = np.where(np.isfinite(e[index]), e[index], np.inf)[sel]
+        rel[index] = _median(err / f[index][sel])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            share[index] = _median(np.nan_to_num((u[index][sel] / err) ** 2, nan=1.0))
+    return rel, share
+
+
+def _next_plan(realisations: int, rays: int, rel: float, share: float,
+               simulation: Mapping[str, Any], tile_cost: float) -> tuple[int, int] | str:
+    """The next (realisations, rays per realisation) of a direction that missed its target,
+    or why it stops (``"max_rays"``, ``"max_realisations"``).
+
+    With one realisation the error is the rays' (∝ 1/n): the rays grow by (rel/target)².
+    With K ≥ 2 the variance splits as V = R/(K n) + T/K (ray share ``share``); the rays per
+    realisation move towards Cochran's (1977, Sampling Techniques, 3rd ed., sec. 10.6)
+    optimum n* = √(R c / T) for a realisation costing c rays, and the realisations grow
+    until (R/n + T)/K reaches target². Both grow by at most ``GROWTH`` per round; the
+    caps ``max_rays`` (K n) and ``max_realisations`` bound them.
+    """
+    target = float(simulation["target_error"])
+    most_rays = int(simulation.get("max_rays") or MAX_RAYS_FACTOR * int(simulation["rays"]))
+    most_real = int(simulation.get("max_realisations")
+                    or min(MAX_REALISATIONS_FACTOR * int(simulation["realisations"]), 65536))
+    if int(simulation["realisations"]) == 1:
+        most_real = 1
+    k, n = realisations, rays
+    v, goal = rel**2, target**2
+    if k == 1 or not math.isfinite(v):
+        grow = min(GROWTH, v / goal) if math.isfinite(v) else GROWTH
+        k1, n1 = k, n * grow
+    else:
+        r_coef, t_coef = share * v * k * n, (1.0 - share) * v * k
+        n1 = min(max(math.sqrt(r_coef * tile_cost / t_coef) if t_coef > 0 else math.inf, n),
+                 GROWTH * n)
+        k1 = min(max(math.ceil((r_coef / n1 + t_coef) / goal), k + 1), GROWTH * k)
+        if k1 > most_real:  # fewer realisations than wished: more rays make up
+            k1 = most_real
+            need = r_coef / (k1 * goal - t_coef) if k1 * goal > t_coef else math.inf
+            n1 = min(max(need, n), GROWTH * n)
+    n1 = n + math.ceil(max(n1 - n, 0.0) / BATCH) * BATCH  # whole batches added
+    bound = "max_realisations" if k1 >= most_real and k1 > k else None
+    if k1 * n1 > most_rays:
+        n1 = max(n, min(n1, most_rays // k1))
+        if k1 * n1 > most_rays:
+            k1 = max(k, most_rays // n1)
+        bound = "max_rays"
+    if (k1, n1) == (k, n):
+        return bound or ("max_realisations" if k >= most_real else "max_rays")
+    return k1, n1
+
+
+def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mapping[str, Any]],
+                     simulation: Mapping[str, Any], table: Mapping[str, Any],
+                     thetas: Sequence[int] | None = None, *, threads: int | None = None,
+                     progress: Callable[[dict[str, Any]], None] | None = None
+                     ) -> Measurement:
+    """Trace the incident directions of some polar angles over the surface's realisations,
+    one tile at a time, until each direction's plan (and adaptive stop) is done.
+
+    Parameters
+    ----------
+    tiles : callable
+        Realisation index → its tile (``Tiles``).
+    materials, simulation, table, threads, progress
+        As for ``simulate``.
+    thetas : sequence of int or None
+        Indices into ``simulation["theta_i"]`` (default: all), each with every incident
+        azimuth. Directions are measured independently (their own plans and random
+        streams), so measurements of disjoint index sets assemble into the table of one
+        measurement of all.
+
+    Returns
+    -------
+    Measurement
+        Every realisation of every direction, and the directions' stop reasons when
+        ``simulation["target_error"]`` is set.
+    """
+    chosen = list(range(len(simulation["theta_i"])) if thetas is None else thetas)
+    k0, n0 = int(simulation["realisations"]), rays_per_realisation(simulation)
+    target = simulation.get("target_error")
+    runs: dict[tuple[int, int, int], Run] = {}
+    done = Measurement(runs, {}, [], False)
+    held: tuple[int, Tile, PeriodicScene] | None = None
+    plan: dict[tuple[int, int], tuple[int, int]] = {}
+    bins = HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
+    rounds = 0
+    try:
+        while True:
+            if held is None:
+                held = _open(tiles, 0, threads, done)
+            if not plan:  # the first round: the tile says whether it is isotropic
+                azimuths = incident_azimuths(done.isotropic, simulation)
+                plan = {(l, k): (k0, n0) for l in chosen for k in range(len(azimuths))}
+                cost = TILE_COST * len(held[1].faces) / len(plan)
+            work: dict[int, dict[tuple[int, int], int]] = {}
+            for d, (k, n) in plan.items():
+                for r in range(k):
+                    have = runs[(*d, r)].sums.rays if (*d, r) in runs else 0
+                    if d not in done.stops and n > have:
+                        work.setdefault(r, {})[d] = n - have
+            # serpentine order: the tile held from the last round is traced first
+            for r in sorted(work, reverse=held[0] != min(work, default=0)):
+                if held[0] != r:
+                    held[2].close()
+                    held = None
+                    held = _open(tiles, r, threads, done)
+                _trace(held, materials, simulation, table, work[r], runs, done, plan,
+                       progress)
+            rounds += 1
+            if target is None:
+                break
+            current = assemble_table([done], materials, simulation, table, thetas=chosen,
+                                     bins=bins)
+            rel, share = direction_errors(current)
+            for d, (k, n) in plan.items():
+                if d in done.stops:
+                    continue
+                index = (chosen.index(d[0]), d[1])
+                if rel[index] <= target:
+                    done.stops[d] = "target_error"
+                    continue
+                nxt = _next_plan(k, n, float(rel[index]), float(share[index]), simulation,
+                                 cost)
+                if isinstance(nxt, str):
+                    done.stops[d] = nxt
+                else:
+                    plan[d] = nxt
+            if len(done.stops) == len(plan):
+                break
+    finally:
+        if held is not None:
+            held[2].close()
+    return done
+
+
+def _open(tiles: Callable[[int], Tile], r: int, threads: int | None, done: Measurement
+          ) -> tuple[int, Tile, PeriodicScene]:
+    """Build realisation r's tile and scene, counting the time and keeping its facts."""
+    start = time.perf_counter()
+    tile = tiles(r)
+    scene = PeriodicScene(tile, threads)
+    done.scene_time += time.perf_counter() - start
+    done.surfaces.setdefault(r, dict(tile.info))
+    done.isotropic = bool(tile.info.get("isotropic", False))
+    done.warnings += [w for w in tile.warnings if w not in done.warnings]
+    if r == 0:
+        done.offset = scene.eps
+    return r, tile, scene
+
+
+def _trace(held: tuple[int, Tile, PeriodicScene], materials: Mapping[str, Any],
+           simulation: Mapping[str, Any], table: Mapping[str, Any],
+           work: dict[tuple[int, int], int], runs: dict[tuple[int, int, int], Run],
+           done: Measurement, plan: Mapping[tuple[int, int], tuple[int, int]],
+           progress: Callable[[dict[str, Any]], None] | None) -> None:
+    """Trace one realisation's share of a round in its open scene."""
+    r, tile, scene = held
+
+    def report(state: dict[str, Any]) -> None:
+        progress({**state, "realisations": max(k for k, _ in plan.values())})
+
+    part = measure_directions(tile, materials, simulation, table, work, realisation=r,
+                              runs=runs, scene=scene,
+                              progress=None if progress is None else report)
+    done.segments += part.segments
+    done.trace_time += part.trace_time
+    done.inputs = part.inputs
+
+
+def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Mapping[str, Any]],
+                   simulation: Mapping[str, Any], table: Mapping[str, Any], *,
+                   recipe: Mapping[str, Any] | None = None, wall_time: float | None = None,
+                   thetas: Sequence[int] | None = None, bins: HemisphereBins | None = None
+                   ) -> BRDFTable:
+    """The table of measurements that together trace every direction's realisations once.
+
+    Parameters
+    ----------
+    parts : sequence of Measurement
+        Of the same recipe, in any order (``measure_ensemble``, or
+        ``measure_directions`` of single realisations, e.g. batch jobs).
+    materials, simulation, table, recipe
+        As for ``simulate``.
+    wall_time : float or None
+        Seconds the whole measurement took. Given, the metadata holds the timings
+        (``wall_time``, ``scene_time``, ``rays_per_second``, ``segments_per_second``);
+        None leaves them out, so the table depends on nothing but the recipe.
+    thetas : sequence of int or None
+        The polar angle indices the table holds (default: all of ``simulation``).
+    bins : HemisphereBins or None
+        The table's bins (default: from ``table``).
+
+    Returns
+    -------
+    BRDFTable
+        As ``simulate`` returns it. The same runs give the same table bit for bit, however
+        they were split into parts: realisations are combined in index order.
+
+    Raises
+    ------
+    ValueError
+        If a run appears twice, a polar angle is missing, or a direction's realisations
+        are not 0, 1, ..., K − 1.
+    """
+    runs: dict[tuple[int, int, int], Run] = {}
+    for part in parts:
+        for key, run in part.runs.items():
+            if key in runs:
+                raise ValueError(f"direction {key[:2]} of realisation {key[2]} was traced "
+                                 "twice")
+            runs[key] = run
+    first = parts[0]
+    surfaces = {r: info for part in parts for r, info in part.surfaces.items()}
+    stops = {d: stop for part in parts for d, stop in part.stops.items()}
+    theta_all = [float(t) for t in simulation["theta_i"]]
+    chosen = list(range(len(theta_all)) if thetas is None else thetas)
+    phi_deg = incident_azimuths(first.isotropic, simulation)
+    directions = [(l, k) for l in chosen for k in range(len(phi_deg))]
+    count = {d: sum(1 for key in runs if key[:2] == d) for d in directions}
+    if any(count[d] < 1 or any((*d, r) not in runs for r in range(count[d]))
+           for d in directions) or len(runs) != sum(count.values()):
+        raise ValueError("the measurements do not trace every incident polar angle once "
+                         "with realisations 0 .. K-1")
+    bins = bins or HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
+    result = _table(bins, [theta_all[l] for l in chosen], phi_deg, first.isotropic, runs,
+                    directions, max(count.values()), meta={})
+    surface = (recipe or {}).get("surface")
+    seeds = [None if surface is None else realisation_seed(surface.get("seed", 0), r)
+             for r in sorted(surfaces)]
+    rel, share = direction_errors(result)
+    rays = int(result.rays.sum())
+    segments = sum(part.segments for part in parts)
+    meta = {
+        "recipe": dict(recipe) if recipe is not None else
+        {"material": dict(materials), "simulation": dict(simulation), "table": dict(table)},
+        "microsim_version": microsim.__version__,
+        "surface": pool_info([surfaces[r] for r in sorted(surfaces)], seeds),
+        "inputs": first.inputs,
+        "seed": int(simulation["seed"]),
+        "isotropic": first.isotropic,
+        "error_model": result.error_model,
+        "realisations": int(result.realisations.max()),
+        "directions": [_direction_meta(runs, d, theta_all[d[0]], phi_deg[d[1]], count[d],
+                                       stops.get(d, "rays"), rel[i, d[1]], share[i, d[1]],
+                                       result.albedo[i, d[1]])
+                       for i, l in enumerate(chosen) for d in directions if d[0] == l],
+        "stop": sorted({stops.get(d, "rays") for d in directions}),
+        "warnings": list(dict.fromkeys(w for part in parts for w in part.warnings)),
+        "segments": segments,
+        "batch": BATCH,
+        "offset": next((p.offset for p in parts if 0 in p.surfaces), first.offset),
+    }
+    if wall_time is not None:
+        traced = sum(part.trace_time for part in parts)
+        meta.update(wall_time=wall_time, scene_time=sum(part.scene_time for part in parts),
+                    rays_per_second=rays / traced, segments_per_second=segments / traced)
+    result.meta = meta
+    return result
+
+
+def _direction_meta(runs: Mapping[tuple[int, int, int], Run], d: tuple[int, int],
+                    theta: float, phi: float, k: int, stop: str, rel: float, share: float,
+                    albedo: np.ndarray) -> dict[str, Any]:
+    """One direction's entry of ``meta["directions"]``; energies are the mean over its
+    realisations of each one's fraction per ray."""
+    sums = [runs[(*d, r)].sums for r in range(k)]
+
+    def mean(get: Callable[[Any], np.ndarray]) -> list[float]:
+        return (sum(get(acc) / acc.rays for acc in sums) / k).tolist()
+
+    fates: dict[str, int] = {}
+    for acc in sums:
+        for name, n in acc.fates.items():
+            fates[name] = fates.get(name, 0) + n
+    return {"theta_i": theta, "phi_i": phi, "rays": sum(acc.rays for acc in sums),
+            "realisations": k, "rays_per_realisation": [acc.rays for acc in sums],
+            "lost": mean(lambda a: a.lost), "transmitted": mean(lambda a: a.transmitted),
+            "absorbed": mean(lambda a: a.absorbed), "fates": fates, "stop": stop,
+            "rel_error": rel, "ray_share": share, "albedo": albedo.tolist()}
+
+
+def _table(bins: HemisphereBins, theta_deg: Sequence[float], phi_deg: Sequence[float],
+           isotropic: bool, runs: Mapping[tuple[int, int, int], Run],
+           directions: Sequence[tuple[int, int]], k: int, meta: Mapping[str, Any]
+           ) -> BRDFTable:
+    """The table of the runs (absent realisations count zero rays)."""
+    a, b = len(theta_deg), len(phi_deg)
+    rows = {l: i for i, l in enumerate(dict.fromkeys(d[0] for d in directions))}
+    some = next(iter(runs.values())).sums
+
+    def stacked(get: Callable[[Any], np.ndarray], like: np.ndarray) -> np.ndarray:
+        out = np.zeros((k, a, b) + np.shape(like))
+        for (l, kk, r), run in runs.items():
+            out[r, rows[l], kk] = get(run.sums)
+        return out
+
+    rays = stacked(lambda acc: acc.rays, np.int64(0)).astype(np.int64)
+    sums = {c: stacked(lambda acc, c=c: acc.sums[c], some.sums[c]) for c in COMPONENTS}
+    sums_sq = {c: stacked(lambda acc, c=c: acc.sums_sq[c], some.sums[c]) for c in COMPONENTS}
+    harmonics = some.sh_order > 0
+    sh_sums = {c: stacked(lambda acc, c=c: acc.sh_sums[c], some.sh_sums[c])
+               for c in COMPONENTS} if harmonics else None
+    sh_sums_sq = {c: stacked(lambda acc, c=c: acc.sh_sums_sq[c], some.sh_sums_sq[c])
+                  for c in COMPONENTS} if harmonics else None
+    return BRDFTable.from_realisations(
+        bins, np.radians(theta_deg), np.radians(phi_deg), isotropic, rays, sums, sums_sq,
+        stacked(lambda acc: acc.lost_energy, some.lost_energy), meta, sh_sums=sh_sums,
+        sh_sums_sq=sh_sums_sq)
+
+
+def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
+             simulation: Mapping[str, Any], table: Mapping[str, Any], *,
+             recipe: Mapping[str, Any] | None = None, threads: int | None = None,
+             progress: Callable[[dict[str, Any]], None] | None = None) -> BRDFTable:
+    """Measure one tile's BRDF table with the virtual goniophotometer.
+
+    Parameters
+    ----------
+    tile : Tile
+        The surface. ``tile.info["isotropic"]`` (default False) says whether one incident
+        azimuth (0) suffices; otherwise every ``simulation["phi_i"]`` is measured.
+    materials : mapping
+        Resolved ``[material]``: one section per part of the tile.
+    simulation : mapping
+        Resolved ``[simulation]``: ``theta_i``, ``phi_i`` (degrees), ``rays``,
+        ``bounces``, ``seed``, ``realisations`` (1 here: one tile), and optionally
+        ``target_error`` and ``max_rays``.
+    table : mapping
+        Resolved ``[table]``: ``theta_bins``, ``phi_bins``, and optionally ``sh_order``
+        (spherical-harmonic order of the escaping rays' moments; 0 or absent: none).
+    recipe : mapping or None
+        The full resolved recipe, stored in the table's metadata (default: the three
+        sections given).
+    threads : int or None
+        Tracing threads (default: every CPU). The result does not depend on it.
+    progress : callable or None
+        Called after every batch with a dict: ``theta_i``, ``phi_i`` (degrees),
+        ``realisation``, ``realisations`` (planned so far), ``rays`` (so far, this
+        direction and realisation).
+
+    Returns
+    -------
+    BRDFTable
+        Sums per bin for the components ``"total"`` and ``"single"`` (first-order
+        scattering), error model ``rays``, with metadata (see docs/goniometer.md).
+
+    Raises
+    ------
+    ValueError
+        If ``simulation`` asks for more than one realisation (``simulate_surface``
+        builds them).
+    """
+    if int(simulation.get("realisations", 1)) != 1:
+        raise ValueError(f"simulate traces one tile, but simulation.realisations = "
+                         f"{simulation['realisations']}: use simulate_surface")
+    return _simulate(Tiles(tile=tile), materials, {**simulation, "realisations": 1}, table,
+                     recipe, threads, progress)
+
+
+def simulate_surface(surface: Mapping[str, Any], materials: Mapping[str, Mapping[str, Any]],
+                     simulation: Mapping[str, Any], table: Mapping[str, Any], *,
+                     recipe: Mapping[str, Any] | None = None, threads: int | None = None,
+                     progress: Callable[[dict[str, Any]], None] | None = None
+                     ) -> BRDFTable:
+    """The table of a surface: the mean over ``simulation["realisations"]`` tiles.
+
+    As ``simulate``, with ``surface`` a resolved ``[surface]`` section whose realisations
+    are built one at a time. Direction (l, k) of realisation r runs batches of ``BATCH``
+    rays; batch b draws from ``SeedSequence(seed, spawn_key=(l, k, r, b))``, so the
+    numbers depend on neither the thread count nor the order of work. With
+    ``target_error``, rounds of rays and realisations are added until every direction's
+    median relative error over its lobe bins is at most the target or a cap is reached
+    (``measure_ensemble``; the metadata says which).
+    """
+    if recipe is None:
+        recipe = {"surface": dict(surface), "material": dict(materials),
+                  "simulation": dict(simulation), "table": dict(table)}
+    return _simulate(Tiles(surface), materials, simulation, table, recipe, threads,
+                     progress)
+
+
+def _simulate(tiles: Tiles, materials: Mapping[str, Any], simulation: Mapping[str, Any],
+              table: Mapping[str, Any], recipe: Mapping[str, Any] | None,
+              threads: int | None, progress: Callable[[dict[str, Any]], None] | None
+              ) -> BRDFTable:
+    """Measure every realisation ``tiles`` builds and assemble the table, timed."""
+    start = time.perf_counter()
+    measured = measure_ensemble(tiles, materials, simulation, table, threads=threads,
+                                progress=progress)
+    return assemble_table([measured], materials, simulation, table, recipe=recipe,
+                          wall_time=time.perf_counter() - start)
+
+
+def simulate_recipe(recipe: Mapping[str, Any], progress: Callable[[dict[str, Any]], None]
+                    | None = None, threads: int | None = None) -> BRDFTable:
+    """Measure a resolved recipe's surface (all its realisations; see
+    ``simulate_surface``)."""
+    return simulate_surface(recipe["surface"], recipe["material"], recipe["simulation"],
+                            recipe["table"], recipe=recipe, threads=threads,
+                            progress=progress)

@@ -1,0 +1,217 @@
+"""Estimates over independent surface realisations: the mean and its standard error.
+
+A table estimates the expectation of a per-ray quantity X (a bin's exit weight, w Y_k(ωo)
+for a harmonic, the escaping weight for the albedo) over the rays *and* over the random
+geometry the recipe names. Realisation r = 1…K is one tile traced with n_r rays, giving
+Σx and Σx² over its rays. With
+
+    m_r = Σx / n_r                          the realisation's estimate,
+    v_r = (Σx² − n_r m_r²) / (n_r (n_r − 1))  the ray variance of m_r given its tile,
+
+the model is m_r = μ + δ_r + ε_r: δ_r the tile's own deviation (variance τ² over
+realisations), ε_r the ray noise (variance σ_r² / n_r given the tile), all independent.
+The ensemble estimate is the plain mean μ̂ = Σ m_r / K, with
+
+    Var(μ̂) = (τ² + mean_r σ_r² / n_r) / K.
+
+Two estimators of it are used (docs/goniometer.md, "Error bars of the ensemble", derives
+both and the measurements that choose between them):
+
+- **batch means**, s² = Σ (m_r − μ̂)² / (K (K − 1)): unbiased for Var(μ̂) whatever the
+  n_r (E Σ (m_r − μ̂)² = (1 − 1/K) Σ Var m_r for independent m_r of one mean), with
+  d = K − 1 degrees of freedom, so (μ̂ − μ)/s is Student-t with K − 1 degrees of freedom;
+- **moderated** (for families of similar quantities, the bins of one incidence): the
+  ratio of s² to the ray part u = Σ v_r / K² (known to many degrees of freedom) is the
+  variance inflation the surface adds. Over the bins of one incidence it is nearly one
+  number, so it is pooled with the empirical Bayes estimator of Smyth (2004, "Linear
+  models and empirical Bayes methods for assessing differential expression in microarray
+  experiments", Stat. Appl. Genet. Mol. Biol. 3(1), art. 3, sec. 3 and 6.2): the
+  inflations have a scaled inverse-χ² prior with d0 degrees of freedom about ρ0, fitted to
+  the bins of a pool, and each bin's variance is the posterior mean
+
+      ṽ = (d0 ρ0 u + d s²) / (d0 + d),   with d0 + d degrees of freedom,
+
+  which is s² when the inflations scatter (d0 → 0) and ρ0 u when they agree (d0 → ∞).
+
+A single realisation (K = 1) has no between-tile spread to measure: its error is the ray
+error √v (error model ``rays``), conditional on the one tile.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import polygamma, psi
+
+RAYS = "rays"
+ENSEMBLE = "ensemble"
+ERROR_MODELS = (RAYS, ENSEMBLE)
+"""``rays``: errors count the ray noise of one tile; ``ensemble``: they include the spread
+between surface realisations."""
+DOF_MAX = 1e6
+"""Degrees of freedom reported for an error known to (practically) infinite precision."""
+
+
+@dataclass
+class Estimate:
+    """An ensemble mean with its errors.
+
+    Attributes
+    ----------
+    mean, stderr : (..., m, c) float
+        μ̂ and its standard error (NaN where undefined: no realisation saw a contribution,
+        or fewer than two rays).
+    ray_stderr : (..., m, c) float
+        The ray noise's share of the error, √u (equal to ``stderr`` for one realisation).
+    dof : (..., c) float
+        Degrees of freedom of the variance estimate: K − 1 for batch means, d0 + K − 1
+        when moderated (capped at ``DOF_MAX``), the rays' n − 1 for one realisation.
+    inflation : (..., c) float
+        The pooled variance inflation ρ0 of a moderated estimate (NaN otherwise).
+    realisations : (...) int
+        Realisations that entered each estimate.
+    """
+
+    mean: np.ndarray
+    stderr: np.ndarray
+    ray_stderr: np.ndarray
+    dof: np.ndarray
+    inflation: np.ndarray
+    realisations: np.ndarray
+
+
+def realisation_moments(s1: np.ndarray, s2: np.ndarray, rays: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """Each realisation's estimate m_r and its ray variance v_r.
+
+    Parameters
+    ----------
+    s1, s2 : (K, ..., m, c) float
+        Σx and Σx² over each realisation's rays (x = 0 for rays that did not contribute).
+    rays : (K, ...) int
+        Rays per realisation; 0 where a realisation is absent.
+
+    Returns
+    -------
+    m, v : (K, ..., m, c) float
+        NaN where the realisation is absent; v is NaN where Σx² = 0 (no ray contributed,
+        so the variance is unknown) or n < 2.
+    """
+    n = np.asarray(rays, float)[..., None, None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        m = np.where(n > 0, s1 / n, np.nan)
+        v = np.maximum(s2 - s1 * m, 0.0) / (n - 1) / n
+    return m, np.where((s2 > 0) & (n >= 2), v, np.nan)
+
+
+def inverse_trigamma(x: float) -> float:
+    """y with ψ'(y) = x > 0, by Newton's method on 1/ψ' (Smyth 2004, appendix)."""
+    y = 0.5 + 1.0 / x
+    for _ in range(50):
+        tri = float(polygamma(1, y))
+        step = tri * (1.0 - tri / x) / float(polygamma(2, y))
+        y -= step
+        if -step / y < 1e-10:
+            break
+    return y
+
+
+def moderation_prior(ratio: np.ndarray, d: int) -> tuple[float, float]:
+    """Smyth's (2004, sec. 6.2) prior fitted to sample variances with ``d`` degrees of
+    freedom, here variance ratios s²/u.
+
+    With e = log(ratio) − ψ(d/2) + log(d/2), E[e] = log ρ0 + ψ(d0/2) − log(d0/2) and
+    Var[e] = ψ'(d/2) + ψ'(d0/2): d0 solves ψ'(d0/2) = var(e) − ψ'(d/2) (infinite when the
+    right side is not positive: the ratios scatter no more than sampling alone makes them),
+    then ρ0 = exp(mean(e) − ψ(d0/2) + log(d0/2)).
+
+    Parameters
+    ----------
+    ratio : (g,) float
+        Positive finite ratios, g ≥ 2.
+    d : int
+        Their degrees of freedom.
+
+    Returns
+    -------
+    rho0, d0 : float
+        d0 may be ``math.inf``.
+    """
+    e = np.log(ratio) - psi(d / 2) + math.log(d / 2)
+    excess = float(e.var(ddof=1)) - float(polygamma(1, d / 2))
+    if excess <= 0:
+        return math.exp(float(e.mean())), math.inf
+    d0 = 2.0 * inverse_trigamma(excess)
+    return math.exp(float(e.mean()) - psi(d0 / 2) + math.log(d0 / 2)), d0
+
+
+def estimate(s1: np.ndarray, s2: np.ndarray, rays: np.ndarray,
+             pool: np.ndarray | None = None) -> Estimate:
+    """The ensemble mean of realisations' sums and its standard error.
+
+    Parameters
+    ----------
+    s1, s2 : (K, ..., m, c) float
+        Σx and Σx² over each realisation's rays.
+    rays : (K, ...) int
+        Rays per realisation (0: absent from that estimate).
+    pool : (..., m, c) bool or None
+        Where the moderated estimator fits its prior: for each leading index and column
+        c, the entries of the m axis marked True (at least two, each with a defined
+        ratio, else that group falls back to batch means). None: batch means everywhere.
+
+    Returns
+    -------
+    Estimate
+    """
+    s1, s2 = np.asarray(s1, float), np.asarray(s2, float)
+    rays = np.asarray(rays, np.int64)
+    present = rays > 0
+    k = present.sum(axis=0)                                                   # (...)
+    m, v = realisation_moments(s1, s2, rays)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        kk = k[..., None, None].astype(float)
+        mean = np.nansum(m, axis=0) / kk
+        ray_var = np.nansum(v, axis=0) / kk**2
+        ray_var = np.where(np.isnan(v).all(axis=0), np.nan, ray_var)
+        spread = np.nansum((m - mean) ** 2, axis=0) / (kk * (kk - 1))
+    one = (k == 1)[..., None, None]
+    stderr_sq = np.where(one, ray_var, spread)
+    n_one = np.where(present, rays, 0).sum(axis=0)
+    dof = np.where(k == 1, np.minimum(n_one - 1, DOF_MAX), k - 1).astype(float)
+    dof = np.broadcast_to(dof[..., None], mean.shape[:-2] + mean.shape[-1:]).copy()
+    inflation = np.full(dof.shape, np.nan)
+    if pool is not None:
+        _moderate(stderr_sq, ray_var, k, np.asarray(pool, bool), dof, inflation)
+    undefined = np.isnan(ray_var) | (k[..., None, None] < 1)
+    stderr = np.where(undefined, np.nan, np.sqrt(stderr_sq))
+    return Estimate(mean, stderr, np.sqrt(ray_var), dof, inflation, k)
+
+
+def _moderate(var: np.ndarray, ray_var: np.ndarray, k: np.ndarray, pool: np.ndarray,
+              dof: np.ndarray, inflation: np.ndarray) -> None:
+    """Replace the batch-means variances ``var`` (..., m, c) by Smyth's posterior
+    variances where a group (leading index, column) has at least two pooled ratios and
+    K ≥ 2; ``dof`` and ``inflation`` (..., c) are filled in for those groups."""
+    lead = var.shape[:-2]
+    for index in np.ndindex(*lead):
+        d = int(k[index]) - 1
+        if d < 1:
+            continue
+        for c in range(var.shape[-1]):
+            s2, u = var[index][:, c], ray_var[index][:, c]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                ratio = s2 / u
+            use = pool[index][:, c] & np.isfinite(ratio) & (ratio > 0)
+            if use.sum() < 2:
+                continue
+            rho0, d0 = moderation_prior(ratio[use], d)
+            if math.isinf(d0):
+                var[index][:, c] = rho0 * u
+                dof[index][c] = DOF_MAX
+            else:
+                var[index][:, c] = (d0 * rho0 * u + d * s2) / (d0 + d)
+                dof[index][c] = min(d0 + d, DOF_MAX)
+            inflation[index][c] = rho0
