@@ -1,12 +1,16 @@
 """Batch runs of a sweep on Dask: jobs, merging, the manifest, resuming.
 
 A sweep point is one table; its incident polar angles are cut into jobs of
-``Sweep.thetas_per_job`` angles. A job (``run_job``) traces its angles on a worker with
-``microsim.goniometer.measure_directions``; the client merges a table's jobs with
-``assemble_table`` and writes it. Direction (l, k) of a table draws its batches from
-``SeedSequence(seed, spawn_key=(l, k, b))`` whichever job traces it, so a table is the same,
-bit for bit, whatever the number of workers, the job size or the order of completion, and
-equals ``simulate`` of the point's recipe (without the timings, which go to the manifest).
+``Sweep.thetas_per_job`` angles, and each job traces one realisation of the surface
+(``microsim.goniometer.measure_directions``), so the realisations of one table run on as
+many workers as there are. With ``simulation.target_error`` a job traces its angles over
+all the realisations its adaptive stop asks for (``microsim.simulation.measure_ensemble``).
+The client merges a table's jobs with ``assemble_table`` and writes it. Direction (l, k) of
+realisation r draws its batches from ``SeedSequence(seed, spawn_key=(l, k, r, b))``
+whichever job traces it, and the merge combines realisations in index order, so a table is
+the same, bit for bit, whatever the number of workers, the job size or the order of
+completion, and equals ``simulate_recipe`` of the point's recipe (without the timings,
+which go to the manifest).
 
 ``DIR/manifest.json`` records every table (status, recipe hash, seed, rays, times, error
 metrics, error message) and is replaced atomically after every change; tables are written
@@ -78,8 +82,8 @@ def _scene(surface: str, threads: int) -> tuple[Tile, PeriodicScene]:
     return _scenes.kept[1], _scenes.kept[2]
 
 
-def run_job(recipe: Mapping[str, Any], thetas: tuple[int, ...], threads: int = 1
-            ) -> tuple[Measurement, list[str], float]:
+def run_job(recipe: Mapping[str, Any], thetas: tuple[int, ...], threads: int = 1,
+            realisation: int | None = 0) -> tuple[Measurement, list[str], float]:
     """Trace some incident polar angles of a resolved recipe (runs on a worker).
 
     Parameters
@@ -90,37 +94,54 @@ def run_job(recipe: Mapping[str, Any], thetas: tuple[int, ...], threads: int = 1
         Indices into ``recipe["simulation"]["theta_i"]``.
     threads : int
         Tracing threads.
+    realisation : int or None
+        The surface realisation to trace, with ``rays / realisations`` rays per direction;
+        None: every realisation the recipe's adaptive stop asks for, tile after tile.
 
     Returns
     -------
     measurement : Measurement
     warnings : list of str
-        The tile's warnings.
+        The tiles' warnings.
     seconds : float
-        Wall-clock time of the job on the worker, building the tile included.
+        Wall-clock time of the job on the worker, building the tiles included.
     """
     from microsim.goniometer import measure_directions
+    from microsim.simulation import Tiles, measure_ensemble
+    from microsim.surfaces.realisations import realisation as realisation_of
 
     start = time.perf_counter()
-    tile, scene = _scene(canonical(recipe["surface"]), threads)
-    measured = measure_directions(tile, recipe["material"], recipe["simulation"],
-                                  recipe["table"], thetas, scene=scene)
+    sim = recipe["simulation"]
+    if realisation is None:
+        measured = measure_ensemble(Tiles(recipe["surface"]), recipe["material"], sim,
+                                    recipe["table"], thetas, threads=threads)
+        return measured, measured.warnings, time.perf_counter() - start
+    tile, scene = _scene(canonical(realisation_of(recipe["surface"], realisation)), threads)
+    measured = measure_directions(tile, recipe["material"], sim, recipe["table"], thetas,
+                                  realisation=realisation, scene=scene)
     return measured, list(tile.warnings), time.perf_counter() - start
 
 
 @dataclass(frozen=True)
 class Job:
-    """One unit of work: a table's name and the indices of the polar angles it traces."""
+    """One unit of work: a table's name, the indices of the polar angles it traces, and the
+    realisation (None: all of them, adaptively)."""
 
     table: str
     thetas: tuple[int, ...]
+    realisation: int | None = 0
 
 
 def jobs_of(point: Point, thetas_per_job: int) -> list[Job]:
-    """A point's jobs: its incident polar angles in chunks of ``thetas_per_job``."""
-    n = len(point.recipe["simulation"]["theta_i"])
-    return [Job(point.name, tuple(range(i, min(i + thetas_per_job, n))))
-            for i in range(0, n, thetas_per_job)]
+    """A point's jobs: its incident polar angles in chunks of ``thetas_per_job``, for each
+    realisation (one job per chunk for all of them with an adaptive stop)."""
+    sim = point.recipe["simulation"]
+    n = len(sim["theta_i"])
+    chunks = [tuple(range(i, min(i + thetas_per_job, n))) for i in range(0, n, thetas_per_job)]
+    if sim.get("target_error") is not None:
+        return [Job(point.name, chunk, None) for chunk in chunks]
+    return [Job(point.name, chunk, r) for r in range(int(sim["realisations"]))
+            for chunk in chunks]
 
 
 def remove_stale_temporaries(folder: Path) -> list[Path]:
@@ -263,9 +284,11 @@ def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool 
         futures = {}
         for name, table_jobs in jobs.items():
             for job in table_jobs:
-                key = f"microsim-{name}-{job.thetas[0]}-{os.urandom(4).hex()}"
+                key = (f"microsim-{name}-{job.thetas[0]}-{job.realisation}-"
+                       f"{os.urandom(4).hex()}")
                 future = client.submit(run_job, points[name].recipe, job.thetas, threads,
-                                       key=key, pure=False, retries=RETRIES)
+                                       job.realisation, key=key, pure=False,
+                                       retries=RETRIES)
                 futures[future] = job
         parts: dict[str, list[Any]] = {name: [] for name in jobs}
         warnings: dict[str, list[str]] = {name: [] for name in jobs}
@@ -289,9 +312,10 @@ def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool 
                 measured, tile_warnings, seconds = future.result()
                 future.release()
                 parts[job.table].append(measured)
-                warnings[job.table] = tile_warnings
+                warnings[job.table] = list(dict.fromkeys(warnings[job.table]
+                                                         + tile_warnings))
                 job_time[job.table] += seconds
-                rays += sum(acc.rays for row in measured.rows.values() for acc, _, _ in row)
+                rays += sum(run.sums.rays for run in measured.runs.values())
                 if len(parts[job.table]) == len(jobs[job.table]):
                     computed.append(job.table)
                     _finish(folder, manifest, points[job.table], parts.pop(job.table),
@@ -322,6 +346,7 @@ def _finish(folder: Path, manifest: Manifest, point: Point, parts: list[Measurem
         segments=int(table.meta["segments"]), jobs=len(parts), wall_s=seconds,
         trace_s=sum(p.trace_time for p in parts),
         median_rel_error=_finite(table.median_rel_error("total")),
+        error_model=table.error_model, realisations=int(table.realisations.max()),
         albedo=table.albedo.reshape(-1, 3).mean(axis=1).tolist(),
         albedo_err=table.albedo_err.reshape(-1, 3).mean(axis=1).tolist(),
         warnings=warnings)

@@ -19,7 +19,7 @@ from __future__ import annotations
 import contextlib
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -207,7 +207,8 @@ def rays_per_realisation(simulation: Mapping[str, Any]) -> int:
 
 def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
                        simulation: Mapping[str, Any], table: Mapping[str, Any],
-                       work: Mapping[tuple[int, int], int] | None = None, *,
+                       thetas: Sequence[int] | None = None, *,
+                       rays: int | Mapping[tuple[int, int], int] | None = None,
                        realisation: int = 0, runs: dict[tuple[int, int, int], Run] | None
                        = None, threads: int | None = None,
                        progress: Callable[[dict[str, Any]], None] | None = None,
@@ -220,10 +221,13 @@ def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
         Realisation ``realisation`` of the recipe's surface.
     materials, simulation, table
         Resolved recipe sections (``microsim.simulation.simulate``).
-    work : mapping of (int, int) to int, or None
-        Rays to add per direction (l, k): l indexes ``simulation["theta_i"]``, k the
-        incident azimuths. None: every azimuth of every polar angle, each with
-        ``rays_per_realisation(simulation)`` rays.
+    thetas : sequence of int or None
+        Indices into ``simulation["theta_i"]`` to trace, every incident azimuth of each
+        (default: all).
+    rays : int, mapping or None
+        Rays to add per direction (default: ``rays_per_realisation(simulation)``); a
+        mapping of directions (l, k) (l as in ``thetas``, k indexing the incident
+        azimuths) to rays traces exactly those directions, ``thetas`` unused.
     realisation : int
         Its index r: direction (l, k) draws its batches from
         ``SeedSequence(seed, spawn_key=(l, k, r, b))``, so the numbers do not depend on
@@ -245,9 +249,12 @@ def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
     isotropic = bool(tile.info.get("isotropic", False))
     theta_deg = [float(t) for t in simulation["theta_i"]]
     phi_deg = incident_azimuths(isotropic, simulation)
-    if work is None:
-        n = rays_per_realisation(simulation)
-        work = {(l, k): n for l in range(len(theta_deg)) for k in range(len(phi_deg))}
+    if isinstance(rays, Mapping):
+        work = dict(rays)
+    else:
+        n = rays_per_realisation(simulation) if rays is None else int(rays)
+        work = {(l, k): n for l in (range(len(theta_deg)) if thetas is None else thetas)
+                for k in range(len(phi_deg))}
     bins = HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
     facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents)
     runs = {} if runs is None else runs

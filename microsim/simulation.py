@@ -257,7 +257,7 @@ def _trace(held: tuple[int, Tile, PeriodicScene], materials: Mapping[str, Any],
     def report(state: dict[str, Any]) -> None:
         progress({**state, "realisations": max(k for k, _ in plan.values())})
 
-    part = measure_directions(tile, materials, simulation, table, work, realisation=r,
+    part = measure_directions(tile, materials, simulation, table, rays=work, realisation=r,
                               runs=runs, scene=scene,
                               progress=None if progress is None else report)
     done.segments += part.segments
@@ -421,8 +421,9 @@ def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
         Resolved ``[material]``: one section per part of the tile.
     simulation : mapping
         Resolved ``[simulation]``: ``theta_i``, ``phi_i`` (degrees), ``rays``,
-        ``bounces``, ``seed``, ``realisations`` (1 here: one tile), and optionally
-        ``target_error`` and ``max_rays``.
+        ``bounces``, ``seed``, and optionally ``target_error`` and ``max_rays``.
+        ``realisations`` is taken as 1: the table is that of the given tile, all
+        ``rays`` on it (``simulate_surface`` averages realisations).
     table : mapping
         Resolved ``[table]``: ``theta_bins``, ``phi_bins``, and optionally ``sh_order``
         (spherical-harmonic order of the escaping rays' moments; 0 or absent: none).
@@ -440,19 +441,14 @@ def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
     -------
     BRDFTable
         Sums per bin for the components ``"total"`` and ``"single"`` (first-order
-        scattering), error model ``rays``, with metadata (see docs/goniometer.md).
-
-    Raises
-    ------
-    ValueError
-        If ``simulation`` asks for more than one realisation (``simulate_surface``
-        builds them).
+        scattering), error model ``rays``, with metadata (see docs/goniometer.md; the
+        stored recipe says ``realisations = 1``).
     """
-    if int(simulation.get("realisations", 1)) != 1:
-        raise ValueError(f"simulate traces one tile, but simulation.realisations = "
-                         f"{simulation['realisations']}: use simulate_surface")
-    return _simulate(Tiles(tile=tile), materials, {**simulation, "realisations": 1}, table,
-                     recipe, threads, progress)
+    one = {**simulation, "realisations": 1}
+    one.pop("max_realisations", None)
+    if recipe is not None:
+        recipe = {**recipe, "simulation": one}
+    return _simulate(Tiles(tile=tile), materials, one, table, recipe, threads, progress)
 
 
 def simulate_surface(surface: Mapping[str, Any], materials: Mapping[str, Mapping[str, Any]],

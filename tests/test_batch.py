@@ -35,6 +35,7 @@ seed = 5
 [base.simulation]
 theta_i = [0, 40, 70]
 rays = {rays}
+realisations = 2
 bounces = 8
 
 [base.table]
@@ -128,17 +129,19 @@ def test_points_names_and_seeds(tmp_path: Path) -> None:
 def test_one_worker_gives_the_same_bytes_as_two(tmp_path: Path, cli: Callable,
                                                 reference: tuple[Path, Path]) -> None:
     """1 worker with 3 angles per job against 2 workers with 1 angle per job (the
-    reference): identical table bytes, and each table equals ``simulate`` of its point."""
+    reference), each job one of the 2 realisations: identical table bytes, and each table
+    equals ``simulate_recipe`` of its point."""
     sweep_path, ref = reference
     sweep = write_sweep(tmp_path, "seed = 3\nthetas_per_job = 3")
     code, out, _ = cli("batch", str(sweep), "-o", str(tmp_path / "out"), "--workers", "1",
                        "--json")
-    assert code == 0 and json.loads(out)["jobs"] == 4
+    assert code == 0 and json.loads(out)["jobs"] == 4 * 2
     assert sorted(table_bytes(ref)) == sorted(f"{n}.exr" for n in NAMES)
     assert table_bytes(tmp_path / "out") == table_bytes(ref)
     manifest = json.loads((ref / "manifest.json").read_text())
     for entry in manifest["tables"].values():
-        assert entry["status"] == "done" and entry["rays"] == 3 * 2000 and entry["jobs"] == 3
+        assert entry["status"] == "done" and entry["rays"] == 3 * 2000 and entry["jobs"] == 6
+        assert entry["error_model"] == "ensemble" and entry["realisations"] == 2
         assert entry["wall_s"] >= entry["trace_s"] > 0
     point = load_sweep(sweep_path).points[1]
     alone = simulate_recipe(point.recipe, threads=1)
@@ -292,7 +295,7 @@ def test_a_real_cluster_gives_the_same_bytes(tmp_path: Path, cli: Callable,
     for how, target in zip(("address", "file"), dask_cluster, strict=True):
         code, out, _ = cli("batch", str(sweep), "-o", str(tmp_path / how), "--scheduler",
                            str(target), "--json")
-        assert code == 0 and json.loads(out)["jobs"] == 8
+        assert code == 0 and json.loads(out)["jobs"] == 4 * 2 * 2
         assert table_bytes(tmp_path / how) == table_bytes(reference[1])
 
 
@@ -313,7 +316,7 @@ def test_progress_reports_every_job(tmp_path: Path) -> None:
     states: list[dict] = []
     with dask_client(1, None) as client:
         summary = run_batch(sweep, tmp_path / "out", client, progress=states.append)
-    assert [s["jobs_done"] for s in states] == list(range(1, 7))
+    assert [s["jobs_done"] for s in states] == list(range(1, 13))
     assert states[-1]["tables_done"] == states[-1]["tables"] == 2
     assert states[-1]["rays"] == summary["rays"] == 2 * 3 * 300
     with progress_bar(True) as show:
@@ -321,14 +324,15 @@ def test_progress_reports_every_job(tmp_path: Path) -> None:
             show(state)
 
 
-def dying_job(recipe: dict, thetas: tuple[int, ...], threads: int = 1) -> object:
+def dying_job(recipe: dict, thetas: tuple[int, ...], threads: int = 1,
+              realisation: int | None = 0) -> object:
     """``run_job``, except that the worker process of alpha = 0.5 dies (imported by the
     workers by name)."""
     from microsim.batch import run_job
 
     if recipe["surface"]["alpha"] == 0.5:
         os._exit(1)
-    return run_job(recipe, thetas, threads)
+    return run_job(recipe, thetas, threads, realisation)
 
 
 def test_a_dying_worker_fails_its_table_alone(tmp_path: Path,
@@ -352,7 +356,8 @@ def test_a_dying_worker_fails_its_table_alone(tmp_path: Path,
 def test_a_raising_job_is_retried_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
                                        ) -> None:
     """On an in-process cluster: a job that raises once succeeds on its retry; one that
-    always raises is tried exactly twice and fails its table with the error."""
+    always raises is tried exactly twice and fails its table with the error (the jobs of
+    realisation 0 raise; those of realisation 1 run, or are cancelled with their table)."""
     from distributed import Client, LocalCluster
 
     from microsim import batch
@@ -360,13 +365,15 @@ def test_a_raising_job_is_retried_once(tmp_path: Path, monkeypatch: pytest.Monke
     log = tmp_path / "calls.txt"
     real = batch.run_job
 
-    def flaky(recipe: dict, thetas: tuple[int, ...], threads: int = 1) -> object:
+    def flaky(recipe: dict, thetas: tuple[int, ...], threads: int = 1,
+              realisation: int | None = 0) -> object:
         alpha = recipe["surface"]["alpha"]
-        with open(log, "a", encoding="utf-8") as f:
-            f.write(f"{alpha}\n")
-        if alpha == 0.5 or log.read_text().split().count(str(alpha)) == 1:
-            raise RuntimeError(f"boom {alpha}")
-        return real(recipe, thetas, threads)
+        if realisation == 0:
+            with open(log, "a", encoding="utf-8") as f:
+                f.write(f"{alpha}\n")
+            if alpha == 0.5 or log.read_text().split().count(str(alpha)) == 1:
+                raise RuntimeError(f"boom {alpha}")
+        return real(recipe, thetas, threads, realisation)
 
     sweep = load_sweep(write_sweep(tmp_path, "thetas_per_job = 3",
                                    '[sweep]\n"surface.alpha" = [0.2, 0.5]\n', rays=300))
@@ -398,6 +405,7 @@ def test_measurements_of_disjoint_angles_merge_into_simulate() -> None:
     assert merged.meta["segments"] == whole.meta["segments"]
     assert merged.meta["directions"] == whole.meta["directions"]
     assert "wall_time" in whole.meta and "wall_time" not in merged.meta
-    for parts in ([first], [first, last, last]):
-        with pytest.raises(ValueError, match="every incident polar angle once"):
-            assemble_table(parts, *sections)
+    with pytest.raises(ValueError, match="every incident polar angle once"):
+        assemble_table([first], *sections)
+    with pytest.raises(ValueError, match="traced twice"):
+        assemble_table([first, last, last], *sections)

@@ -103,7 +103,7 @@ def test_flat_mirror_table_holds_everything_in_the_mirror_bin() -> None:
     material, simulation, table = recipe_sections([30.0], 3000)
     result = simulate(flat_tile(), material, simulation, table)
     bin_ = result.bins.index(direction(np.radians([30.0]), np.pi), 0.0)[0]
-    sums = result.sums["total"][0, 0]
+    sums = result.sums["total"][0, 0, 0]
     assert np.all(sums[bin_] == 3000) and np.count_nonzero(sums) == 3
     assert np.all(result.albedo == 1.0) and np.all(result.lost_energy == 0.0)
     assert result.meta["directions"][0]["stop"] == "rays"
