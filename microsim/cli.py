@@ -53,6 +53,30 @@ def add_seed_arg(p: argparse.ArgumentParser, what: str) -> None:
                    help=f"override the recipe's {what} seed (integer >= 0)")
 
 
+def add_realisations_arg(p: argparse.ArgumentParser) -> None:
+    """Add ``--realisations K`` overriding ``simulation.realisations``."""
+    p.add_argument("--realisations", type=positive_int, default=None, metavar="K",
+                   help="independent surface realisations to average (overrides "
+                        "simulation.realisations; default: the generator's, 1 for "
+                        "deterministic geometry)")
+
+
+def realisations_override(args: argparse.Namespace) -> list[str]:
+    """``[simulation.realisations=K]`` when ``--realisations K`` was given, else ``[]``."""
+    return [] if args.realisations is None else [f"simulation.realisations={args.realisations}"]
+
+
+def error_model_note(model: str, realisations: int) -> str:
+    """One line saying what a result's errors include (``rays``, ``ensemble``, ...)."""
+    if model == "ensemble":
+        return (f"errors: ensemble of {realisations} surface realisations (they include the "
+                "spread between tiles; z-scores test the surface)")
+    if model == "rays":
+        return ("errors: rays only, one tile (z-scores are conditional on this tile, not "
+                "on the surface its recipe names)")
+    return f"errors: {model}"
+
+
 def add_threads_arg(p: argparse.ArgumentParser) -> None:
     """Add ``--threads N`` for the commands that trace."""
     p.add_argument("--threads", type=positive_int, default=None,

@@ -96,17 +96,24 @@ def measure_g1(scene: PeriodicScene, theta: Sequence[float] | np.ndarray, phi: f
 
 def measure_g1_recipe(recipe: Mapping[str, Any], thetas_deg: Sequence[float], rays: int,
                       phi_deg: float = 0.0, threads: int | None = None) -> dict[str, Any]:
-    """G1 of a recipe's surface, with the numbers a report needs.
+    """G1 of a recipe's surface over its realisations, with the numbers a report needs.
+
+    Each of the ``simulation.realisations`` tiles (built one at a time,
+    ``microsim.surfaces.realisations``) is sampled with ``rays / realisations`` rays per
+    angle (rounded up), realisation r from ``SeedSequence(seed, spawn_key=(r,))``. G1 is
+    the mean over realisations and its standard error the batch means' (K − 1 degrees of
+    freedom, ``microsim.tables.estimator``; error model ``ensemble``), or for one
+    realisation the binomial error (``rays``: conditional on the tile).
 
     Parameters
     ----------
     recipe : mapping
-        A resolved recipe (``microsim.recipe.resolve``); its surface is built, and
-        ``simulation.seed`` seeds the sampling.
+        A resolved recipe (``microsim.recipe.resolve``); ``simulation.seed`` seeds the
+        sampling.
     thetas_deg : (k,) float
         Polar angles, degrees.
     rays : int
-        Rays per angle.
+        Rays per angle over all realisations.
     phi_deg : float
         Azimuth, degrees.
     threads : int or None
@@ -115,19 +122,37 @@ def measure_g1_recipe(recipe: Mapping[str, Any], thetas_deg: Sequence[float], ra
     Returns
     -------
     dict
-        ``theta_deg``, ``phi_deg``, ``g1``, ``stderr`` (lists), ``rays``, ``seed``,
-        ``surface`` (the tile's info), ``segments``, ``wall_time``.
+        ``theta_deg``, ``phi_deg``, ``g1``, ``stderr``, ``ray_stderr`` (the binomial part)
+        (lists), ``dof``, ``error_model``, ``realisations``, ``rays`` (per angle, all
+        realisations), ``seed``, ``surface`` (the tiles' pooled info,
+        ``microsim.surfaces.realisations.pool_info``), ``segments``, ``wall_time``.
     """
     from microsim.surfaces import build_tile
+    from microsim.surfaces.realisations import pool_info, realisation, realisation_seed
+    from microsim.tables.estimator import estimate
 
     start = time.perf_counter()
-    tile = build_tile(dict(recipe["surface"]))
+    k = int(recipe["simulation"].get("realisations", 1))
+    n = -(-int(rays) // k)
     seed = recipe["simulation"]["seed"]
-    with PeriodicScene(tile, threads) as scene:
-        g1, err = measure_g1(scene, np.radians(thetas_deg), math.radians(phi_deg), rays,
-                             np.random.default_rng(seed))
-        segments = scene.segments
+    hits, infos, segments = [], [], 0
+    for r in range(k):
+        tile = build_tile(realisation(recipe["surface"], r))
+        with PeriodicScene(tile, threads) as scene:
+            g1, _ = measure_g1(scene, np.radians(thetas_deg), math.radians(phi_deg), n,
+                               np.random.default_rng(np.random.SeedSequence(
+                                   seed, spawn_key=(r,))))
+            segments += scene.segments
+        hits.append(np.round(g1 * n)[:, None])
+        infos.append(dict(tile.info))
+        del tile
+    s1 = np.array(hits)                                  # (K, angles, 1); x² = x
+    e = estimate(s1, s1, np.full(k, n))
     return {"theta_deg": list(map(float, thetas_deg)), "phi_deg": float(phi_deg),
-            "g1": g1.tolist(), "stderr": err.tolist(), "rays": rays, "seed": seed,
-            "surface": dict(tile.info), "segments": segments,
-            "wall_time": time.perf_counter() - start}
+            "g1": e.mean[:, 0].tolist(), "stderr": e.stderr[:, 0].tolist(),
+            "ray_stderr": e.ray_stderr[:, 0].tolist(), "dof": float(e.dof[0]),
+            "error_model": "ensemble" if k > 1 else "rays", "realisations": k,
+            "rays": n * k, "seed": seed,
+            "surface": pool_info(infos, [realisation_seed(recipe["surface"].get("seed", 0),
+                                                          r) for r in range(k)]),
+            "segments": segments, "wall_time": time.perf_counter() - start}

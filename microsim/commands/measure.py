@@ -11,12 +11,15 @@ from microsim import recipe
 from microsim.cli import (
     Parser,
     add_json_arg,
+    add_realisations_arg,
     add_recipe_args,
     add_seed_arg,
     add_threads_arg,
+    error_model_note,
     number_list,
     positive_int,
     print_json,
+    realisations_override,
     seed_override,
 )
 from microsim.errors import InputError
@@ -37,14 +40,17 @@ def register(sub: argparse._SubParsersAction) -> None:
         "g1", help="masking G1 by tracing, against Smith at the realised alpha",
         description="Sample points on the tile with density proportional to area times "
                     "<w, n>+, trace towards w through the periodic tile, and report the "
-                    "unoccluded fraction G1(theta) with its binomial standard error, next "
-                    "to Smith's G1 (Beckmann, realised alpha). Angles in degrees.")
+                    "unoccluded fraction G1(theta), next to Smith's G1 (Beckmann, realised "
+                    "alpha pooled over the tiles). Over several surface realisations the "
+                    "standard error is the ensemble's (batch means); over one tile it is "
+                    "binomial. Angles in degrees.")
     add_recipe_args(g)
     g.add_argument("--theta", type=degree_list, default=[0.0, 30.0, 60.0, 80.0, 89.0],
                    help="polar angles, degrees, comma-separated (default 0,30,60,80,89)")
     g.add_argument("--phi", type=float, default=0.0, help="azimuth, degrees (default 0)")
     g.add_argument("--rays", type=positive_int, default=100_000,
-                   help="rays per angle (default 100000)")
+                   help="rays per angle over all realisations (default 100000)")
+    add_realisations_arg(g)
     add_threads_arg(g)
     add_seed_arg(g, "simulation")
     add_json_arg(g)
@@ -53,11 +59,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         "ndf", help="area-weighted histogram of facet normals, against Beckmann",
         description="The distribution of facet normals as an NDF normalised like the "
                     "analytic D (integral of D cos theta_h over the hemisphere = 1), per "
-                    "theta_h bin with standard errors from 4 x 4 sub-tiles, against "
-                    "Beckmann at the realised alpha.")
+                    "theta_h bin, against Beckmann at the realised alpha (pooled over the "
+                    "tiles). Over several surface realisations: their mean, with the "
+                    "ensemble's standard errors; over one tile: errors from 4 x 4 "
+                    "sub-tiles.")
     add_recipe_args(n)
     n.add_argument("--bins", type=positive_int, default=30, help="theta_h bins (default 30)")
     n.add_argument("--plot", default=None, metavar="PNG", help="also draw it")
+    add_realisations_arg(n)
     add_seed_arg(n, "surface")
     add_json_arg(n)
     n.set_defaults(func=run_ndf)
@@ -84,7 +93,8 @@ def run_g1(args: argparse.Namespace) -> int:
 
     if not math.isfinite(args.phi):
         raise InputError(f"--phi {args.phi}: must be a finite angle in degrees")
-    resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "simulation")])
+    resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "simulation"),
+                                         *realisations_override(args)])
     inside = [part for part, m in resolved["material"].items() if m.get("refract")]
     if inside:
         print(f"warning: part {inside[0]!r} refracts: G1 samples every face, also those "
@@ -98,10 +108,14 @@ def run_g1(args: argparse.Namespace) -> int:
         local_phi = math.radians(args.phi - info.get("rotation_deg", 0.0))
         smith = model.G1(direction(np.radians(args.theta), local_phi)).tolist()
     out = {"theta": result["theta_deg"], "phi": result["phi_deg"], "g1": result["g1"],
-           "g1_stderr": result["stderr"], "smith": smith,
-           "alpha_realised": info.get("alpha_realised"), "alpha_target": info.get(
-               "alpha_target"), "rays": result["rays"], "seed": result["seed"],
-           "segments": result["segments"], "wall_s": result["wall_time"]}
+           "g1_stderr": result["stderr"], "g1_ray_stderr": result["ray_stderr"],
+           "dof": result["dof"], "error_model": result["error_model"],
+           "realisations": result["realisations"], "smith": smith,
+           "alpha_realised": info.get("alpha_realised"),
+           "alpha_realised_stderr": info.get("alpha_realised_stderr"),
+           "alpha_target": info.get("alpha_target"), "rays": result["rays"],
+           "seed": result["seed"], "segments": result["segments"],
+           "wall_s": result["wall_time"]}
     if args.json:
         print_json(out)
         return 0
@@ -111,9 +125,20 @@ def run_g1(args: argparse.Namespace) -> int:
         s = "" if smith is None else f"{smith[k]:9.5f}"
         z = "" if smith is None or e == 0 else f"{(g - smith[k]) / e:9.2f}"
         print(f"{theta:6.1f} {g:9.5f} {e:9.5f} {s:>9} {z:>9}")
-    print(f"alpha realised {out['alpha_realised']} (target {out['alpha_target']}), "
+    print(f"alpha realised {_alpha_text(info)} (target {out['alpha_target']}), "
           f"{out['rays']:,} rays per angle, {out['wall_s']:.1f} s")
+    print(error_model_note(out["error_model"], out["realisations"])
+          + (f"; diff/err is Student-t with {out['dof']:.0f} degrees of freedom"
+             if out["error_model"] == "ensemble" else ""))
     return 0
+
+
+def _alpha_text(info: dict[str, Any]) -> str:
+    """The realised roughness, with its standard error over realisations when pooled."""
+    alpha, err = info.get("alpha_realised"), info.get("alpha_realised_stderr")
+    if err is None or isinstance(alpha, list):
+        return f"{alpha}"
+    return f"{alpha:.5f} ± {err:.5f} (pooled over {info['realisations']} tiles)"
 
 
 def run_ndf(args: argparse.Namespace) -> int:
@@ -122,24 +147,27 @@ def run_ndf(args: argparse.Namespace) -> int:
 
     from microsim.analytic.ndf import Beckmann
     from microsim.compare import ndf_bin_average
-    from microsim.surfaces import build_tile
+    from microsim.facets import measure_ndf_recipe
 
-    resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "surface")])
-    tile = build_tile(resolved["surface"])
-    alpha = tile.info.get("alpha_realised")
+    resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "surface"),
+                                         *realisations_override(args)])
+    m = measure_ndf_recipe(resolved, args.bins)
+    info = m["surface"]
+    alpha = info.get("alpha_realised")
     iso = alpha if isinstance(alpha, float) else None
-    theta_max = math.atan(3.5 * iso) if iso is not None else math.radians(89.0)
-    m = tile.ndf_histogram(args.bins, theta_max)
     model = None if iso is None else ndf_bin_average(Beckmann(iso), m["edges"])
     centres = np.degrees(0.5 * (m["edges"][1:] + m["edges"][:-1]))
-    out = {"theta_h": centres, "D": m["D"], "stderr": m["stderr"],
+    out = {"theta_h": centres, "D": m["D"], "stderr": m["stderr"], "dof": m["dof"],
+           "error_model": m["error_model"], "realisations": m["realisations"],
            "beckmann": model, "alpha_realised": alpha,
-           "alpha_target": tile.info.get("alpha_target"), "bins": args.bins}
+           "alpha_realised_stderr": info.get("alpha_realised_stderr"),
+           "alpha_target": info.get("alpha_target"), "bins": args.bins}
     if args.plot:
         from microsim.plots import ndf_plot
 
         ndf_plot(centres, m["D"], m["stderr"], model, args.plot,
-                 title=f"{resolved['surface']['kind']} surface, alpha realised {alpha}")
+                 title=f"{resolved['surface']['kind']} surface, alpha realised "
+                       f"{_alpha_text(info)}")
         out["plot"] = args.plot
     if args.json:
         print_json(out)
@@ -149,5 +177,8 @@ def run_ndf(args: argparse.Namespace) -> int:
         b = "" if model is None else f"{model[k]:11.5g}"
         r = "" if model is None or model[k] == 0 else f"{m['D'][k] / model[k]:7.3f}"
         print(f"{c:8.2f} {m['D'][k]:11.5g} {m['stderr'][k]:10.3g} {b:>11} {r:>7}")
-    print(f"alpha realised {alpha} (target {tile.info.get('alpha_target')})")
+    print(f"alpha realised {_alpha_text(info)} (target {info.get('alpha_target')})")
+    note = ("errors: from 4 x 4 sub-tiles of one tile" if m["error_model"] != "ensemble"
+            else error_model_note(m["error_model"], m["realisations"]))
+    print(note)
     return 0

@@ -19,7 +19,9 @@ both and the measurements that choose between them):
 
 - **batch means**, s² = Σ (m_r − μ̂)² / (K (K − 1)): unbiased for Var(μ̂) whatever the
   n_r (E Σ (m_r − μ̂)² = (1 − 1/K) Σ Var m_r for independent m_r of one mean), with
-  d = K − 1 degrees of freedom, so (μ̂ − μ)/s is Student-t with K − 1 degrees of freedom;
+  d = K − 1 degrees of freedom, so (μ̂ − μ)/s is Student-t with K − 1 degrees of freedom.
+  It is floored at the ray part u (below), which it exceeds in expectation: realisations
+  that tie (equal hit counts in a dim bin) would otherwise report a zero error;
 - **moderated** (for families of similar quantities, the bins of one incidence): the
   ratio of s² to the ray part u = Σ v_r / K² (known to many degrees of freedom) is the
   variance inflation the surface adds. Over the bins of one incidence it is nearly one
@@ -165,53 +167,97 @@ def estimate(s1: np.ndarray, s2: np.ndarray, rays: np.ndarray,
     Returns
     -------
     Estimate
+        A single realisation's variance has its rays − 1 degrees of freedom.
     """
-    s1, s2 = np.asarray(s1, float), np.asarray(s2, float)
     rays = np.asarray(rays, np.int64)
-    present = rays > 0
+    m, v = realisation_moments(np.asarray(s1, float), np.asarray(s2, float), rays)
+    return combine(m, v, np.where(rays > 0, rays, 0).sum(axis=0) - 1.0, pool)
+
+
+def combine(m: np.ndarray, v: np.ndarray, dof_one: np.ndarray | float,
+            pool: np.ndarray | None = None) -> Estimate:
+    """The ensemble mean of realisations' estimates and its standard error.
+
+    Parameters
+    ----------
+    m, v : (K, ..., m, c) float
+        Each realisation's estimate and its within-realisation variance (the ray part, or
+        any variance estimate given the realisation); NaN rows of ``m`` mark absent
+        realisations, NaN in ``v`` an unknown variance.
+    dof_one : (...) float
+        Degrees of freedom of ``v`` where one realisation is present.
+    pool : (..., m, c) bool or None
+        As for ``estimate``.
+
+    Returns
+    -------
+    Estimate
+    """
+    present = ~np.isnan(m).all(axis=(-2, -1))
     k = present.sum(axis=0)                                                   # (...)
-    m, v = realisation_moments(s1, s2, rays)
     with np.errstate(invalid="ignore", divide="ignore"):
         kk = k[..., None, None].astype(float)
         mean = np.nansum(m, axis=0) / kk
         ray_var = np.nansum(v, axis=0) / kk**2
         ray_var = np.where(np.isnan(v).all(axis=0), np.nan, ray_var)
         spread = np.nansum((m - mean) ** 2, axis=0) / (kk * (kk - 1))
+    # batch means floored at the ray variance: realisations that tie (equal hit counts in
+    # a dim bin) must not report a zero error; E[s²] is never below the ray part
     one = (k == 1)[..., None, None]
-    stderr_sq = np.where(one, ray_var, spread)
-    n_one = np.where(present, rays, 0).sum(axis=0)
-    dof = np.where(k == 1, np.minimum(n_one - 1, DOF_MAX), k - 1).astype(float)
+    stderr_sq = np.where(one, ray_var, np.fmax(spread, ray_var))
+    dof = np.where(k == 1, np.minimum(dof_one, DOF_MAX), k - 1).astype(float)
     dof = np.broadcast_to(dof[..., None], mean.shape[:-2] + mean.shape[-1:]).copy()
     inflation = np.full(dof.shape, np.nan)
     if pool is not None:
-        _moderate(stderr_sq, ray_var, k, np.asarray(pool, bool), dof, inflation)
+        _moderate(stderr_sq, spread, ray_var, m, v, k, np.asarray(pool, bool), dof,
+                  inflation)
     undefined = np.isnan(ray_var) | (k[..., None, None] < 1)
     stderr = np.where(undefined, np.nan, np.sqrt(stderr_sq))
     return Estimate(mean, stderr, np.sqrt(ray_var), dof, inflation, k)
 
 
-def _moderate(var: np.ndarray, ray_var: np.ndarray, k: np.ndarray, pool: np.ndarray,
-              dof: np.ndarray, inflation: np.ndarray) -> None:
-    """Replace the batch-means variances ``var`` (..., m, c) by Smyth's posterior
-    variances where a group (leading index, column) has at least two pooled ratios and
-    K ≥ 2; ``dof`` and ``inflation`` (..., c) are filled in for those groups."""
-    lead = var.shape[:-2]
-    for index in np.ndindex(*lead):
-        d = int(k[index]) - 1
-        if d < 1:
+def _moderate(var: np.ndarray, spread: np.ndarray, ray_var: np.ndarray, m: np.ndarray,
+              v: np.ndarray, k: np.ndarray, pool: np.ndarray, dof: np.ndarray,
+              inflation: np.ndarray) -> None:
+    """Replace the variances ``var`` (..., m, c) by Smyth's posterior variances from the
+    batch means ``spread`` (not floored: the fit needs their χ² scatter) where a group
+    (leading index, column) has K ≥ 3 and at least two pooled ratios; ``dof`` and
+    ``inflation`` (..., c) are filled in for those groups.
+
+    The degrees of freedom combine the prior's and the sample's, d0 + d, with the
+    uncertainty of the pooled ρ0 itself: the bins of one incidence share their tiles, so
+    their ratios are not independent, and ρ0 is known to ν_ρ = 2 / Var_J(log ρ0) degrees of
+    freedom, Var_J the jackknife variance over realisations (Efron & Stein 1981, Ann.
+    Stat. 9(3), 586). The posterior variance w ρ0 u + (1 − w) s², w = d0 / (d0 + d), then
+    has relative variance 2 / (d0 + d) + w² 2 / ν_ρ (Satterthwaite 1946, Biometrics
+    Bull. 2(6), 110), i.e. 1/ν = 1/(d0 + d) + w²/ν_ρ.
+    """
+    for index in np.ndindex(*var.shape[:-2]):
+        kk = int(k[index])
+        if kk < 3:
             continue
+        d = kk - 1
+        rows = np.flatnonzero(np.isfinite(m[(slice(None),) + index][:, 0, 0]))
         for c in range(var.shape[-1]):
-            s2, u = var[index][:, c], ray_var[index][:, c]
-            with np.errstate(invalid="ignore", divide="ignore"):
-                ratio = s2 / u
-            use = pool[index][:, c] & np.isfinite(ratio) & (ratio > 0)
+            s2, u = spread[index][:, c], ray_var[index][:, c]
+            use = pool[index][:, c] & np.isfinite(s2 / np.where(u > 0, u, np.nan)) & (s2 > 0)
             if use.sum() < 2:
                 continue
-            rho0, d0 = moderation_prior(ratio[use], d)
-            if math.isinf(d0):
-                var[index][:, c] = rho0 * u
-                dof[index][c] = DOF_MAX
-            else:
-                var[index][:, c] = (d0 * rho0 * u + d * s2) / (d0 + d)
-                dof[index][c] = min(d0 + d, DOF_MAX)
+            rho0, d0 = moderation_prior(s2[use] / u[use], d)
+            mc = m[(rows,) + index][:, use, c]                          # (K, g)
+            vc = np.nan_to_num(v[(rows,) + index][:, use, c])
+            logs = []
+            for r in range(kk):
+                rest = np.delete(np.arange(kk), r)
+                s2_r = mc[rest].var(axis=0, ddof=1) / (kk - 1)
+                u_r = vc[rest].sum(axis=0) / (kk - 1) ** 2
+                ok = (s2_r > 0) & (u_r > 0)
+                if ok.sum() >= 2:
+                    logs.append(math.log(moderation_prior(s2_r[ok] / u_r[ok], d - 1)[0]))
+            jack = (kk - 1) / kk * float(np.sum((np.array(logs) - np.mean(logs)) ** 2)) \
+                if len(logs) == kk else math.inf
+            w = 1.0 if math.isinf(d0) else d0 / (d0 + d)
+            prior = 0.0 if math.isinf(d0) else 1.0 / (d0 + d)
+            dof[index][c] = min(1.0 / max(prior + w * w * jack / 2, 1.0 / DOF_MAX), DOF_MAX)
+            var[index][:, c] = w * rho0 * u + (1.0 - w) * s2
             inflation[index][c] = rho0

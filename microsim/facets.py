@@ -1,0 +1,65 @@
+"""The facet-normal distribution of a recipe's surface, over its realisations.
+
+Each realisation's tile gives an NDF histogram with errors from its 4 × 4 sub-tiles
+(``Tile.ndf_histogram``: batch means over sub-tiles, which sample the surface's spread when
+they are many correlation lengths wide). Over K realisations the histogram is their mean,
+and its error the ensemble estimator of ``microsim.tables.estimator.combine`` with the
+sub-tile variance in the role of the within-realisation variance: batch means over the
+realisations, moderated across the θh bins. docs/goniometer.md has the derivation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from microsim.surfaces import build_tile
+from microsim.surfaces.realisations import pool_info, realisation, realisation_seed
+from microsim.tables.estimator import ENSEMBLE, combine
+
+SUB_TILES = 4
+"""Sub-tiles per side of each realisation's own error estimate."""
+SUB_TILES_MODEL = "sub-tiles"
+"""Error model of one realisation's histogram: the scatter of its sub-tiles."""
+
+
+def measure_ndf_recipe(recipe: Mapping[str, Any], bins: int) -> dict[str, Any]:
+    """The NDF histogram of a recipe's surface over ``simulation.realisations`` tiles.
+
+    Parameters
+    ----------
+    recipe : mapping
+        A resolved recipe.
+    bins : int
+        θh bins, uniform over [0, θmax]: θmax = atan(3.5 α) for the isotropic realised
+        roughness α of realisation 0, else 89°.
+
+    Returns
+    -------
+    dict
+        ``edges`` (bins + 1,) radians, ``D``, ``stderr`` (bins,) 1/sr (NaN error where no
+        facet fell), ``dof`` (of the variance estimate), ``error_model`` (``sub-tiles``
+        for one realisation, ``ensemble`` for more), ``realisations``, ``surface`` (the
+        pooled info).
+    """
+    k = int(recipe["simulation"].get("realisations", 1))
+    histograms, infos, theta_max = [], [], None
+    for r in range(k):
+        tile = build_tile(realisation(recipe["surface"], r))
+        if theta_max is None:
+            alpha = tile.info.get("alpha_realised")
+            theta_max = math.atan(3.5 * alpha) if isinstance(alpha, float) else math.radians(
+                89.0)
+        histograms.append(tile.ndf_histogram(bins, theta_max, SUB_TILES))
+        infos.append(dict(tile.info))
+        del tile
+    d = np.array([h["D"] for h in histograms])[..., None]                # (K, bins, 1)
+    v = np.array([h["stderr"] for h in histograms])[..., None] ** 2
+    e = combine(d, v, SUB_TILES**2 - 1.0, np.isfinite(v).all(axis=0) if k > 1 else None)
+    seeds = [realisation_seed(recipe["surface"].get("seed", 0), r) for r in range(k)]
+    return {"edges": histograms[0]["edges"], "D": e.mean[:, 0], "stderr": e.stderr[:, 0],
+            "dof": float(e.dof[0]), "error_model": ENSEMBLE if k > 1 else SUB_TILES_MODEL,
+            "realisations": k, "surface": pool_info(infos, seeds)}
