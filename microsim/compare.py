@@ -106,7 +106,26 @@ def bin_average(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
     return f.mean(axis=(2, 3))
 
 
-def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray
+NORMAL_DOF = 1e5
+"""Above this many degrees of freedom a Student-t z-score is taken as normal."""
+
+
+def normal_z(t: np.ndarray, dof: np.ndarray | float) -> np.ndarray:
+    """The standard normal quantile with the probability of a Student-t score:
+    Φ⁻¹(F_ν(t)), so z-scores of errors with few degrees of freedom (an ensemble of few
+    realisations, ``microsim.tables.estimator``) have unit spread under the null."""
+    dof = np.broadcast_to(np.asarray(dof, float), np.shape(t))
+    if np.all(dof >= NORMAL_DOF):
+        return np.asarray(t, float)
+    from scipy import stats
+
+    # through the smaller tail, so large |t| keep their precision
+    p = stats.t.sf(np.abs(t), dof)
+    return np.where(dof >= NORMAL_DOF, t, np.sign(t) * stats.norm.isf(p))
+
+
+def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
+                   dof: np.ndarray | float = np.inf
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Relative errors and z-scores over the model's lobe bins.
 
@@ -114,24 +133,28 @@ def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray
     ----------
     sim, err, model : (nt, np, 3) float
         Simulated f_r, its standard error (NaN where undefined), the model's bin average.
+    dof : (3,) float or float
+        Degrees of freedom of the errors per channel (``BRDFTable.dof``); the z-scores
+        are Student-t scores mapped to normal ones (``normal_z``).
 
     Returns
     -------
     rel : (k,) float
         |sim − model| / model over lobe bins (model ≥ 10% of its peak, per channel).
     z : (j,) float
-        (sim − model) / stderr over lobe bins with a defined, non-zero error.
+        normal_z((sim − model) / stderr) over lobe bins with a defined, non-zero error.
     lobe : (nt, np, 3) bool
     """
     peak = model.max(axis=(0, 1), keepdims=True)
     lobe = model >= LOBE_FRACTION * np.where(peak > 0, peak, np.inf)
     rel = np.abs(sim - model)[lobe] / model[lobe]
     ok = lobe & np.isfinite(err) & (err > 0)
-    return rel, (sim - model)[ok] / err[ok], lobe
+    nu = np.broadcast_to(np.asarray(dof, float), sim.shape)
+    return rel, normal_z((sim - model)[ok] / err[ok], nu[ok]), lobe
 
 
 def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
-            proj: np.ndarray) -> dict[str, Any]:
+            proj: np.ndarray, dof: np.ndarray | float = np.inf) -> dict[str, Any]:
     """Error metrics of one incidence's simulated bins against the model's bin averages.
 
     Parameters
@@ -140,6 +163,8 @@ def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         Simulated f_r, its standard error (NaN where undefined), the model's bin average.
     proj : (nt, np) float
         Projected solid angle of each bin, sr.
+    dof : (3,) float or float
+        Degrees of freedom of the errors (``lobe_residuals``).
 
     Returns
     -------
@@ -149,7 +174,7 @@ def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         (sim − model)/stderr over lobe bins with a defined, non-zero error, ``lobe_bins``,
         ``albedo_sim`` and ``albedo_model`` per channel (Σ f_r Ω_proj), and their difference.
     """
-    rel, z, lobe = lobe_residuals(sim, err, model)
+    rel, z, lobe = lobe_residuals(sim, err, model, dof)
     albedo_sim = (sim * proj[..., None]).sum(axis=(0, 1))
     albedo_model = (model * proj[..., None]).sum(axis=(0, 1))
     nan = float("nan")
@@ -298,7 +323,10 @@ def compare_table(table: Any, model: Model, component: str = "total") -> dict[st
     -------
     dict
         ``median_rel_error``, ``p90_rel_error``, ``z_mean``, ``z_std`` pooled over every
-        incidence's lobe bins; ``per_theta_i``: one row per incident direction with
+        incidence's lobe bins (z normal scores: ``lobe_residuals``); ``error_model``,
+        ``realisations`` (the most of any incidence) and ``dof`` (the fewest degrees of
+        freedom of a bin's error) of the table; ``per_theta_i``: one row per incident
+        direction with
         ``theta_i``, ``phi_i`` (degrees), the ``metrics`` keys and
         ``multiple_scattering_share`` (the share of the escaping energy scattered more
         than once: what a single-scattering model leaves out); ``model`` (per-bin bin
@@ -315,10 +343,11 @@ def compare_table(table: Any, model: Model, component: str = "total") -> dict[st
                               table.bins.phi_edges, phi if table.isotropic else 0.0)
             averages[a, b] = avg
             sim, err = table.values[component][a, b], table.errors[component][a, b]
-            rel, z, _ = lobe_residuals(sim, err, avg)
+            dof = table.dof[component][a, b]
+            rel, z, _ = lobe_residuals(sim, err, avg, dof)
             rels.append(rel)
             zs.append(z)
-            m = metrics(sim, err, avg, table.bins.projected_solid_angle)
+            m = metrics(sim, err, avg, table.bins.projected_solid_angle, dof)
             total = table.albedo_of["total"][a, b].mean()
             single = table.albedo_of["single"][a, b].mean()
             m.update(theta_i=float(np.degrees(theta)), phi_i=float(np.degrees(phi)),
@@ -332,6 +361,9 @@ def compare_table(table: Any, model: Model, component: str = "total") -> dict[st
         "p90_rel_error": float(np.percentile(rel, 90)) if rel.size else nan,
         "z_mean": float(z.mean()) if z.size else nan,
         "z_std": float(z.std(ddof=1)) if z.size > 1 else nan,
+        "error_model": table.error_model,
+        "realisations": int(table.realisations.max()),
+        "dof": float(table.dof[component].min()),
         "per_theta_i": rows,
         "model": averages,
     }

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from microsim.cli import add_json_arg, print_json
+from microsim.cli import add_json_arg, error_model_note, print_json
 
 PLOTS = {
     "incidence_plane": "incidence-plane.png",
@@ -60,6 +60,7 @@ def write_report(out: Path, result: dict[str, Any], title: str) -> Path:
              f"(p90 {100 * result['p90_rel_error']:.2f}%) over lobe bins; z = (sim − model) "
              f"/ stderr has mean {result['z_mean']:.2f} and spread {result['z_std']:.2f} "
              "(noise alone gives 0 and 1).", "",
+             error_model_note(result["error_model"], result["realisations"]) + ".", "",
              "| θi (°) | φi (°) | median rel | p90 rel | RMS (1/sr) | z mean | z std | "
              "albedo sim | albedo model | multiple scattering |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
@@ -120,6 +121,7 @@ def run(args: argparse.Namespace) -> int:
               f"{100 * r['multiple_scattering_share']:8.2f}%")
     print(f"overall: median relative error {100 * result['median_rel_error']:.2f}%, z mean "
           f"{result['z_mean']:.2f}, z std {result['z_std']:.2f}")
+    print(error_model_note(result["error_model"], result["realisations"]))
     if "report" in result:
         print(f"wrote {result['report']}")
     return 0

@@ -13,6 +13,7 @@ from microsim.cli import (
     add_json_arg,
     add_seed_arg,
     add_threads_arg,
+    error_model_note,
     positive_int,
     print_json,
     seed_override,
@@ -35,7 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", type=Path, default=Path("tables") / "demo.exr",
                    help="table file (default: tables/demo.exr)")
     p.add_argument("--rays", type=positive_int, default=None,
-                   help="rays per incident direction (default: the recipe's)")
+                   help="rays per incident direction over all realisations (default: the "
+                        "recipe's)")
     p.add_argument("--plot", type=Path, default=None, metavar="PNG",
                    help="also draw the plane of incidence, simulation against model")
     add_threads_arg(p)
@@ -49,9 +51,11 @@ def comparison(table: Any) -> dict[str, Any]:
     from microsim.compare import compare_table, microfacet_model
 
     result = compare_table(table, microfacet_model(table.meta), "single")
+    surface = table.meta["surface"]
     return {"model": "torrance-sparrow:ndf=beckmann,shadowing=smith-correlated",
-            "alpha_realised": table.meta["surface"]["alpha_realised"],
-            "alpha_target": table.meta["surface"]["alpha_target"], **result}
+            "alpha_realised": surface["alpha_realised"],
+            "alpha_realised_stderr": surface.get("alpha_realised_stderr"),
+            "alpha_target": surface["alpha_target"], **result}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -93,6 +97,7 @@ def run(args: argparse.Namespace) -> int:
     print("(relative errors over lobe bins, model >= 10% of its peak; z = (sim - model) / "
           "stderr; multiple = share of the escaping energy scattered more than once, "
           "which the model leaves out)")
+    print(error_model_note(c["error_model"], c["realisations"]))
     if "plot" in result:
         print(f"wrote {result['plot']}")
     return 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from microsim.cli import add_json_arg, print_json
+from microsim.cli import add_json_arg, error_model_note, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -41,6 +41,9 @@ def run(args: argparse.Namespace) -> int:
     if not table.isotropic:
         raise InputError(f"{args.table}: fitting takes isotropic tables")
     result = fit_table(table, args.model, args.component)
+    result.update(error_model=table.error_model,
+                  realisations=int(table.realisations.max()),
+                  alpha_realised=table.meta.get("surface", {}).get("alpha_realised"))
     result.pop("fitted")
     bins = result.pop("model_bins")
     if args.plot is not None:
@@ -60,4 +63,9 @@ def run(args: argparse.Namespace) -> int:
     for row in result["per_theta_i"]:
         print(f"  theta_i {row['theta_i']:5.1f}: albedo fit "
               f"{sum(row['albedo_fit']) / 3:.4f}, table {sum(row['albedo_table']) / 3:.4f}")
+    if result["alpha_realised"] is not None:
+        print(f"  the surface's realised alpha (pooled over its tiles): "
+              f"{result['alpha_realised']}")
+    print("  " + error_model_note(result["error_model"], result["realisations"])
+          .replace("z-scores", "chi^2 and the uncertainties"))
     return 0

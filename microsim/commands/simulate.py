@@ -10,9 +10,11 @@ from typing import Any
 from microsim import recipe
 from microsim.cli import (
     add_json_arg,
+    add_realisations_arg,
     add_recipe_args,
     add_seed_arg,
     add_threads_arg,
+    error_model_note,
     positive_int,
     print_json,
 )
@@ -22,12 +24,18 @@ from microsim.errors import InputError
 def add_tracing_args(p: argparse.ArgumentParser) -> None:
     """Flags shared by the commands that run the goniophotometer."""
     p.add_argument("--rays", type=positive_int, default=None,
-                   help="rays per incident direction (overrides simulation.rays)")
+                   help="rays per incident direction over all realisations (overrides "
+                        "simulation.rays)")
+    add_realisations_arg(p)
     p.add_argument("--target-error", type=float, default=None, metavar="E",
-                   help="adaptive stop: add batches until the median relative standard "
-                        "error over lobe bins is <= E (0 < E <= 1), or --max-rays")
+                   help="adaptive stop: add rays and realisations until the median "
+                        "relative standard error over lobe bins (of the ensemble) is <= E "
+                        "(0 < E <= 1), or --max-rays or --max-realisations")
     p.add_argument("--max-rays", type=positive_int, default=None,
                    help="adaptive stop: at most this many rays per incident direction")
+    p.add_argument("--max-realisations", type=positive_int, default=None,
+                   help="adaptive stop: at most this many realisations per incident "
+                        "direction")
     add_threads_arg(p)
     add_seed_arg(p, "simulation")
 
@@ -35,8 +43,9 @@ def add_tracing_args(p: argparse.ArgumentParser) -> None:
 def tracing_overrides(args: argparse.Namespace) -> list[str]:
     """``--set`` strings for the tracing flags that were given (validated by the schema)."""
     out = []
-    for flag, key in (("rays", "rays"), ("target_error", "target_error"),
-                      ("max_rays", "max_rays"), ("seed", "seed")):
+    for flag, key in (("rays", "rays"), ("realisations", "realisations"),
+                      ("target_error", "target_error"), ("max_rays", "max_rays"),
+                      ("max_realisations", "max_realisations"), ("seed", "seed")):
         value = getattr(args, flag)
         if value is not None:
             out.append(f"simulation.{key}={value!r}")
@@ -93,23 +102,33 @@ def summary(table: Any, output: Path | None) -> dict[str, Any]:
         "median_rel_error": table.median_rel_error("total"),
         "sh_order": table.sh_order,
         "stop": [d["stop"] for d in meta["directions"]],
+        "realisations_per_direction": [d["realisations"] for d in meta["directions"]],
+        "ray_share": [d["ray_share"] for d in meta["directions"]],
+        "error_model": table.error_model,
+        "realisations": int(table.realisations.max()),
         "surface": meta["surface"],
     }
 
 
 def print_summary(s: dict[str, Any]) -> None:
     """Aligned text for people."""
-    print(f"{'theta_i':>8} {'phi_i':>6} {'rays':>11} {'albedo':>17} {'single':>8} "
-          f"{'lost':>9}  stop")
+    print(f"{'theta_i':>8} {'phi_i':>6} {'rays':>11} {'tiles':>5} {'albedo':>17} "
+          f"{'single':>8} {'lost':>9} {'ray share':>9}  stop")
     for k, theta in enumerate(s["theta_i"]):
         a, e = s["albedo"][k].mean(), s["albedo_err"][k].mean()
         print(f"{theta:8.1f} {s['phi_i'][k]:6.1f} {s['rays_per_direction'][k]:11,d} "
-              f"{a:9.5f} ± {e:.5f} {s['single_albedo'][k].mean():8.5f} "
-              f"{s['lost_energy'][k].mean():9.2e}  {s['stop'][k]}")
+              f"{s['realisations_per_direction'][k]:5d} {a:9.5f} ± {e:.5f} "
+              f"{s['single_albedo'][k].mean():8.5f} {s['lost_energy'][k].mean():9.2e} "
+              f"{100 * s['ray_share'][k]:8.0f}%  {s['stop'][k]}")
+    print("(tiles: surface realisations averaged; ray share: the rays' part of the "
+          "variance of the lobe bins, the rest is the spread between tiles)")
     surface = s["surface"]
     if "alpha_realised" in surface:
+        pooled = "" if s["realisations"] == 1 else (
+            f" ± {surface['alpha_realised_stderr']} pooled over {s['realisations']} tiles")
         print(f"surface: alpha target {surface['alpha_target']}, realised "
-              f"{surface['alpha_realised']} (from facet slopes)")
+              f"{surface['alpha_realised']}{pooled} (from facet slopes)")
+    print(error_model_note(s["error_model"], s["realisations"]))
     print(f"{s['rays']:,} rays, {s['segments']:,} segments in {s['wall_s']:.1f} s "
           f"({s['segments_per_s']:,.0f} segments/s); median relative error over lobe "
           f"bins {100 * s['median_rel_error']:.2f}%")
