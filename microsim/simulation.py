@@ -131,10 +131,11 @@ def _next_plan(realisations: int, rays: int, rel: float, share: float,
         n1 = min(max(math.sqrt(r_coef * tile_cost / t_coef) if t_coef > 0 else math.inf, n),
                  GROWTH * n)
         k1 = min(max(math.ceil((r_coef / n1 + t_coef) / goal), k + 1), GROWTH * k)
-        if k1 > most_real:  # fewer realisations than wished: more rays make up
+        if k1 > most_real:  # fewer realisations than wished: more rays make up, if they can
             k1 = most_real
-            need = r_coef / (k1 * goal - t_coef) if k1 * goal > t_coef else math.inf
-            n1 = min(max(need, n), GROWTH * n)
+            if k1 * goal <= t_coef:  # the tiles' spread alone exceeds the target
+                return "max_realisations" if k1 == k else (k1, n)
+            n1 = min(max(r_coef / (k1 * goal - t_coef), n), GROWTH * n)
     n1 = n + math.ceil(max(n1 - n, 0.0) / BATCH) * BATCH  # whole batches added
     bound = "max_realisations" if k1 >= most_real and k1 > k else None
     if k1 * n1 > most_rays:

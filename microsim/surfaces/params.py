@@ -101,7 +101,7 @@ def _gaussian_realisations(s: dict[str, Any]) -> int:
     return max(1, min(MAX_DEFAULT_REALISATIONS, math.ceil(ENSEMBLE_AREAS / areas - 1e-9)))
 
 
-VELVET_REALISATIONS = 8
+VELVET_REALISATIONS = 4
 """Default realisations of a velvet tile (docs/goniometer.md: measured on velvet.toml)."""
 PAINT_REALISATIONS = 8
 """Default realisations of a paint tile with particles or a rough top (measured on

@@ -109,13 +109,18 @@ def realisation_moments(s1: np.ndarray, s2: np.ndarray, rays: np.ndarray
 
 
 def inverse_trigamma(x: float) -> float:
-    """y with ψ'(y) = x > 0, by Newton's method on 1/ψ' (Smyth 2004, appendix)."""
+    """y with ψ'(y) = x > 0, by Newton's method on 1/ψ', which is nearly linear (Smyth
+    2004, appendix; ψ'(y) ≈ 1/y for large y and 1/y² for small y)."""
+    if x > 1e7:
+        return 1.0 / math.sqrt(x)
+    if x < 1e-6:
+        return 1.0 / x
     y = 0.5 + 1.0 / x
     for _ in range(50):
         tri = float(polygamma(1, y))
         step = tri * (1.0 - tri / x) / float(polygamma(2, y))
-        y -= step
-        if -step / y < 1e-10:
+        y += step
+        if -step / y < 1e-12:
             break
     return y
 
@@ -124,10 +129,12 @@ def moderation_prior(ratio: np.ndarray, d: int) -> tuple[float, float]:
     """Smyth's (2004, sec. 6.2) prior fitted to sample variances with ``d`` degrees of
     freedom, here variance ratios s²/u.
 
-    With e = log(ratio) − ψ(d/2) + log(d/2), E[e] = log ρ0 + ψ(d0/2) − log(d0/2) and
-    Var[e] = ψ'(d/2) + ψ'(d0/2): d0 solves ψ'(d0/2) = var(e) − ψ'(d/2) (infinite when the
-    right side is not positive: the ratios scatter no more than sampling alone makes them),
-    then ρ0 = exp(mean(e) − ψ(d0/2) + log(d0/2)).
+    A ratio is ρ_b χ²_d / d with the bin's own inflation ρ_b = ρ0 d0 / χ²_d0. With
+    e = log(ratio) − ψ(d/2) + log(d/2) (E log(χ²_d / d) = ψ(d/2) − log(d/2)),
+    E[e] = E[log ρ_b] = log ρ0 − ψ(d0/2) + log(d0/2) and Var[e] = ψ'(d/2) + ψ'(d0/2): d0
+    solves ψ'(d0/2) = var(e) − ψ'(d/2) (infinite when the right side is not positive: the
+    ratios scatter no more than sampling alone makes them), then
+    ρ0 = exp(mean(e) + ψ(d0/2) − log(d0/2)).
 
     Parameters
     ----------
@@ -146,7 +153,7 @@ def moderation_prior(ratio: np.ndarray, d: int) -> tuple[float, float]:
     if excess <= 0:
         return math.exp(float(e.mean())), math.inf
     d0 = 2.0 * inverse_trigamma(excess)
-    return math.exp(float(e.mean()) - psi(d0 / 2) + math.log(d0 / 2)), d0
+    return math.exp(float(e.mean()) + psi(d0 / 2) - math.log(d0 / 2)), d0
 
 
 def estimate(s1: np.ndarray, s2: np.ndarray, rays: np.ndarray,
