@@ -260,61 +260,72 @@ def test_flat_dielectric_reflects_fresnel_and_reports_the_rest_as_lost() -> None
 
 @pytest.mark.parametrize("alpha", [0.2, 0.5, 1.0])
 def test_gaussian_g1_matches_smith_at_the_realised_alpha(alpha: float) -> None:
-    """G1 of a 256^2 Gaussian tile (tau = 8 cells) against Smith's G1 for Beckmann at the
-    tile's realised alpha: within 0.005 up to 85 deg, 0.01 at 89 deg (DESIGN.md's figures
-    for Gaussian surfaces). G1 is averaged over four azimuths (0, 45, 90, 135 deg): one
-    realisation is slightly anisotropic, the isotropic realised alpha describes the mean.
-    The standard error of each mean is below 0.0015 (40 000 rays per direction), under a
-    third of the tolerance."""
-    from microsim.analytic.ndf import Beckmann
-    from microsim.surfaces import build_tile
+    """G1 of a Gaussian surface (256^2 tiles, tau = 8 cells) over 8 realisations against
+    Smith's G1 for Beckmann at the realised alpha pooled over them, at 30-89 deg.
 
-    surface = resolve({"surface": {"kind": "gaussian", "alpha": alpha, "resolution": 256,
-                                   "seed": 1}})["surface"]
-    tile = build_tile(surface)
-    theta = np.radians([30.0, 60.0, 75.0, 85.0, 89.0])
-    rng = np.random.default_rng(10)
-    with PeriodicScene(tile) as scene:
-        runs = [measure_g1(scene, theta, phi, 40_000, rng)
-                for phi in np.radians([0.0, 45.0, 90.0, 135.0])]
-    g1 = np.mean([g for g, _ in runs], axis=0)
-    err = np.sqrt(np.sum([e**2 for _, e in runs], axis=0)) / len(runs)
-    smith = Beckmann(tile.info["alpha_realised"]).G1(direction(theta, 0.0))
-    assert np.all(err < 0.0015)
-    tolerance = np.array([0.005, 0.005, 0.005, 0.005, 0.01])
-    assert np.all(np.abs(g1 - smith) < tolerance), (g1 - smith).tolist()
+    On one tile the test averaged four azimuths (a realisation is slightly anisotropic)
+    and allowed 0.005 (0.01 at 89 deg), DESIGN.md's figures for one tile. The ensemble's
+    standard error (batch means, 7 degrees of freedom) includes the tiles' spread, so the
+    difference is tested against it: |z| < Z_MAX after mapping the Student-t score to a
+    normal one (measured |z| <= 1.6, differences <= 0.0023 with errors 0.0003-0.003), and
+    the absolute difference stays within 0.005 at every angle. Where no ray was occluded
+    (30 deg, and 60 deg for alpha 0.2) the error is 0, G1 exactly 1, and Smith's 1 - 1e-4
+    or closer (the Gaussian's far slope tail, which a finite tile does not have)."""
+    from microsim.analytic.ndf import Beckmann
+    from microsim.compare import normal_z
+
+    recipe = resolve({"surface": {"kind": "gaussian", "alpha": alpha, "resolution": 256,
+                                  "seed": 1},
+                      "simulation": {"seed": 10, "realisations": 8}})
+    theta = [30.0, 60.0, 75.0, 85.0, 89.0]
+    report = measure_g1_recipe(recipe, theta, 160_000)
+    assert report["error_model"] == "ensemble" and report["dof"] == 7
+    g1, err = np.array(report["g1"]), np.array(report["stderr"])
+    smith = Beckmann(report["surface"]["alpha_realised"]).G1(direction(np.radians(theta),
+                                                                         0.0))
+    noisy = err > 0
+    assert np.all(g1[~noisy] == 1.0) and np.all(smith[~noisy] > 1 - 1e-4)
+    z = normal_z((g1 - smith)[noisy] / err[noisy], report["dof"])
+    assert np.all(np.abs(z) < Z_MAX), z.tolist()
+    assert np.all(np.abs(g1 - smith) < 0.005), (g1 - smith).tolist()
 
 
 def test_gaussian_single_scattering_follows_torrance_sparrow() -> None:
-    """Mirror facets on a 256^2 Gaussian tile (alpha = 0.5, tau = 8 cells): the
-    first-order table against Torrance-Sparrow with Beckmann D and height-correlated Smith
-    G2 at the realised alpha, each averaged over the bins (``compare.bin_average``).
+    """Mirror facets on a Gaussian surface (alpha = 0.5, 256^2 tiles, tau = 8 cells),
+    8 realisations sharing 200 000 rays per direction: the first-order table against
+    Torrance-Sparrow with Beckmann D and height-correlated Smith G2 at the realised alpha
+    pooled over the tiles, each averaged over the bins (``compare.bin_average``).
 
-    Per lobe bin z = (sim - model) / stderr. Measured (seeds 1 and 2 of the tile): z mean
-    within +-0.24 and z spread 2.4-2.7 at 0 and 45 deg, 3.8-4.1 at 75 deg, where noise alone
-    gives 1: the excess is the tile's own NDF realisation (~1000 correlation areas) and
-    Smith's approximation, not noise. The single-scattering albedo is 1.0-1.5% above the
-    model at 0 and 75 deg and 0.2-0.4% at 45 deg, the same for both tiles (a systematic
-    bias, reported in docs/goniometer.md). Bounds: |z mean| < 0.5, z spread < 4.5, albedo
-    within 2%."""
-    from microsim.surfaces import build_tile
+    Per lobe bin z = (sim - model) / stderr with the ensemble's errors (Student-t scores
+    mapped to normal ones, ``compare.normal_z``). On one tile the spread was 2.4-2.7 at 0
+    and 45 deg and 3.8-4.1 at 75 deg (the tile's own slope sample, which ray errors leave
+    out; the bound was 4.5); with the ensemble, measured for three seeds: z mean -0.03 to
+    0.24, spread 0.94-1.04 at 0 and 45 deg and 1.18-1.27 at 75 deg, where Smith's shape is
+    off (docs/performance.md). Bounds: |z mean| < 0.4, spread < 1.3 (< 1.5 at 75 deg).
 
+    The single-scattering albedo lies above Smith's: measured +0.8-1.0% at 0 deg, +0.4-0.8%
+    at 45 deg (errors 0.2-0.35%) and +1.2-1.6% at 75 deg (error 0.1%). That is Smith's
+    residual, not noise (an independent tracer found +0.6 to +1.9% at alpha = 0.7 for
+    discretised Gaussian fields): asserted within [-4 sigma, 1.9% + 4 sigma] of the model,
+    with sigma the albedo's ensemble error (the old bound was 2% on one tile)."""
     recipe = resolve({"surface": {"kind": "gaussian", "alpha": 0.5, "resolution": 256,
                                   "seed": 1},
                       "simulation": {"theta_i": [0.0, 45.0, 75.0], "rays": 200_000,
-                                     "seed": 1},
-                      "table": {"theta_bins": 16, "phi_bins": 32}})
-    tile = build_tile(recipe["surface"])
-    result = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"],
-                      recipe=recipe)
+                                     "seed": 1, "realisations": 8},
+                      "table": {"theta_bins": 16, "phi_bins": 32, "sh_order": 0}})
+    result = simulate_recipe(recipe)
+    assert result.error_model == "ensemble"
     model = microfacet_model(result.meta)
     for l, theta in enumerate([0.0, 45.0, 75.0]):
         expected = bin_average(model, direction(np.radians(theta), 0.0),
                                result.bins.theta_edges, result.bins.phi_edges)
         m = metrics(result.values["single"][l, 0], result.errors["single"][l, 0], expected,
-                    result.bins.projected_solid_angle)
-        assert abs(m["z_mean"]) < 0.5 and m["z_std"] < 4.5, (theta, m)
-        assert abs(m["albedo_sim"][0] / m["albedo_model"][0] - 1) < 0.02, (theta, m)
+                    result.bins.projected_solid_angle, result.dof["single"][l, 0])
+        assert abs(m["z_mean"]) < 0.4 and m["z_std"] < (1.5 if theta == 75 else 1.3), (
+            theta, m)
+        sigma = result.albedo_err_of["single"][l, 0, 0] / m["albedo_model"][0]
+        excess = m["albedo_sim"][0] / m["albedo_model"][0] - 1
+        assert -4 * sigma < excess < 0.019 + 4 * sigma, (theta, excess, sigma)
 
 
 def test_recipe_entry_points() -> None:
