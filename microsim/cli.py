@@ -66,13 +66,14 @@ def realisations_override(args: argparse.Namespace) -> list[str]:
     return [] if args.realisations is None else [f"simulation.realisations={args.realisations}"]
 
 
-def error_model_note(model: str, realisations: int) -> str:
-    """One line saying what a result's errors include (``rays``, ``ensemble``, ...)."""
+def error_model_note(model: str, realisations: int, what: str = "z-scores") -> str:
+    """One line saying what a result's errors include (``rays``, ``ensemble``, ...) and so
+    what ``what`` (the numbers made from them) are about."""
     if model == "ensemble":
         return (f"errors: ensemble of {realisations} surface realisations (they include the "
-                "spread between tiles; z-scores test the surface)")
+                f"spread between tiles, so {what} are about the surface)")
     if model == "rays":
-        return ("errors: rays only, one tile (z-scores are conditional on this tile, not "
+        return (f"errors: rays only, one tile ({what} are conditional on this tile, not "
                 "on the surface its recipe names)")
     return f"errors: {model}"
 

@@ -58,14 +58,17 @@ def test_other_families_run_and_improve_on_their_start(spec):
 
 
 def test_simulated_gaussian_fits_beckmann_at_its_realised_alpha(cli, tmp_path):
-    """A simulated α = 0.3 mirror surface (256², 32 correlation lengths): the fitted α of
-    its single scattering lies within 5% of the realised α (the issue's bound; the
-    tile's finite slope sample moves it by ~2%, docs/performance.md)."""
+    """A simulated α = 0.3 mirror surface (8 realisations of 256² tiles, 32 correlation
+    lengths): the fitted α of its single scattering lies within 1.5% of the realised α
+    pooled over the tiles (measured 0.34%, with the pooled α's own error 0.9%). On one
+    tile the bound was 5%: its finite slope sample moved the fit 1.6% from its realised
+    α."""
     from pathlib import Path
 
     recipe = Path(__file__).resolve().parent.parent / "surfaces" / "gaussian-0.3.toml"
     exr = tmp_path / "g.exr"
-    assert cli("simulate", str(recipe), "-o", str(exr), "--rays", "100000", "--set",
+    assert cli("simulate", str(recipe), "-o", str(exr), "--rays", "100000",
+               "--realisations", "8", "--set", "table.sh_order=0", "--set",
                "simulation.theta_i=[0, 30, 60]", "--set", "table.theta_bins=16",
                "--set", "table.phi_bins=32")[0] == 0
     code, out, err = cli("fit", str(exr), "--model", "beckmann", "--component", "single",
@@ -74,7 +77,7 @@ def test_simulated_gaussian_fits_beckmann_at_its_realised_alpha(cli, tmp_path):
     r = json.loads(out)
     from microsim import read_table
     realised = read_table(exr).meta["surface"]["alpha_realised"]
-    assert r["params"]["alpha"] == pytest.approx(realised, rel=0.05)
+    assert r["params"]["alpha"] == pytest.approx(realised, rel=0.015)
     assert (tmp_path / "fit.png").stat().st_size > 20_000
 
 

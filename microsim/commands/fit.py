@@ -66,6 +66,6 @@ def run(args: argparse.Namespace) -> int:
     if result["alpha_realised"] is not None:
         print(f"  the surface's realised alpha (pooled over its tiles): "
               f"{result['alpha_realised']}")
-    print("  " + error_model_note(result["error_model"], result["realisations"])
-          .replace("z-scores", "chi^2 and the uncertainties"))
+    print("  " + error_model_note(result["error_model"], result["realisations"],
+                                  "chi^2 and the parameter uncertainties"))
     return 0

@@ -86,10 +86,10 @@ def correlation_lengths(surface: dict[str, Any]) -> tuple[float, float, float]:
     return sigma, 2 * sigma / ax, 2 * sigma / ay
 
 
-ENSEMBLE_AREAS = 24 * 32**2
-"""Correlation areas a Gaussian table's realisations hold together by default: 24 tiles of
-32 × 32 correlation lengths (the shipped 256² tile), the count that brings the realisation
-spread of a lobe bin of a 32 × 64 table to the demo's 3% (docs/goniometer.md)."""
+ENSEMBLE_AREAS = 32 * 32**2
+"""Correlation areas a Gaussian table's realisations hold together by default: 32 tiles of
+32 × 32 correlation lengths (the shipped 256² tile), with which the shipped recipe's lobe
+lies within 3% (median) of Torrance-Sparrow + Smith at 0-60° (docs/performance.md)."""
 MAX_DEFAULT_REALISATIONS = 64
 """The default never asks for more realisations than this (tiny tiles)."""
 
