@@ -5,7 +5,7 @@ Each realisation's tile gives an NDF histogram with errors from its 4 × 4 sub-t
 they are many correlation lengths wide). Over K realisations the histogram is their mean,
 and its error the ensemble estimator of ``microsim.tables.estimator.combine`` with the
 sub-tile variance in the role of the within-realisation variance: batch means over the
-realisations, moderated across the θh bins. docs/goniometer.md has the derivation.
+realisations, moderated across the θh bins. docs/ensembles.md has the derivation.
 """
 
 from __future__ import annotations

@@ -99,7 +99,7 @@ SIMULATION: dict[str, Key] = {
     "realisations": Key("int", None, "Independent realisations of a surface with random "
                         "geometry (tiles from seeds derived from surface.seed) the table "
                         "averages; its errors then include their spread. Default: the "
-                        "generator's (docs/goniometer.md); 1 for deterministic geometry, "
+                        "generator's (docs/ensembles.md); 1 for deterministic geometry, "
                         "which allows no more.", low=1, high=4096),
     "bounces": Key("int", 16, "Maximum scattering order; paths alive after it are "
                    "reported as lost energy.", low=1, high=10_000),

@@ -6,7 +6,7 @@ A recipe with random geometry names a surface, not a tile: its table is the mean
 traced by the goniometer (``microsim.goniometer.measure_directions``) with
 ``rays / realisations`` rays per incident direction, its errors the ensemble's
 (``microsim.tables.estimator``). Tiles are built and traced one at a time, so the memory
-is that of one tile. docs/goniometer.md explains the error bars and the adaptive stop.
+is that of one tile. docs/ensembles.md explains the error bars and the adaptive stop.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ GROWTH = 4
 many times (the variance split that plans a round is itself an estimate)."""
 TILE_COST = 2.0
 """Building a tile and its Embree scene costs about as much as tracing this many rays per
-triangle (measured: docs/goniometer.md); the adaptive stop weighs new realisations by it."""
+triangle (measured: docs/ensembles.md); the adaptive stop weighs new realisations by it."""
 
 
 class Tiles:

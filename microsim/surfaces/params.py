@@ -36,7 +36,7 @@ class SurfaceKind:
     realisations : callable or None
         For a section whose geometry is random, the default number of independent
         realisations a table averages (``simulation.realisations``; chosen by measurement,
-        docs/goniometer.md); None for a deterministic section. None: never random.
+        docs/ensembles.md); None for a deterministic section. None: never random.
     """
 
     doc: str
@@ -102,13 +102,15 @@ def _gaussian_realisations(s: dict[str, Any]) -> int:
 
 
 VELVET_REALISATIONS = 4
-"""Default realisations of a velvet tile (docs/goniometer.md: measured on velvet.toml)."""
+"""Default realisations of a velvet tile: its fibres' spread is small against the ray noise
+of velvet.toml, and 4 is the fewest with which the moderated error estimates its own
+degrees of freedom (docs/ensembles.md; measured by scripts/ensemble_defaults.py)."""
 PAINT_REALISATIONS = 8
-"""Default realisations of a paint tile with particles or a rough top (measured on
-paint.toml and paint-metallic.toml)."""
+"""Default realisations of a paint tile with particles or a rough top: balances the
+realisations' and the rays' variance of paint.toml at grazing incidence."""
 VGROOVE_REALISATIONS = 8
-"""Default realisations of V-grooves with random slopes or micro-roughness (measured on
-vgroove-rough-direct.toml)."""
+"""Default realisations of V-grooves with random slopes or micro-roughness: balances them
+for vgroove-rough-direct.toml."""
 
 
 def _vgroove_realisations(s: dict[str, Any]) -> int | None:

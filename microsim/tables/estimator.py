@@ -14,7 +14,7 @@ The ensemble estimate is the plain mean μ̂ = Σ m_r / K, with
 
     Var(μ̂) = (τ² + mean_r σ_r² / n_r) / K.
 
-Two estimators of it are used (docs/goniometer.md, "Error bars of the ensemble", derives
+Two estimators of it are used (docs/ensembles.md, "Error bars of the ensemble", derives
 both and the measurements that choose between them):
 
 - **batch means**, s² = Σ (m_r − μ̂)² / (K (K − 1)): unbiased for Var(μ̂) whatever the
