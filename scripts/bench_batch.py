@@ -2,10 +2,12 @@
 
 Usage::
 
-    python scripts/bench_batch.py [SWEEP] [--repeats 3] [--rays 100000] [--write]
+    python scripts/bench_batch.py [SWEEP] [--repeats 3] [--rays 200000] [--realisations 1]
+                                  [--write]
 
 Runs the sweep (default: the first 4 points of scripts/sweep-roughness.toml, i.e. 4
-tables of 256² Gaussian tiles, 4 incident angles each, one angle per job) with
+tables of 256² Gaussian tiles, 4 incident angles each, 200 000 rays per angle on one
+realisation, one angle per job) with
 ``run_batch`` on a fresh ``LocalCluster`` of 1 and of 2 worker processes (one thread
 each, one tracing thread per job), alternating, ``--repeats`` times. The time is
 ``run_batch``'s wall time (cluster start-up excluded, reported apart); the workers'
@@ -72,14 +74,17 @@ def main() -> None:
     parser.add_argument("sweep", nargs="?", default=str(ROOT / "scripts/sweep-roughness.toml"))
     parser.add_argument("--tables", type=int, default=4, help="first N points of the sweep")
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--rays", type=int, default=None, help="override simulation.rays")
+    parser.add_argument("--rays", type=int, default=200_000,
+                        help="simulation.rays of every table (default 200000)")
+    parser.add_argument("--realisations", type=int, default=1,
+                        help="simulation.realisations of every table (default 1: one job "
+                             "per angle, the workload this benchmark has always measured)")
     parser.add_argument("--write", action="store_true", help="update docs/performance.md")
     args = parser.parse_args()
     sweep = load_sweep(args.sweep)
     points = sweep.points[:args.tables]
-    if args.rays is not None:
-        for p in points:
-            p.recipe["simulation"]["rays"] = args.rays
+    for p in points:
+        p.recipe["simulation"].update(rays=args.rays, realisations=args.realisations)
     sweep = dataclasses.replace(sweep, points=points)
     load_before = os.getloadavg()
     times: dict[int, list[float]] = {1: [], 2: []}
@@ -105,7 +110,8 @@ def main() -> None:
         + f" on {platform.machine()}, {cpus} CPUs, Python {platform.python_version()}: "
         f"{len(points)} tables ({', '.join(p.name for p in points)}) of "
         f"`{Path(args.sweep).name}`, {rays:,} rays in all, one incident angle per job "
-        f"({sum(len(p.recipe['simulation']['theta_i']) for p in points)} jobs), a fresh "
+        f"({sum(len(p.recipe['simulation']['theta_i']) for p in points) * args.realisations}"
+        " jobs), a fresh "
         "`LocalCluster` per run (processes, one thread each), runs alternating.",
         "",
         "| workers | `run_batch` wall time, s (per repeat) | median | worker occupancy |",

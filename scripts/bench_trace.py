@@ -41,6 +41,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("recipe", nargs="?", default=str(ROOT / "surfaces/gaussian-0.3.toml"))
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--rays", type=int, default=200_000,
+                        help="rays per direction on the recipe's tile (default 200000)")
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--target", type=float, default=None,
                         help="also time the adaptive stop to this median relative error")
@@ -48,7 +50,8 @@ def main() -> None:
     recipe = load(args.recipe)
     tile = build_tile(recipe["surface"])
     # tracing speed: the bins only (docs/performance.md times the harmonics separately)
-    sim, table = recipe["simulation"], {**recipe["table"], "sh_order": 0}
+    sim = {**recipe["simulation"], "rays": args.rays}
+    table = {**recipe["table"], "sh_order": 0}
 
     start = time.perf_counter()
     bare = bare_scene(tile.vertices, tile.faces)
