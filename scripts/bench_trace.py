@@ -2,7 +2,8 @@
 
 Usage::
 
-    python scripts/bench_trace.py [RECIPE] [--repeats 5] [--threads 2] [--target 0.01]
+    python scripts/bench_trace.py [RECIPE] [--repeats 5] [--threads 2] [--rays 200000]
+                                  [--target 0.01]
 
 Prints, for the recipe's tile (default surfaces/gaussian-0.3.toml):
 
