@@ -129,7 +129,7 @@ def measure_g1_recipe(recipe: Mapping[str, Any], thetas_deg: Sequence[float], ra
     """
     from microsim.surfaces import build_tile
     from microsim.surfaces.realisations import pool_info, realisation, realisation_seed
-    from microsim.tables.estimator import estimate
+    from microsim.tables.estimator import ENSEMBLE, RAYS, estimate
 
     start = time.perf_counter()
     k = int(recipe["simulation"].get("realisations", 1))
@@ -151,7 +151,7 @@ def measure_g1_recipe(recipe: Mapping[str, Any], thetas_deg: Sequence[float], ra
     return {"theta_deg": list(map(float, thetas_deg)), "phi_deg": float(phi_deg),
             "g1": e.mean[:, 0].tolist(), "stderr": e.stderr[:, 0].tolist(),
             "ray_stderr": e.ray_stderr[:, 0].tolist(), "dof": float(e.dof[0]),
-            "error_model": "ensemble" if k > 1 else "rays", "realisations": k,
+            "error_model": ENSEMBLE if k > 1 else RAYS, "realisations": k,
             "rays": n * k, "seed": seed,
             "surface": pool_info(infos, [realisation_seed(recipe["surface"].get("seed", 0),
                                                           r) for r in range(k)]),

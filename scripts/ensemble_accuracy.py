@@ -210,7 +210,7 @@ def smith(k: int, rays: int) -> str:
         for i, r in enumerate(result["per_theta_i"]):
             sim, model = r["albedo_sim"][0], r["albedo_model"][0]
             err = float(table.albedo_err_of["single"][i, 0, 0])
-            cells.append(f"{100 * (sim / model - 1):+.2f} ± {100 * err / model:.2f}%")
+            cells.append(f"{100 * (sim / model - 1):+.2f} ± {100 * err / model:.2g}%")
         realised = table.meta["surface"]["alpha_realised"]
         lines.append(f"| {alpha} (realised {realised:.3f}) | " + " | ".join(cells) + " |")
         print(lines[-1], flush=True)
@@ -225,13 +225,13 @@ def main() -> None:
     parser.add_argument("--write-docs", action="store_true")
     args = parser.parse_args()
     if args.part == "demo":
-        text, heading = demo(), "## Realisations: microsim demo"
+        text, heading = demo(), "### `microsim demo`"
     elif args.part == "targets":
         text = targets(args.realisations or 128, args.rays or 100_000)
-        heading = "## Realisations: what reaches 2% and 1%"
+        heading = "### What reaches 2% and 1%"
     else:
         text = smith(args.realisations or 16, args.rays or 200_000)
-        heading = "## Realisations: where Smith limits the agreement"
+        heading = "### Where Smith limits the agreement"
     print(text)
     if args.write_docs:
         write(args.part, text, heading)

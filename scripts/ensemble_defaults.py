@@ -104,7 +104,7 @@ def main() -> None:
     if args.write_docs:
         replace_marked(ROOT / "docs" / "performance.md",
                        f"{MARKERS[0]}\n\n{text}\n\n{MARKERS[1]}", *MARKERS,
-                       heading="## Realisations: the default count per generator")
+                       heading="### The default count per generator")
 
 
 if __name__ == "__main__":

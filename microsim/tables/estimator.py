@@ -33,7 +33,8 @@ both and the measurements that choose between them):
 
       ṽ = (d0 ρ0 u + d s²) / (d0 + d),   with d0 + d degrees of freedom,
 
-  which is s² when the inflations scatter (d0 → 0) and ρ0 u when they agree (d0 → ∞).
+  which is s² when the inflations scatter (d0 → 0) and ρ0 u when they agree (d0 → ∞);
+  the degrees of freedom reported also count the error of ρ0 itself (``_moderate``).
 
 A single realisation (K = 1) has no between-tile spread to measure: its error is the ray
 error √v (error model ``rays``), conditional on the one tile.
@@ -49,9 +50,8 @@ from scipy.special import polygamma, psi
 
 RAYS = "rays"
 ENSEMBLE = "ensemble"
-ERROR_MODELS = (RAYS, ENSEMBLE)
-"""``rays``: errors count the ray noise of one tile; ``ensemble``: they include the spread
-between surface realisations."""
+"""Error models: ``rays``, the errors count the ray noise of one tile; ``ensemble``, they
+include the spread between surface realisations."""
 DOF_MAX = 1e6
 """Degrees of freedom reported for an error known to (practically) infinite precision."""
 
