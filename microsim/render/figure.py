@@ -129,8 +129,7 @@ def write_grid(rows: Sequence[Row], path: str | Path, columns: int | None = None
             title, data = line[j]
             if data.ndim == 2:
                 shown = np.ma.masked_invalid(data)
-                cmap = plt.get_cmap("RdBu_r").copy()
-                cmap.set_bad((BACKGROUND ** (1 / 2.2),) * 3)
+                cmap = plt.get_cmap("RdBu_r").with_extremes(bad=(0.5, 0.5, 0.5))
                 image = ax.imshow(shown, cmap=cmap, vmin=-DIFF_RANGE, vmax=DIFF_RANGE)
             else:
                 ax.imshow(data)
