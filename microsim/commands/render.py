@@ -66,9 +66,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "tangent towards the bitangent (default 0)")
     p.add_argument("--component", choices=("total", "single"), default="total",
                    help="all scattering orders (default) or single scattering")
-    p.add_argument("--model", default=None, metavar="SPEC",
+    p.add_argument("--model", action="append", default=None, metavar="SPEC",
                    help="also render an analytic model (microsim models lists them), its "
-                        "missing parameters from each table, and the relative difference")
+                        "missing parameters from each table, and the relative difference; "
+                        "once for every table, or once per table in their order")
     p.add_argument("--seed", type=nonnegative_int, default=0,
                    help="sampler seed (default 0)")
     p.add_argument("--variant", default="scalar_rgb", choices=("scalar_rgb", "llvm_ad_rgb"),
@@ -93,8 +94,12 @@ def run(args: argparse.Namespace) -> int:
     lights = [scene.parse_light(s) for s in (args.light or scene.DEFAULT_LIGHTS)]
     surface = objects.load_object(args.object)
     tables = [microsim.read_table(path) for path in args.tables]
-    models = [parse_model_spec(args.model, model_defaults(t.meta)) for t in tables] \
-        if args.model else []
+    specs = args.model or []
+    if len(specs) not in (0, 1, len(tables)):
+        raise InputError(f"--model: given {len(specs)} times; give it once, or once per "
+                         f"table ({len(tables)})")
+    models = [parse_model_spec(specs[min(k, len(specs) - 1)], model_defaults(t.meta))
+              for k, t in enumerate(tables)] if specs else []
     mi = backend.load(args.variant)
     camera = scene.Camera(args.size[0], args.size[1], args.camera[0], args.camera[1],
                           args.fov[0])
