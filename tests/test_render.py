@@ -268,7 +268,7 @@ def test_rotated_anisotropic_table_renders_as_the_rotated_model(mi, sphere, tmp_
                "alpha_v": 0.3, "eta": {"type": "rgb", "value": ETA.tolist()},
                "k": {"type": "rgb", "value": K.tolist()}}
     assert bsdfs.mitsuba_equivalent(model, 90.0) == swapped | {
-        "eta": bsdfs._rgb_spectrum(ETA), "k": bsdfs._rgb_spectrum(K)}
+        "eta": bsdfs.rgb_spectrum(ETA), "k": bsdfs.rgb_spectrum(K)}
     m90 = scene.render(mi, sphere, mi.load_dict(swapped), cam, SUN, 4)
     m0 = scene.render(mi, sphere, bsdfs.model_bsdf(mi, model)[0], cam, SUN, 4)
     assert figure.difference(t90, t0).median_abs > 0.5

@@ -86,7 +86,8 @@ def table_bsdf(mi: Any, table: Any, path: str | Path, component: str = "total",
     return mi.load_dict({"type": "measured", "filename": str(path)})
 
 
-def _rgb_spectrum(value: Any) -> dict[str, Any]:
+def rgb_spectrum(value: Any) -> dict[str, Any]:
+    """A Mitsuba ``rgb`` spectrum dict from one value or three (R, G, B)."""
     v = np.broadcast_to(np.asarray(value, float), (3,))
     return {"type": "rgb", "value": [float(x) for x in v]}
 
@@ -110,7 +111,7 @@ def mitsuba_equivalent(model: Any, rotation: float = 0.0) -> dict[str, Any] | No
     from microsim.analytic.ndf import GGX, Beckmann
 
     if isinstance(model, Lambertian):
-        return {"type": "diffuse", "reflectance": _rgb_spectrum(model.albedo)}
+        return {"type": "diffuse", "reflectance": rgb_spectrum(model.albedo)}
     if not (isinstance(model, TorranceSparrow) and model.shadowing == "smith-separable"
             and type(model.ndf) in (Beckmann, GGX)):
         return None
@@ -127,12 +128,12 @@ def mitsuba_equivalent(model: Any, rotation: float = 0.0) -> dict[str, Any] | No
     if fresnel is None:
         return {"type": "roughconductor", "material": "none", **rough}
     if fresnel[0] == "conductor":
-        return {"type": "roughconductor", "eta": _rgb_spectrum(fresnel[1]),
-                "k": _rgb_spectrum(fresnel[2]), **rough}
+        return {"type": "roughconductor", "eta": rgb_spectrum(fresnel[1]),
+                "k": rgb_spectrum(fresnel[2]), **rough}
     eta = np.ravel(fresnel[1])
     if fresnel[0] == "dielectric" and ax == ay and np.all(eta == eta[0]):
         return {"type": "roughplastic", "int_ior": float(eta[0]), "ext_ior": 1.0,
-                "diffuse_reflectance": _rgb_spectrum(0.0), "nonlinear": False, **rough}
+                "diffuse_reflectance": rgb_spectrum(0.0), "nonlinear": False, **rough}
     return None
 
 

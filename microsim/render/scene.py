@@ -33,7 +33,9 @@ from typing import Any
 
 import numpy as np
 
+from microsim.compare import direction
 from microsim.errors import InputError
+from microsim.render.bsdfs import rgb_spectrum
 from microsim.render.objects import RADIUS, Surface, corner_arrays
 from microsim.schema import Key, check_section, suggest
 
@@ -82,8 +84,8 @@ class Camera:
 
 
 def _towards(elevation: float, azimuth: float) -> np.ndarray:
-    e, a = math.radians(elevation), math.radians(azimuth)
-    return np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
+    """The unit vector ``elevation`` degrees above the horizon at ``azimuth`` about +z."""
+    return direction(math.radians(90.0 - elevation), math.radians(azimuth))
 
 
 def parse_light(spec: str) -> tuple[str, dict[str, Any]]:
@@ -103,11 +105,6 @@ def parse_light(spec: str) -> tuple[str, dict[str, Any]]:
     return kind, params
 
 
-def _rgb(value: Any) -> dict[str, Any]:
-    v = np.broadcast_to(np.asarray(value, float), (3,))
-    return {"type": "rgb", "value": [float(x) for x in v]}
-
-
 def light_dicts(lights: Sequence[tuple[str, dict[str, Any]]], camera: Camera
                 ) -> dict[str, Any]:
     """Mitsuba emitter dicts for parsed lights (``parse_light``)."""
@@ -116,9 +113,9 @@ def light_dicts(lights: Sequence[tuple[str, dict[str, Any]]], camera: Camera
         if kind == "sun":
             towards = _towards(p["elevation"], camera.azimuth + p["azimuth"])
             out[f"light{k}"] = {"type": "directional", "direction": (-towards).tolist(),
-                                "irradiance": _rgb(p["irradiance"])}
+                                "irradiance": rgb_spectrum(p["irradiance"])}
         elif kind == "sky":
-            out[f"light{k}"] = {"type": "constant", "radiance": _rgb(p["radiance"])}
+            out[f"light{k}"] = {"type": "constant", "radiance": rgb_spectrum(p["radiance"])}
         else:
             out[f"light{k}"] = {"type": "envmap", "filename": str(p["file"]),
                                 "scale": p["scale"],
