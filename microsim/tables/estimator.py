@@ -46,7 +46,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import polygamma, psi
 
 RAYS = "rays"
 ENSEMBLE = "ensemble"
@@ -111,6 +110,8 @@ def realisation_moments(s1: np.ndarray, s2: np.ndarray, rays: np.ndarray
 def inverse_trigamma(x: float) -> float:
     """y with ψ'(y) = x > 0, by Newton's method on 1/ψ', which is nearly linear (Smyth
     2004, appendix; ψ'(y) ≈ 1/y for large y and 1/y² for small y)."""
+    from scipy.special import polygamma  # here: tables are read without scipy
+
     if x > 1e7:
         return 1.0 / math.sqrt(x)
     if x < 1e-6:
@@ -148,6 +149,8 @@ def moderation_prior(ratio: np.ndarray, d: int) -> tuple[float, float]:
     rho0, d0 : float
         d0 may be ``math.inf``.
     """
+    from scipy.special import polygamma, psi
+
     e = np.log(ratio) - psi(d / 2) + math.log(d / 2)
     excess = float(e.var(ddof=1)) - float(polygamma(1, d / 2))
     if excess <= 0:
