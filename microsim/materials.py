@@ -159,7 +159,9 @@ def _scatter_all(faces: np.ndarray, d: np.ndarray, n: np.ndarray, face_material:
     for r in range(len(faces)):
         f = faces[r]
         part = face_material[f]
-        out[r, :] = events.scatter_event(kind[part], params[part], tab_int[part], tab_f,
-                                         d[r, 0], d[r, 1], d[r, 2], n[r, 0], n[r, 1],
-                                         n[r, 2], tangents[f, 0], tangents[f, 1],
-                                         tangents[f, 2], key, r, event)
+        result = events.scatter_event(kind[part], params, tab_int, part, tab_f, d[r, 0],
+                                      d[r, 1], d[r, 2], n[r, 0], n[r, 1], n[r, 2],
+                                      tangents[f, 0], tangents[f, 1], tangents[f, 2], key,
+                                      r, event)
+        for c in range(9):
+            out[r, c] = result[c]

@@ -115,8 +115,9 @@ class PeriodicScene:
         Face areas.
     eps : float
         Offset of secondary-ray origins off their face.
-    box : (5,) float
-        The periods, the bottom and top of the slab and ``eps``, for the kernel.
+    box : (7,) float
+        The periods, the bottom and top of the slab, ``eps`` and the inverse periods, for
+        the kernel (``microsim.kernel.transport.B_*``).
     segments : int
         Rays sent to Embree so far (a ray crossing k sides counts k + 1).
     """
@@ -133,7 +134,8 @@ class PeriodicScene:
         # the slab reaches a few eps past the geometry so offset origins always lie inside
         self.z_top = z_max + 4 * self.eps
         self.z_bottom = z_min - 4 * self.eps
-        self.box = np.array([*self.period, self.z_bottom, self.z_top, self.eps])
+        self.box = np.array([*self.period, self.z_bottom, self.z_top, self.eps,
+                             *(1.0 / self.period)])
         self._scene = EmbreeScene()
         TriangleMesh(self._scene, np.ascontiguousarray(tile.vertices, np.float32),
                      np.ascontiguousarray(tile.faces, np.int32))
@@ -221,15 +223,16 @@ class PeriodicScene:
             b = min(a + c, n)
             slots_f = np.empty((b - a, kt.SLOT_FLOATS))
             slots_i = np.empty((b - a, kt.SLOT_INTS), np.int64)
+            live = np.empty(b - a, np.int64)
             o32, d32 = np.empty((b - a, 3), np.float32), np.empty((b - a, 3), np.float32)
             t32 = np.empty(b - a, np.float32)
-            m = kt.start(a, origins[a:b], dirs[a:b], media[a:b], slots_f, slots_i, o32, d32,
-                         t32, self.box)
+            m = kt.start(a, origins[a:b], dirs[a:b], media[a:b], slots_f, slots_i, live, o32,
+                         d32, t32, self.box)
             segments = 0
             while m:
                 prim = self._scene.run(o32[:m], d32[:m], dists=t32[:m])
                 segments += m
-                m = kt.advance(prim, m, slots_f, slots_i, o32, d32, t32, self.box,
+                m = kt.advance(prim, m, slots_f, slots_i, live, o32, d32, t32, self.box,
                                self.normals, self._plane, face_material, tangents, kind,
                                params, tab_int, tab_f, bounces, key, out_f, out_i, path)
             return segments

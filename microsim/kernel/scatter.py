@@ -45,9 +45,13 @@ ALONG = 1e-6
 """A frame axis within this of the normal (1 − |n·e|) is replaced (``facet_frame``)."""
 
 JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+"""Compilation options of every kernel function: cached on disk, without the GIL, IEEE
+floating-point semantics (a division by zero gives inf, not an exception)."""
+INLINE = {**JIT, "inline": "always"}
+"""The same, inlined into the caller (small functions on the per-segment path)."""
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def reflect(dx: float, dy: float, dz: float, nx: float, ny: float, nz: float
             ) -> tuple[float, float, float]:
     """Mirror a direction of travel about a plane: d − 2 (d·n) n."""
@@ -55,7 +59,7 @@ def reflect(dx: float, dy: float, dz: float, nx: float, ny: float, nz: float
     return dx - s * nx, dy - s * ny, dz - s * nz
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def fresnel_dielectric(cos_i: float, eta: float) -> float:
     """Exact unpolarised Fresnel reflectance of a dielectric interface, relative index η.
 
@@ -74,7 +78,7 @@ def fresnel_dielectric(cos_i: float, eta: float) -> float:
     return 0.5 * (r_s * r_s + r_p * r_p)
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def fresnel_conductor(cos_i: float, eta: float, k: float) -> float:
     """Exact unpolarised Fresnel reflectance of a conductor of complex index η + ik: the
     dielectric formulas in complex arithmetic, cos θt = √(1 − sin²θi / n²) on the principal
@@ -88,7 +92,7 @@ def fresnel_conductor(cos_i: float, eta: float, k: float) -> float:
     return min(max(f, 0.0), 1.0)
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def refract(dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, eta: float
             ) -> tuple[float, float, float, bool]:
     """Snell's law in vector form for d·n < 0, relative index η = n_t / n_i:
@@ -107,7 +111,7 @@ def refract(dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, et
     return tx / norm, ty / norm, tz / norm, False
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def orthonormal_basis(nx: float, ny: float, nz: float
                       ) -> tuple[float, float, float, float, float, float]:
     """Unit t, s with t × s = n (Duff et al. 2017, "Building an orthonormal basis,
@@ -119,7 +123,7 @@ def orthonormal_basis(nx: float, ny: float, nz: float
             b, sign + ny * ny * a, -ny)
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def cosine_about(nx: float, ny: float, nz: float, u1: float, u2: float
                  ) -> tuple[float, float, float]:
     """A direction with pdf cos θ / π about n: Malley's method, a uniform point of the unit
@@ -132,7 +136,7 @@ def cosine_about(nx: float, ny: float, nz: float, u1: float, u2: float
     return a * tx + b * sx + z * nx, a * ty + b * sy + z * ny, a * tz + b * sz + z * nz
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _frame_along(nx: float, ny: float, nz: float, axis: int
                  ) -> tuple[float, float, float, float, float, float]:
     """t = (e × n) / r and b = (e − (n·e) n) / r for e the world x (axis 0) or y axis."""
@@ -143,7 +147,7 @@ def _frame_along(nx: float, ny: float, nz: float, axis: int
     return nz / r, 0.0, -nx / r, -ny * nx / r, (1.0 - ny * ny) / r, -ny * nz / r
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def facet_frame(nx: float, ny: float, nz: float, axis: int, use_tangent: bool, ex: float,
                 ey: float, ez: float) -> tuple[float, float, float, float, float, float]:
     """Tangent t and bitangent b of a facet (``microsim.tabulated``: b is the projection of
@@ -165,7 +169,7 @@ def facet_frame(nx: float, ny: float, nz: float, axis: int, use_tangent: bool, e
     return _frame_along(nx, ny, nz, axis)
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _search_right(values: np.ndarray, start: int, count: int, x: float) -> int:
     """``numpy.searchsorted(values[start:start + count], x, side="right")``."""
     lo, hi = 0, count
@@ -178,7 +182,7 @@ def _search_right(values: np.ndarray, start: int, count: int, x: float) -> int:
     return lo
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _pick_node(x: float, nodes: np.ndarray, at: int, m: int, periodic: bool, u: float
                ) -> int:
     """One node of the linear interpolation of x between ``nodes[at:at + m]``, the upper
@@ -201,8 +205,8 @@ def _pick_node(x: float, nodes: np.ndarray, at: int, m: int, periodic: bool, u: 
 
 
 @njit(**JIT)
-def sample_table(row: np.ndarray, tab_f: np.ndarray, dx: float, dy: float, dz: float,
-                 nx: float, ny: float, nz: float, ex: float, ey: float, ez: float,
+def sample_table(tab_int: np.ndarray, part: int, tab_f: np.ndarray, dx: float, dy: float,
+                 dz: float, nx: float, ny: float, nz: float, ex: float, ey: float, ez: float,
                  key: np.ndarray, ray: int, event: int
                  ) -> tuple[float, float, float, float, float, float]:
     """A direction importance-sampled from a BRDF table in the facet's frame, and its RGB
@@ -213,6 +217,7 @@ def sample_table(row: np.ndarray, tab_f: np.ndarray, dx: float, dy: float, dz: f
     uniformly in projected solid angle inside the bin (u = sin²θo and φo uniform), a
     folded bin's mirror image φo → −φo with probability ½; an isotropic table's azimuths
     are relative to the incidence's."""
+    row = tab_int[part]
     u0, u1, u2, u3 = uniforms(key, ray, event, 0)
     u4, u5, _, _ = uniforms(key, ray, event, 1)
     tx, ty, tz, bx, by, bz = facet_frame(nx, ny, nz, row[T_AXIS], row[T_TANGENT] != 0,
@@ -248,9 +253,9 @@ def sample_table(row: np.ndarray, tab_f: np.ndarray, dx: float, dy: float, dz: f
 
 
 @njit(**JIT)
-def scatter_event(kind: int, params: np.ndarray, row: np.ndarray, tab_f: np.ndarray,
-                  dx: float, dy: float, dz: float, nx: float, ny: float, nz: float,
-                  ex: float, ey: float, ez: float, key: np.ndarray, ray: int, event: int
+def scatter_event(kind: int, params: np.ndarray, tab_int: np.ndarray, part: int,
+                  tab_f: np.ndarray, dx: float, dy: float, dz: float, nx: float, ny: float,
+                  nz: float, ex: float, ey: float, ez: float, key: np.ndarray, ray: int, event: int
                   ) -> tuple[float, float, float, float, float, float, float, float, float]:
     """One scattering event at a facet of unit normal n (``d·n < 0``, except at a
     refracting facet, which is hit from either side).
@@ -259,10 +264,12 @@ def scatter_event(kind: int, params: np.ndarray, row: np.ndarray, tab_f: np.ndar
     ----------
     kind : int
         The material's kind.
-    params : (12,) float
-        The material's ``params`` row.
-    row : (TABLE_COLUMNS,) int
-        Its ``tab_int`` row (``TABLE`` only).
+    params : (p, 12) float
+        Every material's parameters.
+    tab_int : (p, TABLE_COLUMNS) int
+        Every material's table layout (``TABLE`` only).
+    part : int
+        The material's row.
     tab_f : (q,) float
         Packed table data.
     dx, dy, dz : float
@@ -286,18 +293,18 @@ def scatter_event(kind: int, params: np.ndarray, row: np.ndarray, tab_f: np.ndar
         # sec. 13.6.3 and 4.5.1)
         u1, u2, _, _ = uniforms(key, ray, event, 0)
         ox, oy, oz = cosine_about(nx, ny, nz, u1, u2)
-        return (ox, oy, oz, params[P_ALBEDO], params[P_ALBEDO + 1], params[P_ALBEDO + 2],
-                0.0, 0.0, 0.0)
+        return (ox, oy, oz, params[part, P_ALBEDO], params[part, P_ALBEDO + 1],
+                params[part, P_ALBEDO + 2], 0.0, 0.0, 0.0)
     if kind == TABLE:
-        ox, oy, oz, f0, f1, f2 = sample_table(row, tab_f, dx, dy, dz, nx, ny, nz, ex, ey,
-                                              ez, key, ray, event)
+        ox, oy, oz, f0, f1, f2 = sample_table(tab_int, part, tab_f, dx, dy, dz, nx, ny, nz,
+                                              ex, ey, ez, key, ray, event)
         return ox, oy, oz, f0, f1, f2, 0.0, 0.0, 0.0
     if kind == REFRACTING:
         # a Fresnel-weighted choice between reflection and refraction, weight 1 either
         # way: an unbiased estimate of both (PBR 4th ed., sec. 9.5); from inside the
         # medium the ray sees 1 / η about the flipped normal
         u, _, _, _ = uniforms(key, ray, event, 0)
-        eta = params[P_ETA]
+        eta = params[part, P_ETA]
         if dx * nx + dy * ny + dz * nz >= 0.0:
             nx, ny, nz, eta = -nx, -ny, -nz, 1.0 / eta
         f = fresnel_dielectric(-(dx * nx + dy * ny + dz * nz), eta)
@@ -312,8 +319,9 @@ def scatter_event(kind: int, params: np.ndarray, row: np.ndarray, tab_f: np.ndar
         return ox, oy, oz, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0
     c = -(dx * nx + dy * ny + dz * nz)
     if kind == CONDUCTOR:
-        return (ox, oy, oz, fresnel_conductor(c, params[P_ETA], params[P_K]),
-                fresnel_conductor(c, params[P_ETA + 1], params[P_K + 1]),
-                fresnel_conductor(c, params[P_ETA + 2], params[P_K + 2]), 0.0, 0.0, 0.0)
-    f = fresnel_dielectric(c, params[P_ETA])
+        return (ox, oy, oz, fresnel_conductor(c, params[part, P_ETA], params[part, P_K]),
+                fresnel_conductor(c, params[part, P_ETA + 1], params[part, P_K + 1]),
+                fresnel_conductor(c, params[part, P_ETA + 2], params[part, P_K + 2]),
+                0.0, 0.0, 0.0)
+    f = fresnel_dielectric(c, params[part, P_ETA])
     return ox, oy, oz, f, f, f, 1.0 - f, 1.0 - f, 1.0 - f

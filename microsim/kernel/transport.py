@@ -24,8 +24,9 @@ The paths of a chunk live in slots (``Slots``): origin, direction, weight, mediu
    recorded); through the bottom it is transmitted (after a refraction) or leaked; through a
    side it re-enters at the opposite side, unless its straight segment has used up its
    budget of side crossings (``TRAPPED``).
-7. **Compaction.** The slots still alive are moved down to the first ``m'`` slots, and
-   their float32 origins, directions and query lengths written for the next query.
+7. **Compaction.** The queries of the paths still alive are written to the first ``m'``
+   rows of the float32 buffers (origins, directions, lengths), with their slots in
+   ``live``; a path's state stays in its slot.
 
 Every ended path writes its outcome at its ray index (``Outcomes``), so the results depend
 on neither the chunking nor the thread that traced it.
@@ -39,6 +40,7 @@ import numpy as np
 from numba import njit
 
 from microsim.kernel.scatter import (
+    INLINE,
     JIT,
     P_ABSORPTION,
     REFRACTING,
@@ -54,39 +56,41 @@ FATES = ("escaped", "bounces", "transmitted", "leaked", "trapped", "backface")
 MAX_SEGMENTS = 10_000
 """Upper bound of queries of one straight segment: a direction so nearly horizontal that it
 would need more side crossings to cross the slab is trapped."""
-(B_LX, B_LY, B_BOTTOM, B_TOP, B_EPS) = range(5)
-"""Entries of the ``box`` array: the periods, the bottom and top of the slab, the offset."""
+(B_LX, B_LY, B_BOTTOM, B_TOP, B_EPS, B_IX, B_IY) = range(7)
+"""Entries of the ``box`` array: the periods, the bottom and top of the slab, the offset,
+the inverse periods."""
 NO_FACE = -1
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def budget(dx: float, dy: float, dz: float, box: np.ndarray) -> int:
     """Most queries a straight segment may need: across the slab (length at most
     height / |d_z|) it crosses each pair of sides at most length |d_axis| / L + 1 times;
     doubled for slack, capped at ``MAX_SEGMENTS``."""
-    reach = (abs(dx) / box[B_LX] + abs(dy) / box[B_LY]) * (box[B_TOP] - box[B_BOTTOM])
+    reach = (abs(dx) * box[B_IX] + abs(dy) * box[B_IY]) * (box[B_TOP] - box[B_BOTTOM])
     crossings = reach / max(abs(dz), 1e-300)
     return int(min(2.0 * math.ceil(crossings) + 8.0, float(MAX_SEGMENTS)))
 
 
-@njit(**JIT)
-def _side(o: float, d: float, low: float, high: float) -> float:
-    """Distance along the ray to the side of [low, high] it runs towards (inf if d = 0)."""
+@njit(**INLINE)
+def _side(o: float, d: float, inv: float, low: float, high: float) -> float:
+    """Distance along the ray to the side of [low, high] it runs towards (inf if d = 0),
+    with inv = 1 / d."""
     if d > 0.0:
-        return max((high - o) / d, 0.0)
+        return max((high - o) * inv, 0.0)
     if d < 0.0:
-        return max((low - o) / d, 0.0)
+        return max((low - o) * inv, 0.0)
     return math.inf
 
 
-@njit(**JIT)
-def box_exit(px: float, py: float, pz: float, dx: float, dy: float, dz: float,
-             box: np.ndarray) -> tuple[float, int]:
-    """Distance to the first side of the tile's box along the ray, and its axis (0, 1: a
-    side, 2: the top or bottom)."""
-    tx = _side(px, dx, 0.0, box[B_LX])
-    ty = _side(py, dy, 0.0, box[B_LY])
-    tz = _side(pz, dz, box[B_BOTTOM], box[B_TOP])
+@njit(**INLINE)
+def box_exit(slots_f: np.ndarray, i: int, box: np.ndarray) -> tuple[float, int]:
+    """Distance to the first side of the tile's box along slot i's ray, and its axis (0,
+    1: a side, 2: the top or bottom)."""
+    tx = _side(slots_f[i, S_PX], slots_f[i, S_DX], slots_f[i, S_IX], 0.0, box[B_LX])
+    ty = _side(slots_f[i, S_PY], slots_f[i, S_DY], slots_f[i, S_IY], 0.0, box[B_LY])
+    tz = _side(slots_f[i, S_PZ], slots_f[i, S_DZ], slots_f[i, S_IZ], box[B_BOTTOM],
+               box[B_TOP])
     if tx <= ty and tx <= tz:
         return tx, 0
     if ty <= tz:
@@ -94,34 +98,41 @@ def box_exit(px: float, py: float, pz: float, dx: float, dy: float, dz: float,
     return tz, 2
 
 
-@njit(**JIT)
+@njit(**INLINE)
+def _aim(slots_f: np.ndarray, i: int, dx: float, dy: float, dz: float) -> None:
+    """Set slot i's direction and its reciprocal (inf where a component is 0)."""
+    slots_f[i, S_DX], slots_f[i, S_DY], slots_f[i, S_DZ] = dx, dy, dz
+    slots_f[i, S_IX], slots_f[i, S_IY], slots_f[i, S_IZ] = 1.0 / dx, 1.0 / dy, 1.0 / dz
+
+
+@njit(**INLINE)
 def _wrap(x: float, period: float) -> float:
     """x moved by whole periods into [0, period)."""
     return x - math.floor(x / period) * period
 
 
-@njit(**JIT)
-def _queue(slots_f: np.ndarray, slots_i: np.ndarray, o32: np.ndarray, d32: np.ndarray,
-           t32: np.ndarray, j: int, box: np.ndarray) -> None:
-    """Write slot j's next query: float32 origin and direction, and its length (to the
-    box's first side, plus eps so a face lying on the side is still found)."""
-    px, py, pz = slots_f[j, S_PX], slots_f[j, S_PY], slots_f[j, S_PZ]
-    dx, dy, dz = slots_f[j, S_DX], slots_f[j, S_DY], slots_f[j, S_DZ]
-    t, axis = box_exit(px, py, pz, dx, dy, dz, box)
-    slots_f[j, S_EXIT] = t
-    slots_i[j, I_AXIS] = axis
-    o32[j, 0], o32[j, 1], o32[j, 2] = px, py, pz
-    d32[j, 0], d32[j, 1], d32[j, 2] = dx, dy, dz
-    t32[j] = t + box[B_EPS]
+@njit(**INLINE)
+def _queue(slots_f: np.ndarray, slots_i: np.ndarray, live: np.ndarray, o32: np.ndarray,
+           d32: np.ndarray, t32: np.ndarray, q: int, i: int, box: np.ndarray) -> None:
+    """Make slot i's next segment query q: float32 origin and direction, and its length
+    (to the box's first side, plus eps so a face lying on the side is still found)."""
+    t, axis = box_exit(slots_f, i, box)
+    slots_f[i, S_EXIT] = t
+    slots_i[i, I_AXIS] = axis
+    live[q] = i
+    o32[q, 0], o32[q, 1], o32[q, 2] = slots_f[i, S_PX], slots_f[i, S_PY], slots_f[i, S_PZ]
+    d32[q, 0], d32[q, 1], d32[q, 2] = slots_f[i, S_DX], slots_f[i, S_DY], slots_f[i, S_DZ]
+    t32[q] = t + box[B_EPS]
 
 
 # the slots: float64 state (columns S_*) and integer state (columns I_*) per live path
 (S_PX, S_PY, S_PZ, S_DX, S_DY, S_DZ, S_W0, S_W1, S_W2, S_A0, S_A1, S_A2, S_T0, S_T1, S_T2,
- S_Z0, S_EXIT, S_UX, S_UY) = range(19)
+ S_Z0, S_EXIT, S_UX, S_UY, S_IX, S_IY, S_IZ) = range(22)
 """Float state of a slot: position (wrapped into the box), direction, weight, absorbed and
 transmitted weight so far (RGB), z where the straight segment began, distance to the box's
-side, and the whole periods the path has been shifted by (for unwrapped path vertices)."""
-SLOT_FLOATS = 19
+side, the whole periods the path has been shifted by (for unwrapped path vertices), and
+1 / direction (for the box's sides)."""
+SLOT_FLOATS = 22
 (I_RAY, I_MEDIUM, I_CROSSED, I_BOUNCE, I_SEG, I_BUDGET, I_AXIS) = range(7)
 """Integer state of a slot: the ray's index, its medium (a refracting part; -1: air),
 whether it has refracted, its bounces, queries of its straight segment, their budget, and
@@ -131,8 +142,8 @@ SLOT_INTS = 7
 
 @njit(**JIT)
 def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
-          slots_f: np.ndarray, slots_i: np.ndarray, o32: np.ndarray, d32: np.ndarray,
-          t32: np.ndarray, box: np.ndarray) -> int:
+          slots_f: np.ndarray, slots_i: np.ndarray, live: np.ndarray, o32: np.ndarray,
+          d32: np.ndarray, t32: np.ndarray, box: np.ndarray) -> int:
     """Load rays ``first``, ``first + 1``, … into the slots, one per row of ``origins``.
 
     Parameters
@@ -143,9 +154,10 @@ def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
         Start points within the slab (x, y wrapped here) and unit directions of travel.
     media : (k,) int
         Medium each ray starts in (-1: air).
-    slots_f, slots_i, o32, d32, t32
-        The chunk's slots and query buffers (at least k rows).
-    box : (5,) float
+    slots_f, slots_i, live, o32, d32, t32
+        The chunk's slots, the slot of each query, and the query buffers (at least k
+        rows).
+    box : (7,) float
 
     Returns
     -------
@@ -154,13 +166,14 @@ def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
     """
     k = len(origins)
     for j in range(k):
-        slots_f[j, :] = 0.0
+        for c in range(SLOT_FLOATS):
+            slots_f[j, c] = 0.0
         slots_f[j, S_PX] = _wrap(origins[j, 0], box[B_LX])
         slots_f[j, S_PY] = _wrap(origins[j, 1], box[B_LY])
         slots_f[j, S_PZ] = origins[j, 2]
         slots_f[j, S_UX] = origins[j, 0] - slots_f[j, S_PX]
         slots_f[j, S_UY] = origins[j, 1] - slots_f[j, S_PY]
-        slots_f[j, S_DX], slots_f[j, S_DY], slots_f[j, S_DZ] = dirs[j, 0], dirs[j, 1], dirs[j, 2]
+        _aim(slots_f, j, dirs[j, 0], dirs[j, 1], dirs[j, 2])
         slots_f[j, S_W0] = slots_f[j, S_W1] = slots_f[j, S_W2] = 1.0
         slots_f[j, S_Z0] = origins[j, 2]
         slots_i[j, I_RAY] = first + j
@@ -169,11 +182,11 @@ def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
         slots_i[j, I_BOUNCE] = 0
         slots_i[j, I_SEG] = 0
         slots_i[j, I_BUDGET] = budget(dirs[j, 0], dirs[j, 1], dirs[j, 2], box)
-        _queue(slots_f, slots_i, o32, d32, t32, j, box)
+        _queue(slots_f, slots_i, live, o32, d32, t32, j, j, box)
     return k
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _end(slots_f: np.ndarray, slots_i: np.ndarray, i: int, fate: int, out_f: np.ndarray,
          out_i: np.ndarray) -> None:
     """Record how slot i's path ended at its ray's row of the outcomes."""
@@ -195,7 +208,7 @@ OUT_INTS = 3
 
 @njit(**JIT)
 def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
-            o32: np.ndarray, d32: np.ndarray, t32: np.ndarray, box: np.ndarray,
+            live: np.ndarray, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray, box: np.ndarray,
             normals: np.ndarray, plane: np.ndarray, face_material: np.ndarray,
             tangents: np.ndarray, kind: np.ndarray, params: np.ndarray,
             tab_int: np.ndarray, tab_f: np.ndarray, bounces: int, key: np.ndarray,
@@ -205,15 +218,18 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
     Parameters
     ----------
     prim : (m,) int32
-        The face each of the first m slots' query hit (-1: none).
+        The face each of the m queries hit (-1: none).
     m : int
-        Live slots.
+        Queries (live paths).
     slots_f : (w, SLOT_FLOATS) float
     slots_i : (w, SLOT_INTS) int
+        The paths' state (a path keeps its slot).
+    live : (w,) int
+        The slot of each query, rewritten for the paths still alive.
     o32, d32 : (w, 3) float32
     t32 : (w,) float32
-        Query buffers, rewritten for the slots still alive.
-    box : (5,) float
+        Query buffers, rewritten for the paths still alive.
+    box : (7,) float
         ``B_*`` entries.
     normals : (f, 3) float
         Unit face normals (away from the material).
@@ -244,14 +260,15 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
     Returns
     -------
     int
-        Live slots after compaction.
+        Queries of the paths still alive (compacted to the first ones).
     """
     eps = box[B_EPS]
     lx, ly = box[B_LX], box[B_LY]
     keep = vertices.shape[1]
     alive = 0
-    for i in range(m):
-        f = prim[i]
+    for q in range(m):
+        f = prim[q]
+        i = live[q]
         px, py, pz = slots_f[i, S_PX], slots_f[i, S_PY], slots_f[i, S_PZ]
         dx, dy, dz = slots_f[i, S_DX], slots_f[i, S_DY], slots_f[i, S_DZ]
         medium = slots_i[i, I_MEDIUM]
@@ -278,13 +295,13 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                 fate = BACKFACE
                 out_i[slots_i[i, I_RAY], O_FACE] = f
                 if medium >= 0:
-                    _absorb(slots_f, i, params[medium], hz, dz)
+                    _absorb(slots_f, i, params, medium, hz, dz)
                 px, py, pz = hx, hy, hz
             else:
                 out_i[slots_i[i, I_RAY], O_FACE] = f
                 # 3. absorption along the segment inside a medium
                 if medium >= 0:
-                    _absorb(slots_f, i, params[medium], hz, dz)
+                    _absorb(slots_f, i, params, medium, hz, dz)
                 bounce = slots_i[i, I_BOUNCE]
                 if bounce < keep:
                     r = slots_i[i, I_RAY]
@@ -298,8 +315,8 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                 else:
                     # 4. scattering
                     ox, oy, oz, f0, f1, f2, i0, i1, i2 = scatter_event(
-                        kind[part], params[part], tab_int[part], tab_f, dx, dy, dz, nx, ny,
-                        nz, tangents[f, 0], tangents[f, 1], tangents[f, 2], key,
+                        kind[part], params, tab_int, part, tab_f, dx, dy, dz, nx, ny, nz,
+                        tangents[f, 0], tangents[f, 1], tangents[f, 2], key,
                         slots_i[i, I_RAY], bounce + 1)
                     w0, w1, w2 = slots_f[i, S_W0], slots_f[i, S_W1], slots_f[i, S_W2]
                     slots_f[i, S_T0] += w0 * i0
@@ -318,7 +335,7 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                             slots_i[i, I_MEDIUM] = part if side_out < 0.0 else -1
                             slots_i[i, I_CROSSED] = 1
                     dx, dy, dz = ox, oy, oz
-                    slots_f[i, S_DX], slots_f[i, S_DY], slots_f[i, S_DZ] = dx, dy, dz
+                    _aim(slots_f, i, dx, dy, dz)
                     slots_i[i, I_BOUNCE] = bounce + 1
                     # 5. the offset off the face, on the side the new direction goes
                     s = eps if dx * nx + dy * ny + dz * nz >= 0.0 else -eps
@@ -339,7 +356,7 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
             if axis == 2:
                 go_on = False
                 if medium >= 0:
-                    _absorb(slots_f, i, params[medium],
+                    _absorb(slots_f, i, params, medium,
                             box[B_TOP] if dz > 0.0 else box[B_BOTTOM], dz)
                 if dz > 0.0:
                     fate = ESCAPED
@@ -363,23 +380,21 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
         if not go_on:
             _end(slots_f, slots_i, i, fate, out_f, out_i)
             continue
-        # 7. compaction: the path moves to slot `alive` (never above i)
-        if alive != i:
-            slots_f[alive, :] = slots_f[i, :]
-            slots_i[alive, :] = slots_i[i, :]
-        _queue(slots_f, slots_i, o32, d32, t32, alive, box)
+        # 7. compaction: the path's next query is number `alive` (never above q)
+        _queue(slots_f, slots_i, live, o32, d32, t32, alive, i, box)
         alive += 1
     return alive
 
 
-@njit(**JIT)
-def _absorb(slots_f: np.ndarray, i: int, material: np.ndarray, z_end: float, dz: float
-            ) -> None:
-    """Beer-Lambert attenuation exp(−σ ℓ) of slot i's weight over its straight segment,
-    ℓ = |z_end − z_start| / |d_z| (a segment parallel to the slab never leaves: ℓ = ∞)."""
+@njit(**INLINE)
+def _absorb(slots_f: np.ndarray, i: int, params: np.ndarray, medium: int, z_end: float,
+            dz: float) -> None:
+    """Beer-Lambert attenuation exp(−σ ℓ) of slot i's weight over its straight segment in
+    the medium of part ``medium``, ℓ = |z_end − z_start| / |d_z| (a segment parallel to the
+    slab never leaves: ℓ = ∞)."""
     length = abs(z_end - slots_f[i, S_Z0]) / abs(dz) if dz != 0.0 else math.inf
     for c in range(3):
-        sigma = material[P_ABSORPTION + c]
+        sigma = params[medium, P_ABSORPTION + c]
         if sigma > 0.0:
             before = slots_f[i, S_W0 + c]
             after = before * math.exp(-sigma * length)
