@@ -127,7 +127,8 @@ class PeriodicScene:
         self.period = np.array(tile.period, dtype=float)
         self.normals, self.areas = tile.face_normals_areas()
         # plane of each face: n . x = c
-        self._plane = np.einsum("ij,ij->i", self.normals, tile.vertices[tile.faces[:, 0]])
+        plane = np.einsum("ij,ij->i", self.normals, tile.vertices[tile.faces[:, 0]])
+        self._faces = kt.face_table(self.normals, plane, tile.material, tile.tangents)
         z_min, z_max = tile.z_range
         extent = max(float(np.abs(tile.vertices).max()), *tile.period, z_max - z_min)
         self.eps = EPS_REL * extent
@@ -203,12 +204,9 @@ class PeriodicScene:
             count = int(self.tile.material.max(initial=0)) + 1
             kind, params = np.zeros(count, np.int64), np.zeros((count, 12))
             tab_int, tab_f = kt.empty_tables(count)
-            face_material = np.ascontiguousarray(self.tile.material, np.int64)
-            tangents = np.zeros((len(face_material), 3))
         else:
             kind, params, tab_int, tab_f = (materials.kind, materials.params,
                                             materials.tab_int, materials.tab_f)
-            face_material, tangents = materials.face_material, materials.tangents
         key = np.zeros(2, np.uint64) if seed is None else key_of(seed)
         origins = np.ascontiguousarray(origins, float)
         dirs = np.ascontiguousarray(dirs, float)
@@ -224,6 +222,7 @@ class PeriodicScene:
             slots_f = np.empty((b - a, kt.SLOT_FLOATS))
             slots_i = np.empty((b - a, kt.SLOT_INTS), np.int64)
             live = np.empty(b - a, np.int64)
+            near = np.empty((b - a, 5))
             o32, d32 = np.empty((b - a, 3), np.float32), np.empty((b - a, 3), np.float32)
             t32 = np.empty(b - a, np.float32)
             m = kt.start(a, origins[a:b], dirs[a:b], media[a:b], slots_f, slots_i, live, o32,
@@ -232,9 +231,9 @@ class PeriodicScene:
             while m:
                 prim = self._scene.run(o32[:m], d32[:m], dists=t32[:m])
                 segments += m
-                m = kt.advance(prim, m, slots_f, slots_i, live, o32, d32, t32, self.box,
-                               self.normals, self._plane, face_material, tangents, kind,
-                               params, tab_int, tab_f, bounces, key, out_f, out_i, path)
+                m = kt.advance(prim, m, slots_f, slots_i, live, near, o32, d32, t32,
+                               self.box, self._faces, kind, params, tab_int, tab_f, bounces,
+                               key, out_f, out_i, path)
             return segments
 
         segments = sum(self.map(chunk, range(0, n, c)))

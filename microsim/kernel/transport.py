@@ -42,9 +42,11 @@ from numba import njit
 from microsim.kernel.scatter import (
     INLINE,
     JIT,
+    MIRROR,
     P_ABSORPTION,
     REFRACTING,
     TABLE_COLUMNS,
+    reflect,
     scatter_event,
 )
 
@@ -60,6 +62,34 @@ would need more side crossings to cross the slab is trapped."""
 """Entries of the ``box`` array: the periods, the bottom and top of the slab, the offset,
 the inverse periods."""
 NO_FACE = -1
+(F_NX, F_NY, F_NZ, F_C, F_PART, F_TX, F_TY, F_TZ) = range(8)
+"""Columns of the per-face table: unit normal, plane constant, part, tangent."""
+FACE_FLOATS = 8
+
+
+def face_table(normals: np.ndarray, plane: np.ndarray, part: np.ndarray,
+               tangents: np.ndarray | None) -> np.ndarray:
+    """The per-face table the kernel reads (``F_*`` columns; 64 bytes a face, so a hit
+    reads one cache line).
+
+    Parameters
+    ----------
+    normals : (f, 3) float
+    plane : (f,) float
+    part : (f,) int
+    tangents : (f, 3) float or None
+
+    Returns
+    -------
+    (f, FACE_FLOATS) float
+    """
+    out = np.zeros((len(normals), FACE_FLOATS))
+    out[:, F_NX:F_NZ + 1] = normals
+    out[:, F_C] = plane
+    out[:, F_PART] = part
+    if tangents is not None:
+        out[:, F_TX:F_TZ + 1] = tangents
+    return out
 
 
 @njit(**INLINE)
@@ -73,36 +103,33 @@ def budget(dx: float, dy: float, dz: float, box: np.ndarray) -> int:
 
 
 @njit(**INLINE)
-def _side(o: float, d: float, inv: float, low: float, high: float) -> float:
-    """Distance along the ray to the side of [low, high] it runs towards (inf if d = 0),
-    with inv = 1 / d."""
-    if d > 0.0:
-        return max((high - o) * inv, 0.0)
-    if d < 0.0:
-        return max((low - o) * inv, 0.0)
-    return math.inf
+def _target(d: float, low: float, high: float) -> tuple[float, float]:
+    """The side of [low, high] a ray of direction component d runs towards, and 1 / d, so
+    that its distance from o is (side − o) / d; for d = 0, (inf, 1): never reached."""
+    side = high if d > 0.0 else (low if d < 0.0 else math.inf)
+    return side, (1.0 / d if d != 0.0 else 1.0)
 
 
 @njit(**INLINE)
-def box_exit(slots_f: np.ndarray, i: int, box: np.ndarray) -> tuple[float, int]:
-    """Distance to the first side of the tile's box along slot i's ray, and its axis (0,
-    1: a side, 2: the top or bottom)."""
-    tx = _side(slots_f[i, S_PX], slots_f[i, S_DX], slots_f[i, S_IX], 0.0, box[B_LX])
-    ty = _side(slots_f[i, S_PY], slots_f[i, S_DY], slots_f[i, S_IY], 0.0, box[B_LY])
-    tz = _side(slots_f[i, S_PZ], slots_f[i, S_DZ], slots_f[i, S_IZ], box[B_BOTTOM],
-               box[B_TOP])
-    if tx <= ty and tx <= tz:
-        return tx, 0
-    if ty <= tz:
-        return ty, 1
-    return tz, 2
-
-
-@njit(**INLINE)
-def _aim(slots_f: np.ndarray, i: int, dx: float, dy: float, dz: float) -> None:
-    """Set slot i's direction and its reciprocal (inf where a component is 0)."""
+def _aim(slots_f: np.ndarray, i: int, dx: float, dy: float, dz: float, box: np.ndarray
+         ) -> None:
+    """Set slot i's direction, and the box sides it runs towards with 1 / direction
+    (``box_exit`` then needs no branch and no division)."""
     slots_f[i, S_DX], slots_f[i, S_DY], slots_f[i, S_DZ] = dx, dy, dz
-    slots_f[i, S_IX], slots_f[i, S_IY], slots_f[i, S_IZ] = 1.0 / dx, 1.0 / dy, 1.0 / dz
+    slots_f[i, S_SX], slots_f[i, S_IX] = _target(dx, 0.0, box[B_LX])
+    slots_f[i, S_SY], slots_f[i, S_IY] = _target(dy, 0.0, box[B_LY])
+    slots_f[i, S_SZ], slots_f[i, S_IZ] = _target(dz, box[B_BOTTOM], box[B_TOP])
+
+
+@njit(**INLINE)
+def box_exit(slots_f: np.ndarray, i: int) -> tuple[float, int]:
+    """Distance to the first side of the tile's box along slot i's ray (from the sides
+    ``_aim`` chose), and its axis (0, 1: a side, 2: the top or bottom)."""
+    tx = max((slots_f[i, S_SX] - slots_f[i, S_PX]) * slots_f[i, S_IX], 0.0)
+    ty = max((slots_f[i, S_SY] - slots_f[i, S_PY]) * slots_f[i, S_IY], 0.0)
+    tz = max((slots_f[i, S_SZ] - slots_f[i, S_PZ]) * slots_f[i, S_IZ], 0.0)
+    t = min(tx, ty, tz)
+    return t, 0 if tx == t else (1 if ty == t else 2)
 
 
 @njit(**INLINE)
@@ -112,11 +139,22 @@ def _wrap(x: float, period: float) -> float:
 
 
 @njit(**INLINE)
+def _wrap_near(x: float, period: float) -> float:
+    """x, within one period of [0, period), moved into it (an offset hit point: one
+    comparison instead of ``_wrap``'s division)."""
+    if x < 0.0:
+        return x + period
+    if x >= period:
+        return x - period
+    return x
+
+
+@njit(**INLINE)
 def _queue(slots_f: np.ndarray, slots_i: np.ndarray, live: np.ndarray, o32: np.ndarray,
            d32: np.ndarray, t32: np.ndarray, q: int, i: int, box: np.ndarray) -> None:
     """Make slot i's next segment query q: float32 origin and direction, and its length
     (to the box's first side, plus eps so a face lying on the side is still found)."""
-    t, axis = box_exit(slots_f, i, box)
+    t, axis = box_exit(slots_f, i)
     slots_f[i, S_EXIT] = t
     slots_i[i, I_AXIS] = axis
     live[q] = i
@@ -127,12 +165,12 @@ def _queue(slots_f: np.ndarray, slots_i: np.ndarray, live: np.ndarray, o32: np.n
 
 # the slots: float64 state (columns S_*) and integer state (columns I_*) per live path
 (S_PX, S_PY, S_PZ, S_DX, S_DY, S_DZ, S_W0, S_W1, S_W2, S_A0, S_A1, S_A2, S_T0, S_T1, S_T2,
- S_Z0, S_EXIT, S_UX, S_UY, S_IX, S_IY, S_IZ) = range(22)
+ S_Z0, S_EXIT, S_UX, S_UY, S_SX, S_SY, S_SZ, S_IX, S_IY, S_IZ) = range(25)
 """Float state of a slot: position (wrapped into the box), direction, weight, absorbed and
 transmitted weight so far (RGB), z where the straight segment began, distance to the box's
 side, the whole periods the path has been shifted by (for unwrapped path vertices), and
-1 / direction (for the box's sides)."""
-SLOT_FLOATS = 22
+the box sides its direction runs towards with 1 / direction (``_aim``)."""
+SLOT_FLOATS = 25
 (I_RAY, I_MEDIUM, I_CROSSED, I_BOUNCE, I_SEG, I_BUDGET, I_AXIS) = range(7)
 """Integer state of a slot: the ray's index, its medium (a refracting part; -1: air),
 whether it has refracted, its bounces, queries of its straight segment, their budget, and
@@ -173,7 +211,7 @@ def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
         slots_f[j, S_PZ] = origins[j, 2]
         slots_f[j, S_UX] = origins[j, 0] - slots_f[j, S_PX]
         slots_f[j, S_UY] = origins[j, 1] - slots_f[j, S_PY]
-        _aim(slots_f, j, dirs[j, 0], dirs[j, 1], dirs[j, 2])
+        _aim(slots_f, j, dirs[j, 0], dirs[j, 1], dirs[j, 2], box)
         slots_f[j, S_W0] = slots_f[j, S_W1] = slots_f[j, S_W2] = 1.0
         slots_f[j, S_Z0] = origins[j, 2]
         slots_i[j, I_RAY] = first + j
@@ -208,9 +246,8 @@ OUT_INTS = 3
 
 @njit(**JIT)
 def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
-            live: np.ndarray, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray, box: np.ndarray,
-            normals: np.ndarray, plane: np.ndarray, face_material: np.ndarray,
-            tangents: np.ndarray, kind: np.ndarray, params: np.ndarray,
+            live: np.ndarray, near: np.ndarray, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray, box: np.ndarray,
+            faces: np.ndarray, kind: np.ndarray, params: np.ndarray,
             tab_int: np.ndarray, tab_f: np.ndarray, bounces: int, key: np.ndarray,
             out_f: np.ndarray, out_i: np.ndarray, vertices: np.ndarray) -> int:
     """Move every live path on after one query; see the module's steps 1 to 7.
@@ -226,19 +263,16 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
         The paths' state (a path keeps its slot).
     live : (w,) int
         The slot of each query, rewritten for the paths still alive.
+    near : (w, 5) float
+        Scratch: the first five ``faces`` columns of each query's face.
     o32, d32 : (w, 3) float32
     t32 : (w,) float32
         Query buffers, rewritten for the paths still alive.
     box : (7,) float
         ``B_*`` entries.
-    normals : (f, 3) float
-        Unit face normals (away from the material).
-    plane : (f,) float
-        c of each face's plane n·x = c.
-    face_material : (f,) int
-        Part of each face.
-    tangents : (f, 3) float
-        Unit tangent per face (zeros when the tile gives none).
+    faces : (f, FACE_FLOATS) float
+        Per face (one cache line): its unit normal (away from the material), c of its
+        plane n·x = c, its part, its unit tangent (zeros when the tile gives none).
     kind : (p,) int
         Material kind per part.
     params : (p, 12) float
@@ -265,6 +299,13 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
     eps = box[B_EPS]
     lx, ly = box[B_LX], box[B_LY]
     keep = vertices.shape[1]
+    # the faces hit, gathered first: independent loads the processor overlaps, where one
+    # path at a time would wait for each (the face table rarely fits a core's cache)
+    for q in range(m):
+        f = prim[q]
+        if f >= 0:
+            for c in range(5):
+                near[q, c] = faces[f, c]
     alive = 0
     for q in range(m):
         f = prim[q]
@@ -277,14 +318,14 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
         fate = -1
         if f >= 0:
             # 1. the hit point in float64 on the face's plane
-            nx, ny, nz = normals[f, 0], normals[f, 1], normals[f, 2]
+            nx, ny, nz = near[q, F_NX], near[q, F_NY], near[q, F_NZ]
             den = dx * nx + dy * ny + dz * nz
-            num = plane[f] - (px * nx + py * ny + pz * nz)
+            num = near[q, F_C] - (px * nx + py * ny + pz * nz)
             t = max(num / den, 0.0) if den != 0.0 else 0.0
             hx, hy, hz = px + t * dx, py + t * dy, pz + t * dz
             # 2. the side hit: the back of the ray's own medium's faces, else the front
             back = den >= 0.0
-            part = face_material[f]
+            part = int(near[q, F_PART])
             real = back == (part == medium)
             if not real and (num if back else -num) <= 2.0 * eps:
                 # an offset's artefact (the origin lies just beyond the plane): go on
@@ -298,7 +339,6 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                     _absorb(slots_f, i, params, medium, hz, dz)
                 px, py, pz = hx, hy, hz
             else:
-                out_i[slots_i[i, I_RAY], O_FACE] = f
                 # 3. absorption along the segment inside a medium
                 if medium >= 0:
                     _absorb(slots_f, i, params, medium, hz, dz)
@@ -311,12 +351,18 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                 if bounce >= bounces:
                     go_on = False
                     fate = BOUNCES
+                    out_i[slots_i[i, I_RAY], O_FACE] = f
                     px, py, pz = hx, hy, hz
+                    ox, oy, oz = dx, dy, dz
+                elif kind[part] == MIRROR:
+                    # 4. scattering: a mirror, the commonest event, keeps the weight
+                    ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
                 else:
-                    # 4. scattering
+                    # 4. scattering: the weight takes the factor, the rest is absorbed or
+                    # transmitted
                     ox, oy, oz, f0, f1, f2, i0, i1, i2 = scatter_event(
                         kind[part], params, tab_int, part, tab_f, dx, dy, dz, nx, ny, nz,
-                        tangents[f, 0], tangents[f, 1], tangents[f, 2], key,
+                        faces[f, F_TX], faces[f, F_TY], faces[f, F_TZ], key,
                         slots_i[i, I_RAY], bounce + 1)
                     w0, w1, w2 = slots_f[i, S_W0], slots_f[i, S_W1], slots_f[i, S_W2]
                     slots_f[i, S_T0] += w0 * i0
@@ -334,8 +380,9 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                         if den * side_out > 0.0:
                             slots_i[i, I_MEDIUM] = part if side_out < 0.0 else -1
                             slots_i[i, I_CROSSED] = 1
+                if go_on:
                     dx, dy, dz = ox, oy, oz
-                    _aim(slots_f, i, dx, dy, dz)
+                    _aim(slots_f, i, dx, dy, dz, box)
                     slots_i[i, I_BOUNCE] = bounce + 1
                     # 5. the offset off the face, on the side the new direction goes
                     s = eps if dx * nx + dy * ny + dz * nz >= 0.0 else -eps
@@ -344,8 +391,8 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                     slots_i[i, I_SEG] = 0
                     slots_i[i, I_BUDGET] = budget(dx, dy, dz, box)
             if go_on:
-                # the next origin, wrapped into the box
-                wx, wy = _wrap(px, lx), _wrap(py, ly)
+                # the next origin (a hit point offset by eps), wrapped into the box
+                wx, wy = _wrap_near(px, lx), _wrap_near(py, ly)
                 slots_f[i, S_UX] += px - wx
                 slots_f[i, S_UY] += py - wy
                 px, py = wx, wy
