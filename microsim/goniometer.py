@@ -87,16 +87,16 @@ class _Sums:
         index = np.empty(n, np.int64)
         sums = np.zeros((len(COMPONENTS), bins.size, 3))
         sums_sq = np.zeros_like(sums)
+        unbinned = np.zeros(3)
         bin_escapes(paths.direction, paths.weight, paths.order, phi_ref, bins.theta_bins,
-                    bins.phi_bins, bins.folded, SLOT_OF_ORDER, sums, sums_sq, index)
+                    bins.phi_bins, bins.folded, SLOT_OF_ORDER, sums, sums_sq, index, unbinned)
         for j, comp in enumerate(COMPONENTS):
             self.sums[comp] += sums[j]
             self.sums_sq[comp] += sums_sq[j]
-        binned = index >= 0
         if self.sh_order:
-            self._add_sh(paths, binned, phi_ref, mapper)
+            self._add_sh(paths, index >= 0, phi_ref, mapper)
         # an escaping ray the bins do not take (none for a closed surface) is lost, not hidden
-        self.lost += paths.lost + paths.weight[~binned & (paths.order > 0)].sum(axis=0)
+        self.lost += paths.lost + unbinned
         self.transmitted += paths.transmitted
         self.absorbed += paths.absorbed
         for name, count in paths.fate_counts.items():

@@ -14,7 +14,7 @@ conductor or a diffuse facet).
 - ``dielectric``: specular reflection, factor the dielectric Fresnel reflectance; the
   refracted part is absorbed inside and reported as lost. With ``refract = true``: a
   Fresnel-weighted choice between reflection and refraction from either side, factor 1
-  (``microsim.refraction.fresnel_choice``); the tracer keeps track of which paths are
+  (``microsim.kernel.scatter.scatter_event``); the tracer keeps track of which paths are
   inside the medium and applies its ``absorption`` (docs/materials.md).
 - ``lambertian``: cosine-weighted direction about the facet normal, factor the albedo (the
   cosine-weighted pdf cancels the BRDF's cosine: Pharr, Jakob & Humphreys, PBR 4th ed.,

@@ -3,7 +3,8 @@ scale up (Westin, Arvo & Torrance 1992, "Predicting reflectance functions from c
 surfaces", SIGGRAPH '92, sec. 3: hierarchies of scale).
 
 A ray hitting a facet of kind ``table`` leaves in a direction importance-sampled from the
-table in the facet's local frame, and its weight is multiplied by the estimator's ratio
+table in the facet's local frame (``microsim.kernel.scatter.sample_table``, which this
+class's ``packed`` layout feeds), and its weight is multiplied by the estimator's ratio
 f_r cos θo / pdf (the importance-sampled Monte Carlo estimator: Pharr, Jakob & Humphreys,
 PBR 4th ed., sec. 2.2.2). docs/materials.md derives the weights; in short, with a table of
 bins b (projected solid angle Ω_b, values f_b,c for colour channel c) at one incidence
@@ -66,8 +67,8 @@ class TabulatedMaterial:
         ``"total"`` (all scattering orders of the lower scale) or ``"single"``.
     axis : str
         ``"y"`` or ``"x"``: the world axis whose projection onto a facet is the table's
-        y axis (``facet_frame``); ``"tangent"``: the facet's own tangent (``scatter``'s
-        ``tangents``) projected so.
+        y axis (``microsim.kernel.scatter.facet_frame``); ``"tangent"``: the facet's own
+        tangent (``Tile.tangents``) projected so.
     source : dict or None
         Provenance recorded by tables made with this material (path, digest, component).
 

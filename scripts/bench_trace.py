@@ -21,7 +21,6 @@ docs/performance.md (marked sections).
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import platform
 import statistics

@@ -302,7 +302,8 @@ def scatter_event(kind: int, params: np.ndarray, tab_int: np.ndarray, part: int,
     if kind == REFRACTING:
         # a Fresnel-weighted choice between reflection and refraction, weight 1 either
         # way: an unbiased estimate of both (PBR 4th ed., sec. 9.5); from inside the
-        # medium the ray sees 1 / η about the flipped normal
+        # medium the ray sees 1 / η about the flipped normal. No 1/η² on crossing: a path
+        # carries power (importance), not radiance (Veach 1997, thesis, sec. 5.2)
         u, _, _, _ = uniforms(key, ray, event, 0)
         eta = params[part, P_ETA]
         if dx * nx + dy * ny + dz * nz >= 0.0:

@@ -87,7 +87,7 @@ def bin_of(x: float, y: float, z: float, phi_ref: float, theta_bins: int, phi_bi
 def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
                 phi_ref: float, theta_bins: int, phi_bins: int, folded: bool,
                 slot_of_order: np.ndarray, sums: np.ndarray, sums_sq: np.ndarray,
-                index: np.ndarray) -> None:
+                index: np.ndarray, unbinned: np.ndarray) -> None:
     """Add escaping rays' weights w and w² to their bins, per component.
 
     Parameters
@@ -106,6 +106,8 @@ def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
         Running Σw and Σw² per component, bin and channel.
     index : (n,) int
         Filled with each ray's bin (-1: none).
+    unbinned : (3,) float
+        Running summed weight of scattered rays no bin takes (escaping on the horizon).
     """
     last = len(slot_of_order) - 1
     for r in range(len(order)):
@@ -114,6 +116,9 @@ def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
         if k > 0:
             b = bin_of(direction[r, 0], direction[r, 1], direction[r, 2], phi_ref,
                        theta_bins, phi_bins, folded)
+            if b < 0:
+                for c in range(3):
+                    unbinned[c] += weight[r, c]
         index[r] = b
         if b < 0:
             continue
