@@ -248,8 +248,9 @@ OUT_INTS = 3
 def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
             live: np.ndarray, near: np.ndarray, o32: np.ndarray, d32: np.ndarray,
             t32: np.ndarray, box: np.ndarray, faces: np.ndarray, kind: np.ndarray,
-            params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, bounces: int, key: np.ndarray,
-            out_f: np.ndarray, out_i: np.ndarray, vertices: np.ndarray) -> int:
+            params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, bounces: int,
+            key: np.ndarray, out_f: np.ndarray, out_i: np.ndarray, vertices: np.ndarray
+            ) -> int:
     """Move every live path on after one query; see the module's steps 1 to 7.
 
     Parameters
