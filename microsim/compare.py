@@ -269,7 +269,7 @@ def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float =
         Components ``total`` and ``single`` alike; albedo = Σ f_r Ω_proj over the bins of
         the (noisy) values, with zero error; no lost energy.
     """
-    from microsim.tables.table import COMPONENTS, BRDFTable
+    from microsim.tables.table import BRDFTable
 
     theta_i = np.asarray(theta_i, float)
     avg = np.stack([bin_average(model, direction(t, 0.0), bins.theta_edges, bins.phi_edges)
@@ -278,9 +278,10 @@ def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float =
     values = avg + rng.standard_normal(avg.shape) * err if sigma_rel else avg
     albedo = (values * bins.projected_solid_angle[None, None, :, :, None]).sum(axis=(2, 3))
     zeros = np.zeros_like(albedo)
-    return BRDFTable(bins, theta_i, [0.0], True, {c: values for c in COMPONENTS},
-                     {c: err for c in COMPONENTS}, np.full((len(theta_i), 1), 10**6),
-                     {c: albedo for c in COMPONENTS}, {c: zeros for c in COMPONENTS},
+    both = ("total", "single")
+    return BRDFTable(bins, theta_i, [0.0], True, {c: values for c in both},
+                     {c: err for c in both}, np.full((len(theta_i), 1), 10**6),
+                     {c: albedo for c in both}, {c: zeros for c in both},
                      zeros, dict(meta or {"surface": {"kind": "analytic"}}))
 
 

@@ -29,7 +29,7 @@ from microsim.paths import Paths, trace_paths
 from microsim.surfaces.tile import Tile
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.table import COMPONENTS, BRDFTable
+from microsim.tables.table import DEFAULT_ORDERS, BRDFTable, order_components
 from microsim.trace import PeriodicScene
 
 BATCH = 65536
@@ -37,14 +37,20 @@ BATCH = 65536
 
 
 class _Sums:
-    """Running per-bin sums of one incident direction.
+    """Running per-bin sums of one incident direction, per scattering order.
+
+    Row k - 1 of every array holds the rays that escaped after k scattering events
+    (k < ``orders``); the last row, those after ``orders`` or more. The table's
+    ``"total"`` is the sum of the rows (``_table``): each escaping ray is in exactly one.
 
     Attributes
     ----------
     rays : int
         Rays launched.
-    sums, sums_sq : dict of str to (b, 3) float
-        Per bin, the sum of exit weights w and of w**2, per component.
+    orders : int
+        N: the rows are orders 1, …, N − 1 and N-and-above (``order_components(N)``).
+    sums, sums_sq : (N, b, 3) float
+        Per order row and bin, the sum of exit weights w and of w**2.
     lost, transmitted, absorbed : (3,) float
         Summed weight of paths ended by the simulation (bounce limit, leaks), transmitted
         (1 - F at non-refracting dielectrics; refracted paths out through the bottom), and
@@ -53,24 +59,29 @@ class _Sums:
         Paths per ending.
     sh_order : int
         Order L of the spherical-harmonic moments (0: none).
-    sh_sums : dict of str to ((L + 1)², 3) float, or None
-        Σ w Y_k(ωo) over the escaping rays the bins take, per component
+    sh_sums : (N, (L + 1)², 3) float, or None
+        Σ w Y_k(ωo) over the escaping rays the bins take, per order row
         (``microsim.tables.sh``; ωo's azimuth relative to ``phi_ref`` of ``add``).
-    sh_sums_sq : dict of str to ((2L + 1)², 3) float, or None
+    sh_sums_sq : (N, (2L + 1)², 3) float, or None
         Σ w² Y_K(ωo) to order 2L, from which ``sh.second_moments`` gives Σ (w Y_k)².
     """
 
-    def __init__(self, bins: int, sh_order: int = 0) -> None:
+    def __init__(self, bins: int, sh_order: int = 0, orders: int = DEFAULT_ORDERS) -> None:
         self.rays = 0
-        self.sums = {c: np.zeros((bins, 3)) for c in COMPONENTS}
-        self.sums_sq = {c: np.zeros((bins, 3)) for c in COMPONENTS}
+        self.orders = int(orders)
+        self.sums = np.zeros((self.orders, bins, 3))
+        self.sums_sq = np.zeros((self.orders, bins, 3))
         self.sh_order = int(sh_order)
-        self.sh_sums = {c: np.zeros((sh.size(sh_order), 3)) for c in COMPONENTS
-                        } if sh_order else None
-        self.sh_sums_sq = {c: np.zeros((sh.size(2 * sh_order), 3)) for c in COMPONENTS
-                           } if sh_order else None
+        self.sh_sums = np.zeros((self.orders, sh.size(sh_order), 3)) if sh_order else None
+        self.sh_sums_sq = np.zeros((self.orders, sh.size(2 * sh_order), 3)
+                                   ) if sh_order else None
         self.lost, self.transmitted, self.absorbed = np.zeros(3), np.zeros(3), np.zeros(3)
         self.fates: dict[str, int] = {}
+
+    @property
+    def components(self) -> tuple[str, ...]:
+        """Component names of the rows (``order_components``)."""
+        return order_components(self.orders)
 
     def add(self, index: np.ndarray, paths: Paths, phi_ref: float = 0.0,
             mapper: sh.Mapper | None = None) -> None:
@@ -79,16 +90,17 @@ class _Sums:
         the harmonic transforms (``sh.moments``; the sums do not depend on it)."""
         self.rays += len(index)
         binned = index >= 0
-        size = self.sums["total"].size
-        # one bincount per moment over (bin, channel) pairs, in ray order; rays outside a
-        # component add exact zeros (to bin 0), which spares gathering the selected rows
-        slot = (3 * np.maximum(index, 0)[:, None] + np.arange(3)).ravel()
-        for comp, sel in (("total", binned), ("single", binned & (paths.order == 1))):
-            w = (paths.weight * sel[:, None]).ravel()
-            self.sums[comp] += np.bincount(slot, w, minlength=size).reshape(-1, 3)
-            self.sums_sq[comp] += np.bincount(slot, w * w, minlength=size).reshape(-1, 3)
+        row = np.minimum(paths.order, self.orders) - 1  # order row; -1: did not escape
+        # one bincount per moment over (row, bin, channel) triples, in ray order; rays
+        # outside the bins add exact zeros (to slot 0), which spares gathering the others
+        cell = np.where(binned, row * self.sums.shape[1] + index, 0)
+        slot = (3 * cell[:, None] + np.arange(3)).ravel()
+        w = (paths.weight * binned[:, None]).ravel()
+        self.sums += np.bincount(slot, w, minlength=self.sums.size).reshape(self.sums.shape)
+        self.sums_sq += np.bincount(slot, w * w, minlength=self.sums.size).reshape(
+            self.sums.shape)
         if self.sh_order:
-            self._add_sh(paths, binned, phi_ref, mapper)
+            self._add_sh(paths, binned, row, phi_ref, mapper)
         # an escaping ray the bins do not take (none for a closed surface) is lost, not hidden
         self.lost += paths.lost + paths.weight[~binned & (paths.order > 0)].sum(axis=0)
         self.transmitted += paths.transmitted
@@ -96,16 +108,18 @@ class _Sums:
         for name, count in paths.fate_counts.items():
             self.fates[name] = self.fates.get(name, 0) + count
 
-    def _add_sh(self, paths: Paths, binned: np.ndarray, phi_ref: float,
+    def _add_sh(self, paths: Paths, binned: np.ndarray, row: np.ndarray, phi_ref: float,
                 mapper: sh.Mapper | None) -> None:
-        """Moments of the escaping rays' exit weights against the real harmonics."""
+        """Moments of the escaping rays' exit weights against the real harmonics, one
+        transform per order row over that row's rays alone."""
         loc = sh.angles(paths.direction[binned], phi_ref)
-        w = paths.weight[binned]
-        w = np.concatenate([w, w * (paths.order[binned] == 1)[:, None]], axis=1)  # (n, 6)
-        s1, s2 = sh.moments(loc, w, self.sh_order, mapper)
-        for j, comp in enumerate(COMPONENTS):
-            self.sh_sums[comp] += s1[:, 3 * j:3 * j + 3]
-            self.sh_sums_sq[comp] += s2[:, 3 * j:3 * j + 3]
+        w, row = paths.weight[binned], row[binned]
+        for k in range(self.orders):
+            mine = row == k
+            if mine.any():
+                s1, s2 = sh.moments(loc[mine], w[mine], self.sh_order, mapper)
+                self.sh_sums[k] += s1
+                self.sh_sums_sq[k] += s2
 
     @property
     def lost_energy(self) -> np.ndarray:
@@ -121,14 +135,18 @@ def _table(bins: HemisphereBins, theta_deg: Sequence[float], phi_deg: Sequence[f
     def stacked(get: Callable[[_Sums], np.ndarray]) -> np.ndarray:
         return np.stack([np.stack([get(acc) for acc in row]) for row in runs])
 
+    def by_component(get: Callable[[_Sums], np.ndarray]) -> dict[str, np.ndarray]:
+        """Per component (a, b, ...) arrays of the order rows, and their sum as total."""
+        rows = stacked(get)                                  # (a, b, N, ...)
+        names = runs[0][0].components
+        return {"total": rows.sum(axis=2), **{c: rows[:, :, k] for k, c in enumerate(names)}}
+
     rays = np.array([[acc.rays for acc in row] for row in runs], np.int64)
-    sums = {c: stacked(lambda a, c=c: a.sums[c]) for c in COMPONENTS}
-    sums_sq = {c: stacked(lambda a, c=c: a.sums_sq[c]) for c in COMPONENTS}
+    sums = by_component(lambda a: a.sums)
+    sums_sq = by_component(lambda a: a.sums_sq)
     harmonics = runs[0][0].sh_order > 0
-    sh_sums = {c: stacked(lambda a, c=c: a.sh_sums[c]) for c in COMPONENTS
-               } if harmonics else None
-    sh_sums_sq = {c: stacked(lambda a, c=c: a.sh_sums_sq[c]) for c in COMPONENTS
-                  } if harmonics else None
+    sh_sums = by_component(lambda a: a.sh_sums) if harmonics else None
+    sh_sums_sq = by_component(lambda a: a.sh_sums_sq) if harmonics else None
     return BRDFTable.from_sums(bins, np.radians(theta_deg), np.radians(phi_deg), isotropic,
                                rays, sums, sums_sq, stacked(lambda a: a.lost_energy), meta,
                                sh_sums=sh_sums, sh_sums_sq=sh_sums_sq)
@@ -141,8 +159,8 @@ MAX_RAYS_FACTOR = 100
 def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: HemisphereBins,
                        simulation: Mapping[str, Any], theta: float, phi: float,
                        isotropic: bool, streams: tuple[int, int],
-                       progress: Callable[[dict[str, Any]], None] | None, sh_order: int = 0
-                       ) -> tuple[_Sums, str, float]:
+                       progress: Callable[[dict[str, Any]], None] | None, sh_order: int = 0,
+                       orders: int = DEFAULT_ORDERS) -> tuple[_Sums, str, float]:
     """Run the batches of one incident direction (degrees); see ``simulate``.
 
     Outgoing azimuths are binned relative to ``phi`` for isotropic tables, absolute
@@ -152,7 +170,7 @@ def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: Hemis
     """
     phi_ref = math.radians(phi) if isotropic else 0.0
     wi = direction(math.radians(theta), math.radians(phi))
-    acc = _Sums(bins.size, sh_order)
+    acc = _Sums(bins.size, sh_order, orders)
     planned = int(simulation["rays"])
     target = simulation.get("target_error")
     most = simulation.get("max_rays") or MAX_RAYS_FACTOR * planned
@@ -258,7 +276,8 @@ def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
         built, before = time.perf_counter(), scene.segments
         rows = {l: [_measure_direction(scene, facets, bins, simulation, theta_deg[l], phi,
                                        isotropic, (l, k), progress,
-                                       int(table.get("sh_order", 0)))
+                                       int(table.get("sh_order", 0)),
+                                       int(table.get("orders", DEFAULT_ORDERS)))
                     for k, phi in enumerate(phi_deg)] for l in chosen}
         segments, eps = scene.segments - before, scene.eps
     return Measurement(rows, dict(tile.info), facets.inputs, isotropic, segments, eps,
@@ -353,7 +372,8 @@ def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
         ``bounces``, ``seed``, and optionally ``target_error`` and ``max_rays``.
     table : mapping
         Resolved ``[table]``: ``theta_bins``, ``phi_bins``, and optionally ``sh_order``
-        (spherical-harmonic order of the escaping rays' moments; 0 or absent: none).
+        (spherical-harmonic order of the escaping rays' moments; 0 or absent: none) and
+        ``orders`` (N: the order components; default ``DEFAULT_ORDERS``).
     recipe : mapping or None
         The full resolved recipe, stored in the table's metadata (default: the three
         sections given).
@@ -367,8 +387,9 @@ def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
     Returns
     -------
     BRDFTable
-        Sums per bin for the components ``"total"`` and ``"single"`` (first-order
-        scattering), with metadata (see docs/goniometer.md).
+        Sums per bin for the components ``"total"`` and ``"order1"``, …, ``"order{N}+"``
+        (``components_for(N)``: escaped after 1, …, N − 1 and N or more scattering
+        events, adding up to the total), with metadata (see docs/goniometer.md).
 
     Notes
     -----

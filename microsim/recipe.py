@@ -113,6 +113,10 @@ TABLE: dict[str, Key] = {
                     "escaping rays ((L+1)^2 coefficients of f_r cos theta_o per incidence, "
                     "with standard errors; docs/table-format.md); 0: none.", low=0,
                     high=64),
+    "orders": Key("int", 3, "Scattering orders kept apart: N gives the components "
+                  "order1, ..., order<N-1> and order<N>+ (N or more scattering events) "
+                  "besides total, which they add up to (docs/table-format.md).", low=2,
+                  high=32),
 }
 SECTIONS = ("surface", "material", "simulation", "table")
 TOP_KEYS = ("description",) + SECTIONS

@@ -49,7 +49,7 @@ from microsim.files import file_digest
 from microsim.tables.binning import TWO_PI
 from microsim.tables.exr import read_table
 from microsim.tables.interpolation import linear_weights
-from microsim.tables.table import COMPONENTS, BRDFTable
+from microsim.tables.table import BRDFTable
 
 AXES = ("x", "y", "tangent")
 """What a table material's ``axis`` may name: a world axis, or the per-face tangent a
@@ -119,7 +119,8 @@ class TabulatedMaterial:
     table : BRDFTable
         The lower-scale BRDF (values must be finite and non-negative).
     component : str
-        ``"total"`` (all scattering orders of the lower scale) or ``"single"``.
+        ``"total"`` (all scattering orders of the lower scale), ``"single"``, or another
+        of the table's components.
     axis : str
         ``"y"`` or ``"x"``: the world axis whose projection onto a facet is the table's
         y axis (``facet_frame``); ``"tangent"``: the facet's own tangent (``scatter``'s
@@ -141,8 +142,7 @@ class TabulatedMaterial:
 
     def __init__(self, table: BRDFTable, component: str = "total", axis: str = "y",
                  source: dict[str, Any] | None = None) -> None:
-        if component not in COMPONENTS:
-            raise ValueError(f"component must be one of {COMPONENTS}, got {component!r}")
+        component = table.component(component)
         if axis not in AXES:
             raise ValueError(f"axis must be one of {AXES}, got {axis!r}")
         self.uses_tangents = axis == "tangent"
