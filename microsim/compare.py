@@ -293,7 +293,7 @@ def compare_table(table: Any, model: Model, component: str = "total") -> dict[st
     table : BRDFTable
     model : Model
     component : str
-        ``"total"`` or ``"single"``.
+        A component of the table (``"total"``, ``"single"``, ``"order2"``, …).
 
     Returns
     -------
@@ -349,7 +349,7 @@ def table_difference(a: Any, b: Any, component: str = "total") -> list[dict[str,
     a, b : BRDFTable
         Same incident directions and bins.
     component : str
-        ``"total"`` or ``"single"``.
+        A component of the table (``"total"``, ``"single"``, ``"order2"``, …).
 
     Returns
     -------

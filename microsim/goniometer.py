@@ -29,7 +29,8 @@ from microsim.paths import Paths, trace_paths
 from microsim.surfaces.tile import Tile
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.table import DEFAULT_ORDERS, BRDFTable, order_components
+from microsim.tables.components import DEFAULT_ORDERS, order_components
+from microsim.tables.table import BRDFTable
 from microsim.trace import PeriodicScene
 
 BATCH = 65536

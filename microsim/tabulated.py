@@ -181,7 +181,7 @@ class TabulatedMaterial:
         path : str or Path
             The table (``microsim.tables.exr`` format).
         component : str
-            ``"total"`` or ``"single"``.
+            A component of the table (``"total"``, ``"single"``, ``"order2"``, …).
         key : str
             The recipe key naming the file, for error messages (``material.<part>.path``).
         axis : str

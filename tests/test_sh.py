@@ -19,9 +19,10 @@ from microsim.paths import Paths
 from microsim.recipe import resolve
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
+from microsim.tables.components import components_for
 from microsim.tables.sh_error import bin_integrals, order_errors
 from microsim.tables.sh_matrix import MAX_ORDER, brdf_matrix, matrix_eval
-from microsim.tables.table import BRDFTable, components_for
+from microsim.tables.table import BRDFTable
 
 Z_MAX = 4.2
 """Two-sided z bound per coefficient: with 81 coefficients (and two components, whose z

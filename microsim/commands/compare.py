@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from microsim.cli import add_json_arg, print_json
+from microsim.cli import add_component_arg, add_json_arg, print_json, table_component
 
 PLOTS = {
     "incidence_plane": "incidence-plane.png",
@@ -28,8 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("table", metavar="TABLE", help="table file (.exr) from microsim simulate")
     p.add_argument("--model", required=True, metavar="SPEC",
                    help="analytic model, e.g. beckmann or beckmann:alpha=0.31")
-    p.add_argument("--component", choices=("total", "single"), default="total",
-                   help="all scattering orders (default) or single scattering only")
+    add_component_arg(p)
     p.add_argument("--out", type=Path, default=None, metavar="DIR",
                    help="write plots and report.md into DIR")
     add_json_arg(p)
@@ -91,6 +90,7 @@ def run(args: argparse.Namespace) -> int:
     from microsim.plots import albedo_plot, half_difference_slices, incidence_plane, z_maps
 
     table = microsim.read_table(args.table)
+    args.component = table_component(table, args.component, args.table)
     name, params, model = parse_model_spec(args.model, model_defaults(table.meta))
     result = compare_table(table, model, args.component)
     model_bins = result.pop("model")

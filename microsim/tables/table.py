@@ -13,7 +13,6 @@ table simulated with ``orders = N`` holds ``"total"`` (all orders) and ``"order1
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -22,13 +21,14 @@ import numpy as np
 
 from microsim.tables import sh
 from microsim.tables.binning import TWO_PI, HemisphereBins
+from microsim.tables.components import (
+    ALIASES,
+    canonical_component,
+    order_components,
+    order_range,
+)
 from microsim.tables.interpolation import linear_weights
 
-DEFAULT_ORDERS = 3
-"""Order components a table holds by default: orders 1, 2 and 3-and-above."""
-ALIASES = {"single": "order1"}
-"""Other names of components."""
-_ORDER = re.compile(r"order([1-9][0-9]*)(\+?)")
 CHUNK = 65536
 """Direction pairs interpolated at once by ``eval`` and ``stderr``."""
 SH_CHUNK = 1 << 22
@@ -36,49 +36,6 @@ SH_CHUNK = 1 << 22
 REPRESENTATIONS = ("table", "sh")
 LOBE_FRACTION = 0.1
 """Lobe bins: where f_r (mean over RGB) is at least this fraction of the incidence's peak."""
-
-
-def order_components(orders: int) -> tuple[str, ...]:
-    """``("order1", …, "order{N-1}", "order{N}+")`` for ``orders`` = N ≥ 1."""
-    if orders < 1:
-        raise ValueError(f"orders must be >= 1, got {orders}")
-    return tuple(f"order{k}" for k in range(1, orders)) + (f"order{orders}+",)
-
-
-def components_for(orders: int) -> tuple[str, ...]:
-    """The components of a table simulated with ``orders`` = N: ``"total"`` first, then
-    ``order_components(N)``."""
-    return ("total",) + order_components(orders)
-
-
-def canonical_component(name: str) -> str:
-    """The stored name of a component: ``"single"`` is ``"order1"``; ``"total"``,
-    ``"order<k>"`` and ``"order<k>+"`` (k ≥ 1) are themselves.
-
-    Raises
-    ------
-    ValueError
-        For any other name.
-    """
-    name = ALIASES.get(name, name)
-    if name != "total" and not _ORDER.fullmatch(name):
-        raise ValueError(f"component must be total, single, order<k> or order<k>+ "
-                         f"(k >= 1), got {name!r}")
-    return name
-
-
-def order_range(component: str) -> tuple[int, int | None]:
-    """The scattering orders a component holds: (lowest, highest), None for no limit.
-
-    ``"total"`` → (1, None); ``"single"`` and ``"order1"`` → (1, 1); ``"order3+"`` →
-    (3, None).
-    """
-    name = canonical_component(component)
-    if name == "total":
-        return 1, None
-    match = _ORDER.fullmatch(name)
-    k = int(match.group(1))
-    return k, None if match.group(2) else k
 
 
 def _mean_and_error(s1: np.ndarray, s2: np.ndarray, n: np.ndarray) -> tuple[np.ndarray,
