@@ -176,7 +176,8 @@ class SmithMultipleScattering:
             lam = self.ndf.Lambda(travel)
             log_v = np.log(1.0 - self.rng.random(len(idx)))      # log of U' in (0, 1]
             up = travel[:, 2] > 0
-            with np.errstate(divide="ignore", invalid="ignore"):
+            # both branches are evaluated everywhere; the other branch's overflow is moot
+            with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
                 gone = up & (log_v <= lam * log_c)
                 log_c = np.where(up, log_c - log_v / np.where(gone, 1.0, lam),
                                  log_c + log_v / (1.0 + lam))
@@ -216,7 +217,8 @@ class SmithMultipleScattering:
         area = projected_area(self.ndf, seen)
         ok = (norm > 0) & (cos_h > 0) & (h[:, 2] > 0) & (area > 0) & (wo[:, 2] > 0)
         phase = self.ndf.D(h) / (4.0 * np.where(ok, area, 1.0))
-        shadow = np.exp(lam_o * log_c)
+        with np.errstate(over="ignore"):                  # Λ ≈ 1e299 at the horizon
+            shadow = np.exp(lam_o * log_c)
         return np.where(ok, phase * shadow, 0.0)[:, None] * self._fresnel(
             np.clip(cos_h, 0.0, 1.0))
 

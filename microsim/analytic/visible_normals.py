@@ -103,15 +103,12 @@ def sample_visible(ndf: object, w: np.ndarray, u1: np.ndarray, u2: np.ndarray
     TypeError
         For a distribution without a sampler here.
     """
+    if not isinstance(ndf, GGX | Beckmann):
+        raise TypeError(f"no visible-normal sampler for {type(ndf).__name__}")
     ax, ay = ndf.alpha_x, ndf.alpha_y
     stretched = w * np.array([ax, ay, 1.0])
     stretched /= np.linalg.norm(stretched, axis=-1, keepdims=True)
-    if isinstance(ndf, GGX):
-        n = _ggx_unit(stretched, u1, u2)
-    elif isinstance(ndf, Beckmann):
-        n = _beckmann_unit(stretched, u1, u2)
-    else:
-        raise TypeError(f"no visible-normal sampler for {type(ndf).__name__}")
+    n = (_ggx_unit if isinstance(ndf, GGX) else _beckmann_unit)(stretched, u1, u2)
     m = n * np.array([ax, ay, 1.0])
     return m / np.linalg.norm(m, axis=-1, keepdims=True)
 
