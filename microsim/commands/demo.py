@@ -70,7 +70,8 @@ def total_comparison(table: Any) -> dict[str, Any]:
     spec = f"beckmann-ms:samples={MS_SAMPLES},seed={table.meta['seed']}"
     _, params, model = parse_model_spec(spec, model_defaults(table.meta))
     result = compare_table(table, model, "total")
-    result.pop("model_err")
+    for bins in ("model", "model_err"):
+        result.pop(bins)
     return {"model": spec, "params": params, **result}
 
 
@@ -87,10 +88,8 @@ def run(args: argparse.Namespace) -> int:
     compared = comparison(table)
     model_bins = compared.pop("model")
     compared.pop("model_err")
-    total = total_comparison(table)
-    total.pop("model")
     result = {"simulation": summary(table, args.output), "comparison": compared,
-              "comparison_total": total}
+              "comparison_total": total_comparison(table)}
     if args.plot is not None:
         from microsim.plots import incidence_plane
 
