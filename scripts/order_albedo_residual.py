@@ -24,6 +24,7 @@ from microsim.compare import direction
 from microsim.goniometer import simulate
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
+from microsim.tables.components import order_range
 
 
 def residuals(alpha: float, thetas: list[float], seed: int, resolution: int, rays: int,
@@ -40,7 +41,8 @@ def residuals(alpha: float, thetas: list[float], seed: int, resolution: int, ray
     reference = SmithMultipleScattering(Beckmann(realised), seed=seed)
     rows = []
     for k, theta in enumerate(thetas):
-        ref, ref_err = reference.albedo(direction(math.radians(theta), 0.0), walks, orders)
+        ref, ref_err = reference.albedo(direction(math.radians(theta), 0.0), walks,
+                                        [order_range(c) for c in table.components[1:]])
         for j, c in enumerate(table.components[1:]):
             sim, err = table.albedo_of[c][k, 0, 1], table.albedo_err_of[c][k, 0, 1]
             rows.append({"seed": seed, "alpha_realised": realised, "theta_i": theta,

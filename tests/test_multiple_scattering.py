@@ -155,15 +155,18 @@ def test_escapes_and_next_event_estimates_agree_per_order() -> None:
     rng = np.random.default_rng(9)
     ndf, wi = GGX(0.8), direction(math.radians(30.0), 0.0)
     model = SmithMultipleScattering(ndf, GOLD, samples=2, seed=4, analytic_single=False)
-    escape, escape_err = model.albedo(wi, 100_000, 3)
-    for row, (lo, hi) in enumerate([(1, 1), (2, 2), (3, None)]):
+    ranges = [(1, 1), (2, 2), (3, None)]
+    escape, escape_err = model.albedo(wi, 100_000, ranges)
+    for row, (lo, hi) in enumerate(ranges):
         wo = cosine_directions(rng, 30_000)
         x = np.pi * model.with_orders(lo, hi).eval(wi, wo)
         mean, err = x.mean(axis=0), x.std(axis=0, ddof=1) / math.sqrt(len(x))
         z = (mean - escape[row]) / np.hypot(err, escape_err[row])
         assert np.all(np.abs(z) < Z_MAX), (lo, mean, escape[row])
-    white, _ = SmithMultipleScattering(ndf, seed=5).albedo(wi, 20_000, 4)
-    assert white.sum() == pytest.approx(1.0, abs=1e-12)
+    white, white_err = SmithMultipleScattering(ndf, seed=5).albedo(
+        wi, 20_000, [(1, 1), (2, 3), (4, None), (1, None)])
+    assert white[:3].sum() == pytest.approx(1.0, abs=1e-12)
+    assert white[3, 0] == pytest.approx(1.0, abs=1e-12) and white_err[3, 0] < 1e-7
 
 
 @pytest.mark.parametrize("ndf, design", [(Beckmann(0.5), 0.893), (Beckmann(1.0), 0.664),

@@ -39,6 +39,7 @@ seed and the same sequence of calls give the same numbers.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -300,32 +301,39 @@ class SmithMultipleScattering:
         mean, err = _mean_error(f.reshape(nt, nph, k, -1), axis=2)
         return mean, err
 
-    def albedo(self, wi: np.ndarray, walks: int, rows: int) -> tuple[np.ndarray, np.ndarray]:
-        """Directional albedo by order, from where the walks leave the surface.
+    def albedo(self, wi: np.ndarray, walks: int,
+               orders: Sequence[tuple[int, int | None]]) -> tuple[np.ndarray, np.ndarray]:
+        """Directional albedo of ranges of orders, from where the walks leave the surface.
 
         An estimator independent of the next-event estimates: the mean weight of the walks
-        that escape after k scattering events.
+        that escape after a number of scattering events within each range. The ranges
+        share the walks, so each range's error is its own sample error (ranges that
+        overlap are correlated).
 
         Parameters
         ----------
         wi : (3,) float
             Incident direction.
         walks : int
-            Walks to run.
-        rows : int
-            Order rows (the last: ``rows`` and above).
+            Walks to run (each until it leaves).
+        orders : sequence of (int, int or None)
+            Ranges (lowest, highest) of orders, inclusive; None: no limit. (1, None) is
+            every order.
 
         Returns
         -------
-        albedo, stderr : (rows, c) float
+        albedo, stderr : (len(orders), c) float
         """
+        rows = max(lo if hi is None else hi + 1 for lo, hi in orders)
+        take = [slice(lo - 1, None if hi is None else hi) for lo, hi in orders]
         wi = np.broadcast_to(np.asarray(wi, float), (walks, 3))
-        sums = np.zeros((rows, self.channels))
+        sums = np.zeros((len(orders), self.channels))
         sums_sq = np.zeros_like(sums)
         for start in range(0, walks, CHUNK):
             e = self.walk(wi[start:start + CHUNK], None, rows).escaped
-            sums += e.sum(axis=0)
-            sums_sq += (e * e).sum(axis=0)
+            x = np.stack([e[:, t].sum(axis=1) for t in take], axis=1)   # (n, ranges, c)
+            sums += x.sum(axis=0)
+            sums_sq += (x * x).sum(axis=0)
         mean = sums / walks
         var = np.maximum(sums_sq / walks - mean * mean, 0.0) * walks / (walks - 1)
         return mean, np.sqrt(var / walks)
