@@ -254,29 +254,6 @@ def microfacet_model(meta: Mapping[str, Any]) -> Model:
     return TorranceSparrow(ndf, fresnel=fresnel_of(material), shadowing="smith-correlated")
 
 
-def ndf_bin_average(ndf: Any, edges: np.ndarray, n: int = 16) -> np.ndarray:
-    """Bin averages ∫_B D cos θ dω / ∫_B cos θ dω of an isotropic NDF over θ bins.
-
-    Parameters
-    ----------
-    ndf : NDF
-        With ``D(m)``.
-    edges : (k + 1,) float
-        Bin edges in θ, radians.
-    n : int
-        Gauss-Legendre nodes per bin.
-
-    Returns
-    -------
-    (k,) float
-    """
-    x, w = np.polynomial.legendre.leggauss(n)
-    lo, hi = edges[:-1, None], edges[1:, None]
-    t = lo + (hi - lo) * (x + 1) / 2
-    weights = w * (hi - lo) / 2 * np.cos(t) * np.sin(t)
-    return (ndf.D(direction(t, 0.0)) * weights).sum(axis=1) / weights.sum(axis=1)
-
-
 def model_defaults(meta: Mapping[str, Any]) -> dict[str, Any]:
     """Model parameters a table's metadata implies: the realised roughness (``alpha``, or
     ``alpha_x``/``alpha_y``) and, when every part has the same material, its Fresnel
@@ -296,14 +273,15 @@ def model_defaults(meta: Mapping[str, Any]) -> dict[str, Any]:
 
 def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float = 0.0,
                 rng: np.random.Generator | None = None,
-                meta: Mapping[str, Any] | None = None) -> Any:
+                meta: Mapping[str, Any] | None = None,
+                phi_i: np.ndarray | None = None) -> Any:
     """A table whose bins hold an analytic model's bin averages: a noiseless reference,
     or one with Gaussian noise of known relative standard deviation.
 
     Parameters
     ----------
     model : Model
-        The analytic BRDF (isotropic: incidences at φi = 0).
+        The analytic BRDF.
     theta_i : (a,) float
         Incident polar angles, radians.
     bins : HemisphereBins
@@ -316,6 +294,10 @@ def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float =
         Source of the noise (required when ``sigma_rel`` > 0).
     meta : mapping or None
         The table's metadata (default: a surface of kind ``"analytic"``).
+    phi_i : (b,) float or None
+        None: an isotropic table (incidences at φi = 0, outgoing azimuths relative to it).
+        Otherwise the incident azimuths (radians, increasing, within [0, 2π)) of an
+        anisotropic table with absolute outgoing azimuths.
 
     Returns
     -------
@@ -326,15 +308,17 @@ def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float =
     from microsim.tables.table import BRDFTable
 
     theta_i = np.asarray(theta_i, float)
-    avg = np.stack([bin_average(model, direction(t, 0.0), bins.theta_edges, bins.phi_edges)
-                    for t in theta_i])[:, None]
+    azimuths = np.zeros(1) if phi_i is None else np.asarray(phi_i, float)
+    avg = np.stack([np.stack([bin_average(model, direction(t, p), bins.theta_edges,
+                                          bins.phi_edges) for p in azimuths])
+                    for t in theta_i])
     err = sigma_rel * avg + 1e-12
     values = avg + rng.standard_normal(avg.shape) * err if sigma_rel else avg
     albedo = (values * bins.projected_solid_angle[None, None, :, :, None]).sum(axis=(2, 3))
     zeros = np.zeros_like(albedo)
     both = ("total", "single")
-    return BRDFTable(bins, theta_i, [0.0], True, {c: values for c in both},
-                     {c: err for c in both}, np.full((len(theta_i), 1), 10**6),
+    return BRDFTable(bins, theta_i, azimuths, phi_i is None, {c: values for c in both},
+                     {c: err for c in both}, np.full(avg.shape[:2], 10**6),
                      {c: albedo for c in both}, {c: zeros for c in both},
                      zeros, dict(meta or {"surface": {"kind": "analytic"}}))
 
