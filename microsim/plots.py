@@ -165,7 +165,7 @@ def albedo_plot(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
         ax.errorbar(theta, table.albedo_of[comp][:, 0].mean(axis=-1),
                     yerr=np.nan_to_num(table.albedo_err_of[comp][:, 0].mean(axis=-1)),
                     fmt="o-", ms=4, label=label)
-    ax.plot(theta, model, "s--", color="tab:red", label=f"model ({component})")
+    ax.plot(theta, model, "s--", color="black", label=f"model ({component})")
     ax.set_xlabel("θi (°)")
     ax.set_ylabel("albedo ∫ f_r cos θo dωo")
     ax.grid(alpha=0.3)
