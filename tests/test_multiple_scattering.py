@@ -25,6 +25,7 @@ from microsim.compare import direction
 
 Z_MAX = 3.5
 GOLD = ("conductor", np.array([0.2, 0.92, 1.1]), np.array([3.9, 2.45, 2.14]))
+GLASS = ("dielectric", 1.5)
 NDFS = [Beckmann(0.5), GGX(0.5), Beckmann(alpha_x=0.3, alpha_y=0.9),
         GGX(alpha_x=0.9, alpha_y=0.3)]
 
@@ -97,16 +98,20 @@ PAIRS = [((0.0, 0.0), (0.5, 2.0)), ((0.5, 0.0), (0.5, np.pi)), ((1.1, 0.3), (0.4
          ((1.4, 1.0), (1.3, 4.0)), ((0.8, 2.0), (1.2, 0.1))]
 
 
-@pytest.mark.parametrize("ndf", NDFS, ids=["beckmann", "ggx", "beckmann-aniso", "ggx-aniso"])
-def test_first_order_of_the_walk_is_torrance_sparrow(ndf: object) -> None:
+@pytest.mark.parametrize("ndf, fresnel", [(n, GOLD) for n in NDFS]
+                         + [(NDFS[0], GLASS), (NDFS[3], GLASS)],
+                         ids=["beckmann", "ggx", "beckmann-aniso", "ggx-aniso",
+                              "beckmann-glass", "ggx-aniso-glass"])
+def test_first_order_of_the_walk_is_torrance_sparrow(ndf: object, fresnel: tuple) -> None:
     """The walk's own estimate of order 1 (no exact part) against Torrance-Sparrow with
-    height-correlated Smith G2 = 1/(1 + Λi + Λo) and gold's Fresnel (RGB) at 5 direction
-    pairs: |z| < Z_MAX per pair and colour, with 20 000 walks each. Where Λ(ωo) ≈ 0 (a
-    steep ωo on a smooth Beckmann surface) the masking is 1 at every height and the
-    estimate has no variance: there the bound is round-off, 1e-12 relative."""
-    model = SmithMultipleScattering(ndf, GOLD, max_order=1, samples=20_000, seed=1,
+    height-correlated Smith G2 = 1/(1 + Λi + Λo), with gold's Fresnel (RGB) or a
+    dielectric's (reflection only), at 5 direction pairs: |z| < Z_MAX per pair and
+    colour, with 20 000 walks each. Where Λ(ωo) ≈ 0 (a steep ωo on a smooth Beckmann
+    surface) the masking is 1 at every height and the estimate has no variance: there the
+    bound is round-off, 1e-12 relative."""
+    model = SmithMultipleScattering(ndf, fresnel, max_order=1, samples=20_000, seed=1,
                                     analytic_single=False)
-    ts = TorranceSparrow(ndf, fresnel=GOLD, shadowing="smith-correlated")
+    ts = TorranceSparrow(ndf, fresnel=fresnel, shadowing="smith-correlated")
     for (ti, pi), (to, po) in PAIRS:
         wi, wo = direction(ti, pi), direction(to, po)
         f, err = model.estimate(wi, wo)
@@ -132,10 +137,11 @@ def test_white_furnace(ndf: object, analytic: bool) -> None:
         assert abs(mean - 1.0) < 3 * err, (theta, mean, err)
 
 
-@pytest.mark.parametrize("fresnel", [None, GOLD], ids=["mirror", "gold"])
+@pytest.mark.parametrize("fresnel", [None, GOLD, GLASS], ids=["mirror", "gold", "glass"])
 def test_reciprocity(fresnel: tuple | None) -> None:
     """f_r(ωi, ωo) = f_r(ωo, ωi) for all orders, the walk estimating every order (no
-    exact part), on an anisotropic GGX and a Beckmann surface: z of the difference of two
+    exact part), for mirror, gold and reflecting glass facets, on an anisotropic GGX and a
+    Beckmann surface: z of the difference of two
     independent estimates (20 000 walks each) within Z_MAX per pair and colour."""
     for ndf in (GGX(alpha_x=0.3, alpha_y=0.8), Beckmann(0.9)):
         model = SmithMultipleScattering(ndf, fresnel, samples=20_000, seed=3,

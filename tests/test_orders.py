@@ -56,7 +56,8 @@ def test_orders_add_up_to_the_total(four, tmp_path) -> None:
     albedo, the orders sum to the total, to round-off (1e-12 relative: the same sums
     added in another order) in a fresh table and to float32 round-off (2e-6) in the file,
     whose JSON albedos are exact. The split is not trivial here: orders 2, 3 and 4+ each
-    hold light."""
+    hold light. ``eval`` interpolates linearly, so the orders' f_r (bins and harmonics) add
+    up to the total's at any direction pair too."""
     assert four.components == ("total", "order1", "order2", "order3", "order4+")
     assert four.orders == 4
     orders = four.components[1:]
@@ -69,6 +70,13 @@ def test_orders_add_up_to_the_total(four, tmp_path) -> None:
                 data["total"]).max())
 
     check(four, 1e-12)
+    rng = np.random.default_rng(4)
+    wi, wo = direction(rng.uniform(0, 1.4, 50), 0.0), direction(rng.uniform(0, 1.5, 50),
+                                                                rng.uniform(0, 6.3, 50))
+    for representation in ("table", "sh"):
+        parts = sum(four.eval(wi, wo, c, representation) for c in orders)
+        assert np.allclose(parts, four.eval(wi, wo, "total", representation), rtol=1e-12,
+                           atol=1e-12)
     four.write(tmp_path / "t.exr")
     back = microsim.read_table(tmp_path / "t.exr")
     assert back.components == four.components and back.orders == 4
