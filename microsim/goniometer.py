@@ -24,12 +24,13 @@ import numpy as np
 
 import microsim
 from microsim.compare import direction
+from microsim.kernel.tally import bin_escapes
 from microsim.materials import FacetMaterials
 from microsim.paths import Paths, trace_paths
 from microsim.surfaces.tile import Tile
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.components import DEFAULT_ORDERS, order_components
+from microsim.tables.components import DEFAULT_ORDERS, components_for
 from microsim.tables.table import BRDFTable
 from microsim.trace import PeriodicScene
 
@@ -38,20 +39,24 @@ BATCH = 65536
 
 
 class _Sums:
-    """Running per-bin sums of one incident direction, per scattering order.
+    """Running per-bin sums of one incident direction, per component.
 
-    Row k - 1 of every array holds the rays that escaped after k scattering events
-    (k < ``orders``); the last row, those after ``orders`` or more. The table's
-    ``"total"`` is the sum of the rows (``_table``): each escaping ray is in exactly one.
+    Row 0 of every array holds every escaping ray (``"total"``); row k, 1 ≤ k < N, the rays
+    that escaped after k scattering events; row N those after N or more
+    (``components_for(N)``, N = ``orders``). The compiled tally adds each ray to row 0 and
+    to the row of its order (``slot_of_order``), so the order rows add up to row 0.
 
     Attributes
     ----------
     rays : int
         Rays launched.
     orders : int
-        N: the rows are orders 1, …, N − 1 and N-and-above (``order_components(N)``).
-    sums, sums_sq : (N, b, 3) float
-        Per order row and bin, the sum of exit weights w and of w**2.
+        N of the order components.
+    slot_of_order : (N + 1,) int
+        Row of scattering order k at index min(k, N) (``microsim.kernel.tally``; order 0,
+        not escaped, has none: −1).
+    sums, sums_sq : (N + 1, b, 3) float
+        Per row and bin, the sum of exit weights w and of w**2.
     lost, transmitted, absorbed : (3,) float
         Summed weight of paths ended by the simulation (bounce limit, leaks), transmitted
         (1 - F at non-refracting dielectrics; refracted paths out through the bottom), and
@@ -60,67 +65,72 @@ class _Sums:
         Paths per ending.
     sh_order : int
         Order L of the spherical-harmonic moments (0: none).
-    sh_sums : (N, (L + 1)², 3) float, or None
-        Σ w Y_k(ωo) over the escaping rays the bins take, per order row
+    sh_sums : (N + 1, (L + 1)², 3) float, or None
+        Σ w Y_k(ωo) over the escaping rays the bins take, per row
         (``microsim.tables.sh``; ωo's azimuth relative to ``phi_ref`` of ``add``).
-    sh_sums_sq : (N, (2L + 1)², 3) float, or None
+    sh_sums_sq : (N + 1, (2L + 1)², 3) float, or None
         Σ w² Y_K(ωo) to order 2L, from which ``sh.second_moments`` gives Σ (w Y_k)².
     """
 
     def __init__(self, bins: int, sh_order: int = 0, orders: int = DEFAULT_ORDERS) -> None:
         self.rays = 0
         self.orders = int(orders)
-        self.sums = np.zeros((self.orders, bins, 3))
-        self.sums_sq = np.zeros((self.orders, bins, 3))
+        self.slot_of_order = np.concatenate([[-1], np.arange(1, self.orders + 1)])
+        rows = self.orders + 1
+        self.sums = np.zeros((rows, bins, 3))
+        self.sums_sq = np.zeros((rows, bins, 3))
         self.sh_order = int(sh_order)
-        self.sh_sums = np.zeros((self.orders, sh.size(sh_order), 3)) if sh_order else None
-        self.sh_sums_sq = np.zeros((self.orders, sh.size(2 * sh_order), 3)
-                                   ) if sh_order else None
+        self.sh_sums = np.zeros((rows, sh.size(sh_order), 3)) if sh_order else None
+        self.sh_sums_sq = np.zeros((rows, sh.size(2 * sh_order), 3)) if sh_order else None
         self.lost, self.transmitted, self.absorbed = np.zeros(3), np.zeros(3), np.zeros(3)
         self.fates: dict[str, int] = {}
 
     @property
     def components(self) -> tuple[str, ...]:
-        """Component names of the rows (``order_components``)."""
-        return order_components(self.orders)
+        """Component names of the rows (``components_for``)."""
+        return components_for(self.orders)
 
-    def add(self, index: np.ndarray, paths: Paths, phi_ref: float = 0.0,
+    def add(self, paths: Paths, bins: HemisphereBins, phi_ref: float = 0.0,
             mapper: sh.Mapper | None = None) -> None:
-        """Add one batch: the traced ``paths``, the bin ``index`` (-1: none) of each, the
-        azimuth ``phi_ref`` (radians) the bins and harmonics measure φo from, and what runs
-        the harmonic transforms (``sh.moments``; the sums do not depend on it)."""
-        self.rays += len(index)
-        binned = index >= 0
-        row = np.minimum(paths.order, self.orders) - 1  # order row; -1: did not escape
-        # one bincount per moment over (row, bin, channel) triples, in ray order; rays
-        # outside the bins add exact zeros (to slot 0), which spares gathering the others
-        cell = np.where(binned, row * self.sums.shape[1] + index, 0)
-        slot = (3 * cell[:, None] + np.arange(3)).ravel()
-        w = (paths.weight * binned[:, None]).ravel()
-        self.sums += np.bincount(slot, w, minlength=self.sums.size).reshape(self.sums.shape)
-        self.sums_sq += np.bincount(slot, w * w, minlength=self.sums.size).reshape(
-            self.sums.shape)
+        """Add one batch: the traced ``paths``, binned in ``bins`` (compiled, in ray
+        order: ``microsim.kernel.tally``) with φo measured from the azimuth ``phi_ref``
+        (radians), which the harmonics use too, and what runs the harmonic transforms
+        (``sh.moments``; the sums do not depend on it)."""
+        n = len(paths.order)
+        self.rays += n
+        index = np.empty(n, np.int64)
+        sums = np.zeros_like(self.sums)
+        sums_sq = np.zeros_like(sums)
+        unbinned = np.zeros(3)
+        bin_escapes(paths.direction, paths.weight, paths.order, phi_ref, bins.theta_bins,
+                    bins.phi_bins, bins.folded, self.slot_of_order, sums, sums_sq, index,
+                    unbinned)
+        self.sums += sums
+        self.sums_sq += sums_sq
         if self.sh_order:
-            self._add_sh(paths, binned, row, phi_ref, mapper)
+            self._add_sh(paths, index >= 0, phi_ref, mapper)
         # an escaping ray the bins do not take (none for a closed surface) is lost, not hidden
-        self.lost += paths.lost + paths.weight[~binned & (paths.order > 0)].sum(axis=0)
+        self.lost += paths.lost + unbinned
         self.transmitted += paths.transmitted
         self.absorbed += paths.absorbed
         for name, count in paths.fate_counts.items():
             self.fates[name] = self.fates.get(name, 0) + count
 
-    def _add_sh(self, paths: Paths, binned: np.ndarray, row: np.ndarray, phi_ref: float,
+    def _add_sh(self, paths: Paths, binned: np.ndarray, phi_ref: float,
                 mapper: sh.Mapper | None) -> None:
-        """Moments of the escaping rays' exit weights against the real harmonics, one
-        transform per order row over that row's rays alone."""
+        """Moments of the escaping rays' exit weights against the real harmonics: one
+        transform per order row over that row's rays alone, the total row their sum."""
         loc = sh.angles(paths.direction[binned], phi_ref)
-        w, row = paths.weight[binned], row[binned]
-        for k in range(self.orders):
+        w = paths.weight[binned]
+        row = self.slot_of_order[np.minimum(paths.order[binned], self.orders)]
+        for k in range(1, self.orders + 1):
             mine = row == k
             if mine.any():
                 s1, s2 = sh.moments(loc[mine], w[mine], self.sh_order, mapper)
                 self.sh_sums[k] += s1
                 self.sh_sums_sq[k] += s2
+                self.sh_sums[0] += s1
+                self.sh_sums_sq[0] += s2
 
     @property
     def lost_energy(self) -> np.ndarray:
@@ -137,10 +147,9 @@ def _table(bins: HemisphereBins, theta_deg: Sequence[float], phi_deg: Sequence[f
         return np.stack([np.stack([get(acc) for acc in row]) for row in runs])
 
     def by_component(get: Callable[[_Sums], np.ndarray]) -> dict[str, np.ndarray]:
-        """Per component (a, b, ...) arrays of the order rows, and their sum as total."""
-        rows = stacked(get)                                  # (a, b, N, ...)
-        names = runs[0][0].components
-        return {"total": rows.sum(axis=2), **{c: rows[:, :, k] for k, c in enumerate(names)}}
+        """Per component, the (a, b, ...) array of its row."""
+        rows = stacked(get)                                  # (a, b, N + 1, ...)
+        return {c: rows[:, :, k] for k, c in enumerate(runs[0][0].components)}
 
     rays = np.array([[acc.rays for acc in row] for row in runs], np.int64)
     sums = by_component(lambda a: a.sums)
@@ -183,8 +192,7 @@ def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: Hemis
         origins = np.column_stack([xy, np.full(n, scene.z_top)])
         paths = trace_paths(scene, facets, origins, np.broadcast_to(-wi, (n, 3)),
                             int(simulation["bounces"]), seed)
-        acc.add(np.where(paths.order > 0, bins.index(paths.direction, phi_ref), -1), paths,
-                phi_ref, scene.map)
+        acc.add(paths, bins, phi_ref, scene.map)
         batch += 1
         # the figure the table reports, for this direction alone
         error = _table(bins, [theta], [phi], isotropic, [[acc]], {}).median_rel_error()
