@@ -24,7 +24,7 @@ import numpy as np
 
 import microsim
 from microsim.compare import direction
-from microsim.kernel.tally import bin_escapes
+from microsim.kernel.tally import bin_escapes, in_blocks
 from microsim.materials import FacetMaterials
 from microsim.paths import Paths, trace_paths
 from microsim.surfaces.tile import Tile
@@ -92,19 +92,23 @@ class _Sums:
 
     def add(self, paths: Paths, bins: HemisphereBins, phi_ref: float = 0.0,
             mapper: sh.Mapper | None = None) -> None:
-        """Add one batch: the traced ``paths``, binned in ``bins`` (compiled, in ray
-        order: ``microsim.kernel.tally``) with φo measured from the azimuth ``phi_ref``
-        (radians), which the harmonics use too, and what runs the harmonic transforms
-        (``sh.moments``; the sums do not depend on it)."""
+        """Add one batch: the traced ``paths``, binned in ``bins`` with φo measured from the
+        azimuth ``phi_ref`` (radians), which the harmonics use too; ``mapper`` runs the
+        binning's blocks and the harmonic transforms (``sh.Mapper``: e.g. on the tracer's
+        threads; the sums do not depend on it: ``microsim.kernel.tally.in_blocks``)."""
         n = len(paths.order)
         self.rays += n
         index = np.empty(n, np.int64)
-        sums = np.zeros_like(self.sums)
-        sums_sq = np.zeros_like(sums)
-        unbinned = np.zeros(3)
-        bin_escapes(paths.direction, paths.weight, paths.order, phi_ref, bins.theta_bins,
-                    bins.phi_bins, bins.folded, self.slot_of_order, sums, sums_sq, index,
-                    unbinned)
+
+        def block(a: int, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            sums = np.zeros_like(self.sums)
+            sums_sq, unbinned = np.zeros_like(sums), np.zeros(3)
+            bin_escapes(paths.direction[a:b], paths.weight[a:b], paths.order[a:b], phi_ref,
+                        bins.theta_bins, bins.phi_bins, bins.folded, self.slot_of_order, sums,
+                        sums_sq, index[a:b], unbinned)
+            return sums, sums_sq, unbinned
+
+        sums, sums_sq, unbinned = in_blocks(block, n, mapper)
         self.sums += sums
         self.sums_sq += sums_sq
         if self.sh_order:
