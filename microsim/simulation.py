@@ -30,7 +30,7 @@ from microsim.goniometer import (
 from microsim.surfaces.realisations import pool_info, realisation, realisation_seed
 from microsim.surfaces.tile import Tile
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.table import COMPONENTS, BRDFTable
+from microsim.tables.table import BRDFTable
 from microsim.trace import PeriodicScene
 
 
@@ -305,14 +305,17 @@ def _table(bins: HemisphereBins, theta_deg: Sequence[float], phi_deg: Sequence[f
             out[r, rows[l], kk] = get(run.sums)
         return out
 
+    def by_component(get: Callable[[Any], np.ndarray]) -> dict[str, np.ndarray]:
+        """Per component, the (K, a, b, ...) array of its row of the accumulators."""
+        rows_of = stacked(get, get(some))                       # (K, a, b, N + 1, ...)
+        return {c: rows_of[:, :, :, j] for j, c in enumerate(some.components)}
+
     rays = stacked(lambda acc: acc.rays, np.int64(0)).astype(np.int64)
-    sums = {c: stacked(lambda acc, c=c: acc.sums[c], some.sums[c]) for c in COMPONENTS}
-    sums_sq = {c: stacked(lambda acc, c=c: acc.sums_sq[c], some.sums[c]) for c in COMPONENTS}
+    sums = by_component(lambda acc: acc.sums)
+    sums_sq = by_component(lambda acc: acc.sums_sq)
     harmonics = some.sh_order > 0
-    sh_sums = {c: stacked(lambda acc, c=c: acc.sh_sums[c], some.sh_sums[c])
-               for c in COMPONENTS} if harmonics else None
-    sh_sums_sq = {c: stacked(lambda acc, c=c: acc.sh_sums_sq[c], some.sh_sums_sq[c])
-                  for c in COMPONENTS} if harmonics else None
+    sh_sums = by_component(lambda acc: acc.sh_sums) if harmonics else None
+    sh_sums_sq = by_component(lambda acc: acc.sh_sums_sq) if harmonics else None
     return BRDFTable.from_realisations(
         bins, np.radians(theta_deg), np.radians(phi_deg), isotropic, rays, sums, sums_sq,
         stacked(lambda acc: acc.lost_energy, some.lost_energy), meta, sh_sums=sh_sums,

@@ -5,7 +5,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from microsim.cli import add_json_arg, error_model_note, print_json
+from microsim.cli import (
+    add_component_arg,
+    add_json_arg,
+    error_model_note,
+    print_json,
+    table_component,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -22,8 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="beckmann, ggx (alpha and Schlick F0 per channel), oren-nayar "
                         "(sigma in radians, albedo per channel), phong (n, ks per channel), "
                         "lafortune[:K] (K isotropic lobes: Cxy, Cz, n)")
-    p.add_argument("--component", choices=("total", "single"), default="total",
-                   help="all scattering orders (default) or single scattering")
+    add_component_arg(p)
     p.add_argument("--plot", type=Path, default=None, metavar="PNG",
                    help="draw the plane of incidence, table against the fit")
     add_json_arg(p)
@@ -38,6 +43,7 @@ def run(args: argparse.Namespace) -> int:
 
     family(args.model)  # a bad name fails before the table is read
     table = microsim.read_table(args.table)
+    args.component = table_component(table, args.component, args.table)
     if not table.isotropic:
         raise InputError(f"{args.table}: fitting takes isotropic tables")
     result = fit_table(table, args.model, args.component)
