@@ -44,8 +44,8 @@ import microsim
 from microsim.analytic.registry import parse_model_spec
 from microsim.compare import LOBE_FRACTION, compare_table, direction, model_defaults
 from microsim.files import replace_marked
-from microsim.goniometer import simulate_recipe
 from microsim.recipe import load
+from microsim.simulation import simulate_recipe
 from microsim.tables.components import order_range
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -21,8 +21,8 @@ import numpy as np
 from microsim.analytic.multiple_scattering import SmithMultipleScattering
 from microsim.analytic.ndf import Beckmann
 from microsim.compare import direction
-from microsim.goniometer import simulate
 from microsim.recipe import resolve
+from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.tables.components import order_range
 

@@ -14,8 +14,8 @@ import microsim
 from microsim.analytic.multiple_scattering import SmithMultipleScattering
 from microsim.analytic.ndf import Beckmann
 from microsim.compare import compare_table, direction
-from microsim.goniometer import simulate
 from microsim.recipe import resolve
+from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.tables.components import canonical_component, components_for, order_range
 
@@ -244,6 +244,7 @@ def test_study_script_on_a_tiny_case(tmp_path, capsys) -> None:
     recipe = tmp_path / "tiny.toml"
     recipe.write_text('[surface]\nkind = "gaussian"\nalpha = 0.8\nresolution = 32\n'
                       'seed = 3\n[simulation]\ntheta_i = [0, 50]\nrays = 2000\n'
+                      'realisations = 1\n'
                       '[table]\ntheta_bins = 4\nphi_bins = 8\nsh_order = 0\n')
     table = tmp_path / "t.exr"
     rough_table(3).write(table)
