@@ -295,15 +295,30 @@ def apply_overrides(raw: dict, overrides: Iterable[str]) -> dict:
     return out
 
 
+MAX_BYTES = 1 << 20
+"""A recipe or sweep is a text file of a few kB: more than this (an endless device such as
+/dev/zero, a file given by mistake) is refused before it fills the memory."""
+
+
 def read_toml(path: str | Path) -> dict:
-    """Parse a TOML file, turning a missing file or a syntax error into ``InputError``."""
+    """Parse a TOML file, turning a missing, unreadable, oversized or non-UTF-8 file or a
+    syntax error into ``InputError``."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        with path.open("rb") as f:
+            data = f.read(MAX_BYTES + 1)
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+    except OSError as exc:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if len(data) > MAX_BYTES:
+        raise InputError(f"{path}: larger than {MAX_BYTES >> 20} MiB; a recipe is a short "
+                         "TOML text file")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not UTF-8 text (byte {exc.start}); a recipe is a TOML "
+                         "text file") from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
