@@ -131,6 +131,48 @@ def number_list(count: int | None = None, low: float = -math.inf, high: float = 
     return parse
 
 
+LIST_SHOWN = 8
+"""Text output shows lists up to this long whole, longer ones by their ends and length."""
+
+
+def readable(value: Any, digits: int = 4) -> str:
+    """A value for text output: numbers to ``digits`` significant figures, lists and
+    dicts item by item (long lists by their ends and length). JSON keeps full precision.
+
+    Parameters
+    ----------
+    value : Any
+        A number, string, bool, None, or a list / tuple / dict of them.
+    digits : int
+        Significant figures of floats.
+
+    Returns
+    -------
+    str
+    """
+    if isinstance(value, float):
+        return f"{value:.{digits}g}"
+    if isinstance(value, list | tuple):
+        items = [readable(v, digits) for v in value]
+        if len(items) > LIST_SHOWN:
+            items = items[:3] + ["…"] + items[-1:]
+            return f"[{', '.join(items)}] ({len(value)} values)"
+        return f"[{', '.join(items)}]"
+    if isinstance(value, dict):
+        return ", ".join(f"{k} {readable(v, digits)}" for k, v in value.items())
+    return str(value)
+
+
+def roughness_text(info: dict[str, Any]) -> str:
+    """``alpha realised R (target T)`` of a tile's facts, without a target where the
+    surface has none (an imported mesh); ``""`` when the tile reports no roughness."""
+    if info.get("alpha_realised") is None:
+        return ""
+    target = info.get("alpha_target")
+    text = f"alpha realised {readable(info['alpha_realised'])} (from facet slopes"
+    return text + ("" if target is None else f"; target {readable(target)}") + ")"
+
+
 def print_json(data: Any) -> None:
     """Print ``data`` as JSON (NaN becomes null, so the output is strict JSON)."""
 

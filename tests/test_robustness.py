@@ -66,3 +66,37 @@ def test_oversized_recipe_is_refused_before_it_is_read_whole(cli, tmp_path):
 def test_folder_as_recipe_is_an_error_line(cli, tmp_path):
     code, _, err = cli("check", str(tmp_path))
     one_error_line(code, err, str(tmp_path), "cannot read")
+
+
+# --- shipped recipes and what commands print about a tile -------------------------------
+def test_mesh_recipe_simulates_and_reports_its_roughness_without_a_target(cli, tmp_path):
+    """A mesh has a realised roughness but no target: the summary says so, and so does
+    ``measure g1`` (no "target None")."""
+    out_path = tmp_path / "mesh.exr"
+    code, out, err = cli("simulate", str(SURFACES / "mesh-example.toml"), "--rays", "2000",
+                         "--set", "table.sh_order=2", "-o", str(out_path))
+    assert code == 0, err
+    assert out_path.is_file()
+    line = next(line for line in out.splitlines() if line.startswith("surface:"))
+    assert "alpha realised" in line and "target" not in line
+    code, out, err = cli("measure", "g1", str(SURFACES / "mesh-example.toml"), "--rays",
+                         "2000", "--theta", "0,60")
+    assert code == 0, err
+    assert "None" not in out and "alpha realised" in out
+
+
+def test_generate_prints_rounded_summaries_not_a_value_per_groove(cli, tmp_path):
+    """A million grooves print one line of slope facts; numbers carry 4 significant
+    figures in text (JSON keeps full precision)."""
+    recipe = SURFACES / "vgroove-30.toml"
+    code, out, err = cli("generate", str(recipe), "--set", "surface.grooves=1000000",
+                         "-o", str(tmp_path / "v.ply"))
+    assert code == 0, err
+    assert len(out) < 2000, len(out)
+    slopes = next(line for line in out.splitlines() if "slopes_deg" in line)
+    assert "count 1000000" in slopes and "29.99999" not in slopes and "min 30," in slopes
+    code, out, _ = cli("generate", GAUSSIAN, "-o", str(tmp_path / "g.ply"))
+    realised = next(line for line in out.splitlines() if "alpha_realised" in line)
+    assert len(realised.split(":")[1].strip()) <= 6, realised
+    code, out, _ = cli("generate", GAUSSIAN, "-o", str(tmp_path / "g.ply"), "--json")
+    assert len(str(json.loads(out)["alpha_realised"])) > 8  # full precision in JSON

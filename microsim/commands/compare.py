@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from microsim.cli import add_json_arg, print_json
+from microsim.cli import add_json_arg, print_json, readable
 
 PLOTS = {
     "incidence_plane": "incidence-plane.png",
@@ -42,14 +42,10 @@ def title_of(table: Any, name: str, component: str) -> str:
     surface = meta.get("surface", {})
     materials = {m["kind"] for m in meta.get("recipe", {}).get("material", {}).values()}
     alpha = surface.get("alpha_realised")
-    alpha_text = "" if alpha is None else f", α realised {_fmt(alpha)}"
+    alpha_text = "" if alpha is None else f", α realised {readable(alpha, 3)}"
     return (f"{surface.get('kind', 'surface')}, {'/'.join(sorted(materials))} facets"
             f"{alpha_text}, {int(table.rays.max()):,} rays per direction; {component} "
             f"vs {name}")
-
-
-def _fmt(alpha: Any) -> str:
-    return ", ".join(f"{a:.3f}" for a in alpha) if isinstance(alpha, list) else f"{alpha:.3f}"
 
 
 def write_report(out: Path, result: dict[str, Any], title: str) -> Path:

@@ -14,6 +14,7 @@ from microsim.cli import (
     add_seed_arg,
     number_list,
     print_json,
+    readable,
     seed_override,
 )
 from microsim.errors import InputError
@@ -95,5 +96,5 @@ def run(args: argparse.Namespace) -> int:
         return 0
     for key, value in facts.items():
         if key != "warnings":
-            print(f"{key:>20}: {value}")
+            print(f"{key:>20}: {readable(value)}")
     return 0

@@ -17,6 +17,7 @@ from microsim.cli import (
     number_list,
     positive_int,
     print_json,
+    roughness_text,
     seed_override,
 )
 from microsim.errors import InputError
@@ -111,8 +112,8 @@ def run_g1(args: argparse.Namespace) -> int:
         s = "" if smith is None else f"{smith[k]:9.5f}"
         z = "" if smith is None or e == 0 else f"{(g - smith[k]) / e:9.2f}"
         print(f"{theta:6.1f} {g:9.5f} {e:9.5f} {s:>9} {z:>9}")
-    print(f"alpha realised {out['alpha_realised']} (target {out['alpha_target']}), "
-          f"{out['rays']:,} rays per angle, {out['wall_s']:.1f} s")
+    print(f"{roughness_text(info) or 'no roughness reported'}; {out['rays']:,} rays per "
+          f"angle, {out['wall_s']:.1f} s")
     return 0
 
 
@@ -139,7 +140,8 @@ def run_ndf(args: argparse.Namespace) -> int:
         from microsim.plots import ndf_plot
 
         ndf_plot(centres, m["D"], m["stderr"], model, args.plot,
-                 title=f"{resolved['surface']['kind']} surface, alpha realised {alpha}")
+                 title=f"{resolved['surface']['kind']} surface, "
+                       f"{roughness_text(tile.info) or 'no roughness reported'}")
         out["plot"] = args.plot
     if args.json:
         print_json(out)
@@ -149,5 +151,5 @@ def run_ndf(args: argparse.Namespace) -> int:
         b = "" if model is None else f"{model[k]:11.5g}"
         r = "" if model is None or model[k] == 0 else f"{m['D'][k] / model[k]:7.3f}"
         print(f"{c:8.2f} {m['D'][k]:11.5g} {m['stderr'][k]:10.3g} {b:>11} {r:>7}")
-    print(f"alpha realised {alpha} (target {tile.info.get('alpha_target')})")
+    print(roughness_text(tile.info) or "no roughness reported: no Beckmann reference")
     return 0

@@ -15,6 +15,7 @@ from microsim.cli import (
     add_threads_arg,
     positive_int,
     print_json,
+    roughness_text,
 )
 from microsim.errors import InputError
 
@@ -107,10 +108,8 @@ def print_summary(s: dict[str, Any]) -> None:
         print(f"{theta:8.1f} {s['phi_i'][k]:6.1f} {s['rays_per_direction'][k]:11,d} "
               f"{a:9.5f} ± {e:.5f} {s['single_albedo'][k].mean():8.5f} "
               f"{s['lost_energy'][k].mean():9.2e}  {s['stop'][k]}")
-    surface = s["surface"]
-    if "alpha_realised" in surface:
-        print(f"surface: alpha target {surface['alpha_target']}, realised "
-              f"{surface['alpha_realised']} (from facet slopes)")
+    if roughness_text(s["surface"]):
+        print(f"surface: {roughness_text(s['surface'])}")
     print(f"{s['rays']:,} rays, {s['segments']:,} segments in {s['wall_s']:.1f} s "
           f"({s['segments_per_s']:,.0f} segments/s); median relative error over lobe "
           f"bins {100 * s['median_rel_error']:.2f}%")
