@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     import microsim
     from microsim.tables.sh_error import order_errors
 
-    table = microsim.read_table(args.table)
+    table = microsim.read_table(args.table, require_sh=True)
     if table.sh is None:
         raise InputError(f"{args.table}: holds no spherical harmonics (simulate it with "
                          "[table] sh_order > 0)")
