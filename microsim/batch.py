@@ -20,7 +20,6 @@ import fcntl
 import functools
 import json
 import os
-import re
 import threading
 import time
 from collections.abc import Callable, Iterator, Mapping
@@ -30,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 import microsim
 from microsim.errors import InputError
-from microsim.files import atomic_path
+from microsim.files import atomic_path, remove_stale_temporaries
 from microsim.sweep import Point, Sweep, canonical
 
 if TYPE_CHECKING:
@@ -42,8 +41,6 @@ if TYPE_CHECKING:
 
 MANIFEST = "manifest.json"
 LOCK = ".batch.lock"
-TEMPORARY = re.compile(r"^\.(.+\.exr|manifest\.json)\.(\d+)\.[0-9a-f]{8}\.tmp$")
-"""Names ``microsim.files.atomic_path`` gives the temporary files of this folder's outputs."""
 RETRIES = 1
 """Times a job that raised is run again before its table is marked failed."""
 
@@ -121,31 +118,6 @@ def jobs_of(point: Point, thetas_per_job: int) -> list[Job]:
     n = len(point.recipe["simulation"]["theta_i"])
     return [Job(point.name, tuple(range(i, min(i + thetas_per_job, n))))
             for i in range(0, n, thetas_per_job)]
-
-
-def remove_stale_temporaries(folder: Path) -> list[Path]:
-    """Remove temporary files a killed batch left in ``folder`` (their writer is gone).
-
-    Returns
-    -------
-    list of Path
-        The files removed.
-    """
-    removed = []
-    for path in folder.glob(".*.tmp"):
-        match = TEMPORARY.match(path.name)
-        if match is None:
-            continue
-        try:
-            os.kill(int(match.group(2)), 0)
-            continue  # the writer still runs
-        except ProcessLookupError:
-            pass
-        except PermissionError:
-            continue
-        path.unlink(missing_ok=True)
-        removed.append(path)
-    return removed
 
 
 @contextlib.contextmanager

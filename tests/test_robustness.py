@@ -4,6 +4,7 @@ traceback, and no silently wrong output."""
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -158,3 +159,71 @@ def test_damaged_harmonics_keep_stdout_clean_json(small_table, tmp_path):
     assert run.stderr.strip().splitlines() == [line for line in run.stderr.strip().splitlines()
                                                if line.startswith("warning:")]
     assert "spherical-harmonics part cannot be read" in run.stderr
+
+
+# --- outputs that cannot be written -------------------------------------------------------
+def _no_work(*args, **kwargs):
+    raise AssertionError("the work started before the output was checked")
+
+
+@pytest.mark.parametrize(
+    ("argv", "flag", "patch"),
+    [
+        (["simulate", GAUSSIAN, "-o", "{file}/t.exr"], "--output", "microsim.goniometer.simulate"),
+        (["simulate", GAUSSIAN, "-o", "{folder}"], "--output", "microsim.goniometer.simulate"),
+        (["demo", "-o", "{file}/t.exr"], "--output", "microsim.goniometer.simulate"),
+        (["demo", "-o", "{tmp}/d.exr", "--plot", "{file}/p.png"], "--plot", "microsim.goniometer.simulate"),
+        (["generate", GAUSSIAN, "-o", "{file}/t.ply"], "--output", "microsim.surfaces.build_tile"),
+        (["export", "{table}", "--format", "npz", "-o", "{file}/t.npz"], "--output", "microsim.tables.export.write_npz"),
+        (["compare", "{table}", "--model", "beckmann", "--out", "{file}"], "--out", "microsim.compare.compare_table"),
+        (["compare", "{table}", "--model", "beckmann", "--out", "{file}/r"], "--out", "microsim.compare.compare_table"),
+        (["bench", "--quick", "--out", "{file}/b"], "--out", "microsim.bench.sweep"),
+        (["fit", "{table}", "--model", "ggx", "--plot", "{file}/f.png"], "--plot", "microsim.fit.fit_table"),
+        (["sh", "{table}", "--plot", "{file}/s.png"], "--plot", "microsim.tables.sh_error.order_errors"),
+        (["sh", "{table}", "--matrix", "{folder}"], "--matrix", "microsim.tables.sh_error.order_errors"),
+        (["measure", "ndf", GAUSSIAN, "--plot", "{file}/n.png"], "--plot", "microsim.surfaces.build_tile"),
+        (["view", GAUSSIAN, "--screenshot", "{file}/v.png"], "--screenshot", "microsim.surfaces.build_tile"),
+        (["batch", str(ROOT / "scripts" / "sweep-roughness.toml"), "-o", "{file}"], "--output", "microsim.batch.run_batch"),
+    ],
+)
+def test_unwritable_output_is_refused_before_the_work(cli, small_table, tmp_path, monkeypatch,
+                                                      argv, flag, patch):
+    """A path under a file, or a folder where a file is wanted: one error line naming the
+    flag, before anything is computed (the work is replaced by a trap)."""
+    (tmp_path / "a-file").write_text("x")
+    (tmp_path / "a-folder.exr").mkdir()
+    names = {"file": str(tmp_path / "a-file"), "folder": str(tmp_path / "a-folder.exr"),
+             "tmp": str(tmp_path), "table": str(small_table)}
+    monkeypatch.setattr(patch, _no_work)
+    code, _, err = cli(*[a.format(**names) for a in argv])
+    one_error_line(code, err, flag)
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
+def test_read_only_folder_is_refused_before_the_work(cli, tmp_path, monkeypatch):
+    locked = tmp_path / "locked"
+    locked.mkdir(mode=0o500)
+    monkeypatch.setattr("microsim.goniometer.simulate", _no_work)
+    code, _, err = cli("simulate", GAUSSIAN, "-o", str(locked / "t.exr"))
+    one_error_line(code, err, "--output", "cannot write")
+
+
+def test_stale_temporaries_of_the_target_are_removed(tmp_path):
+    """A writer killed during a write leaves ``.<name>.<pid>.<hex>.tmp``: the next write of
+    the same target removes it; a live writer's file and other targets' files stay."""
+    import subprocess
+    import sys
+
+    from microsim.files import atomic_path
+
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    stale = tmp_path / f".t.exr.{gone.pid}.0123abcd.tmp"
+    live = tmp_path / f".t.exr.{os.getpid()}.4567abcd.tmp"
+    other = tmp_path / f".u.exr.{gone.pid}.89abcdef.tmp"
+    for path in (stale, live, other):
+        path.write_bytes(b"partial")
+    with atomic_path(tmp_path / "t.exr") as tmp:
+        tmp.write_bytes(b"whole")
+    assert not stale.exists() and live.exists() and other.exists()
+    assert (tmp_path / "t.exr").read_bytes() == b"whole"

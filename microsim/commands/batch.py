@@ -13,6 +13,7 @@ from typing import Any
 
 from microsim.cli import add_json_arg, positive_int, print_json
 from microsim.errors import InputError
+from microsim.files import writable_folder
 
 CONNECT_TIMEOUT = 20
 """Seconds to wait for ``--scheduler`` before giving up."""
@@ -131,8 +132,7 @@ def run(args: argparse.Namespace) -> int:
     from microsim.sweep import load_sweep
 
     sweep = load_sweep(args.sweep)
-    if args.output.exists() and not args.output.is_dir():
-        raise InputError(f"--output {args.output}: not a folder")
+    writable_folder(args.output, "--output")
     with dask_client(args.workers, args.scheduler) as client, \
             progress_bar(sys.stderr.isatty() and not args.json) as show:
         summary = run_batch(sweep, args.output, client, resume=args.resume,

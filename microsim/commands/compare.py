@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from microsim.cli import add_json_arg, print_json, readable
+from microsim.files import writable_folder
 
 PLOTS = {
     "incidence_plane": "incidence-plane.png",
@@ -88,12 +89,13 @@ def run(args: argparse.Namespace) -> int:
 
     table = microsim.read_table(args.table)
     name, params, model = parse_model_spec(args.model, model_defaults(table.meta))
+    if args.out is not None:
+        writable_folder(args.out, "--out")
     result = compare_table(table, model, args.component)
     model_bins = result.pop("model")
     result = {"model": name, "params": params, "component": args.component,
               "table": str(args.table), **result}
     if args.out is not None:
-        args.out.mkdir(parents=True, exist_ok=True)
         title = title_of(table, name, args.component)
         if table.isotropic:
             incidence_plane(table, model_bins, args.out / PLOTS["incidence_plane"],

@@ -17,6 +17,7 @@ from microsim.cli import (
     print_json,
     seed_override,
 )
+from microsim.files import writable_file
 
 RECIPE = Path(microsim.__file__).resolve().parent.parent / "surfaces" / "gaussian-0.3.toml"
 
@@ -62,6 +63,9 @@ def run(args: argparse.Namespace) -> int:
     if args.rays is not None:
         overrides.append(f"simulation.rays={args.rays}")
     resolved = recipe.load(RECIPE, overrides)
+    writable_file(args.output, "--output", (".exr",))
+    if args.plot is not None:
+        writable_file(args.plot, "--plot")
     table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json)
     table.write(args.output)
     compared = comparison(table)

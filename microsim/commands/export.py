@@ -7,6 +7,7 @@ from pathlib import Path
 
 from microsim.cli import positive_int
 from microsim.errors import InputError
+from microsim.files import writable_file
 
 SUFFIXES = {"npz": ".npz", "merl": ".binary", "rgl": ".bsdf"}
 
@@ -39,6 +40,7 @@ def run(args: argparse.Namespace) -> int:
     want = SUFFIXES[args.format]
     if args.output.suffix.lower() != want:
         raise InputError(f"--output {args.output}: a {args.format} file must end in {want}")
+    writable_file(args.output, "--output")
     if args.format == "rgl" and args.resolution < 2:
         raise InputError(f"--resolution {args.resolution}: must be >= 2")
     table = microsim.read_table(args.table)

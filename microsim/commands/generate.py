@@ -17,8 +17,7 @@ from microsim.cli import (
     readable,
     seed_override,
 )
-from microsim.errors import InputError
-from microsim.files import atomic_path
+from microsim.files import atomic_path, writable_file
 
 FORMATS = (".ply", ".obj")
 
@@ -83,8 +82,7 @@ def run(args: argparse.Namespace) -> int:
     """Build, write, report."""
     from microsim.surfaces import build_tile
 
-    if args.output.suffix.lower() not in FORMATS:
-        raise InputError(f"--output {args.output}: must end in .ply or .obj")
+    writable_file(args.output, "--output", FORMATS)
     resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "surface")])
     tile = build_tile(resolved["surface"], args.memory_limit)
     for warning in tile.warnings:

@@ -21,6 +21,7 @@ from microsim.cli import (
     seed_override,
 )
 from microsim.errors import InputError
+from microsim.files import writable_file
 
 degree_list = number_list(low=0.0, high=90.0,
                           what="a comma-separated list of angles in [0, 90] degrees")
@@ -126,6 +127,8 @@ def run_ndf(args: argparse.Namespace) -> int:
     from microsim.surfaces import build_tile
 
     resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "surface")])
+    if args.plot:
+        writable_file(args.plot, "--plot")
     tile = build_tile(resolved["surface"])
     alpha = tile.info.get("alpha_realised")
     iso = alpha if isinstance(alpha, float) else None

@@ -17,7 +17,7 @@ from microsim.cli import (
     print_json,
     roughness_text,
 )
-from microsim.errors import InputError
+from microsim.files import writable_file
 
 
 def add_tracing_args(p: argparse.ArgumentParser) -> None:
@@ -139,9 +139,8 @@ def simulate_resolved(resolved: dict[str, Any], threads: int | None, show_progre
 def run(args: argparse.Namespace) -> int:
     """Simulate, write the table, print the summary."""
     resolved = recipe.load(args.recipe, [*args.overrides, *tracing_overrides(args)])
-    output = args.output or Path("tables") / (Path(args.recipe).stem + ".exr")
-    if output.suffix.lower() != ".exr":
-        raise InputError(f"--output {output}: must end in .exr (an OpenEXR table)")
+    output = writable_file(args.output or Path("tables") / (Path(args.recipe).stem + ".exr"),
+                           "--output", (".exr",))
     table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json)
     table.write(output)
     s = summary(table, output)

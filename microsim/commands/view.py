@@ -10,6 +10,7 @@ from microsim import recipe
 from microsim.cli import add_seed_arg, number_list, positive_int, seed_override
 from microsim.commands.generate import add_memory_arg
 from microsim.errors import InputError
+from microsim.files import writable_file
 
 MESHES = (".ply", ".obj", ".stl")
 
@@ -94,6 +95,8 @@ def run(args: argparse.Namespace) -> int:
 
     source = Path(args.source)
     suffix = source.suffix.lower()
+    if args.screenshot is not None:
+        writable_file(args.screenshot, "--screenshot")
     if suffix in MESHES:
         if args.period is None:
             raise InputError(f"--period: required for a mesh file ({source.name}); give "
