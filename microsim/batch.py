@@ -120,16 +120,29 @@ def jobs_of(point: Point, thetas_per_job: int) -> list[Job]:
             for i in range(0, n, thetas_per_job)]
 
 
+_locked: set[Path] = set()
+"""Folders whose lock this process holds (``output_lock`` nests)."""
+
+
 @contextlib.contextmanager
 def output_lock(folder: Path) -> Iterator[None]:
-    """Hold ``folder/.batch.lock``: one batch at a time writes a folder."""
+    """Hold ``folder/.batch.lock``: one batch at a time writes a folder. The command line
+    takes it before it starts a cluster; ``run_batch`` inside it holds it already."""
     folder.mkdir(parents=True, exist_ok=True)
+    key = folder.resolve()
+    if key in _locked:
+        yield
+        return
     with open(folder / LOCK, "a") as handle:
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             raise InputError(f"{folder}: another batch is writing this folder") from None
-        yield
+        _locked.add(key)
+        try:
+            yield
+        finally:
+            _locked.discard(key)
 
 
 def read_manifest(folder: Path) -> dict[str, Any]:

@@ -60,6 +60,15 @@ def add_threads_arg(p: argparse.ArgumentParser) -> None:
                    help="tracing threads (default: every CPU; results do not depend on it)")
 
 
+def add_memory_arg(p: argparse.ArgumentParser) -> None:
+    """Add ``--memory-limit GIB``."""
+    gib = number_list(1, low=0.0, low_open=True, what="a positive number of GiB")
+    p.add_argument("--memory-limit", type=lambda t: gib(t)[0], default=None, metavar="GIB",
+                   help="refuse work (a tile, ray paths, an export grid) estimated to "
+                        "need more memory than this many GiB (default: "
+                        "$MICROSIM_MEMORY_LIMIT or 2)")
+
+
 def seed_override(args: argparse.Namespace, section: str) -> list[str]:
     """``[section.seed=N]`` when ``--seed N`` was given, else ``[]``."""
     return [] if args.seed is None else [f"{section}.seed={args.seed}"]

@@ -227,3 +227,60 @@ def test_stale_temporaries_of_the_target_are_removed(tmp_path):
         tmp.write_bytes(b"whole")
     assert not stale.exists() and live.exists() and other.exists()
     assert (tmp_path / "t.exr").read_bytes() == b"whole"
+
+
+# --- the memory guard ---------------------------------------------------------------------
+SWEEP = str(ROOT / "scripts" / "sweep-roughness.toml")
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["export", "{table}", "--format", "rgl", "--resolution", "1000000", "-o", "{tmp}/x.bsdf"], "--resolution 1000000"),
+        (["view", GAUSSIAN, "--rays", "1000000000", "--screenshot", "{tmp}/v.png"], "--rays 1000000000"),
+        (["measure", "g1", GAUSSIAN, "--rays", "1000000000"], "--rays 1000000000"),
+        (["generate", str(SURFACES / "velvet.toml"), "--set", "surface.density=1e300", "-o", "{tmp}/v.ply"], "surface: this tile"),
+        (["simulate", GAUSSIAN, "--memory-limit", "0.01", "-o", "{tmp}/t.exr"], "0.01 GiB limit"),
+        (["measure", "g1", GAUSSIAN, "--memory-limit", "0.01"], "0.01 GiB limit"),
+        (["measure", "ndf", GAUSSIAN, "--memory-limit", "0.01"], "0.01 GiB limit"),
+        (["batch", SWEEP, "-o", "{tmp}/b", "--memory-limit", "0.01"], "point alpha=0.1_kind=mirror: surface: this tile"),
+    ],
+)
+def test_memory_guard_refuses_before_the_work(cli, capsys, small_table, tmp_path, monkeypatch,
+                                              argv, needle):
+    """Work over the budget is refused before it starts (the tracers and the cluster are
+    traps), with the estimate in 3 significant figures and a flag the command has."""
+    for trap in ("microsim.trace.PeriodicScene", "microsim.commands.batch.dask_client",
+                 "microsim.tables.export.write_rgl"):
+        monkeypatch.setattr(trap, _no_work)
+    code, _, err = cli(*[a.format(table=small_table, tmp=tmp_path) for a in argv])
+    line = one_error_line(code, err, needle, "--memory-limit")
+    estimate = line.split("needs about ")[1].split(" GiB")[0]
+    assert len(estimate) <= 9, line  # e.g. 1.34e+295
+    # the flag the message names is one the command takes
+    command = argv[:2] if argv[0] == "measure" else argv[:1]
+    with pytest.raises(SystemExit):
+        cli(*command, "--help")
+    assert "--memory-limit" in capsys.readouterr().out
+
+
+def test_second_batch_on_a_locked_folder_stops_before_a_cluster(cli, tmp_path, monkeypatch):
+    """Another process holds the folder's lock: exit 2 at once, no cluster started."""
+    import subprocess
+    import sys
+
+    folder = tmp_path / "out"
+    folder.mkdir()
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import fcntl, sys, time\n"
+         f"f = open({str(folder / '.batch.lock')!r}, 'a')\n"
+         "fcntl.flock(f, fcntl.LOCK_EX)\nprint('locked', flush=True)\ntime.sleep(60)"],
+        stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        monkeypatch.setattr("microsim.commands.batch.dask_client", _no_work)
+        code, _, err = cli("batch", SWEEP, "-o", str(folder))
+        one_error_line(code, err, "another batch is writing this folder")
+    finally:
+        holder.kill()
+        holder.wait()

@@ -5,11 +5,16 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from microsim.cli import positive_int
+from microsim.cli import add_memory_arg, positive_int
 from microsim.errors import InputError
 from microsim.files import writable_file
+from microsim.memory import check_memory
 
 SUFFIXES = {"npz": ".npz", "merl": ".binary", "rgl": ".bsdf"}
+RGL_BYTES = (200, 60)
+"""Memory of an RGL export per grid vertex: a fixed part (evaluating the table there) and
+a part per incidence (the tensor and its copies in the file's bytes); measured 387 B per
+vertex with 4 incidences (resolution 512 to 1024), rounded up."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -29,6 +34,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="all scattering orders (default) or single scattering")
     p.add_argument("--resolution", type=positive_int, default=32,
                    help="rgl: grid vertices per axis of the colour tensor (default 32)")
+    add_memory_arg(p)
     p.set_defaults(func=run)
 
 
@@ -47,6 +53,11 @@ def run(args: argparse.Namespace) -> int:
     if args.format != "npz" and not table.isotropic:
         raise InputError(f"--format {args.format}: writes isotropic tables; {args.table} is "
                          "anisotropic (use --format npz)")
+    if args.format == "rgl":
+        fixed, per_incidence = RGL_BYTES
+        check_memory(args.resolution**2 * (fixed + per_incidence * len(table.theta_i)),
+                     f"--resolution {args.resolution}: the RGL grid", "lower --resolution "
+                     "(32 to 256 is usual)", args.memory_limit)
     if args.format == "npz":
         export.write_npz(table, args.output)
     elif args.format == "merl":

@@ -10,9 +10,9 @@ from typing import Any
 from microsim import recipe
 from microsim.cli import (
     add_json_arg,
+    add_memory_arg,
     add_recipe_args,
     add_seed_arg,
-    number_list,
     print_json,
     readable,
     seed_override,
@@ -20,14 +20,6 @@ from microsim.cli import (
 from microsim.files import atomic_path, writable_file
 
 FORMATS = (".ply", ".obj")
-
-
-def add_memory_arg(p: argparse.ArgumentParser) -> None:
-    """Add ``--memory-limit GIB``."""
-    gib = number_list(1, low=0.0, low_open=True, what="a positive number of GiB")
-    p.add_argument("--memory-limit", type=lambda t: gib(t)[0], default=None, metavar="GIB",
-                   help="refuse tiles estimated to need more memory than this (default: "
-                        "$MICROSIM_MEMORY_LIMIT or 2 GiB)")
 
 
 def register(sub: argparse._SubParsersAction) -> None:

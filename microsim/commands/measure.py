@@ -11,6 +11,7 @@ from microsim import recipe
 from microsim.cli import (
     Parser,
     add_json_arg,
+    add_memory_arg,
     add_recipe_args,
     add_seed_arg,
     add_threads_arg,
@@ -49,6 +50,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="rays per angle (default 100000)")
     add_threads_arg(g)
     add_seed_arg(g, "simulation")
+    add_memory_arg(g)
     add_json_arg(g)
     g.set_defaults(func=run_g1)
     n = inner.add_parser(
@@ -61,6 +63,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     n.add_argument("--bins", type=positive_int, default=30, help="theta_h bins (default 30)")
     n.add_argument("--plot", default=None, metavar="PNG", help="also draw it")
     add_seed_arg(n, "surface")
+    add_memory_arg(n)
     add_json_arg(n)
     n.set_defaults(func=run_ndf)
 
@@ -82,7 +85,8 @@ def run_g1(args: argparse.Namespace) -> int:
     import numpy as np
 
     from microsim.compare import direction
-    from microsim.masking import measure_g1_recipe
+    from microsim.masking import G1_BYTES_PER_RAY, measure_g1_recipe
+    from microsim.memory import check_memory
 
     if not math.isfinite(args.phi):
         raise InputError(f"--phi {args.phi}: must be a finite angle in degrees")
@@ -92,7 +96,10 @@ def run_g1(args: argparse.Namespace) -> int:
         print(f"warning: part {inside[0]!r} refracts: G1 samples every face, also those "
               "inside its medium (particles, substrate), so it is not the masking of the "
               "surface light meets first", file=sys.stderr)
-    result = measure_g1_recipe(resolved, args.theta, args.rays, args.phi, args.threads)
+    check_memory(G1_BYTES_PER_RAY * args.rays * len(args.theta), f"--rays {args.rays} at "
+                 f"{len(args.theta)} angles", "use fewer rays", args.memory_limit)
+    result = measure_g1_recipe(resolved, args.theta, args.rays, args.phi, args.threads,
+                               args.memory_limit)
     info = result["surface"]
     model = smith_model(info)
     smith = None
@@ -129,7 +136,7 @@ def run_ndf(args: argparse.Namespace) -> int:
     resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "surface")])
     if args.plot:
         writable_file(args.plot, "--plot")
-    tile = build_tile(resolved["surface"])
+    tile = build_tile(resolved["surface"], args.memory_limit)
     alpha = tile.info.get("alpha_realised")
     iso = alpha if isinstance(alpha, float) else None
     theta_max = math.atan(3.5 * iso) if iso is not None else math.radians(89.0)

@@ -10,6 +10,7 @@ from typing import Any
 from microsim import recipe
 from microsim.cli import (
     add_json_arg,
+    add_memory_arg,
     add_recipe_args,
     add_seed_arg,
     add_threads_arg,
@@ -31,6 +32,7 @@ def add_tracing_args(p: argparse.ArgumentParser) -> None:
                    help="adaptive stop: at most this many rays per incident direction")
     add_threads_arg(p)
     add_seed_arg(p, "simulation")
+    add_memory_arg(p)
 
 
 def tracing_overrides(args: argparse.Namespace) -> list[str]:
@@ -120,12 +122,13 @@ def print_summary(s: dict[str, Any]) -> None:
         print(f"wrote {s['output']}")
 
 
-def simulate_resolved(resolved: dict[str, Any], threads: int | None, show_progress: bool):
+def simulate_resolved(resolved: dict[str, Any], threads: int | None, show_progress: bool,
+                      memory_limit_gib: float | None = None):
     """Build the tile (warnings to stderr) and run the goniophotometer."""
     from microsim.goniometer import simulate
     from microsim.surfaces import build_tile
 
-    tile = build_tile(resolved["surface"])
+    tile = build_tile(resolved["surface"], memory_limit_gib)
     for warning in tile.warnings:
         print(f"warning: {warning}", file=sys.stderr)
     progress = progress_printer(show_progress)
@@ -141,7 +144,8 @@ def run(args: argparse.Namespace) -> int:
     resolved = recipe.load(args.recipe, [*args.overrides, *tracing_overrides(args)])
     output = writable_file(args.output or Path("tables") / (Path(args.recipe).stem + ".exr"),
                            "--output", (".exr",))
-    table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json)
+    table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json,
+                              args.memory_limit)
     table.write(output)
     s = summary(table, output)
     print_json(s) if args.json else print_summary(s)
