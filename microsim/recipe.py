@@ -27,7 +27,7 @@ from typing import Any
 
 from microsim.errors import InputError
 from microsim.schema import REQUIRED, Key, check_section, suggest, unknown_key
-from microsim.surfaces.params import SURFACE_KINDS
+from microsim.surfaces.params import SURFACE_KINDS, check_span
 
 
 def _n(doc: str, default: Any = REQUIRED, **kw: Any) -> Key:
@@ -226,6 +226,7 @@ def resolve(raw: Mapping[str, Any]) -> dict:
     surf = {"kind": kind, **check_section(rest, spec.keys, "surface.")}
     if spec.check is not None:
         spec.check(surf)
+    check_span(surf, spec.keys)
     materials = _materials(raw.get("material", {}), spec.parts)
     _check_media(surf, materials)
     return {

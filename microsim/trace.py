@@ -200,7 +200,7 @@ class PeriodicScene:
         target = np.column_stack([np.where(dirs[:, i] >= 0, hi, lo) for i, (lo, hi) in
                                   enumerate(zip((0.0, 0.0, self.z_bottom),
                                                 (*self.period, self.z_top), strict=True))])
-        inv = 1.0 / np.where(dirs == 0, 1e-300, dirs)
+        inv = 1.0 / np.where(dirs == 0, 1e-200, dirs)  # 1e200: no overflow times lengths
         active = np.arange(n)
         queries = segments = 0
         while active.size:

@@ -284,3 +284,67 @@ def test_second_batch_on_a_locked_folder_stops_before_a_cluster(cli, tmp_path, m
     finally:
         holder.kill()
         holder.wait()
+
+
+# --- extreme geometry ---------------------------------------------------------------------
+SIGMA = """
+[surface]
+kind = "gaussian"
+sigma = 0.005
+correlation_length = 0.03
+resolution = 32
+"""
+
+
+@pytest.mark.parametrize(
+    ("sets", "needle"),
+    [
+        (["surface.size=1e300"], "surface.size = 1e+300"),
+        (["surface.size=1e-300"], "surface.size = 1e-300"),
+        (["surface.sigma=1e300"], "surface.sigma = 1e+300"),
+        (["surface.sigma=1e-6"], "surface.sigma = 1e-06: gives alpha"),
+        (["surface.sigma=1"], "surface.sigma = 1.0: gives alpha"),
+        (["surface.correlation_length=1e-300"], "surface.correlation_length = 1e-300"),
+        (["surface.correlation_length=1e-5"], "gives alpha = 2 sigma / correlation_length = 1e+03"),
+        (["surface.correlation_length=5"], "surface.correlation_length = 5.0: gives a correlation length"),
+        (["surface.size=1e9"], "surface.correlation_length = 0.03"),
+    ],
+)
+def test_extreme_gaussian_geometry_is_an_error_line(cli, tmp_path, sets, needle):
+    recipe = tmp_path / "sigma.toml"
+    recipe.write_text(SIGMA, encoding="utf-8")
+    code, _, err = cli("check", str(recipe), *[a for s in sets for a in ("--set", s)])
+    one_error_line(code, err, needle)
+
+
+@pytest.mark.parametrize(
+    ("recipe", "sets", "needle"),
+    [
+        ("gaussian-0.3.toml", ["surface.alpha=1e-300"], "surface.alpha = 1e-300: must be a number >= 0.001"),
+        ("gaussian-0.3.toml", ["surface.alpha_x=0.5", "surface.alpha_y=0.001", "surface.alpha=nan"], "surface.alpha = nan"),
+        ("gaussian-0.3.toml", ["surface.resolution=4"], "surface.resolution = 4"),
+        ("cylinders.toml", ["surface.length=1e9"], "at most 10000 times smaller than surface.length"),
+        ("velvet.toml", ["surface.size=1e-300"], "surface.size = 1e-300"),
+        ("paint.toml", ["surface.top_alpha=1e-9"], "surface.top_alpha = 1e-09"),
+        ("vgroove-rough-facets.toml", ["surface.micro_correlation=1e-7"], "surface.micro_correlation"),
+    ],
+)
+def test_extreme_values_of_other_surfaces_are_error_lines(cli, recipe, sets, needle):
+    code, _, err = cli("check", str(SURFACES / recipe), *[a for s in sets for a in ("--set", s)])
+    one_error_line(code, err, needle)
+
+
+@pytest.mark.parametrize("size", [1e-9, 1e9])
+def test_lengths_at_the_bounds_give_finite_tables(cli, tmp_path, size):
+    """The scale-free tracer at the ends of the length range: every value finite, the
+    albedo of a closed mirror surface within 1e-3 of 1 (16 bounces lose less)."""
+    import microsim
+
+    out = tmp_path / "t.exr"
+    code, _, err = cli("simulate", GAUSSIAN, *SMALL, "--set", f"surface.size={size}",
+                       "--rays", "2000", "-o", str(out), "--json")
+    assert code == 0, err
+    table = microsim.read_table(out)
+    for c in ("total", "single"):
+        assert np.isfinite(table.values[c]).all()
+    assert np.abs(table.albedo - 1).max() < 1e-3

@@ -20,11 +20,9 @@ from typing import Any
 
 import numpy as np
 
+from microsim.surfaces.params import correlation_lengths
 from microsim.surfaces.tile import Tile, grid_faces
 
-DEFAULT_CELLS = 8
-"""Default correlation length in grid cells (DESIGN.md: τ = 8 cells gives G1 within 0.005
-of Smith)."""
 MIN_CELLS = 4
 """Below this many cells per correlation length the facets under-resolve the slopes."""
 MIN_LENGTHS = 30
@@ -37,30 +35,6 @@ def discretised_alpha_ratio(cells: float) -> float:
     continuous 2σ²/τ², so α_h/α = √((1 − e^{−x})/x) (0.996 at 8 cells, 0.941 at 2)."""
     x = 1.0 / cells**2
     return math.sqrt(-math.expm1(-x) / x)
-
-
-def correlation_lengths(surface: Mapping[str, Any]) -> tuple[float, float, float]:
-    """(σ, τx, τy) from whichever of alpha / alpha_x, alpha_y / sigma the recipe gives.
-
-    Parameters
-    ----------
-    surface : mapping
-        Resolved ``[surface]`` of kind ``gaussian``.
-
-    Returns
-    -------
-    sigma, tau_x, tau_y : float
-        RMS height and the correlation lengths along the rotated axes (tile units).
-    """
-    cell = surface["size"] / surface["resolution"]
-    tau = surface.get("correlation_length", DEFAULT_CELLS * cell)
-    if "sigma" in surface:
-        return surface["sigma"], tau, tau
-    if "alpha" in surface:
-        return surface["alpha"] * tau / 2, tau, tau
-    ax, ay = surface["alpha_x"], surface["alpha_y"]
-    sigma = max(ax, ay) * tau / 2  # the rougher axis gets tau, the smoother a longer one
-    return sigma, 2 * sigma / ax, 2 * sigma / ay
 
 
 def heights(n: int, size: float, sigma: float, tau_x: float, tau_y: float,

@@ -31,7 +31,8 @@ import numpy as np
 
 from microsim.errors import InputError
 from microsim.frames import orthonormal_basis
-from microsim.surfaces.gaussian import DEFAULT_CELLS, MIN_LENGTHS, heights
+from microsim.surfaces.gaussian import MIN_LENGTHS, heights
+from microsim.surfaces.params import DEFAULT_CELLS
 from microsim.surfaces.periodic import wrap_into_box
 from microsim.surfaces.tile import Tile, grid_faces
 

@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from microsim.surfaces.gaussian import DEFAULT_CELLS, heights
-from microsim.surfaces.params import MICRO_RESOLUTION
+from microsim.surfaces.gaussian import heights
+from microsim.surfaces.params import DEFAULT_CELLS, MICRO_RESOLUTION
 from microsim.surfaces.tile import Tile, grid_faces
 
 
