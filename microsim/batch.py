@@ -306,7 +306,7 @@ def _finish(folder: Path, manifest: Manifest, point: Point, parts: list[Measurem
         point.name, status="done", error=None, rays=int(table.rays.sum()),
         segments=int(table.meta["segments"]), jobs=len(parts), wall_s=seconds,
         trace_s=sum(p.trace_time for p in parts),
-        median_rel_error=_finite(table.median_rel_error("total")),
+        median_rel_stderr=_finite(table.median_rel_stderr("total")),
         albedo=table.albedo.reshape(-1, 3).mean(axis=1).tolist(),
         albedo_err=table.albedo_err.reshape(-1, 3).mean(axis=1).tolist(),
-        warnings=warnings)
+        warnings=[*warnings, *table.meta["warnings"]])

@@ -111,7 +111,7 @@ def run_tables(case: str, surface: dict[str, Any], material: str, theta: list[fl
 def score_ts(table: Any) -> tuple[float, float]:
     """Median relative lobe error against the microfacet model; median relative stderr."""
     result = compare_table(table, microfacet_model(table.meta), "single")
-    return result["median_rel_error"], table.median_rel_error("single")
+    return result["median_rel_error"], table.median_rel_stderr("single")
 
 
 def score_furnace(table: Any) -> tuple[float, float]:

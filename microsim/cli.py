@@ -173,6 +173,17 @@ def readable(value: Any, digits: int = 4) -> str:
     return str(value)
 
 
+def with_error(value: float, error: float) -> str:
+    """``value ± error`` with the error to 2 significant figures and the value to the
+    same decimal place (the digits that mean something), e.g. ``0.2912 ± 0.0012``."""
+    if not (math.isfinite(value) and math.isfinite(error) and error > 0):
+        return f"{value:.5g} ± {error:.2g}"
+    places = 1 - math.floor(math.log10(error))
+    if places <= 0:
+        return f"{round(value, places):.0f} ± {round(error, places):.0f}"
+    return f"{value:.{places}f} ± {error:.{places}f}"
+
+
 def roughness_text(info: dict[str, Any]) -> str:
     """``alpha realised R (target T)`` of a tile's facts, without a target where the
     surface has none (an imported mesh); ``""`` when the tile reports no roughness."""

@@ -127,7 +127,8 @@ def model_bins(model: Any, table: Any, n: int) -> np.ndarray:
 
 
 def fit_table(table: Any, spec: str, component: str = "total",
-              start: Sequence[float] | None = None) -> dict[str, Any]:
+              start: Sequence[float] | None = None,
+              progress: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
     """Fit a model family to a table.
 
     Parameters
@@ -141,6 +142,9 @@ def fit_table(table: Any, spec: str, component: str = "total",
     start : sequence of float, optional
         Start values (default: the family's; for microfacet models α starts at the
         table's realised roughness when it has one).
+    progress : callable or None
+        Called after every evaluation of the model over the table with a dict:
+        ``evaluations`` (so far) and ``chi2_dof`` (of that evaluation).
 
     Returns
     -------
@@ -161,12 +165,19 @@ def fit_table(table: Any, spec: str, component: str = "total",
     if start is None and fam.names[0] == "alpha" and isinstance(alpha, float):
         x0[0] = alpha
 
+    dof = max(int(keep.sum()) - len(x0), 1)
+    evaluations = 0
+
     def residuals(p: np.ndarray) -> np.ndarray:
+        nonlocal evaluations
         m = model_bins(fam.build(p), table, SUBSAMPLES)[keep]
-        return (np.log(np.maximum(m, 0.0) + eps) - target) / sigma
+        r = (np.log(np.maximum(m, 0.0) + eps) - target) / sigma
+        evaluations += 1
+        if progress is not None:
+            progress({"evaluations": evaluations, "chi2_dof": float(r @ r) / dof})
+        return r
 
     result = least_squares(residuals, x0, bounds=(fam.lower, fam.upper), x_scale="jac")
-    dof = max(int(keep.sum()) - len(x0), 1)
     chi2 = float(np.sum(result.fun**2))
     try:
         cov = np.linalg.inv(result.jac.T @ result.jac) * max(chi2 / dof, 1.0)

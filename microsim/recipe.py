@@ -48,8 +48,8 @@ MATERIAL_KINDS: dict[str, dict[str, Key]] = {
     },
     "dielectric": {
         "eta": _n("Index of refraction relative to the medium in front of the faces (air; "
-                  "for particles inside a paint's binder, relative to the binder).", 1.5,
-                  low=1.0, high=10.0),
+                  "for particles inside a paint's binder, relative to the binder); 1 would "
+                  "be no interface at all.", 1.5, low=1.0, low_open=True, high=10.0),
         "refract": Key("bool", False, "Refract as well as reflect: a Fresnel-weighted "
                        "choice, Snell's law, total internal reflection; the part's faces "
                        "enclose a medium behind them (docs/materials.md). false: reflect "

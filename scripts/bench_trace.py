@@ -87,7 +87,7 @@ def main() -> None:
             "target_error": args.target, "wall_s": result.meta["wall_time"],
             "stop": result.meta["stop"],
             "rays": [d["rays"] for d in result.meta["directions"]],
-            "rel_error": [d["rel_error"] for d in result.meta["directions"]]}
+            "rel_stderr": [d["rel_stderr"] for d in result.meta["directions"]]}
     print(json.dumps(report, indent=2))
 
 

@@ -348,3 +348,132 @@ def test_lengths_at_the_bounds_give_finite_tables(cli, tmp_path, size):
     for c in ("total", "single"):
         assert np.isfinite(table.values[c]).all()
     assert np.abs(table.albedo - 1).max() < 1e-3
+
+
+# --- silent wrongs ------------------------------------------------------------------------
+def test_dielectric_of_index_one_is_refused(cli):
+    """eta = 1 is no interface: nothing reflects, so a table of zeros with NaN errors."""
+    code, _, err = cli("check", GAUSSIAN, "--set", "material.kind=dielectric",
+                       "--set", "material.eta=1")
+    one_error_line(code, err, "material.eta = 1", "> 1")
+
+
+def test_nothing_escaping_prints_no_nan(cli, tmp_path):
+    """A black material: albedo 0, its standard error and the median relative standard
+    error undefined, printed as n/a (never "nan")."""
+    code, out, err = cli("simulate", GAUSSIAN, *SMALL, "--rays", "500", "--set",
+                         "material.kind=lambertian", "--set", "material.albedo=0",
+                         "-o", str(tmp_path / "black.exr"))
+    assert code == 0, err
+    assert "nan" not in out.lower() and "n/a" in out
+
+
+def leaky_mesh(folder: Path, keep: float = 0.3, seed: int = 0) -> Path:
+    """The shipped 64² tile with most faces removed: rays leak through the holes."""
+    import trimesh
+
+    mesh = trimesh.load(SURFACES / "tile-gaussian-64.ply", process=False, force="mesh")
+    rng = np.random.default_rng(seed)
+    faces = mesh.faces[rng.random(len(mesh.faces)) < keep]
+    recipe = folder / "leaky.toml"
+    trimesh.Trimesh(mesh.vertices, faces, process=False).export(folder / "leaky.ply")
+    recipe.write_text('[surface]\nkind = "mesh"\npath = "leaky.ply"\nperiod = [1.0, 1.0]\n'
+                      "[simulation]\ntheta_i = [0, 60]\n[table]\ntheta_bins = 8\n"
+                      "phi_bins = 16\nsh_order = 0\n", encoding="utf-8")
+    return recipe
+
+
+def test_lost_energy_is_warned_and_recorded_in_the_table(cli, tmp_path):
+    """A mesh that keeps 30% of its faces leaks most rays: simulate warns on stderr, the
+    table's metadata carries the warning and compare repeats it; a closed surface (the
+    small Gaussian tile) carries none."""
+    import microsim
+    from microsim.goniometer import LOST_WARNING
+
+    recipe = leaky_mesh(tmp_path)
+    out = tmp_path / "leaky.exr"
+    code, _, err = cli("simulate", str(recipe), "--rays", "3000", "-o", str(out))
+    assert code == 0, err
+    warned = [line for line in err.splitlines() if line.startswith("warning: lost energy")]
+    assert len(warned) == 1 and "underside" in warned[0], err
+    table = microsim.read_table(out)
+    assert table.meta["warnings"] and "lost energy" in table.meta["warnings"][0]
+    assert max(max(d["lost"]) for d in table.meta["directions"]) > LOST_WARNING
+    code, _, err = cli("compare", str(out), "--model", "lambertian")
+    assert code == 0 and "warning:" in err and "lost energy" in err
+    closed = tmp_path / "closed.exr"
+    code, _, err = cli("simulate", GAUSSIAN, *SMALL, "--rays", "3000", "-o", str(closed))
+    assert code == 0 and "lost energy" not in err
+    assert microsim.read_table(closed).meta["warnings"] == []
+
+
+# --- output a user can read ---------------------------------------------------------------
+def test_the_two_relative_errors_have_different_names(cli, small_table, tmp_path):
+    """simulate reports the median relative *standard* error (its own noise); compare,
+    fit and demo the median relative error *against the model*."""
+    code, out, _ = cli("simulate", GAUSSIAN, *SMALL, "--rays", "2000", "-o",
+                       str(tmp_path / "t.exr"))
+    assert "median relative standard error" in out and "against the model" not in out
+    code, out, _ = cli("simulate", GAUSSIAN, *SMALL, "--rays", "2000", "-o",
+                       str(tmp_path / "t.exr"), "--json")
+    keys = json.loads(out)
+    assert "median_rel_stderr" in keys and "median_rel_error" not in keys
+    code, out, _ = cli("compare", str(small_table), "--model", "beckmann")
+    assert "median relative error against the model" in out and "standard error" not in out
+
+
+def test_verdict_follows_the_error_bars():
+    """Tables of a model with Gaussian noise of 2% reported as their error agree with it
+    (10 seeds; each check errs with probability about 2e-3); reported errors half the
+    real noise (z spread 2) or a model 5% off disagree. The spread bound equals the
+    chi-square quantile: for N lobe bins it lies within 1% of Wilson-Hilferty's
+    1 + z_(1-alpha) / sqrt(2N) (asymptotic; N > 500 here)."""
+    from scipy.stats import norm
+
+    from microsim.analytic.registry import parse_model_spec
+    from microsim.compare import agreement, compare_table
+    from microsim.compare import model_table as analytic_table
+    from microsim.tables.binning import HemisphereBins
+
+    _, _, model = parse_model_spec("beckmann:alpha=0.3")
+    theta = np.radians([0.0, 40.0, 70.0])
+    bins = HemisphereBins(16, 32)
+    for seed in range(10):
+        table = analytic_table(model, theta, bins, 0.02, np.random.default_rng(seed))
+        check = agreement(compare_table(table, model))
+        assert check["agrees"], (seed, check)
+    n = check["lobe_bins"]
+    assert n > 500
+    approx = 1 + norm.ppf(1 - check["significance"]) / np.sqrt(2 * n)
+    assert check["z_std_max"] == pytest.approx(approx, rel=0.01)
+    half = analytic_table(model, theta, bins, 0.02, np.random.default_rng(0))
+    for c in half.errors:
+        half.errors[c] = half.errors[c] / 2
+    assert not agreement(compare_table(half, model))["agrees"]
+    _, _, off = parse_model_spec("beckmann:alpha=0.315")
+    assert not agreement(compare_table(analytic_table(model, theta, bins, 0.02,
+                                                      np.random.default_rng(0)), off))["agrees"]
+
+
+def test_demo_ends_with_one_verdict_line(cli, tmp_path):
+    code, out, err = cli("demo", "--rays", "3000", "-o", str(tmp_path / "d.exr"))
+    assert code == 0, err
+    verdicts = [line for line in out.splitlines() if line.startswith("verdict: ")]
+    assert len(verdicts) == 1 and ("agrees" in verdicts[0] or "differs" in verdicts[0])
+    assert "significance 0.001" in verdicts[0]
+
+
+def test_fit_reports_progress_and_rounds_to_its_uncertainty(small_table):
+    """The fit calls back after every model evaluation (counting up); parameters print
+    to the decimal place of their uncertainty's second significant figure."""
+    import microsim
+    from microsim.cli import with_error
+    from microsim.fit import fit_table
+
+    seen = []
+    result = fit_table(microsim.read_table(small_table), "beckmann", progress=seen.append)
+    assert [s["evaluations"] for s in seen] == list(range(1, len(seen) + 1))
+    assert len(seen) >= result["nfev"]
+    assert with_error(0.29117715, 0.0012345) == "0.2912 ± 0.0012"
+    assert with_error(12345.6, 230.0) == "12350 ± 230"
+    assert with_error(3.14159, 0.5) == "3.14 ± 0.50"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -51,13 +52,14 @@ def title_of(table: Any, name: str, component: str) -> str:
 
 def write_report(out: Path, result: dict[str, Any], title: str) -> Path:
     """``report.md``: the metrics table and every plot, in one page."""
+    from microsim.compare import verdict_text
+
     lines = [f"# {title}", "", f"Model: `{result['model']}` with parameters "
              f"`{result['params']}` (component: {result['component']}).", "",
-             f"Overall: median relative error {100 * result['median_rel_error']:.2f}% "
-             f"(p90 {100 * result['p90_rel_error']:.2f}%) over lobe bins; z = (sim − model) "
-             f"/ stderr has mean {result['z_mean']:.2f} and spread {result['z_std']:.2f} "
-             "(noise alone gives 0 and 1).", "",
-             "| θi (°) | φi (°) | median rel | p90 rel | RMS (1/sr) | z mean | z std | "
+             f"Overall: median relative error against the model "
+             f"{100 * result['median_rel_error']:.2f}% (p90 {100 * result['p90_rel_error']:.2f}%) "
+             f"over lobe bins; {verdict_text(result, result['agreement'])}.", "",
+             "| θi (°) | φi (°) | median err | p90 err | RMS (1/sr) | z mean | z std | "
              "albedo sim | albedo model | multiple scattering |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in result["per_theta_i"]:
@@ -84,17 +86,19 @@ def run(args: argparse.Namespace) -> int:
     """Compare, print, and draw."""
     import microsim
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import compare_table, model_defaults
+    from microsim.compare import agreement, compare_table, model_defaults, verdict_text
     from microsim.plots import albedo_plot, half_difference_slices, incidence_plane, z_maps
 
     table = microsim.read_table(args.table)
+    for warning in table.meta.get("warnings", []):
+        print(f"warning: {args.table}: {warning}", file=sys.stderr)
     name, params, model = parse_model_spec(args.model, model_defaults(table.meta))
     if args.out is not None:
         writable_folder(args.out, "--out")
     result = compare_table(table, model, args.component)
     model_bins = result.pop("model")
     result = {"model": name, "params": params, "component": args.component,
-              "table": str(args.table), **result}
+              "table": str(args.table), **result, "agreement": agreement(result)}
     if args.out is not None:
         title = title_of(table, name, args.component)
         if table.isotropic:
@@ -108,16 +112,18 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(result)
         return 0
-    print(f"{args.component} of {args.table} vs {name} {params}")
-    print(f"{'theta_i':>8} {'phi_i':>6} {'median rel':>11} {'p90 rel':>8} {'z mean':>7} "
+    print(f"{args.component} of {args.table} vs {name} ({readable(params)})")
+    print(f"{'theta_i':>8} {'phi_i':>6} {'median err':>11} {'p90 err':>8} {'z mean':>7} "
           f"{'z std':>6} {'albedo sim':>11} {'model':>7} {'multiple':>9}")
     for r in result["per_theta_i"]:
         print(f"{r['theta_i']:8.1f} {r['phi_i']:6.1f} {100 * r['median_rel_error']:10.2f}% "
               f"{100 * r['p90_rel_error']:7.2f}% {r['z_mean']:7.2f} {r['z_std']:6.2f} "
               f"{sum(r['albedo_sim']) / 3:11.4f} {sum(r['albedo_model']) / 3:7.4f} "
               f"{100 * r['multiple_scattering_share']:8.2f}%")
-    print(f"overall: median relative error {100 * result['median_rel_error']:.2f}%, z mean "
-          f"{result['z_mean']:.2f}, z std {result['z_std']:.2f}")
+    print(f"overall: median relative error against the model "
+          f"{100 * result['median_rel_error']:.2f}% (err: |sim - model| / model over lobe "
+          f"bins), z mean {result['z_mean']:.2f}, z std {result['z_std']:.2f}")
+    print(verdict_text(result, result["agreement"]))
     if "report" in result:
         print(f"wrote {result['report']}")
     return 0

@@ -47,17 +47,19 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def comparison(table: Any) -> dict[str, Any]:
     """Simulated single scattering against the microfacet model at the realised alpha."""
-    from microsim.compare import compare_table, microfacet_model
+    from microsim.compare import agreement, compare_table, microfacet_model
 
     result = compare_table(table, microfacet_model(table.meta), "single")
     return {"model": "torrance-sparrow:ndf=beckmann,shadowing=smith-correlated",
             "alpha_realised": table.meta["surface"]["alpha_realised"],
-            "alpha_target": table.meta["surface"]["alpha_target"], **result}
+            "alpha_target": table.meta["surface"]["alpha_target"], **result,
+            "agreement": agreement(result)}
 
 
 def run(args: argparse.Namespace) -> int:
     """Simulate, write, compare, print."""
     from microsim.commands.simulate import print_summary, simulate_resolved, summary
+    from microsim.compare import verdict_text
 
     overrides = seed_override(args, "simulation")
     if args.rays is not None:
@@ -87,16 +89,18 @@ def run(args: argparse.Namespace) -> int:
     c = result["comparison"]
     print(f"\nsingle scattering vs Torrance-Sparrow (Beckmann, height-correlated Smith) "
           f"at the realised alpha {c['alpha_realised']:.4f} (target {c['alpha_target']:.4f}):")
-    print(f"{'theta_i':>8} {'median rel':>11} {'p90 rel':>8} {'z mean':>7} {'z std':>6} "
+    print(f"{'theta_i':>8} {'median err':>11} {'p90 err':>8} {'z mean':>7} {'z std':>6} "
           f"{'albedo sim':>11} {'model':>7} {'multiple':>9}")
     for r in c["per_theta_i"]:
         print(f"{r['theta_i']:8.1f} {100 * r['median_rel_error']:10.2f}% "
               f"{100 * r['p90_rel_error']:7.2f}% {r['z_mean']:7.2f} {r['z_std']:6.2f} "
               f"{r['albedo_sim'][1]:11.4f} {r['albedo_model'][1]:7.4f} "
               f"{100 * r['multiple_scattering_share']:8.2f}%")
-    print("(relative errors over lobe bins, model >= 10% of its peak; z = (sim - model) / "
-          "stderr; multiple = share of the escaping energy scattered more than once, "
-          "which the model leaves out)")
+    print("(err: relative error against the model, |sim - model| / model, over lobe bins "
+          "where the model reaches 10% of its peak; z = (sim - model) / stderr, standard "
+          "normal if the two differ by noise alone; multiple = share of the escaping energy "
+          "scattered more than once, which the model leaves out)")
+    print(verdict_text(c, c["agreement"]))
     if "plot" in result:
         print(f"wrote {result['plot']}")
     return 0

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
-from microsim.cli import add_json_arg, print_json
+from microsim.cli import add_json_arg, print_json, with_error
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -30,6 +33,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+def progress_printer(enabled: bool) -> Callable[[dict[str, Any]], None] | None:
+    """A ``fit_table`` progress callback rewriting one line on stderr, or None."""
+    if not enabled:
+        return None
+
+    def show(state: dict[str, Any]) -> None:
+        print(f"\rfitting: {state['evaluations']:4d} evaluations of the model over the "
+              f"table, chi^2/dof {state['chi2_dof']:.4g}   ", end="", file=sys.stderr,
+              flush=True)
+
+    return show
+
+
 def run(args: argparse.Namespace) -> int:
     """Fit and report."""
     import microsim
@@ -43,7 +59,10 @@ def run(args: argparse.Namespace) -> int:
     table = microsim.read_table(args.table)
     if not table.isotropic:
         raise InputError(f"{args.table}: fitting takes isotropic tables")
-    result = fit_table(table, args.model, args.component)
+    show = sys.stderr.isatty() and not args.json
+    result = fit_table(table, args.model, args.component, progress=progress_printer(show))
+    if show:
+        print(file=sys.stderr)
     result.pop("fitted")
     bins = result.pop("model_bins")
     if args.plot is not None:
@@ -57,8 +76,9 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"{result['model']} fitted to the {args.component} of {args.table}:")
     for name, value in result["params"].items():
-        print(f"  {name:>10} = {value:.5g} ± {result['uncertainty'][name]:.2g}")
-    print(f"  chi^2/dof {result['chi2_dof']:.3g}, median relative error over lobe bins "
+        print(f"  {name:>10} = {with_error(value, result['uncertainty'][name])}")
+    print(f"  chi^2/dof {result['chi2_dof']:.3g}, median relative error against the fit "
+          "over lobe bins "
           f"{100 * result['median_rel_error']:.2f}%")
     for row in result["per_theta_i"]:
         print(f"  theta_i {row['theta_i']:5.1f}: albedo fit "

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from microsim.cli import Parser, add_json_arg, number_list, print_json
+from microsim.cli import Parser, add_json_arg, number_list, print_json, readable
 from microsim.errors import InputError
 
 angle_pair = number_list(2, what="THETA,PHI in degrees")
@@ -78,5 +78,5 @@ def run_eval(args: argparse.Namespace) -> int:
         print_json({"model": name, "params": params, "wi": list(args.wi),
                     "wo": list(args.wo), "f_r": value})
     else:
-        print(f"{name} {params}: f_r = {value} 1/sr")
+        print(f"{name} ({readable(params)}): f_r = {readable(value, 6)} 1/sr")
     return 0

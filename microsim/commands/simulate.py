@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -70,8 +71,8 @@ def progress_printer(enabled: bool):
         return None
 
     def show(state: dict[str, Any]) -> None:
-        err = state["rel_error"]
-        err_text = "" if err is None else f", lobe error {100 * err:.2f}%"
+        err = state["rel_stderr"]
+        err_text = "" if err is None else f", median relative standard error {100 * err:.2f}%"
         print(f"\rtheta_i {state['theta_i']:5.1f} deg: {state['rays']:>11,} rays{err_text}",
               end="", file=sys.stderr, flush=True)
 
@@ -94,7 +95,7 @@ def summary(table: Any, output: Path | None) -> dict[str, Any]:
         "albedo_err": table.albedo_err.reshape(-1, 3),
         "single_albedo": table.albedo_of["single"].reshape(-1, 3),
         "lost_energy": table.lost_energy.reshape(-1, 3),
-        "median_rel_error": table.median_rel_error("total"),
+        "median_rel_stderr": table.median_rel_stderr("total"),
         "sh_order": table.sh_order,
         "stop": [d["stop"] for d in meta["directions"]],
         "surface": meta["surface"],
@@ -107,14 +108,19 @@ def print_summary(s: dict[str, Any]) -> None:
           f"{'lost':>9}  stop")
     for k, theta in enumerate(s["theta_i"]):
         a, e = s["albedo"][k].mean(), s["albedo_err"][k].mean()
+        # no escaping ray: the albedo is 0 and its standard error unknown
+        e_text = f"{e:.5f}" if math.isfinite(e) else "n/a".ljust(7)
         print(f"{theta:8.1f} {s['phi_i'][k]:6.1f} {s['rays_per_direction'][k]:11,d} "
-              f"{a:9.5f} ± {e:.5f} {s['single_albedo'][k].mean():8.5f} "
+              f"{a:9.5f} ± {e_text} {s['single_albedo'][k].mean():8.5f} "
               f"{s['lost_energy'][k].mean():9.2e}  {s['stop'][k]}")
     if roughness_text(s["surface"]):
         print(f"surface: {roughness_text(s['surface'])}")
+    stderr = s["median_rel_stderr"]
+    stderr_text = (f"{100 * stderr:.2f}%" if math.isfinite(stderr)
+                   else "n/a (no lobe bin holds a ray)")
     print(f"{s['rays']:,} rays, {s['segments']:,} segments in {s['wall_s']:.1f} s "
-          f"({s['segments_per_s']:,.0f} segments/s); median relative error over lobe "
-          f"bins {100 * s['median_rel_error']:.2f}%")
+          f"({s['segments_per_s']:,.0f} segments/s); median relative standard error over "
+          f"lobe bins {stderr_text}")
     if s["sh_order"]:
         print(f"spherical harmonics to order {s['sh_order']} stored beside the bins "
               "(microsim sh TABLE: their error against the bins)")
@@ -136,6 +142,8 @@ def simulate_resolved(resolved: dict[str, Any], threads: int | None, show_progre
                      recipe=resolved, threads=threads, progress=progress)
     if progress is not None:
         print(file=sys.stderr)
+    for warning in table.meta["warnings"]:  # recorded in the table too
+        print(f"warning: {warning}", file=sys.stderr)
     return table
 
 
