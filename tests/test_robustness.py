@@ -477,3 +477,21 @@ def test_fit_reports_progress_and_rounds_to_its_uncertainty(small_table):
     assert with_error(0.29117715, 0.0012345) == "0.2912 ± 0.0012"
     assert with_error(12345.6, 230.0) == "12350 ± 230"
     assert with_error(3.14159, 0.5) == "3.14 ± 0.50"
+
+
+def test_view_says_when_a_lobe_is_interpolated(cli, small_table, tmp_path, monkeypatch):
+    """The small table holds theta_i 0 and 60: 30 is drawn interpolated and 75 as the
+    nearest (60), both said in the title and on stderr; 60 is drawn as measured."""
+    titles = []
+    monkeypatch.setattr("microsim.view.show_lobe",
+                        lambda *a, title="", **k: titles.append(title))
+    notes = {}
+    for theta in ("30", "75", "60"):
+        code, _, err = cli("view", str(small_table), "--theta-i", theta, "--screenshot",
+                           str(tmp_path / "l.png"))
+        assert code == 0, err
+        notes[theta] = err
+    assert "interpolated between the table's theta_i 0 and 60" in titles[0]
+    assert "interpolated" in notes["30"] and notes["30"].startswith("warning: --theta-i 30")
+    assert "nearest theta_i, 60 deg" in titles[1] and "nearest" in notes["75"]
+    assert "measured" not in titles[2] and notes["60"] == ""

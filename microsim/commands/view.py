@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 from microsim import recipe
@@ -67,6 +68,21 @@ def check_theta(theta: float) -> None:
         raise InputError(f"--theta-i {theta}: must be in [0, 90) degrees")
 
 
+def incidence_note(measured_deg: list[float], theta: float) -> str:
+    """How a table's lobe at ``theta`` (degrees) is drawn when ``theta`` is none of its
+    measured incidences: interpolated linearly between its neighbours, or the nearest one
+    (the table clamps outside its range); ``""`` when it was measured."""
+    if any(math.isclose(theta, t, abs_tol=1e-6) for t in measured_deg):
+        return ""
+    below = [t for t in measured_deg if t < theta]
+    above = [t for t in measured_deg if t > theta]
+    if below and above:
+        return (f"not measured: interpolated between the table's theta_i {max(below):g} "
+                f"and {min(above):g} deg")
+    nearest = max(below) if below else min(above)
+    return f"not measured: the table's nearest theta_i, {nearest:g} deg, is drawn"
+
+
 def view_table(args: argparse.Namespace, source: Path) -> int:
     """The lobe of a table at one incidence, optionally against a model."""
     import numpy as np
@@ -79,6 +95,10 @@ def view_table(args: argparse.Namespace, source: Path) -> int:
     check_theta(theta)
     model = None
     title = f"{source.name}: theta_i = {theta:g} deg"
+    note = incidence_note([math.degrees(t) for t in table.theta_i], theta)
+    if note:
+        title += f" ({note})"
+        print(f"warning: --theta-i {theta:g}: {note}", file=sys.stderr)
     if args.model is not None:
         from microsim.analytic.registry import parse_model_spec
         from microsim.compare import model_defaults
