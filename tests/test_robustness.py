@@ -495,3 +495,26 @@ def test_view_says_when_a_lobe_is_interpolated(cli, small_table, tmp_path, monke
     assert "interpolated" in notes["30"] and notes["30"].startswith("warning: --theta-i 30")
     assert "nearest theta_i, 60 deg" in titles[1] and "nearest" in notes["75"]
     assert "measured" not in titles[2] and notes["60"] == ""
+
+
+def test_the_documented_models_import_from_the_package():
+    """``from microsim.analytic import ...`` gives the modules' own objects, and importing
+    the package alone loads neither numpy nor scipy (the CLI's --help stays fast)."""
+    import subprocess
+    import sys
+
+    import microsim.analytic as analytic
+    from microsim.analytic import GGX, Beckmann, TorranceSparrow, fresnel_conductor
+    from microsim.analytic import brdf, fresnel, ndf
+
+    assert (Beckmann, GGX) == (ndf.Beckmann, ndf.GGX)
+    assert TorranceSparrow is brdf.TorranceSparrow
+    assert fresnel_conductor is fresnel.fresnel_conductor
+    for name in analytic.__all__:
+        assert getattr(analytic, name) is not None
+    with pytest.raises(AttributeError):
+        analytic.NoSuchModel  # noqa: B018
+    out = subprocess.run([sys.executable, "-c", "import sys, microsim.analytic\n"
+                          "print(sorted({'numpy', 'scipy'} & set(sys.modules)))"],
+                         capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
