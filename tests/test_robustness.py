@@ -518,3 +518,46 @@ def test_the_documented_models_import_from_the_package():
                           "print(sorted({'numpy', 'scipy'} & set(sys.modules)))"],
                          capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+# --- set-up as written --------------------------------------------------------------------
+def readme_block(heading: str) -> list[str]:
+    """The lines of the first ```sh block after ``heading`` in README.md."""
+    lines = (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+    start = lines.index("```sh", lines.index(heading)) + 1
+    return lines[start:lines.index("```", start)]
+
+
+def test_ci_runs_the_readme_commands_word_for_word():
+    import subprocess
+
+    setup, tests = readme_block("## Set up and run"), readme_block("## Test")
+    assert len(setup) == 2 and setup[1].endswith("microsim demo") and tests == ["pytest"]
+    out = subprocess.run([str(ROOT / ".ci" / "run"), "--print"], capture_output=True,
+                         text=True, check=True).stdout
+    assert out.splitlines() == setup + tests
+
+
+@pytest.mark.parametrize("with_sudo", [False, True])
+def test_the_system_packages_line_works_with_and_without_sudo(tmp_path, with_sudo):
+    """The README's first line, run by bash with stand-ins for apt-get (and sudo): in a
+    root shell without sudo it calls apt-get directly; with sudo, through sudo. Both
+    update the package lists, then install the three EGL libraries."""
+    import subprocess
+
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    log = tmp_path / "log"
+    (bin_dir / "apt-get").write_text(f'#!/bin/sh\necho "apt-get $*" >> {log}\n')
+    if with_sudo:
+        (bin_dir / "sudo").write_text(f'#!/bin/sh\necho "sudo" >> {log}\nexec "$@"\n')
+    for tool in bin_dir.iterdir():
+        tool.chmod(0o755)
+    line = readme_block("## Set up and run")[0]
+    subprocess.run(["/bin/bash", "-euo", "pipefail", "-c", line], check=True,
+                   env={"PATH": str(bin_dir)})
+    calls = log.read_text().splitlines()
+    apt = [c for c in calls if c.startswith("apt-get")]
+    assert apt == ["apt-get update",
+                   "apt-get install -y libegl1 libegl-mesa0 libgl1-mesa-dri"]
+    assert calls.count("sudo") == (2 if with_sudo else 0)
