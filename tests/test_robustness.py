@@ -504,8 +504,15 @@ def test_the_documented_models_import_from_the_package():
     import sys
 
     import microsim.analytic as analytic
-    from microsim.analytic import GGX, Beckmann, TorranceSparrow, fresnel_conductor
-    from microsim.analytic import brdf, fresnel, ndf
+    from microsim.analytic import (
+        GGX,
+        Beckmann,
+        TorranceSparrow,
+        brdf,
+        fresnel,
+        fresnel_conductor,
+        ndf,
+    )
 
     assert (Beckmann, GGX) == (ndf.Beckmann, ndf.GGX)
     assert TorranceSparrow is brdf.TorranceSparrow
