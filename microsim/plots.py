@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +21,13 @@ def incidence_plane_bins(table: BRDFTable) -> tuple[int, int]:
     return back, forward
 
 
+def _wrapped(title: str, fig: Any, fontsize: float) -> str:
+    """``title`` in lines that fit the figure's width at ``fontsize`` points (a character
+    of DejaVu Sans is at most about 0.6 em wide on average)."""
+    width_pt = fig.get_figwidth() * 72
+    return textwrap.fill(title, max(20, int(width_pt / (0.6 * fontsize))))
+
+
 def _pyplot() -> Any:
     import matplotlib
 
@@ -30,7 +38,8 @@ def _pyplot() -> Any:
 
 
 def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
-                    component: str = "single", title: str = "") -> None:
+                    component: str = "single", title: str = "",
+                    model_label: str = "model") -> None:
     """Plot f_r cos θo in the plane of incidence, simulation against model, one panel
     per incidence (the first incident azimuth).
 
@@ -51,6 +60,8 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
         ``"single"`` or ``"total"``.
     title : str
         Figure title.
+    model_label : str
+        Legend entry of the model's curve (e.g. the fitted model's name).
     """
     plt = _pyplot()
     back, forward = incidence_plane_bins(table)
@@ -68,15 +79,15 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
                         fmt="o", ms=3, color="tab:blue", ecolor="tab:blue", elinewidth=1,
                         label="simulated" if sign > 0 else None)
             ax.plot(x, avg[:, side, 1] * cos_o, "-", color="tab:red",
-                    label="model" if sign > 0 else None)
+                    label=model_label if sign > 0 else None)
         ax.set_title(f"θi = {np.degrees(table.theta_i[k]):.0f}°")
         ax.set_xlabel("θo in the plane of incidence (°)")
         ax.set_xlim(-90, 90)
         ax.grid(alpha=0.3)
-    axes[0, 0].set_ylabel("f_r cos θo (1/sr), green channel")
+    axes[0, 0].set_ylabel("f_r cos θo (1/sr), green")
     axes[0, 0].legend(loc="upper left", fontsize=8)
     if title:
-        fig.suptitle(title, fontsize=10)
+        fig.suptitle(_wrapped(title, fig, 10), fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -96,15 +107,17 @@ def half_difference_slices(table: BRDFTable, model: Model, path: str | Path,
     mod = mod.mean(axis=-1) if mod.ndim == 3 else mod
     valid = (wi[..., 2] > 0) & (wo[..., 2] > 0)
     ratio = np.full(sim.shape, np.nan)
-    # the ratio only where the model holds at least 1% of its peak: further out it shows
-    # how the table's bins smear the lobe's edge, not how model and simulation differ
-    both = valid & (sim > 0) & (mod > 0.01 * np.max(np.where(valid, mod, 0.0)))
+    # the ratio only where the model holds at least 1% of its peak at the same θd: further
+    # out it shows how the table's bins smear the lobe's edge, not how model and
+    # simulation differ (one peak for the whole image would follow the grazing θd alone)
+    peak = np.max(np.where(valid, mod, 0.0), axis=0, keepdims=True)
+    both = valid & (sim > 0) & (mod > 0.01 * peak)
     ratio[both] = np.log10(sim[both] / mod[both])
     floor = max(np.nanmax(np.where(valid, mod, np.nan)) * 1e-4, 1e-6)
     images = [np.log10(np.where(valid, np.maximum(sim, floor), np.nan)),
               np.log10(np.where(valid, np.maximum(mod, floor), np.nan)), ratio]
     names = ["simulated log10 f_r", "model log10 f_r",
-             "log10(simulated / model), model ≥ 1% of peak"]
+             "log10(simulated / model),\nmodel ≥ 1% of its peak at that θd"]
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.8))
     lo = np.nanmin(images[1])
     hi = np.nanmax(images[1])
@@ -118,7 +131,7 @@ def half_difference_slices(table: BRDFTable, model: Model, path: str | Path,
         ax.set_title(name, fontsize=9)
         fig.colorbar(im, ax=ax, shrink=0.8)
     if title:
-        fig.suptitle(title + "  (φd = 90°)", fontsize=10)
+        fig.suptitle(_wrapped(title + "  (φd = 90°)", fig, 10), fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -130,7 +143,8 @@ def z_maps(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
     (green channel), clipped to ±4; grey where the error is undefined."""
     plt = _pyplot()
     n = len(table.theta_i)
-    fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 3.4), squeeze=False)
+    fig, axes = plt.subplots(1, n, figsize=(3.2 * n + 1.2, 3.6), squeeze=False, sharey=True,
+                             layout="constrained")
     te, pe = np.degrees(table.bins.theta_edges), np.degrees(table.bins.phi_edges)
     for k, ax in enumerate(axes[0]):
         err = table.errors[component][k, 0, ..., 1]
@@ -139,11 +153,12 @@ def z_maps(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
         im = ax.pcolormesh(pe, te, np.ma.masked_invalid(z), cmap="RdBu_r", vmin=-4, vmax=4)
         ax.set_title(f"θi = {np.degrees(table.theta_i[k]):.0f}°")
         ax.set_xlabel("φo − φi (°)")
-        ax.set_ylabel("θo (°)")
+        ax.set_xticks(np.arange(0, 361, 90))
+    axes[0, 0].set_ylabel("θo (°)")
     fig.colorbar(im, ax=axes[0].tolist(), shrink=0.8, label="z")
     if title:
-        fig.suptitle(title, fontsize=10, y=1.04)
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+        fig.suptitle(_wrapped(title, fig, 10), fontsize=10)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
@@ -166,7 +181,7 @@ def albedo_plot(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     if title:
-        ax.set_title(title, fontsize=9)
+        ax.set_title(_wrapped(title, fig, 9), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -203,7 +218,7 @@ def ndf_plot(theta_deg: np.ndarray, measured: np.ndarray, stderr: np.ndarray,
     ax.grid(alpha=0.3)
     ax.legend()
     if title:
-        ax.set_title(title, fontsize=9)
+        ax.set_title(_wrapped(title, fig, 9), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -263,7 +278,7 @@ def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path
     lobe.grid(alpha=0.3)
     lobe.legend(fontsize=7)
     if title:
-        fig.suptitle(title, fontsize=10)
+        fig.suptitle(_wrapped(title, fig, 10), fontsize=10)
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110, format="png")

@@ -15,6 +15,10 @@ from microsim.surfaces.tile import Tile
 WINDOW = (800, 600)
 GLASS = 0.3
 """Opacity of see-through (refracting) parts."""
+TILE_BAR = {"vertical": True, "position_x": 0.84, "position_y": 0.25, "width": 0.06,
+            "height": 0.5}
+"""The tile view's colour bar: upright at the right edge, clear of the axis labels that
+the iso view puts at the bottom."""
 THIN = 0.1
 """A tile whose height range is below this fraction of its period is drawn with its z axis
 stretched to reach it (said in the title): true scale would show a flat sheet."""
@@ -135,11 +139,11 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
         cmap = ListedColormap(colormaps["Set2"].colors[:max(n, 2)])
         plotter.add_mesh(mesh, scalars="material", cmap=cmap, n_colors=max(n, 2),
                          clim=(-0.5, max(n, 2) - 0.5), annotations=labels,
-                         scalar_bar_args={"title": "part", "n_labels": 0})
+                         scalar_bar_args={"title": "part", "n_labels": 0, **TILE_BAR})
     else:
         top = float(np.ceil(np.percentile(mesh.cell_data["slope"], 99.5) / 5) * 5)
         plotter.add_mesh(mesh, scalars="slope", cmap="viridis", clim=(0, max(top, 5.0)),
-                         scalar_bar_args={"title": "facet slope (deg)"})
+                         scalar_bar_args={"title": "facet slope (deg)", **TILE_BAR})
     colours = {0: "black", 1: "gold", 2: "orangered", 3: "magenta"}
     for points, order in paths or []:
         line = pv.lines_from_points(points * [1.0, 1.0, z_scale])

@@ -568,3 +568,106 @@ def test_the_system_packages_line_works_with_and_without_sudo(tmp_path, with_sud
     assert apt == ["apt-get update",
                    "apt-get install -y libegl1 libegl-mesa0 libgl1-mesa-dri"]
     assert calls.count("sudo") == (2 if with_sudo else 0)
+
+
+# --- figures ------------------------------------------------------------------------------
+def drawn_texts(fig) -> list:
+    """(text, its panel or None) of what a figure shows: the suptitle, and per panel its
+    titles, axis labels, tick labels inside the axis range and legend."""
+    texts = [(fig._suptitle, None)] if fig._suptitle is not None else []
+    for ax in fig.axes:
+        own = [ax.title, ax._left_title, ax._right_title, ax.xaxis.label, ax.yaxis.label]
+        for axis, (lo, hi) in ((ax.xaxis, sorted(ax.get_xlim())),
+                               (ax.yaxis, sorted(ax.get_ylim()))):
+            own += [tick.label1 for tick in axis.get_major_ticks()
+                    if tick.label1.get_visible() and lo <= tick.get_loc() <= hi]
+        if ax.get_legend() is not None:
+            own += ax.get_legend().get_texts()
+        texts += [(t, ax) for t in own]
+    return [(t, ax) for t, ax in texts if t.get_visible() and t.get_text().strip()]
+
+
+def figure_layout_faults(fig) -> list[str]:
+    """Texts of a drawn figure that stick out of it, lie on another panel, or overlap a
+    text of another panel."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    box = fig.bbox
+    panels = [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
+    texts = drawn_texts(fig)
+    extents = [t.get_window_extent(renderer) for t, _ in texts]
+    faults = []
+    for i, ((text, owner), ext) in enumerate(zip(texts, extents, strict=True)):
+        if ext.x0 < box.x0 - 1 or ext.x1 > box.x1 + 1 or ext.y0 < box.y0 - 1 or \
+                ext.y1 > box.y1 + 1:
+            faults.append(f"outside the figure: {text.get_text()!r}")
+        for ax in panels:
+            if owner is not None and ax is not owner and \
+                    ext.overlaps(ax.get_window_extent(renderer)):
+                faults.append(f"{text.get_text()!r} lies on another panel")
+        for (other, other_owner), other_ext in zip(texts[:i], extents[:i], strict=True):
+            if owner is not None and other_owner is not None and owner is not other_owner \
+                    and ext.overlaps(other_ext):
+                faults.append(f"{text.get_text()!r} overlaps {other.get_text()!r}")
+    return faults
+
+
+def test_comparison_figures_keep_their_texts_apart(small_table, tmp_path, monkeypatch):
+    """Every figure of ``compare --out`` and ``fit --plot``: no title clipped by the edge,
+    no axis label on a neighbouring panel; the fit's curve is labelled as the fit."""
+    import matplotlib.pyplot as plt
+
+    import microsim
+    from microsim.analytic.registry import parse_model_spec
+    from microsim.commands.compare import title_of
+    from microsim.compare import compare_table, model_defaults
+    from microsim.plots import albedo_plot, half_difference_slices, incidence_plane, z_maps
+
+    faults, legends = {}, {}
+    close = plt.close
+
+    def inspect(fig=None):
+        faults[len(faults)] = figure_layout_faults(fig)
+        legends[len(legends)] = [t.get_text() for ax in fig.axes if ax.get_legend()
+                                 for t in ax.get_legend().get_texts()]
+        close(fig)
+
+    monkeypatch.setattr(plt, "close", inspect)
+    table = microsim.read_table(small_table)
+    name, _, model = parse_model_spec("beckmann", model_defaults(table.meta))
+    bins = compare_table(table, model, "single")["model"]
+    title = title_of(table, name, "single") + ", a long title that must wrap or fit"
+    incidence_plane(table, bins, tmp_path / "a.png", "single", title)
+    half_difference_slices(table, model, tmp_path / "b.png", "single", title)
+    z_maps(table, bins, tmp_path / "c.png", "single", title)
+    albedo_plot(table, bins, tmp_path / "d.png", title)
+    incidence_plane(table, bins, tmp_path / "e.png", "single", title, model_label="fit: ggx")
+    assert all(not f for f in faults.values()), faults
+    assert "model" in legends[0] and "fit: ggx" in legends[4] and "model" not in legends[4]
+
+
+def test_half_difference_ratio_covers_the_lobe_at_every_theta_d(small_table, tmp_path,
+                                                                 monkeypatch):
+    """The ratio panel's mask follows the model's peak per θd: every θd row of the
+    image shows some of the lobe, not only the rows near the grazing peak."""
+    import matplotlib.pyplot as plt
+
+    import microsim
+    from microsim.analytic.registry import parse_model_spec
+    from microsim.compare import model_defaults
+    from microsim.plots import half_difference_slices
+
+    images = []
+    close = plt.close
+
+    def grab(fig=None):
+        images.append(fig.axes[2].get_images()[0].get_array())
+        close(fig)
+
+    monkeypatch.setattr(plt, "close", grab)
+    table = microsim.read_table(small_table)
+    _, _, model = parse_model_spec("beckmann", model_defaults(table.meta))
+    half_difference_slices(table, model, tmp_path / "h.png", "single")
+    ratio = np.ma.filled(images[0].astype(float), np.nan)  # (θd, θh): imshow of img.T
+    rows_shown = np.isfinite(ratio).any(axis=1)
+    assert rows_shown.mean() > 0.9, rows_shown.mean()

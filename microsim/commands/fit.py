@@ -69,7 +69,8 @@ def run(args: argparse.Namespace) -> int:
         from microsim.plots import incidence_plane
 
         incidence_plane(table, bins, args.plot, args.component,
-                        f"{args.table}: {args.component} vs fitted {result['model']}")
+                        f"{args.table}: {args.component} vs fitted {result['model']}",
+                        model_label=f"fit: {result['model']}")
         result["plot"] = str(args.plot)
     if args.json:
         print_json(result)
