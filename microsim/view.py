@@ -15,10 +15,17 @@ from microsim.surfaces.tile import Tile
 WINDOW = (800, 600)
 GLASS = 0.3
 """Opacity of see-through (refracting) parts."""
-TILE_BAR = {"vertical": True, "position_x": 0.84, "position_y": 0.25, "width": 0.06,
-            "height": 0.5}
-"""The tile view's colour bar: upright at the right edge, clear of the axis labels that
-the iso view puts at the bottom."""
+TILE_BAR = {"vertical": False, "position_x": 0.5, "position_y": 0.82, "width": 0.45,
+            "height": 0.1, "title_font_size": 16, "label_font_size": 14}
+"""The tile view's colour bar: across the top right, which the iso view leaves empty,
+clear of the axis labels it puts at the bottom corner. Titles of horizontal bars end in a
+newline, which lifts them clear of the labels VTK puts above the bar."""
+LOBE_BAR = {"vertical": False, "position_x": 0.3, "position_y": 0.02, "width": 0.6,
+            "height": 0.12, "title_font_size": 16, "label_font_size": 14}
+"""The lobe view's colour bar: along the bottom (titles end in a newline, as for
+``TILE_BAR``)."""
+REL_ERROR = "(simulated - model) / model"
+"""The lobe view's colour, the relative error against the model, clipped to ±50%."""
 THIN = 0.1
 """A tile whose height range is below this fraction of its period is drawn with its z axis
 stretched to reach it (said in the title): true scale would show a flat sheet."""
@@ -143,7 +150,7 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
     else:
         top = float(np.ceil(np.percentile(mesh.cell_data["slope"], 99.5) / 5) * 5)
         plotter.add_mesh(mesh, scalars="slope", cmap="viridis", clim=(0, max(top, 5.0)),
-                         scalar_bar_args={"title": "facet slope (deg)", **TILE_BAR})
+                         scalar_bar_args={"title": "facet slope (deg)\n", **TILE_BAR})
     colours = {0: "black", 1: "gold", 2: "orangered", 3: "magenta"}
     for points, order in paths or []:
         line = pv.lines_from_points(points * [1.0, 1.0, z_scale])
@@ -151,7 +158,7 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
     if paths:
         plotter.add_legend([["single", "gold"], ["double", "orangered"],
                             ["3 or more", "magenta"], ["not escaped", "black"]],
-                           bcolor="white", size=(0.18, 0.16))
+                           bcolor="white", size=(0.18, 0.16), loc="lower left")
     plotter.show_bounds(xtitle="x (tile units)", ytitle="y (tile units)",
                         ztitle="z (drawn)" if z_scale > 1.0 else "z (tile units)",
                         font_size=10)
@@ -239,13 +246,15 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
         g = np.asarray(model.eval(np.broadcast_to(wi, wo.shape), wo), float)
         g = g.mean(axis=-1) if g.ndim == 3 else g
         rel = np.where(g > 0, (f - g) / np.where(g > 0, g, 1.0), 0.0)
-        surf.point_data["relative error"] = np.clip(rel, -0.5, 0.5).ravel(order="F")
-        plotter.add_mesh(surf, scalars="relative error", cmap="RdBu_r", clim=(-0.5, 0.5))
+        surf.point_data[REL_ERROR] = np.clip(rel, -0.5, 0.5).ravel(order="F")
+        plotter.add_mesh(surf, scalars=REL_ERROR, cmap="RdBu_r", clim=(-0.5, 0.5),
+                         scalar_bar_args={"title": f"{REL_ERROR}\n", **LOBE_BAR})
         plotter.add_mesh(lobe_surface(pv, g, theta, phi, radius, log), style="wireframe",
                          color="black", opacity=0.35)
     else:
         surf.point_data["f_r (1/sr)"] = f.ravel(order="F")
-        plotter.add_mesh(surf, scalars="f_r (1/sr)", cmap="viridis")
+        plotter.add_mesh(surf, scalars="f_r (1/sr)", cmap="viridis",
+                         scalar_bar_args={"title": "f_r (1/sr)\n", **LOBE_BAR})
     size = max(float(np.abs(surf.points).max()), 1e-9)
     plotter.add_mesh(pv.Arrow(start=wi * 1.3 * size, direction=-wi, scale=0.5 * size),
                      color="orange")

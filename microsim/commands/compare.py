@@ -55,7 +55,7 @@ def write_report(out: Path, result: dict[str, Any], title: str) -> Path:
     from microsim.compare import verdict_text
 
     lines = [f"# {title}", "", f"Model: `{result['model']}` with parameters "
-             f"`{result['params']}` (component: {result['component']}).", "",
+             f"{readable(result['params'])} (component: {result['component']}).", "",
              f"Overall: median relative error against the model "
              f"{100 * result['median_rel_error']:.2f}% (p90 {100 * result['p90_rel_error']:.2f}%) "
              f"over lobe bins; {verdict_text(result, result['agreement'])}.", "",

@@ -104,7 +104,7 @@ def view_table(args: argparse.Namespace, source: Path) -> int:
         from microsim.compare import model_defaults
 
         name, _, model = parse_model_spec(args.model, model_defaults(table.meta))
-        title += f" (wireframe: {name}; colour: relative error)"
+        title += f" (wireframe: {name}; colour: relative error against it)"
     show_lobe(table, float(np.radians(theta)), model, args.screenshot, args.radius,
               args.log, title=title)
     if args.screenshot is not None:
