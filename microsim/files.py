@@ -12,6 +12,10 @@ from pathlib import Path
 
 from microsim.errors import InputError
 
+PLOT_SUFFIXES = (".png", ".pdf", ".svg")
+"""Formats of the matplotlib figures (``--plot``), by suffix."""
+SCREENSHOT_SUFFIXES = (".png", ".jpg", ".jpeg")
+"""Formats of the 3D views' screenshots (``--screenshot``), by suffix."""
 TEMPORARY = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)\.[0-9a-f]{8}\.tmp$")
 """Names ``atomic_path`` gives its temporary files: ``.<name>.<pid>.<8 hex digits>.tmp``."""
 

@@ -281,5 +281,5 @@ def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path
         fig.suptitle(_wrapped(title, fig, 10), fontsize=10)
     fig.tight_layout()
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+        fig.savefig(tmp, dpi=110, format=Path(path).suffix.lstrip(".").lower() or "png")
     plt.close(fig)

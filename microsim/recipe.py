@@ -129,7 +129,7 @@ def _material(raw: Mapping[str, Any], where: str) -> dict:
     if kind is REQUIRED:
         raise InputError(f"{where}kind: missing; must be one of "
                          + ", ".join(repr(k) for k in MATERIAL_KINDS))
-    if kind not in MATERIAL_KINDS:
+    if not isinstance(kind, str) or kind not in MATERIAL_KINDS:
         raise InputError(f"{where}kind = {kind!r}: must be one of "
                          + ", ".join(repr(k) for k in MATERIAL_KINDS)
                          + suggest(str(kind), MATERIAL_KINDS))
@@ -217,7 +217,7 @@ def resolve(raw: Mapping[str, Any]) -> dict:
     if kind is None:
         raise InputError("surface.kind: missing; must be one of "
                          + ", ".join(repr(k) for k in SURFACE_KINDS))
-    if kind not in SURFACE_KINDS:
+    if not isinstance(kind, str) or kind not in SURFACE_KINDS:
         raise InputError(f"surface.kind = {kind!r}: must be one of "
                          + ", ".join(repr(k) for k in SURFACE_KINDS)
                          + suggest(str(kind), SURFACE_KINDS))

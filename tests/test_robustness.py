@@ -671,3 +671,36 @@ def test_half_difference_ratio_covers_the_lobe_at_every_theta_d(small_table, tmp
     ratio = np.ma.filled(images[0].astype(float), np.nan)  # (θd, θh): imshow of img.T
     rows_shown = np.isfinite(ratio).any(axis=1)
     assert rows_shown.mean() > 0.9, rows_shown.mean()
+
+
+# --- what the property-based tests found --------------------------------------------------
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["check", GAUSSIAN, "--set", "surface.kind=[]"], "surface.kind = []"),
+        (["check", GAUSSIAN, "--set", "material.kind=[1]"], "material.kind = [1]"),
+        (["compare", "{table}", "--model", "beckmann:alpha=1e-300"], "alpha = 1e-300"),
+        (["view", "{table}", "--screenshot", "{tmp}/v.txt"], "--screenshot"),
+        (["fit", "{table}", "--model", "ggx", "--plot", "{tmp}/f.txt"], "--plot"),
+        (["simulate", GAUSSIAN, "--set", "table.theta_bins=2048", "--set",
+          "table.phi_bins=4096", "-o", "{tmp}/t.exr"], "table: 8,388,608 bins"),
+    ],
+)
+def test_inputs_the_fuzzer_found(cli, small_table, tmp_path, monkeypatch, argv, needle):
+    monkeypatch.setattr("microsim.goniometer.simulate", _no_work)
+    code, _, err = cli(*[a.format(table=small_table, tmp=tmp_path) for a in argv])
+    one_error_line(code, err, needle)
+
+
+def test_ndf_of_a_tile_with_empty_sub_tiles(cli):
+    """A flat tile of two triangles leaves most of the 4 x 4 error sub-tiles empty: the
+    histogram stays finite (no warning), and undefined errors print as n/a."""
+    code, out, err = cli("measure", "ndf", str(SURFACES / "flat-lambertian.toml"))
+    assert code == 0, err
+    assert "nan" not in out and "n/a" in out
+
+
+def test_plots_take_the_format_of_their_suffix(cli, small_table, tmp_path):
+    code, _, err = cli("sh", str(small_table), "--plot", str(tmp_path / "s.pdf"))
+    assert code == 0, err
+    assert (tmp_path / "s.pdf").read_bytes().startswith(b"%PDF")

@@ -17,7 +17,7 @@ from microsim.cli import (
     print_json,
     seed_override,
 )
-from microsim.files import writable_file
+from microsim.files import PLOT_SUFFIXES, writable_file
 
 RECIPE = Path(microsim.__file__).resolve().parent.parent / "surfaces" / "gaussian-0.3.toml"
 
@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
     resolved = recipe.load(RECIPE, overrides)
     writable_file(args.output, "--output", (".exr",))
     if args.plot is not None:
-        writable_file(args.plot, "--plot")
+        writable_file(args.plot, "--plot", PLOT_SUFFIXES)
     table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json)
     table.write(args.output)
     compared = comparison(table)

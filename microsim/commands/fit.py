@@ -50,12 +50,12 @@ def run(args: argparse.Namespace) -> int:
     """Fit and report."""
     import microsim
     from microsim.errors import InputError
-    from microsim.files import writable_file
+    from microsim.files import PLOT_SUFFIXES, writable_file
     from microsim.fit import family, fit_table
 
     family(args.model)  # a bad name fails before the table is read
     if args.plot is not None:
-        writable_file(args.plot, "--plot")
+        writable_file(args.plot, "--plot", PLOT_SUFFIXES)
     table = microsim.read_table(args.table)
     if not table.isotropic:
         raise InputError(f"{args.table}: fitting takes isotropic tables")

@@ -22,7 +22,7 @@ from microsim.cli import (
     seed_override,
 )
 from microsim.errors import InputError
-from microsim.files import writable_file
+from microsim.files import PLOT_SUFFIXES, writable_file
 
 degree_list = number_list(low=0.0, high=90.0,
                           what="a comma-separated list of angles in [0, 90] degrees")
@@ -135,7 +135,7 @@ def run_ndf(args: argparse.Namespace) -> int:
 
     resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "surface")])
     if args.plot:
-        writable_file(args.plot, "--plot")
+        writable_file(args.plot, "--plot", PLOT_SUFFIXES)
     tile = build_tile(resolved["surface"], args.memory_limit)
     alpha = tile.info.get("alpha_realised")
     iso = alpha if isinstance(alpha, float) else None
@@ -160,6 +160,8 @@ def run_ndf(args: argparse.Namespace) -> int:
     for k, c in enumerate(centres):
         b = "" if model is None else f"{model[k]:11.5g}"
         r = "" if model is None or model[k] == 0 else f"{m['D'][k] / model[k]:7.3f}"
-        print(f"{c:8.2f} {m['D'][k]:11.5g} {m['stderr'][k]:10.3g} {b:>11} {r:>7}")
+        e = m["stderr"][k]
+        e_text = f"{e:10.3g}" if np.isfinite(e) else f"{'n/a':>10}"
+        print(f"{c:8.2f} {m['D'][k]:11.5g} {e_text} {b:>11} {r:>7}")
     print(roughness_text(tile.info) or "no roughness reported: no Beckmann reference")
     return 0

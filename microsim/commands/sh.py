@@ -7,7 +7,7 @@ from pathlib import Path
 
 from microsim.cli import add_json_arg, print_json
 from microsim.errors import InputError
-from microsim.files import writable_file
+from microsim.files import PLOT_SUFFIXES, writable_file
 
 WINDOWS = ("none", "lanczos", "hanning")
 """``microsim.tables.sh.WINDOWS``, spelled out so that ``--help`` does not import numpy."""
@@ -79,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     if args.matrix is not None:
         writable_file(args.matrix, "--matrix", (".npz",))
     if args.plot is not None:
-        writable_file(args.plot, "--plot")
+        writable_file(args.plot, "--plot", PLOT_SUFFIXES)
     if args.matrix is not None and max(args.orders) > MATRIX_MAX_ORDER:
         raise InputError(f"--matrix: built up to order {MATRIX_MAX_ORDER} (a dense "
                          f"(L+1)^4 x 3 array); the highest of --orders is {max(args.orders)}")

@@ -20,6 +20,24 @@ from microsim.cli import (
     roughness_text,
 )
 from microsim.files import writable_file
+from microsim.memory import check_memory
+
+TABLE_BYTES_PER_BIN = 450
+"""Memory per table bin and incident direction while a table is estimated and written:
+measured 407 B (512 x 1024 bins, 4 incidences, peak resident memory), rounded up."""
+
+
+def check_table_memory(resolved: dict[str, Any], isotropic: bool,
+                       memory_limit_gib: float | None, where: str = "") -> None:
+    """Refuse (``InputError``) a table whose bins would need more memory than the budget:
+    ``theta_bins`` x ``phi_bins`` per incident direction (every ``phi_i`` unless the
+    surface is isotropic)."""
+    table, simulation = resolved["table"], resolved["simulation"]
+    directions = len(simulation["theta_i"]) * (1 if isotropic else len(simulation["phi_i"]))
+    bins = table["theta_bins"] * table["phi_bins"]
+    check_memory(TABLE_BYTES_PER_BIN * bins * directions,
+                 f"{where}table: {bins:,} bins x {directions} incident directions",
+                 "use fewer bins or incidences", memory_limit_gib)
 
 
 def add_tracing_args(p: argparse.ArgumentParser) -> None:
@@ -135,6 +153,7 @@ def simulate_resolved(resolved: dict[str, Any], threads: int | None, show_progre
     from microsim.surfaces import build_tile
 
     tile = build_tile(resolved["surface"], memory_limit_gib)
+    check_table_memory(resolved, tile.info.get("isotropic", False), memory_limit_gib)
     for warning in tile.warnings:
         print(f"warning: {warning}", file=sys.stderr)
     progress = progress_printer(show_progress)

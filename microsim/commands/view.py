@@ -10,7 +10,7 @@ from pathlib import Path
 from microsim import recipe
 from microsim.cli import add_memory_arg, add_seed_arg, number_list, positive_int, seed_override
 from microsim.errors import InputError
-from microsim.files import writable_file
+from microsim.files import SCREENSHOT_SUFFIXES, writable_file
 from microsim.memory import check_memory
 
 MESHES = (".ply", ".obj", ".stl")
@@ -120,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
     source = Path(args.source)
     suffix = source.suffix.lower()
     if args.screenshot is not None:
-        writable_file(args.screenshot, "--screenshot")
+        writable_file(args.screenshot, "--screenshot", SCREENSHOT_SUFFIXES)
     if suffix in MESHES:
         if args.period is None:
             raise InputError(f"--period: required for a mesh file ({source.name}); give "

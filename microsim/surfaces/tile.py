@@ -138,9 +138,13 @@ class Tile:
                        0, blocks - 1)
         hist = np.zeros((blocks * blocks, bins + 1))
         np.add.at(hist, (cell[:, 0] * blocks + cell[:, 1], index), weight)
-        share = hist[:, :bins] / hist.sum(axis=1, keepdims=True)
+        # sub-tiles that hold facets (a tile of a few large faces leaves some empty)
+        hist_filled = hist[hist.sum(axis=1) > 0]
+        share = hist_filled[:, :bins] / hist_filled.sum(axis=1, keepdims=True)
         total = hist.sum(axis=0)[:bins]
-        err = share.std(axis=0, ddof=1) / np.sqrt(blocks * blocks) / solid
+        n = len(hist_filled)
+        err = (share.std(axis=0, ddof=1) / np.sqrt(n) / solid if n > 1
+               else np.full(bins, np.nan))
         # a bin no facet falls in has value 0 and an undefined error, not a zero one
         return {"edges": edges, "D": total / hist.sum() / solid,
                 "stderr": np.where(total > 0, err, np.nan)}
