@@ -50,12 +50,15 @@ def run(args: argparse.Namespace) -> int:
     if args.format == "rgl" and args.resolution < 2:
         raise InputError(f"--resolution {args.resolution}: must be >= 2")
     table = microsim.read_table(args.table)
-    if args.format != "npz" and not table.isotropic:
+    if args.format == "merl" and not table.isotropic:
         raise InputError(f"--format {args.format}: writes isotropic tables; {args.table} is "
-                         "anisotropic (use --format npz)")
+                         "anisotropic (use --format npz or rgl)")
     if args.format == "rgl":
+        from microsim.tables.export import rgl_phi_i
+
         fixed, per_incidence = RGL_BYTES
-        check_memory(args.resolution**2 * (fixed + per_incidence * len(table.theta_i)),
+        incidences = len(table.theta_i) * (1 if table.isotropic else len(rgl_phi_i()))
+        check_memory(args.resolution**2 * (fixed + per_incidence * incidences),
                      f"--resolution {args.resolution}: the RGL grid", "lower --resolution "
                      "(32 to 256 is usual)", args.memory_limit)
     if args.format == "npz":
