@@ -184,6 +184,7 @@ def _no_work(*args, **kwargs):
         (["measure", "ndf", GAUSSIAN, "--plot", "{file}/n.png"], "--plot", "microsim.surfaces.build_tile"),
         (["view", GAUSSIAN, "--screenshot", "{file}/v.png"], "--screenshot", "microsim.surfaces.build_tile"),
         (["batch", str(ROOT / "scripts" / "sweep-roughness.toml"), "-o", "{file}"], "--output", "microsim.batch.run_batch"),
+        (["render", "{table}", "-o", "{file}/r.png"], "--output", "microsim.render.scene.render"),
     ],
 )
 def test_unwritable_output_is_refused_before_the_work(cli, small_table, tmp_path, monkeypatch,
