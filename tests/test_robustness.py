@@ -431,8 +431,9 @@ def test_verdict_follows_the_error_bars():
     1 + z_(1-alpha) / sqrt(2N) (asymptotic; N > 500 here)."""
     from scipy.stats import norm
 
+    from microsim.agreement import agreement
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import agreement, compare_table
+    from microsim.compare import compare_table
     from microsim.compare import model_table as analytic_table
     from microsim.tables.binning import HemisphereBins
 
@@ -456,12 +457,15 @@ def test_verdict_follows_the_error_bars():
                                                       np.random.default_rng(0)), off))["agrees"]
 
 
-def test_demo_ends_with_one_verdict_line(cli, tmp_path):
+def test_demo_ends_with_a_verdict_line_per_model(cli, tmp_path):
+    """One line per comparison (single scattering against Torrance-Sparrow, all orders
+    against the multiple-scattering model), each saying agrees or differs."""
     code, out, err = cli("demo", "--rays", "3000", "-o", str(tmp_path / "d.exr"))
     assert code == 0, err
-    verdicts = [line for line in out.splitlines() if line.startswith("verdict: ")]
-    assert len(verdicts) == 1 and ("agrees" in verdicts[0] or "differs" in verdicts[0])
-    assert "significance 0.001" in verdicts[0]
+    verdicts = [line for line in out.splitlines() if line.startswith("verdict (")]
+    assert len(verdicts) == 2, out
+    for line in verdicts:
+        assert ("agrees" in line or "differs" in line) and "significance 0.001" in line
 
 
 def test_fit_reports_progress_and_rounds_to_its_uncertainty(small_table):

@@ -8,7 +8,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from microsim.cli import add_json_arg, print_json, with_error
+from microsim.cli import (
+    add_component_arg,
+    add_json_arg,
+    print_json,
+    table_component,
+    with_error,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -25,8 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="beckmann, ggx (alpha and Schlick F0 per channel), oren-nayar "
                         "(sigma in radians, albedo per channel), phong (n, ks per channel), "
                         "lafortune[:K] (K isotropic lobes: Cxy, Cz, n)")
-    p.add_argument("--component", choices=("total", "single"), default="total",
-                   help="all scattering orders (default) or single scattering")
+    add_component_arg(p)
     p.add_argument("--plot", type=Path, default=None, metavar="PNG",
                    help="draw the plane of incidence, table against the fit")
     add_json_arg(p)
@@ -57,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None:
         writable_file(args.plot, "--plot", PLOT_SUFFIXES)
     table = microsim.read_table(args.table)
+    args.component = table_component(table, args.component, args.table)
     if not table.isotropic:
         raise InputError(f"{args.table}: fitting takes isotropic tables")
     show = sys.stderr.isatty() and not args.json

@@ -72,11 +72,15 @@ def run_eval(args: argparse.Namespace) -> int:
     name, params, model = parse_model_spec(spec)
     wi = direction(*np.radians(args.wi))
     wo = direction(*np.radians(args.wo))
-    f = np.asarray(model.eval(wi, wo), float)
-    value = f.tolist()
+    estimate = getattr(model, "estimate", None)        # Monte Carlo models: with an error
+    f, err = estimate(wi, wo) if estimate is not None else (model.eval(wi, wo), None)
+    value = np.asarray(f, float).tolist()
+    error = None if err is None else np.asarray(err, float).tolist()
     if args.json:
         print_json({"model": name, "params": params, "wi": list(args.wi),
-                    "wo": list(args.wo), "f_r": value})
+                    "wo": list(args.wo), "f_r": value,
+                    **({} if error is None else {"f_r_err": error})})
     else:
-        print(f"{name} ({readable(params)}): f_r = {readable(value, 6)} 1/sr")
+        spread = "" if error is None else f" ± {readable(error, 2)} (standard error)"
+        print(f"{name} ({readable(params)}): f_r = {readable(value, 6)}{spread} 1/sr")
     return 0
