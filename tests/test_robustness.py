@@ -709,3 +709,12 @@ def test_plots_take_the_format_of_their_suffix(cli, small_table, tmp_path):
     code, _, err = cli("sh", str(small_table), "--plot", str(tmp_path / "s.pdf"))
     assert code == 0, err
     assert (tmp_path / "s.pdf").read_bytes().startswith(b"%PDF")
+
+
+def test_control_characters_stay_on_one_line(cli, tmp_path):
+    """A value with a control character (here the record separator, a line boundary to
+    str.splitlines) is escaped in the error line."""
+    code, _, err = cli("check", str(SURFACES / "cylinders.toml"), "--set",
+                       "material.kind=table", "--set", 'material.path="a\\u001eb\\nc"')
+    line = one_error_line(code, err, "material.path")
+    assert "\\x1e" in line and "\\n" in line
