@@ -75,6 +75,8 @@ class FacetMaterials:
     tangents : (m, 3) float or None
         Unit tangent per face from the generator (``Tile.tangents``), for table materials
         with ``axis = "tangent"``.
+    curved : (m, 3, 3) float or None
+        The tube each face approximates (``Tile.curved``), for shading normals.
 
     Attributes
     ----------
@@ -87,6 +89,10 @@ class FacetMaterials:
     absorption : (parts + 1, 3) float
         Beer-Lambert coefficient per unit length inside each refracting part (0 elsewhere;
         the last row, for part -1 = air, is 0).
+    curved : (m, 3, 3) float or None
+        ``curved`` with the faces of refracting parts made flat: a ray inside a medium
+        meets its faces from behind, where the entry-point construction of
+        ``microsim.shading`` does not apply, so refracting tubes keep their facets.
 
     Raises
     ------
@@ -96,7 +102,8 @@ class FacetMaterials:
 
     def __init__(self, face_material: np.ndarray, parts: Sequence[str],
                  materials: Mapping[str, Mapping[str, Any]],
-                 tangents: np.ndarray | None = None) -> None:
+                 tangents: np.ndarray | None = None,
+                 curved: np.ndarray | None = None) -> None:
         self.face_material = np.asarray(face_material, np.int64)
         self.specs = [dict(materials[p]) for p in parts]
         self.tangents = tangents
@@ -113,6 +120,8 @@ class FacetMaterials:
         self.absorption = np.zeros((len(self.specs) + 1, 3))
         for m in np.flatnonzero(self.refracting):
             self.absorption[m] = self.specs[m].get("absorption", 0.0)
+        self.curved = None if curved is None else np.where(
+            self.refracting[self.face_material][:, None, None], 0.0, curved)
 
     def scatter(self, faces: np.ndarray, d: np.ndarray, n: np.ndarray,
                 rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from microsim.refraction import attenuation, next_medium
+from microsim.shading import shade
 from microsim.trace import BACKFACE, ESCAPED, FATES, HIT, LEAKED, TRAPPED, Hits, PeriodicScene
 
 if TYPE_CHECKING:
@@ -142,19 +143,21 @@ def _trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nd
                 ended &= ~crossed
             lost += w[ended].sum(axis=0)
             counts[FATES[code]] += int(ended.sum())
-        alive, face, crossed = alive[hit], hits.face[hit], crossed[hit]
+        alive, face, crossed, z0 = alive[hit], hits.face[hit], crossed[hit], o[hit, 2]
         w, d, point = (np.take(a, hit, axis=0) for a in (w, d, hits.point))
         if bounce == bounces:
             lost += w.sum(axis=0)
             counts["bounces"] += alive.size
             break
         n_f = np.take(scene.normals, face, axis=0)
+        # curved faces scatter about the tube's normal where the ray entered it
+        n_s, point, _ = shade(materials.curved, face, point, d, n_f, z0)
         d_in = d
-        d, factor, into = materials.scatter(face, d, n_f, rng)
+        d, factor, into = materials.scatter(face, d, n_s, rng)
         transmitted += (w * into).sum(axis=0)
         absorbed += (w * (1.0 - factor - into)).sum(axis=0)
         w = w * factor
-        o = scene.offset(point, n_f, d)
+        o = scene.offset(point, n_s, d)
         if medium is not None:
             part = np.take(materials.face_material, face)
             medium, through = next_medium(part, np.take(materials.refracting, part), n_f,

@@ -282,10 +282,12 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
     from microsim.compare import direction
     from microsim.materials import FacetMaterials
     from microsim.refraction import next_medium
+    from microsim.shading import shade
     from microsim.trace import ESCAPED, HIT, PeriodicScene
 
     rng = np.random.default_rng(seed)
-    facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents)
+    facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
+                            tile.curved)
     lx, ly = tile.period
     d = np.broadcast_to(-direction(theta_i, 0.0), (rays, 3)).copy()
     with PeriodicScene(tile, threads=1) as scene:
@@ -306,15 +308,17 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
             idx = alive[hit]
             if not idx.size or bounce == bounces:
                 break
-            t = (hits.point[hit, 2] - o[idx, 2]) / np.where(d[idx, 2] != 0, d[idx, 2], 1e-300)
+            n_g = scene.normals[hits.face[hit]]
+            n, at, _ = shade(facets.curved, hits.face[hit], hits.point[hit], d[idx], n_g,
+                             o[idx, 2])
+            t = (at[:, 2] - o[idx, 2]) / np.where(d[idx, 2] != 0, d[idx, 2], 1e-300)
             p = o[idx] + t[:, None] * d[idx]
             for k, q in zip(idx, p, strict=True):
                 points[k].append(q)
-            n = scene.normals[hits.face[hit]]
             new, _, _ = facets.scatter(hits.face[hit], d[idx], n, rng)
-            o[idx] = p + (scene.offset(hits.point[hit], n, new) - hits.point[hit])
+            o[idx] = p + (scene.offset(at, n, new) - at)
             part = facets.face_material[hits.face[hit]]
-            medium[idx] = next_medium(part, facets.refracting[part], n, d[idx], new,
+            medium[idx] = next_medium(part, facets.refracting[part], n_g, d[idx], new,
                                       medium[idx])[0]
             d[idx] = new
             alive = idx
