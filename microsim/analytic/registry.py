@@ -128,16 +128,56 @@ MODELS: dict[str, ModelSpec] = {
          "n": Key("float", 10.0, "Exponent.", low=0.0, high=1e6)},
         lambda p: _brdf("Lafortune")([(p["cx"], p["cy"], p["cz"], p["n"])])),
     "kay-kajiya": ModelSpec(
-        "Kay-Kajiya fibre reflection: kd sin(t, wi) + ks cos^n(theta_i - theta_o).",
+        "Kay-Kajiya fibre reflection L = kd sin(t, wi) + ks cos^n(theta_i - theta_o) "
+        "(the fibre's radiance per unit irradiance); with coverage, the BRDF of a layer of "
+        "parallel fibres, coverage L sin(t, wo) / (cos theta_i cos theta_o). Compared with "
+        "a table, the tangent and coverage come from its surface (cylinders: along y, "
+        "diameter / spacing) and kd = albedo / pi^2 from Lambertian fibres.",
         {"tangent_theta": Key("float", 90.0, "Fibre tangent polar angle.", unit="deg",
                               low=0.0, high=180.0),
          "tangent_phi": Key("float", 0.0, "Fibre tangent azimuth.", unit="deg", low=-360.0,
                             high=360.0),
          "kd": Key("float", 0.1, "Diffuse coefficient, 1/sr.", low=0.0, high=1e3),
          "ks": Key("float", 0.5, "Specular coefficient, 1/sr.", low=0.0, high=1e3),
-         "n": Key("float", 20.0, "Specular exponent.", low=0.0, high=1e6)},
-        lambda p: _brdf("KayKajiya")(_tangent(p), p["kd"], p["ks"], p["n"])),
+         "n": Key("float", 20.0, "Specular exponent.", low=0.0, high=1e6),
+         "coverage": Key("float", None, "Projected fibre area per unit area (diameter / "
+                         "spacing): the layer BRDF; unset: L itself.", low=0.0,
+                         low_open=True, high=1.0)},
+        lambda p: _brdf("KayKajiya")(_tangent(p), p["kd"], p["ks"], p["n"],
+                                     p.get("coverage"))),
+    "cylinders": ModelSpec(
+        "Exact single scattering of parallel cylinders along y on a base (the cylinders "
+        "surface made smooth): specular cylinders reflect into the cone with Marschner et "
+        "al. 2003's R-lobe distribution 1/4 cos(phi/2) and the exact Fresnel factor, "
+        "Lambertian ones over their lit and seen arc; neighbours and base shadow exactly; "
+        "a Lambertian base of albedo base_albedo (0: black).",
+        {"radius": Key("float", 0.5, "Cylinder radius.", unit="length", low=0.0,
+                       low_open=True),
+         "spacing": Key("float", 1.0, "Distance between axes (>= 2 radius).",
+                        unit="length", low=0.0, low_open=True),
+         "sink": Key("float", 0.0, "Depth sunk into the base (< 2 radius).", unit="length",
+                     low=0.0),
+         "kind": Key("str", "mirror", "The cylinders' facet material.",
+                     choices=("mirror", "conductor", "dielectric", "lambertian")),
+         "eta": Key("rgb", None, "Index of refraction (conductor, dielectric).", low=0.0,
+                    low_open=True, high=100.0),
+         "k": Key("rgb", None, "Extinction coefficient (conductor).", low=0.0, high=100.0),
+         "albedo": Key("rgb", 0.8, "Albedo (lambertian).", low=0.0, high=1.0),
+         "base_albedo": Key("rgb", 0.0, "Albedo of a Lambertian base.", low=0.0, high=1.0)},
+        lambda p: _cylinders(p)),
 }
+
+
+def _cylinders(p: Mapping[str, Any]) -> Any:
+    from microsim.analytic.cylinders import CylinderArray
+
+    need = {"conductor": ("eta", "k"), "dielectric": ("eta",)}.get(p["kind"], ())
+    missing = [k for k in need if p.get(k) is None]
+    if missing:
+        raise InputError(f"model cylinders: kind = {p['kind']} needs " + " and ".join(missing))
+    if not (p["spacing"] >= 2 * p["radius"] and p["sink"] < 2 * p["radius"]):
+        raise InputError("model cylinders: need spacing >= 2 radius and sink < 2 radius")
+    return CylinderArray(p["radius"], p["spacing"], p["sink"], p, p["base_albedo"])
 
 
 def _brdf(name: str) -> Any:
