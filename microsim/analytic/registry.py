@@ -165,7 +165,39 @@ MODELS: dict[str, ModelSpec] = {
          "albedo": Key("rgb", 0.8, "Albedo (lambertian).", low=0.0, high=1.0),
          "base_albedo": Key("rgb", 0.0, "Albedo of a Lambertian base.", low=0.0, high=1.0)},
         lambda p: _cylinders(p)),
+    "velvet-sparse": ModelSpec(
+        "Single scattering of sparse velvet: Lambertian fibres (smooth cylinders with the "
+        "velvet surface's pyramid tips) on a black base, no fibre shadowing another, "
+        "averaged over the fibre axes by quadrature (Westin et al. 1992's velvet in the "
+        "low-density limit).",
+        {"fibre_radius": Key("float", 0.01, "Fibre radius.", unit="length", low=0.0,
+                             low_open=True),
+         "fibre_length": Key("float", 0.15, "Fibre length.", unit="length", low=0.0,
+                             low_open=True),
+         "density": Key("float", 400.0, "Fibres per unit area.", low=0.0, low_open=True),
+         "tilt": Key("float", 10.0, "Mean tilt from +z.", unit="deg", low=0.0, high=89.0),
+         "tilt_spread": Key("float", 5.0, "Tilt standard deviation.", unit="deg", low=0.0,
+                            high=90.0),
+         "azimuth": Key("float", 0.0, "Mean tilt azimuth.", unit="deg", low=-360.0,
+                        high=360.0),
+         "azimuth_spread": Key("float", 360.0, "Azimuth standard deviation (360: uniform).",
+                               unit="deg", low=0.0, high=360.0),
+         "sides": Key("int", 6, "Faces of each fibre's tip.", low=3, high=64),
+         "kind": Key("str", "lambertian", "The fibres' facet material.",
+                     choices=("lambertian",)),
+         "albedo": Key("rgb", 0.8, "The fibres' albedo.", low=0.0, high=1.0),
+         "base_albedo": Key("rgb", 0.0, "The base's albedo: must be 0 (the model's base "
+                            "is black).", low=0.0, high=0.0)},
+        lambda p: _velvet(p)),
 }
+
+
+def _velvet(p: Mapping[str, Any]) -> Any:
+    from microsim.analytic.velvet import SparseVelvet
+
+    return SparseVelvet(p["fibre_radius"], p["fibre_length"], p["density"], p["tilt"],
+                        p["tilt_spread"], p["azimuth"], p["azimuth_spread"], p["albedo"],
+                        sides=p["sides"])
 
 
 def _cylinders(p: Mapping[str, Any]) -> Any:

@@ -49,26 +49,27 @@ MAX_TILT = 80.0
 
 
 @njit(cache=True, nogil=True)
-def _fibre(w_i: np.ndarray, w_o: np.ndarray, u: np.ndarray, v: np.ndarray, t: np.ndarray,
-           r: float, length: float, sides: int) -> float:
+def _fibre(w_i: np.ndarray, w_o: np.ndarray, k: int, u: np.ndarray, v: np.ndarray,
+           t: np.ndarray, tip_n: np.ndarray, tip_len: np.ndarray, m: int, r: float,
+           length: float) -> float:
     """∫ (ω_i·n)⁺ (ω_o·n)⁺ dA over one fibre (side and tip; the module docstring), for
-    unit directions and the fibre's frame (u, v, t) (the generator's ``section_axes``,
-    which also places the tip's corners).
+    the unit directions w_i[k], w_o[k] and the fibre frame m, (u, v, t)[m] (the
+    generator's ``section_axes``, which also places the tip's corners).
 
     **Side.** With (x, y) = (ω·u, ω·v) = A (cos α, sin α) and Φ ∈ [0, π] the angle
     between the two projections: ∫ A_i cos(ψ − α_i) A_o cos(ψ − α_o) ℓ(ψ) r dψ over the
-    arc where both are positive, of half-length H = (π − Φ)/2 about the bisector m of
-    α_i and α_o. With x = ψ − m the product is ½ [cos Φ + cos 2x] and
-    ℓ = L + B cos(x + m − β), B cos(m − β) = (r / t_z)(ẑ·b̂), b̂ the unit bisector; odd
-    terms vanish, leaving A_i A_o r {L ½ [(π − Φ) cos Φ + sin Φ] + B cos(m − β)
-    ½ [2 cos Φ cos(Φ/2) + cos(Φ/2) − cos(3Φ/2)/3]}. **Tip**: the ``sides`` flat faces
-    from the ring r (u cos a_k + v sin a_k) + L t, a_k = 2πk/sides, to the apex
-    (L + r) t: Σ area_k (ω_i·n_k)⁺ (ω_o·n_k)⁺.
+    arc where both are positive, of half-length H = (π − Φ)/2 about the bisector μ of
+    α_i and α_o. With x = ψ − μ the product is ½ [cos Φ + cos 2x] and
+    ℓ = L + B cos(x + μ − β), B cos(μ − β) = (r / t_z)(ẑ·b̂), b̂ the unit bisector; odd
+    terms vanish, leaving A_i A_o r {L ½ [(π − Φ) cos Φ + sin Φ] + B cos(μ − β)
+    ½ [2 cos Φ cos(Φ/2) + cos(Φ/2) − cos(3Φ/2)/3]}. **Tip**: its flat faces
+    (``tip_faces``: outward normals n_k of length 2 area_k / r², and those lengths),
+    Σ area_k (ω_i·n̂_k)⁺ (ω_o·n̂_k)⁺.
     """
-    xi = w_i[0] * u[0] + w_i[1] * u[1] + w_i[2] * u[2]
-    yi = w_i[0] * v[0] + w_i[1] * v[1] + w_i[2] * v[2]
-    xo = w_o[0] * u[0] + w_o[1] * u[1] + w_o[2] * u[2]
-    yo = w_o[0] * v[0] + w_o[1] * v[1] + w_o[2] * v[2]
+    xi = w_i[k, 0] * u[m, 0] + w_i[k, 1] * u[m, 1] + w_i[k, 2] * u[m, 2]
+    yi = w_i[k, 0] * v[m, 0] + w_i[k, 1] * v[m, 1] + w_i[k, 2] * v[m, 2]
+    xo = w_o[k, 0] * u[m, 0] + w_o[k, 1] * u[m, 1] + w_o[k, 2] * u[m, 2]
+    yo = w_o[k, 0] * v[m, 0] + w_o[k, 1] * v[m, 1] + w_o[k, 2] * v[m, 2]
     ai, ao = math.sqrt(xi * xi + yi * yi), math.sqrt(xo * xo + yo * yo)
     side = 0.0
     if ai > 0.0 and ao > 0.0:
@@ -79,33 +80,24 @@ def _fibre(w_i: np.ndarray, w_o: np.ndarray, u: np.ndarray, v: np.ndarray, t: np
         bx, by = xi / ai + xo / ao, yi / ai + yo / ao
         nb = math.sqrt(bx * bx + by * by)
         if nb > 0.0:
-            lean = r / t[2] * (bx * u[2] + by * v[2]) / nb
+            lean = r / t[m, 2] * (bx * u[m, 2] + by * v[m, 2]) / nb
             side += lean * 0.5 * (2 * cosd * half + half - (4 * half**3 - 3 * half) / 3)
         side *= ai * ao
     tip = 0.0
-    for k in range(sides):
-        a0, a1 = 2 * math.pi * k / sides, 2 * math.pi * (k + 1) / sides
-        c0, s0, c1, s1 = math.cos(a0), math.sin(a0), math.cos(a1), math.sin(a1)
-        # corners p0, p1 on the ring (units of r, from the ring's centre), apex at t
-        p0x, p0y, p0z = c0 * u[0] + s0 * v[0], c0 * u[1] + s0 * v[1], c0 * u[2] + s0 * v[2]
-        p1x, p1y, p1z = c1 * u[0] + s1 * v[0], c1 * u[1] + s1 * v[1], c1 * u[2] + s1 * v[2]
-        ex, ey, ez = p1x - p0x, p1y - p0y, p1z - p0z
-        gx, gy, gz = t[0] - p0x, t[1] - p0y, t[2] - p0z
-        nx, ny, nz = ey * gz - ez * gy, ez * gx - ex * gz, ex * gy - ey * gx
-        if nx * (p0x + p1x) + ny * (p0y + p1y) + nz * (p0z + p1z) < 0:  # outward
-            nx, ny, nz = -nx, -ny, -nz
-        di = nx * w_i[0] + ny * w_i[1] + nz * w_i[2]
-        do = nx * w_o[0] + ny * w_o[1] + nz * w_o[2]
+    for j in range(tip_n.shape[1]):
+        n = tip_n[m, j]
+        di = n[0] * w_i[k, 0] + n[1] * w_i[k, 1] + n[2] * w_i[k, 2]
+        do = n[0] * w_o[k, 0] + n[1] * w_o[k, 1] + n[2] * w_o[k, 2]
         if di > 0 and do > 0:
-            # area r² |n| / 2 times the unit normal's two cosines
-            tip += 0.5 * di * do / math.sqrt(nx * nx + ny * ny + nz * nz)
+            # a face's area is r² |n| / 2; times its unit normal's two cosines
+            tip += 0.5 * di * do / tip_len[m, j]
     return r * side + r * r * tip
 
 
 @njit(cache=True, nogil=True)
 def _fibre_average(wi: np.ndarray, wo: np.ndarray, u: np.ndarray, v: np.ndarray,
-                   t: np.ndarray, weights: np.ndarray, r: float, length: float, sides: int
-                   ) -> np.ndarray:
+                   t: np.ndarray, tip_n: np.ndarray, tip_len: np.ndarray,
+                   weights: np.ndarray, r: float, length: float) -> np.ndarray:
     """Σ_m weights[m] ``_fibre``(wi[k], wo[k], frame m) for every row k."""
     out = np.zeros(len(wi))
     for k in range(len(wi)):
@@ -113,7 +105,7 @@ def _fibre_average(wi: np.ndarray, wo: np.ndarray, u: np.ndarray, v: np.ndarray,
             continue
         acc = 0.0
         for m in range(len(weights)):
-            acc += weights[m] * _fibre(wi[k], wo[k], u[m], v[m], t[m], r, length, sides)
+            acc += weights[m] * _fibre(wi, wo, k, u, v, t, tip_n, tip_len, m, r, length)
         out[k] = acc
     return out
 
@@ -184,6 +176,7 @@ class SparseVelvet:
             self.axes = np.column_stack([s * np.cos(ph).ravel(), s * np.sin(ph).ravel(),
                                          np.cos(th).ravel()])
         self.u, self.v = _section(self.axes)
+        self.tip_n, self.tip_len = tip_faces(self.u, self.v, self.axes, self.sides)
 
     def fibre_integral(self, t: np.ndarray, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """∫ (ω_i·n)⁺ (ω_o·n)⁺ dA over one fibre's side and tip, per (axis, ω_i, ω_o) row.
@@ -198,8 +191,10 @@ class SparseVelvet:
         (n,) float
         """
         u, v = _section(t)
-        return np.array([_fibre(a, b, c, d, e, self.r, self.length, self.sides)
-                         for a, b, c, d, e in zip(wi, wo, u, v, t, strict=True)])
+        n, lengths = tip_faces(u, v, t, self.sides)
+        wi, wo = np.ascontiguousarray(wi, float), np.ascontiguousarray(wo, float)
+        return np.array([_fibre(wi, wo, k, u, v, t, n, lengths, k, self.r, self.length)
+                         for k in range(len(t))])
 
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """f_r, 1/sr: (..., 3)."""
@@ -207,12 +202,30 @@ class SparseVelvet:
         shape = wi.shape[:-1]
         wi, wo = np.ascontiguousarray(wi.reshape(-1, 3)), np.ascontiguousarray(
             wo.reshape(-1, 3))
-        total = _fibre_average(wi, wo, self.u, self.v, self.axes, self.weights, self.r,
-                               self.length, self.sides)
+        total = _fibre_average(wi, wo, self.u, self.v, self.axes, self.tip_n, self.tip_len,
+                               self.weights, self.r, self.length)
         above = (wi[:, 2] > 0) & (wo[:, 2] > 0)
         den = np.where(above, wi[:, 2] * wo[:, 2], 1.0)
         f = np.where(above, self.density * total / (math.pi * den), 0.0)
         return (f[:, None] * self.albedo).reshape(*shape, 3)
+
+
+def tip_faces(u: np.ndarray, v: np.ndarray, t: np.ndarray, sides: int
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """The tip's faces in units of r: from ring corners p_k = u cos a_k + v sin a_k,
+    a_k = 2πk/sides, to the apex t; outward normals (p_(k+1) − p_k) × (t − p_k) (length
+    twice the face's area over r²) and their lengths.
+
+    Returns
+    -------
+    normals : (m, sides, 3) float
+    lengths : (m, sides) float
+    """
+    a = 2 * np.pi * np.arange(sides + 1) / sides
+    p = np.cos(a)[None, :, None] * u[:, None] + np.sin(a)[None, :, None] * v[:, None]
+    n = np.cross(p[:, 1:] - p[:, :-1], t[:, None] - p[:, :-1])
+    n *= np.where(np.einsum("mkj,mkj->mk", n, p[:, 1:] + p[:, :-1]) < 0, -1.0, 1.0)[..., None]
+    return np.ascontiguousarray(n), np.linalg.norm(n, axis=2)
 
 
 def _section(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

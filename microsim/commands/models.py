@@ -74,9 +74,19 @@ def run_eval(args: argparse.Namespace) -> int:
     wo = direction(*np.radians(args.wo))
     f = np.asarray(model.eval(wi, wo), float)
     value = f.tolist()
+    # a model with a singular part (mirror cylinders' cone) has a delta eval cannot give:
+    # its share of the incident power is its average over the hemisphere times π
+    delta = 0.0
+    if hasattr(model, "singular"):
+        whole = model.singular(wi, np.array([0.0, np.pi / 2]), np.array([0.0, 2 * np.pi]))
+        delta = float(np.pi * whole.mean())
     if args.json:
         print_json({"model": name, "params": params, "wi": list(args.wi),
-                    "wo": list(args.wo), "f_r": value})
+                    "wo": list(args.wo), "f_r": value, "singular_albedo": delta})
     else:
         print(f"{name} {params}: f_r = {value} 1/sr")
+        if delta > 0:
+            print(f"plus a singular part (a delta on the specular cone) reflecting "
+                  f"{delta:.4g} of the incident power, which has no value at one "
+                  "direction: compare and fit average it over table bins")
     return 0
