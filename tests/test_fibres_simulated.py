@@ -5,7 +5,6 @@ sparse velvet."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from scipy import stats
 
 from microsim.analytic.brdf import KayKajiya
