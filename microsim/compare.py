@@ -262,6 +262,8 @@ def model_defaults(meta: Mapping[str, Any]) -> dict[str, Any]:
     - Kay-Kajiya on cylinders: the tangent of the surface's axis (``tangent_theta``,
       ``tangent_phi``, degrees), ``coverage`` = 2 radius / spacing, and for Lambertian
       fibres ``kd`` = albedo / π² (the energy-exact value: ``KayKajiya``).
+    - Weaves: the yarns' tangent curves (``slope`` = π crimp amplitude / spacing, ``flat``
+      = 1 − 2 / repeat) and Lambertian yarns' ``albedo_warp``, ``albedo_weft``.
     """
     out: dict[str, Any] = {}
     recipe = meta.get("recipe", {})
@@ -285,7 +287,15 @@ def model_defaults(meta: Mapping[str, Any]) -> dict[str, Any]:
             out["base_albedo"] = base["albedo"]
         if fibre["kind"] == "lambertian":
             out["kd"] = float(np.mean(fibre["albedo"])) / np.pi**2
-    axis = meta.get("surface", {}).get("axis")
+    info = meta.get("surface", {})
+    if info.get("kind") == "weave" and "spacing" in out:
+        # the yarns' tangent curves (microsim.analytic.cloth.tangents)
+        out["slope"] = np.pi * info["crimp_amplitude"] / out["spacing"]
+        out["flat"] = 1.0 - 2.0 / info["repeat"]
+        for part in ("warp", "weft"):
+            if materials.get(part, {}).get("kind") == "lambertian":
+                out[f"albedo_{part}"] = materials[part]["albedo"]
+    axis = info.get("axis")
     if axis is not None:
         t = np.asarray(axis, float)
         out["tangent_theta"] = float(np.degrees(np.arccos(np.clip(t[2], -1.0, 1.0))))

@@ -11,12 +11,13 @@ from microsim.compare import Model, half_difference
 from microsim.tables.table import BRDFTable
 
 
-def incidence_plane_bins(table: BRDFTable) -> tuple[int, int]:
-    """The φo bins nearest the plane of incidence: (back-scattering side φ ≈ 0, forward
-    side φ ≈ π), for an isotropic table whose azimuths are relative to φi."""
+def incidence_plane_bins(table: BRDFTable, phi: float = 0.0) -> tuple[int, int]:
+    """The φo bins nearest the plane of incidence: (back-scattering side φ ≈ ``phi``,
+    forward side φ ≈ ``phi`` + π); ``phi`` is 0 for an isotropic table, whose azimuths
+    are relative to φi, and φi (radians) for an anisotropic one."""
     centres = table.bins.phi_centers
-    back = int(np.argmin(np.abs(np.angle(np.exp(1j * centres)))))
-    forward = int(np.argmin(np.abs(np.angle(np.exp(1j * (centres - np.pi))))))
+    back = int(np.argmin(np.abs(np.angle(np.exp(1j * (centres - phi))))))
+    forward = int(np.argmin(np.abs(np.angle(np.exp(1j * (centres - phi - np.pi))))))
     return back, forward
 
 
@@ -31,8 +32,8 @@ def _pyplot() -> Any:
 
 def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
                     component: str = "single", title: str = "") -> None:
-    """Plot f_r cos θo in the plane of incidence, simulation against model, one panel
-    per incidence (the first incident azimuth).
+    """Plot f_r cos θo in the plane of incidence, simulation against model: one panel per
+    incidence (columns θi; rows φi for an anisotropic table).
 
     The simulated bins (with ±1 standard error bars) and the model averaged over the
     same bins (``compare.compare_table``'s ``model``) are drawn against the signed θo of
@@ -42,7 +43,6 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
     Parameters
     ----------
     table : BRDFTable
-        An isotropic table.
     model_bins : (a, b, nt, np, 3) float
         The model's bin averages.
     path : str or Path
@@ -53,27 +53,33 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
         Figure title.
     """
     plt = _pyplot()
-    back, forward = incidence_plane_bins(table)
     theta = np.degrees(table.bins.theta_centers)
     cos_o = np.cos(table.bins.theta_centers)
     n = len(table.theta_i)
-    fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 3.4), squeeze=False)
-    for k, ax in enumerate(axes[0]):
-        avg = model_bins[k, 0]
-        values = table.values[component][k, 0]
-        errors = np.nan_to_num(table.errors[component][k, 0])
-        for side, sign in ((back, -1), (forward, 1)):
-            x = sign * theta
-            ax.errorbar(x, values[:, side, 1] * cos_o, yerr=errors[:, side, 1] * cos_o,
-                        fmt="o", ms=3, color="tab:blue", ecolor="tab:blue", elinewidth=1,
-                        label="simulated" if sign > 0 else None)
-            ax.plot(x, avg[:, side, 1] * cos_o, "-", color="tab:red",
-                    label="model" if sign > 0 else None)
-        ax.set_title(f"θi = {np.degrees(table.theta_i[k]):.0f}°")
-        ax.set_xlabel("θo in the plane of incidence (°)")
-        ax.set_xlim(-90, 90)
-        ax.grid(alpha=0.3)
-    axes[0, 0].set_ylabel("f_r cos θo (1/sr), green channel")
+    rows = 1 if table.isotropic else len(table.phi_i)
+    fig, axes = plt.subplots(rows, n, figsize=(3.6 * n, 3.4 * rows), squeeze=False)
+    for j in range(rows):
+        back, forward = incidence_plane_bins(table, 0.0 if table.isotropic
+                                             else float(table.phi_i[j]))
+        for k, ax in enumerate(axes[j]):
+            avg = model_bins[k, j]
+            values = table.values[component][k, j]
+            errors = np.nan_to_num(table.errors[component][k, j])
+            for side, sign in ((back, -1), (forward, 1)):
+                x = sign * theta
+                ax.errorbar(x, values[:, side, 1] * cos_o, yerr=errors[:, side, 1] * cos_o,
+                            fmt="o", ms=3, color="tab:blue", ecolor="tab:blue",
+                            elinewidth=1, label="simulated" if sign > 0 else None)
+                ax.plot(x, avg[:, side, 1] * cos_o, "-", color="tab:red",
+                        label="model" if sign > 0 else None)
+            label = f"θi = {np.degrees(table.theta_i[k]):.0f}°"
+            if not table.isotropic:
+                label += f", φi = {np.degrees(table.phi_i[j]):.0f}°"
+            ax.set_title(label)
+            ax.set_xlabel("θo in the plane of incidence (°)")
+            ax.set_xlim(-90, 90)
+            ax.grid(alpha=0.3)
+        axes[j, 0].set_ylabel("f_r cos θo (1/sr), green channel")
     axes[0, 0].legend(loc="upper left", fontsize=8)
     if title:
         fig.suptitle(title, fontsize=10)

@@ -189,7 +189,38 @@ MODELS: dict[str, ModelSpec] = {
          "base_albedo": Key("rgb", 0.0, "The base's albedo: must be 0 (the model's base "
                             "is black).", low=0.0, high=0.0)},
         lambda p: _velvet(p)),
+    "microcylinder": ModelSpec(
+        "Woven cloth: Sadeghi et al. 2013's microcylinder model (thread scattering with a "
+        "Fresnel surface lobe and a volume lobe, shadowing-masking, two thread families "
+        "with the weave's tangent curves), combined as layers of cylinders.",
+        {"a_warp": Key("float", 0.8, "Coverage of the warp.", low=0.0, high=1.0),
+         "a_weft": Key("float", 0.8, "Coverage of the weft.", low=0.0, high=1.0),
+         "eta": Key("float", 1.5, "The threads' index of refraction.", low=1.0, low_open=True,
+                    high=10.0),
+         "gamma_s": Key("float", 10.0, "Width of the surface lobe.", unit="deg", low=0.01,
+                        high=90.0),
+         "gamma_v": Key("float", 20.0, "Width of the volume lobe.", unit="deg", low=0.01,
+                        high=90.0),
+         "kd": Key("float", 0.5, "Isotropic share of the volume scattering.", low=0.0,
+                   high=1.0),
+         "albedo_warp": Key("rgb", 0.5, "Volume albedo of the warp.", low=0.0, high=1.0),
+         "albedo_weft": Key("rgb", 0.5, "Volume albedo of the weft.", low=0.0, high=1.0),
+         "slope": Key("float", 0.0, "Largest slope of the yarns (pi crimp / spacing).",
+                      low=0.0, high=100.0),
+         "flat": Key("float", 0.0, "Share of the yarns' length that is flat.", low=0.0,
+                     high=1.0)},
+        lambda p: _cloth(p)),
 }
+
+
+def _cloth(p: Mapping[str, Any]) -> Any:
+    from microsim.analytic.cloth import MicrocylinderCloth
+
+    albedo = np.stack([np.broadcast_to(np.asarray(p[f"albedo_{part}"], float), (3,))
+                       for part in ("warp", "weft")])
+    return MicrocylinderCloth([p["a_warp"], p["a_weft"]], p["eta"],
+                              math.radians(p["gamma_s"]), math.radians(p["gamma_v"]),
+                              p["kd"], albedo, p["slope"], p["flat"])
 
 
 def _velvet(p: Mapping[str, Any]) -> Any:

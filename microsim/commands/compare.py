@@ -99,9 +99,9 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
         title = title_of(table, name, args.component)
+        incidence_plane(table, model_bins, args.out / PLOTS["incidence_plane"],
+                        args.component, title)
         if table.isotropic:
-            incidence_plane(table, model_bins, args.out / PLOTS["incidence_plane"],
-                            args.component, title)
             half_difference_slices(table, model, args.out / PLOTS["half_difference"],
                                    args.component, title)
         z_maps(table, model_bins, args.out / PLOTS["z_maps"], args.component, title)
