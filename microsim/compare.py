@@ -126,6 +126,15 @@ def bin_average(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
     return f
 
 
+def singular_albedo(model: Model, wi: np.ndarray) -> float:
+    """The share of the incident power in a model's singular part (0 without one): its
+    average over the hemisphere as one bin, times π."""
+    if not hasattr(model, "singular"):
+        return 0.0
+    whole = model.singular(wi, np.array([0.0, np.pi / 2]), np.array([0.0, 2 * np.pi]))
+    return float(np.pi * whole.mean())
+
+
 def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Relative errors and z-scores over the model's lobe bins.

@@ -62,7 +62,7 @@ def run_eval(args: argparse.Namespace) -> int:
     import numpy as np
 
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import direction
+    from microsim.compare import direction, singular_albedo
 
     spec = args.spec
     for item in args.param:
@@ -74,12 +74,8 @@ def run_eval(args: argparse.Namespace) -> int:
     wo = direction(*np.radians(args.wo))
     f = np.asarray(model.eval(wi, wo), float)
     value = f.tolist()
-    # a model with a singular part (mirror cylinders' cone) has a delta eval cannot give:
-    # its share of the incident power is its average over the hemisphere times π
-    delta = 0.0
-    if hasattr(model, "singular"):
-        whole = model.singular(wi, np.array([0.0, np.pi / 2]), np.array([0.0, 2 * np.pi]))
-        delta = float(np.pi * whole.mean())
+    # a model with a singular part (mirror cylinders' cone) has a delta eval cannot give
+    delta = singular_albedo(model, wi)
     if args.json:
         print_json({"model": name, "params": params, "wi": list(args.wi),
                     "wo": list(args.wo), "f_r": value, "singular_albedo": delta})
