@@ -11,14 +11,26 @@ from microsim.compare import Model, half_difference
 from microsim.tables.table import BRDFTable
 
 
-def incidence_plane_bins(table: BRDFTable, phi: float = 0.0) -> tuple[int, int]:
-    """The φo bins nearest the plane of incidence: (back-scattering side φ ≈ ``phi``,
-    forward side φ ≈ ``phi`` + π); ``phi`` is 0 for an isotropic table, whose azimuths
-    are relative to φi, and φi (radians) for an anisotropic one."""
-    centres = table.bins.phi_centers
-    back = int(np.argmin(np.abs(np.angle(np.exp(1j * (centres - phi))))))
-    forward = int(np.argmin(np.abs(np.angle(np.exp(1j * (centres - phi - np.pi))))))
-    return back, forward
+def incidence_plane_bins(table: BRDFTable, phi: float = 0.0
+                         ) -> tuple[list[int], list[int]]:
+    """The φo bins of the plane of incidence: (back-scattering side φ = ``phi``, forward
+    side φ = ``phi`` + π), each the bin containing that azimuth, or the two bins on
+    either side when it lies on a bin edge (as φ = 0 does: the plane is then their
+    mean). ``phi`` is 0 for an isotropic table, whose azimuths are relative to φi, and φi
+    (radians) for an anisotropic one."""
+    edges = table.bins.phi_edges
+    period = edges[-1]
+
+    def around(target: float) -> list[int]:
+        x = np.mod(target, period)
+        k = int(np.clip(np.searchsorted(edges, x, side="right") - 1, 0, len(edges) - 2))
+        near = np.isclose(x, edges[k], atol=1e-9) or np.isclose(x, edges[k + 1], atol=1e-9)
+        if not near:
+            return [k]
+        lower = k if np.isclose(x, edges[k + 1], atol=1e-9) else k - 1
+        return sorted({lower % (len(edges) - 1), (lower + 1) % (len(edges) - 1)})
+
+    return around(phi), around(phi + np.pi)
 
 
 def _pyplot() -> Any:
@@ -38,7 +50,8 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
     The simulated bins (with ±1 standard error bars) and the model averaged over the
     same bins (``compare.compare_table``'s ``model``) are drawn against the signed θo of
     the bin centre: negative on the back-scattering side (towards the light), positive on
-    the forward side (towards the mirror direction).
+    the forward side (towards the mirror direction); where the plane runs along a bin
+    edge, the mean of the bins on either side (``incidence_plane_bins``).
 
     Parameters
     ----------
@@ -67,10 +80,12 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
             errors = np.nan_to_num(table.errors[component][k, j])
             for side, sign in ((back, -1), (forward, 1)):
                 x = sign * theta
-                ax.errorbar(x, values[:, side, 1] * cos_o, yerr=errors[:, side, 1] * cos_o,
-                            fmt="o", ms=3, color="tab:blue", ecolor="tab:blue",
-                            elinewidth=1, label="simulated" if sign > 0 else None)
-                ax.plot(x, avg[:, side, 1] * cos_o, "-", color="tab:red",
+                sim = values[:, side, 1].mean(axis=1)
+                err = np.sqrt((errors[:, side, 1] ** 2).sum(axis=1)) / len(side)
+                ax.errorbar(x, sim * cos_o, yerr=err * cos_o, fmt="o", ms=3,
+                            color="tab:blue", ecolor="tab:blue", elinewidth=1,
+                            label="simulated" if sign > 0 else None)
+                ax.plot(x, avg[:, side, 1].mean(axis=1) * cos_o, "-", color="tab:red",
                         label="model" if sign > 0 else None)
             label = f"θi = {np.degrees(table.theta_i[k]):.0f}°"
             if not table.isotropic:
@@ -251,8 +266,10 @@ def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path
     theta = np.degrees(table.bins.theta_centers)
     cos_o = np.cos(table.bins.theta_centers)
     for side, sign in ((back, -1), (forward, 1)):
-        lobe.errorbar(sign * theta, table.values[component][k, 0, :, side, 1] * cos_o,
-                      yerr=np.nan_to_num(table.errors[component][k, 0, :, side, 1]) * cos_o,
+        err = np.nan_to_num(table.errors[component][k, 0][:, side, 1])
+        lobe.errorbar(sign * theta,
+                      table.values[component][k, 0][:, side, 1].mean(axis=1) * cos_o,
+                      yerr=np.sqrt((err**2).sum(axis=1)) / len(side) * cos_o,
                       fmt="o", ms=3, color="black", label="table" if sign > 0 else None)
     signed = np.linspace(-89.5, 89.5, 359)
     phi = np.where(signed < 0, 0.0, np.pi)                # the azimuths of the bins drawn
