@@ -126,8 +126,9 @@ def _kay_kajiya(defaults: Mapping[str, Any]) -> Family:
 
 def _microcylinder(defaults: Mapping[str, Any]) -> Family:
     """The microcylinder cloth model (``MicrocylinderCloth``): coverage a_1 (warp), a_2
-    (weft), η, γ_s, γ_v (radians), k_d, and the volume albedo per family and channel;
-    the tangent curves are the table's weave (``slope``, ``flat``)."""
+    (weft), η, γ_s, γ_v (radians), k_d, and the volume scale A per family and channel
+    (up to 5: not an albedo); the tangent curves are the table's weave (``slope``,
+    ``flat``)."""
 
     def build(p: np.ndarray) -> Any:
         from microsim.analytic.cloth import MicrocylinderCloth
@@ -142,7 +143,7 @@ def _microcylinder(defaults: Mapping[str, Any]) -> Family:
                    "A_warp_G", "A_warp_B", "A_weft_R", "A_weft_G", "A_weft_B"),
                   (a, a, 1.5, 0.2, 0.4, 0.5, *[albedo[0]] * 3, *[albedo[1]] * 3),
                   (0.0, 0.0, 1.01, 0.005, 0.005, 0.0, *(0.0,) * 6),
-                  (1.0, 1.0, 3.0, 1.0, 1.5, 1.0, *(1.0,) * 6), build)
+                  (1.0, 1.0, 3.0, 1.0, 1.5, 1.0, *(5.0,) * 6), build)
 
 
 FAMILIES = "beckmann, ggx, oren-nayar, phong, lafortune[:K], kay-kajiya, microcylinder"
