@@ -21,7 +21,7 @@ from microsim import __version__
 from microsim.errors import InputError
 
 COMMANDS = ("check", "models", "generate", "measure", "view", "simulate", "compare", "fit",
-            "sh", "export", "bench", "batch", "demo")
+            "sh", "export", "render", "bench", "batch", "demo")
 """Command modules under ``microsim.commands``, in the order ``--help`` lists them."""
 
 

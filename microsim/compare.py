@@ -316,14 +316,15 @@ def model_defaults(meta: Mapping[str, Any]) -> dict[str, Any]:
 
 def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float = 0.0,
                 rng: np.random.Generator | None = None,
-                meta: Mapping[str, Any] | None = None) -> Any:
+                meta: Mapping[str, Any] | None = None,
+                phi_i: np.ndarray | None = None) -> Any:
     """A table whose bins hold an analytic model's bin averages: a noiseless reference,
     or one with Gaussian noise of known relative standard deviation.
 
     Parameters
     ----------
     model : Model
-        The analytic BRDF (isotropic: incidences at φi = 0).
+        The analytic BRDF.
     theta_i : (a,) float
         Incident polar angles, radians.
     bins : HemisphereBins
@@ -336,6 +337,10 @@ def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float =
         Source of the noise (required when ``sigma_rel`` > 0).
     meta : mapping or None
         The table's metadata (default: a surface of kind ``"analytic"``).
+    phi_i : (b,) float or None
+        None: an isotropic table (incidences at φi = 0, outgoing azimuths relative to it).
+        Otherwise the incident azimuths (radians, increasing, within [0, 2π)) of an
+        anisotropic table with absolute outgoing azimuths.
 
     Returns
     -------
@@ -346,14 +351,16 @@ def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float =
     from microsim.tables.table import COMPONENTS, BRDFTable
 
     theta_i = np.asarray(theta_i, float)
-    avg = np.stack([bin_average(model, direction(t, 0.0), bins.theta_edges, bins.phi_edges)
-                    for t in theta_i])[:, None]
+    azimuths = np.zeros(1) if phi_i is None else np.asarray(phi_i, float)
+    avg = np.stack([np.stack([bin_average(model, direction(t, p), bins.theta_edges,
+                                          bins.phi_edges) for p in azimuths])
+                    for t in theta_i])
     err = sigma_rel * avg + 1e-12
     values = avg + rng.standard_normal(avg.shape) * err if sigma_rel else avg
     albedo = (values * bins.projected_solid_angle[None, None, :, :, None]).sum(axis=(2, 3))
     zeros = np.zeros_like(albedo)
-    return BRDFTable(bins, theta_i, [0.0], True, {c: values for c in COMPONENTS},
-                     {c: err for c in COMPONENTS}, np.full((len(theta_i), 1), 10**6),
+    return BRDFTable(bins, theta_i, azimuths, phi_i is None, {c: values for c in COMPONENTS},
+                     {c: err for c in COMPONENTS}, np.full(avg.shape[:2], 10**6),
                      {c: albedo for c in COMPONENTS}, {c: zeros for c in COMPONENTS},
                      zeros, dict(meta or {"surface": {"kind": "analytic"}}))
 

@@ -24,6 +24,7 @@ import numpy as np
 
 import microsim
 from microsim.compare import direction
+from microsim.kernel.tally import bin_escapes
 from microsim.materials import FacetMaterials
 from microsim.paths import Paths, trace_paths
 from microsim.surfaces.tile import Tile
@@ -34,6 +35,9 @@ from microsim.trace import PeriodicScene
 
 BATCH = 65536
 """Rays per batch: the unit of random streams, accumulation and the adaptive stop."""
+SLOT_OF_ORDER = np.array([-1, COMPONENTS.index("single"), -1])
+"""Component of ``COMPONENTS`` each scattering order adds to besides ``total``: order 1
+to ``single``, higher orders (the last entry) to none."""
 
 
 class _Sums:
@@ -72,25 +76,27 @@ class _Sums:
         self.lost, self.transmitted, self.absorbed = np.zeros(3), np.zeros(3), np.zeros(3)
         self.fates: dict[str, int] = {}
 
-    def add(self, index: np.ndarray, paths: Paths, phi_ref: float = 0.0,
+    def add(self, paths: Paths, bins: HemisphereBins, phi_ref: float = 0.0,
             mapper: sh.Mapper | None = None) -> None:
-        """Add one batch: the traced ``paths``, the bin ``index`` (-1: none) of each, the
-        azimuth ``phi_ref`` (radians) the bins and harmonics measure φo from, and what runs
-        the harmonic transforms (``sh.moments``; the sums do not depend on it)."""
-        self.rays += len(index)
-        binned = index >= 0
-        size = self.sums["total"].size
-        # one bincount per moment over (bin, channel) pairs, in ray order; rays outside a
-        # component add exact zeros (to bin 0), which spares gathering the selected rows
-        slot = (3 * np.maximum(index, 0)[:, None] + np.arange(3)).ravel()
-        for comp, sel in (("total", binned), ("single", binned & (paths.order == 1))):
-            w = (paths.weight * sel[:, None]).ravel()
-            self.sums[comp] += np.bincount(slot, w, minlength=size).reshape(-1, 3)
-            self.sums_sq[comp] += np.bincount(slot, w * w, minlength=size).reshape(-1, 3)
+        """Add one batch: the traced ``paths``, binned in ``bins`` (compiled, in ray
+        order: ``microsim.kernel.tally``) with φo measured from the azimuth ``phi_ref``
+        (radians), which the harmonics use too, and what runs the harmonic transforms
+        (``sh.moments``; the sums do not depend on it)."""
+        n = len(paths.order)
+        self.rays += n
+        index = np.empty(n, np.int64)
+        sums = np.zeros((len(COMPONENTS), bins.size, 3))
+        sums_sq = np.zeros_like(sums)
+        unbinned = np.zeros(3)
+        bin_escapes(paths.direction, paths.weight, paths.order, phi_ref, bins.theta_bins,
+                    bins.phi_bins, bins.folded, SLOT_OF_ORDER, sums, sums_sq, index, unbinned)
+        for j, comp in enumerate(COMPONENTS):
+            self.sums[comp] += sums[j]
+            self.sums_sq[comp] += sums_sq[j]
         if self.sh_order:
-            self._add_sh(paths, binned, phi_ref, mapper)
+            self._add_sh(paths, index >= 0, phi_ref, mapper)
         # an escaping ray the bins do not take (none for a closed surface) is lost, not hidden
-        self.lost += paths.lost + paths.weight[~binned & (paths.order > 0)].sum(axis=0)
+        self.lost += paths.lost + unbinned
         self.transmitted += paths.transmitted
         self.absorbed += paths.absorbed
         for name, count in paths.fate_counts.items():
@@ -164,8 +170,7 @@ def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: Hemis
         origins = np.column_stack([xy, np.full(n, scene.z_top)])
         paths = trace_paths(scene, facets, origins, np.broadcast_to(-wi, (n, 3)),
                             int(simulation["bounces"]), seed)
-        acc.add(np.where(paths.order > 0, bins.index(paths.direction, phi_ref), -1), paths,
-                phi_ref, scene.map)
+        acc.add(paths, bins, phi_ref, scene.map)
         batch += 1
         # the figure the table reports, for this direction alone
         error = _table(bins, [theta], [phi], isotropic, [[acc]], {}).median_rel_error()

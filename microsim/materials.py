@@ -1,10 +1,12 @@
 """Facet scattering: what a ray does where it hits a face of a given material.
 
 Each face carries a material id (an index into the tile's parts); each part has a resolved
-``[material.<part>]`` section of the recipe. Scattering returns the new direction, the
-factor (RGB) by which the path weight is multiplied, and the fraction transmitted into the
-material (a non-refracting dielectric's 1 - F, reported as lost energy); the rest,
-``1 - factor - transmitted``, is absorbed (by a conductor or a diffuse facet).
+``[material.<part>]`` section of the recipe, which ``FacetMaterials`` packs into the arrays
+the compiled transport kernel reads (``microsim.kernel.scatter`` has the events).
+Scattering returns the new direction, the factor (RGB) by which the path weight is
+multiplied, and the fraction transmitted into the material (a non-refracting dielectric's
+1 - F, reported as lost energy); the rest, ``1 - factor - transmitted``, is absorbed (by a
+conductor or a diffuse facet).
 
 - ``mirror``: specular reflection, factor 1.
 - ``conductor``: specular reflection, factor the exact conductor Fresnel reflectance per
@@ -12,7 +14,7 @@ material (a non-refracting dielectric's 1 - F, reported as lost energy); the res
 - ``dielectric``: specular reflection, factor the dielectric Fresnel reflectance; the
   refracted part is absorbed inside and reported as lost. With ``refract = true``: a
   Fresnel-weighted choice between reflection and refraction from either side, factor 1
-  (``microsim.refraction.fresnel_choice``); the tracer keeps track of which paths are
+  (``microsim.kernel.scatter.scatter_event``); the tracer keeps track of which paths are
   inside the medium and applies its ``absorption`` (docs/materials.md).
 - ``lambertian``: cosine-weighted direction about the facet normal, factor the albedo (the
   cosine-weighted pdf cancels the BRDF's cosine: Pharr, Jakob & Humphreys, PBR 4th ed.,
@@ -27,42 +29,22 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+from numba import njit
 
-from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
 from microsim.errors import InputError
-from microsim.frames import orthonormal_basis
-from microsim.refraction import fresnel_choice, reflect
+from microsim.kernel import scatter as events
+from microsim.kernel.rng import key_of
+from microsim.kernel.shading import curved_table
 from microsim.tabulated import TabulatedMaterial
 
-
-def cosine_about(n: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Cosine-weighted directions about each normal.
-
-    Malley's method (a uniform point on the unit disc lifted to the hemisphere; PBR 4th
-    ed., sec. A.5.3) in the orthonormal basis of Duff et al. 2017, "Building an
-    orthonormal basis, revisited", JCGT 6(1), listing 3.
-
-    Parameters
-    ----------
-    n : (k, 3) float
-        Unit normals.
-    u : (k, 2) float
-        Uniform numbers in [0, 1).
-
-    Returns
-    -------
-    (k, 3) float
-        Unit directions with pdf cos(theta) / pi about ``n``.
-    """
-    t, s = orthonormal_basis(n)
-    r = np.sqrt(u[:, 0])
-    phi = 2.0 * np.pi * u[:, 1]
-    z = np.sqrt(np.maximum(1.0 - u[:, 0], 0.0))
-    return (r * np.cos(phi))[:, None] * t + (r * np.sin(phi))[:, None] * s + z[:, None] * n
+KINDS = {"mirror": events.MIRROR, "conductor": events.CONDUCTOR,
+         "dielectric": events.DIELECTRIC, "lambertian": events.LAMBERTIAN,
+         "table": events.TABLE}
+"""Kernel code of each recipe kind (a dielectric with ``refract = true`` is ``REFRACTING``)."""
 
 
 class FacetMaterials:
-    """The materials of one tile's faces.
+    """The materials of one tile's faces, packed for the transport kernel.
 
     Parameters
     ----------
@@ -84,15 +66,20 @@ class FacetMaterials:
         The loaded table of each part of kind ``table`` (by material id).
     inputs : list of dict
         Provenance of those tables: ``part``, ``path``, ``sha256``, ``component``.
-    refracting : (parts + 1,) bool
-        Which parts refract (the last entry, for part -1 = air, is False).
-    absorption : (parts + 1, 3) float
-        Beer-Lambert coefficient per unit length inside each refracting part (0 elsewhere;
-        the last row, for part -1 = air, is 0).
-    curved : (m, 3, 3) float or None
-        ``curved`` with the faces of refracting parts made flat: a ray inside a medium
-        meets its faces from behind, where the entry-point construction of
-        ``microsim.shading`` does not apply, so refracting tubes keep their facets.
+    kind : (p,) int
+        Kernel code per part (``microsim.kernel.scatter``).
+    params : (p, 12) float
+        Per part: η and k per RGB channel, the Lambertian albedo, the Beer-Lambert
+        absorption per unit length inside a refracting part (``P_*`` offsets).
+    tab_int : (p, TABLE_COLUMNS) int
+        Per table part, its layout in ``tab_f`` (zeros for the others).
+    tab_f : (q,) float
+        The tables' nodes, bin edges, cumulative probabilities and weights.
+    tangents : (m, 3) float
+        The faces' tangents (zeros when the tile gives none).
+    curved : (m, 9) or (0, 9) float
+        The faces' tubes for the kernel (``microsim.kernel.shading.curved_table``:
+        refracting parts flat; no rows when no face is curved).
 
     Raises
     ------
@@ -104,28 +91,40 @@ class FacetMaterials:
                  materials: Mapping[str, Mapping[str, Any]],
                  tangents: np.ndarray | None = None,
                  curved: np.ndarray | None = None) -> None:
-        self.face_material = np.asarray(face_material, np.int64)
-        self.specs = [dict(materials[p]) for p in parts]
-        self.tangents = tangents
+        self.face_material = np.ascontiguousarray(face_material, np.int64)
+        specs = [dict(materials[p]) for p in parts]
         self.tables = {m: TabulatedMaterial.load(spec["path"], spec["component"],
                                                  f"material.{parts[m]}.path", spec["axis"])
-                       for m, spec in enumerate(self.specs) if spec["kind"] == "table"}
+                       for m, spec in enumerate(specs) if spec["kind"] == "table"}
         for m, table in self.tables.items():
             if table.uses_tangents and tangents is None:
                 raise InputError(f"material.{parts[m]}.axis = 'tangent': this surface gives "
                                  "its faces no tangents (velvet does); use 'x' or 'y'")
         self.inputs = [{"part": parts[m], **t.source} for m, t in self.tables.items()]
-        self.refracting = np.array([s["kind"] == "dielectric" and bool(s.get("refract"))
-                                    for s in self.specs] + [False])
-        self.absorption = np.zeros((len(self.specs) + 1, 3))
-        for m in np.flatnonzero(self.refracting):
-            self.absorption[m] = self.specs[m].get("absorption", 0.0)
-        self.curved = None if curved is None else np.where(
-            self.refracting[self.face_material][:, None, None], 0.0, curved)
+        self.tangents = np.zeros((len(self.face_material), 3)) if tangents is None else \
+            np.ascontiguousarray(tangents, float)
+        self.kind = np.array([events.REFRACTING if s["kind"] == "dielectric" and
+                              s.get("refract") else KINDS[s["kind"]] for s in specs], np.int64)
+        self.params = np.zeros((len(specs), 12))
+        for m, spec in enumerate(specs):
+            for at, name in ((events.P_ETA, "eta"), (events.P_K, "k"),
+                             (events.P_ALBEDO, "albedo"), (events.P_ABSORPTION, "absorption")):
+                if name in spec:
+                    self.params[m, at:at + 3] = spec[name]
+        self.tab_int = np.zeros((len(specs), events.TABLE_COLUMNS), np.int64)
+        chunks: list[np.ndarray] = [np.zeros(1)]
+        used = 1
+        for m, table in self.tables.items():
+            self.tab_int[m], data = table.packed(used)
+            chunks.append(data)
+            used += len(data)
+        self.tab_f = np.concatenate(chunks)
+        self.curved = curved_table(curved, self.kind[self.face_material] == events.REFRACTING)
 
     def scatter(self, faces: np.ndarray, d: np.ndarray, n: np.ndarray,
-                rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Scatter rays at the faces they hit.
+                seed: np.random.SeedSequence, event: int = 1
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Scatter rays at the faces they hit, with the kernel's own events.
 
         Parameters
         ----------
@@ -136,8 +135,10 @@ class FacetMaterials:
             are hit from either side).
         n : (k, 3) float
             Unit normals of the faces.
-        rng : numpy.random.Generator
-            Source of the random numbers (drawn part by part, in part order).
+        seed : numpy.random.SeedSequence
+            Key of the random numbers; ray i draws those of ray i, event ``event``.
+        event : int
+            The events' number (a path's bounce, from 1).
 
         Returns
         -------
@@ -149,44 +150,26 @@ class FacetMaterials:
         transmitted : (k, 3) float
             Fraction of the weight refracted into the material (dielectrics), in [0, 1].
         """
-        out = np.empty_like(d)
-        factor = np.empty((len(d), 3))
-        transmitted = np.zeros((len(d), 3))
-        mat = self.face_material[faces]
-        for m, spec in enumerate(self.specs):
-            sel = np.flatnonzero(mat == m)
-            if sel.size == 0:
-                continue
-            if sel.size == len(d):  # one material for every ray: no gathering
-                sel = slice(None)
-                ds, ns = d, n
-            else:
-                ds, ns = np.take(d, sel, axis=0), np.take(n, sel, axis=0)
-            count = len(ds)
-            kind = spec["kind"]
-            if kind == "lambertian":
-                out[sel] = cosine_about(ns, rng.random((count, 2)))
-                factor[sel] = np.broadcast_to(spec["albedo"], (count, 3))
-                continue
-            if kind == "table":
-                table = self.tables[m]
-                along = (np.take(self.tangents, faces[sel], axis=0)
-                         if table.uses_tangents else None)
-                out[sel], factor[sel] = table.scatter(ds, ns, rng, along)
-                continue
-            if self.refracting[m]:
-                out[sel] = fresnel_choice(ds, ns, spec["eta"], rng.random(count))[0]
-                factor[sel] = 1.0
-                continue
-            out[sel] = reflect(ds, ns)
-            if kind == "mirror":
-                factor[sel] = 1.0
-                continue
-            cos = np.clip(-np.einsum("ij,ij->i", ds, ns), 0.0, 1.0)
-            if kind == "conductor":
-                factor[sel] = fresnel_conductor(cos[:, None], np.asarray(spec["eta"]),
-                                                np.asarray(spec["k"]))
-            else:
-                factor[sel] = fresnel_dielectric(cos, spec["eta"])[:, None]
-                transmitted[sel] = 1.0 - factor[sel]
-        return out, factor, transmitted
+        out = np.empty((len(faces), 9))
+        _scatter_all(np.ascontiguousarray(faces, np.int64), np.ascontiguousarray(d, float),
+                     np.ascontiguousarray(n, float), self.face_material, self.tangents,
+                     self.kind, self.params, self.tab_int, self.tab_f, key_of(seed), event,
+                     out)
+        return out[:, :3], out[:, 3:6], out[:, 6:]
+
+
+@njit(**events.JIT)
+def _scatter_all(faces: np.ndarray, d: np.ndarray, n: np.ndarray, face_material: np.ndarray,
+                 tangents: np.ndarray, kind: np.ndarray, params: np.ndarray,
+                 tab_int: np.ndarray, tab_f: np.ndarray, key: np.ndarray, event: int,
+                 out: np.ndarray) -> None:
+    """``scatter_event`` for every ray: rows of ``out`` (direction, factor, transmitted)."""
+    for r in range(len(faces)):
+        f = faces[r]
+        part = face_material[f]
+        result = events.scatter_event(kind[part], params, tab_int, part, tab_f, d[r, 0],
+                                      d[r, 1], d[r, 2], n[r, 0], n[r, 1], n[r, 2],
+                                      tangents[f, 0], tangents[f, 1], tangents[f, 2], key,
+                                      r, event)
+        for c in range(9):
+            out[r, c] = result[c]

@@ -3,7 +3,8 @@ scale up (Westin, Arvo & Torrance 1992, "Predicting reflectance functions from c
 surfaces", SIGGRAPH '92, sec. 3: hierarchies of scale).
 
 A ray hitting a facet of kind ``table`` leaves in a direction importance-sampled from the
-table in the facet's local frame, and its weight is multiplied by the estimator's ratio
+table in the facet's local frame (``microsim.kernel.scatter.sample_table``, which this
+class's ``packed`` layout feeds), and its weight is multiplied by the estimator's ratio
 f_r cos θo / pdf (the importance-sampled Monte Carlo estimator: Pharr, Jakob & Humphreys,
 PBR 4th ed., sec. 2.2.2). docs/materials.md derives the weights; in short, with a table of
 bins b (projected solid angle Ω_b, values f_b,c for colour channel c) at one incidence
@@ -46,69 +47,13 @@ import numpy as np
 
 from microsim.errors import InputError
 from microsim.files import file_digest
-from microsim.tables.binning import TWO_PI
+from microsim.kernel import scatter as ev
 from microsim.tables.exr import read_table
-from microsim.tables.interpolation import linear_weights
 from microsim.tables.table import COMPONENTS, BRDFTable
 
 AXES = ("x", "y", "tangent")
 """What a table material's ``axis`` may name: a world axis, or the per-face tangent a
 generator gives (``Tile.tangents``: a velvet fibre's axis)."""
-
-
-def _frame_along(n: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
-    """b = (e − (n·e) n) / r and t = b × n = (e × n) / r for the unit axis e = e_axis
-    (x or y), r = |e − (n·e) n| = √(sum of the squares of n's other two components)."""
-    nx, ny, nz = n[:, 0], n[:, 1], n[:, 2]
-    b = -n[:, axis, None] * n
-    b[:, axis] += 1.0
-    if axis == 0:
-        r = np.sqrt(ny * ny + nz * nz)
-        t = np.stack([np.zeros_like(nx), -nz, ny], axis=1)
-    else:
-        r = np.sqrt(nx * nx + nz * nz)
-        t = np.stack([nz, np.zeros_like(ny), -nx], axis=1)
-    return t / r[:, None], b / r[:, None]
-
-
-def facet_frame(n: np.ndarray, axis: int = 1, tangents: np.ndarray | None = None
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """Tangent and bitangent of each facet (the convention in the module docstring).
-
-    Parameters
-    ----------
-    n : (k, 3) float
-        Unit facet normals.
-    axis : int
-        0 (x) or 1 (y): the world axis whose projection onto the facet plane is the
-        bitangent. Where n lies along it (|n·e| > 1 − 1e-6) the other axis is used.
-    tangents : (k, 3) float or None
-        Per-facet unit directions to project instead of the world axis (a recipe's
-        ``axis = "tangent"``);
-        where one lies along n (|n·e| > 1 − 1e-6) the world y axis is used.
-
-    Returns
-    -------
-    t, b : (k, 3) float
-        Unit tangent t = b × n (the table's x axis) and bitangent b (its y axis), so that
-        (t, b, n) is right-handed.
-    """
-    if tangents is not None:
-        e_n = np.einsum("ij,ij->i", tangents, n)
-        b = tangents - e_n[:, None] * n
-        r = np.linalg.norm(b, axis=1)
-        ok = 1.0 - np.abs(e_n) >= 1e-6
-        b = np.divide(b, r[:, None], out=np.zeros_like(b), where=ok[:, None])
-        t = np.cross(b, n)
-        if not ok.all():
-            t[~ok], b[~ok] = facet_frame(n[~ok])
-        return t, b
-    t, b = _frame_along(n, axis)
-    along = 1.0 - np.abs(n[:, axis]) < 1e-6
-    if along.any():
-        t2, b2 = _frame_along(n[along], 1 - axis)
-        t[along], b[along] = t2, b2
-    return t, b
 
 
 class TabulatedMaterial:
@@ -122,8 +67,8 @@ class TabulatedMaterial:
         ``"total"`` (all scattering orders of the lower scale) or ``"single"``.
     axis : str
         ``"y"`` or ``"x"``: the world axis whose projection onto a facet is the table's
-        y axis (``facet_frame``); ``"tangent"``: the facet's own tangent (``scatter``'s
-        ``tangents``) projected so.
+        y axis (``microsim.kernel.scatter.facet_frame``); ``"tangent"``: the facet's own
+        tangent (``Tile.tangents``) projected so.
     source : dict or None
         Provenance recorded by tables made with this material (path, digest, component).
 
@@ -203,55 +148,32 @@ class TabulatedMaterial:
         except ValueError as exc:
             raise InputError(f"{key} = {str(path)!r}: {exc}") from None
 
-    def scatter(self, d: np.ndarray, n: np.ndarray, rng: np.random.Generator,
-                tangents: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Sample outgoing directions and weights at facets of this material.
+    def packed(self, at: int) -> tuple[np.ndarray, np.ndarray]:
+        """The table laid out for the transport kernel (``microsim.kernel.scatter``).
 
         Parameters
         ----------
-        d : (k, 3) float
-            Unit directions of travel (towards the facet, ``d . n < 0``).
-        n : (k, 3) float
-            Unit facet normals.
-        rng : numpy.random.Generator
-            Six uniform numbers are drawn per ray.
-        tangents : (k, 3) float or None
-            The facets' tangents; required with ``axis = "tangent"``, unused otherwise.
+        at : int
+            Where the returned floats will start in the kernel's ``tab_f``.
 
         Returns
         -------
-        out : (k, 3) float
-            Unit outgoing directions (above the facet).
-        factor : (k, 3) float
-            RGB weight f_r cos θo / pdf (its mean over rays is the table's interpolated
-            albedo; a single ray's channel may exceed 1 where the channels' lobes differ).
+        row : (TABLE_COLUMNS,) int
+            The ``T_*`` columns, offsets counted from the start of ``tab_f``.
+        data : (q,) float
+            θi nodes, φi nodes, u = sin²θo edges, φo edges, cumulative probabilities
+            (node-major), weights (node-major, 3 per bin).
         """
         table, bins = self.table, self.table.bins
-        u = rng.random((len(d), 6))
-        if self.uses_tangents and tangents is None:
-            raise ValueError("this table material follows the facets' tangents: give them")
-        t, b = facet_frame(n, self.axis, tangents if self.uses_tangents else None)
-        wi = -d
-        x, y = np.einsum("ij,ij->i", wi, t), np.einsum("ij,ij->i", wi, b)
-        theta = np.arccos(np.clip(np.einsum("ij,ij->i", wi, n), -1.0, 1.0))
-        phi = np.mod(np.arctan2(y, x), TWO_PI)
-        i0, i1, w1 = linear_weights(theta, table.theta_i)
-        it = np.where(u[:, 0] < w1, i1, i0)
-        if table.isotropic:
-            node = it
-        else:
-            j0, j1, v1 = linear_weights(phi, table.phi_i, period=TWO_PI)
-            node = it * len(table.phi_i) + np.where(u[:, 1] < v1, j1, j0)
-        flat = np.empty(len(d), np.int64)
-        for k in np.unique(node):  # a loop over the table's nodes, not over rays
-            sel = np.flatnonzero(node == k)
-            flat[sel] = np.searchsorted(self.cdf[k], u[sel, 2], side="right")
-        local = bins.sample(flat, u[:, 3], u[:, 4])
-        if bins.folded:
-            local[:, 1] *= np.where(u[:, 5] < 0.5, -1.0, 1.0)
-        if table.isotropic:  # the table's azimuths are φo − φi
-            c, s = np.cos(phi), np.sin(phi)
-            local[:, 0], local[:, 1] = (c * local[:, 0] - s * local[:, 1],
-                                        s * local[:, 0] + c * local[:, 1])
-        out = local[:, :1] * t + local[:, 1:2] * b + local[:, 2:] * n
-        return out, self.weight[node, flat]
+        parts = [table.theta_i, table.phi_i, bins.u_edges, bins.phi_edges, self.cdf.ravel(),
+                 self.weight.ravel()]
+        starts = at + np.concatenate([[0], np.cumsum([len(p) for p in parts])[:-1]])
+        row = np.zeros(ev.TABLE_COLUMNS, np.int64)
+        row[ev.T_THETA_N], row[ev.T_THETA_AT] = len(table.theta_i), starts[0]
+        row[ev.T_PHI_N], row[ev.T_PHI_AT] = len(table.phi_i), starts[1]
+        row[ev.T_ISOTROPIC], row[ev.T_FOLDED] = table.isotropic, bins.folded
+        row[ev.T_THETA_BINS], row[ev.T_PHI_BINS] = bins.theta_bins, bins.phi_bins
+        row[ev.T_U_EDGES_AT], row[ev.T_PHI_EDGES_AT] = starts[2], starts[3]
+        row[ev.T_CDF_AT], row[ev.T_WEIGHT_AT] = starts[4], starts[5]
+        row[ev.T_AXIS], row[ev.T_TANGENT] = self.axis, self.uses_tangents
+        return row, np.concatenate(parts).astype(float)

@@ -1,12 +1,15 @@
-"""Ray queries on one periodic tile with Embree (``microsim.paths`` builds paths of them).
+"""The periodic tile in Embree, and the driver of the compiled transport kernel.
 
-The tile is put into one Embree scene as it is (no replicated neighbours). A ray is traced
-inside the tile's box: each Embree query is clipped at the first side of the box the ray
-reaches; a ray that reaches a side without a hit re-enters at the opposite side (its origin
-shifted by one period) and goes on. It ends when it hits a face, leaves the height slab
-upwards (escaped) or downwards (leaked: only a surface with holes lets that happen), or
-exceeds the number of side crossings its direction allows within the slab (trapped). The
-whole loop is vectorised over the rays still active; docs/goniometer.md explains it.
+The tile is put into one Embree scene as it is (no replicated neighbours). Rays are traced
+in chunks on a thread pool; each chunk loads its rays into slots and alternates one Embree
+query of its live slots (``EmbreeScene.run``, which releases the GIL) with one compiled
+step of the transport kernel (``microsim.kernel.transport.advance``, ``nogil``), which
+moves every path on (hit point, materials, side wrap, escape) and compacts the live ones,
+until none is left. Each query is clipped at the first side of the tile's box the ray
+reaches; a ray that reaches a side without a hit re-enters at the opposite side. A path
+ends when it escapes through the top of the slab, leaves through the bottom, exceeds the
+side crossings its direction allows within the slab (trapped), hits the wrong side of a
+face, or reaches the bounce limit; docs/goniometer.md explains it.
 
 Embree works in float32. Hit points are recomputed in float64 on the plane of the face hit,
 and secondary rays start ``eps`` (a fixed fraction of the scene's size) off the face, on
@@ -19,13 +22,19 @@ import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from embreex.mesh_construction import TriangleMesh
 from embreex.rtcore_scene import EmbreeScene
 
+from microsim.kernel import transport as kt
+from microsim.kernel.rng import key_of
+from microsim.kernel.shading import curved_table
 from microsim.surfaces.tile import Tile
+
+if TYPE_CHECKING:
+    from microsim.materials import FacetMaterials
 
 EPS_REL = 1e-6
 """Secondary-ray offset as a fraction of the scene's extent: 8 float32 ulps of the largest
@@ -35,15 +44,13 @@ neighbouring face, so a larger offset loses more rays there (1e-5 lost ten times
 CHUNK = 32768
 """Rays per worker task: a chunk is traced whole (wrap loop, bounces) on one thread
 (chosen by measurement: docs/performance.md)."""
-MAX_SEGMENTS = 10_000
-"""Upper bound of queries for one ray: a direction so nearly horizontal that it would need
-more side crossings to cross the slab is reported as trapped."""
-
 HIT, ESCAPED, LEAKED, TRAPPED, BACKFACE = range(5)
-"""Outcomes of a query: a hit on the side of a face the ray can reach (the front; the back
-of a refracting face for a ray inside its medium), out through the top, out through the
-bottom, out of side crossings, or a hit on the other side (numerical leakage)."""
-FATES = ("hit", "escaped", "leaked", "trapped", "backface")
+"""Outcomes of a first-hit query (``closest_hit``): a hit on the side of a face the ray
+can reach (the front; the back of a refracting face for a ray inside its medium), out
+through the top, out through the bottom, out of side crossings, or a hit on the other side
+(numerical leakage)."""
+_STATUS = np.array([ESCAPED, HIT, LEAKED, LEAKED, TRAPPED, BACKFACE], np.int8)
+"""``closest_hit`` status of each kernel fate (``microsim.kernel.transport.FATES``)."""
 T = TypeVar("T")
 
 
@@ -66,6 +73,29 @@ class Hits:
     point: np.ndarray
 
 
+@dataclass
+class Outcomes:
+    """How each ray of a run ended (``PeriodicScene.run``).
+
+    Attributes
+    ----------
+    floats : (n, O_FLOATS) float
+        Per ray at its end (``microsim.kernel.transport``'s ``S_*`` columns): position
+        (wrapped into the box), direction, weight, absorbed and transmitted weight (RGB).
+    ints : (n, OUT_INTS) int
+        Its fate (``FATES``), bounces, and the last face it hit (-1: none).
+    vertices : (n, v, 3) float
+        Its first v hit points, unwrapped (NaN where it had fewer).
+    segments : int
+        Embree queries made.
+    """
+
+    floats: np.ndarray
+    ints: np.ndarray
+    vertices: np.ndarray
+    segments: int
+
+
 class PeriodicScene:
     """One tile in Embree, traced with periodic wrap on a thread pool.
 
@@ -86,6 +116,9 @@ class PeriodicScene:
         Face areas.
     eps : float
         Offset of secondary-ray origins off their face.
+    box : (7,) float
+        The periods, the bottom and top of the slab, ``eps`` and the inverse periods, for
+        the kernel (``microsim.kernel.transport.B_*``).
     segments : int
         Rays sent to Embree so far (a ray crossing k sides counts k + 1).
     """
@@ -95,13 +128,16 @@ class PeriodicScene:
         self.period = np.array(tile.period, dtype=float)
         self.normals, self.areas = tile.face_normals_areas()
         # plane of each face: n . x = c
-        self._plane = np.einsum("ij,ij->i", self.normals, tile.vertices[tile.faces[:, 0]])
+        plane = np.einsum("ij,ij->i", self.normals, tile.vertices[tile.faces[:, 0]])
+        self._faces = kt.face_table(self.normals, plane, tile.material, tile.tangents)
         z_min, z_max = tile.z_range
         extent = max(float(np.abs(tile.vertices).max()), *tile.period, z_max - z_min)
         self.eps = EPS_REL * extent
         # the slab reaches a few eps past the geometry so offset origins always lie inside
         self.z_top = z_max + 4 * self.eps
         self.z_bottom = z_min - 4 * self.eps
+        self.box = np.array([*self.period, self.z_bottom, self.z_top, self.eps,
+                             *(1.0 / self.period)])
         self._scene = EmbreeScene()
         TriangleMesh(self._scene, np.ascontiguousarray(tile.vertices, np.float32),
                      np.ascontiguousarray(tile.faces, np.int32))
@@ -130,39 +166,86 @@ class PeriodicScene:
             return [fn(i) for i in starts]
         return list(self._pool.map(fn, starts))
 
-    def wrap(self, points: np.ndarray) -> np.ndarray:
-        """Points moved by whole periods into [0, Lx) x [0, Ly).
+    def run(self, origins: np.ndarray, dirs: np.ndarray, materials: FacetMaterials | None,
+            bounces: int, seed: np.random.SeedSequence | None = None,
+            media: np.ndarray | None = None, vertices: int = 0) -> Outcomes:
+        """Trace paths with up to ``bounces`` scattering events each.
+
+        Ray i draws its random numbers from the counter (i, event, ...) under the key of
+        ``seed`` (``microsim.kernel.rng``), so the outcomes depend on neither the number of
+        threads nor the chunk size.
 
         Parameters
         ----------
-        points : (n, 3) float
+        origins : (n, 3) float
+            Start points within the slab; x and y may lie outside the box (wrapped).
+        dirs : (n, 3) float
+            Unit directions of travel.
+        materials : FacetMaterials or None
+            Scattering per face (None: no scattering, ``bounces`` must be 0).
+        bounces : int
+            Scattering events before a path is ended (0: a first-hit query).
+        seed : numpy.random.SeedSequence or None
+            Key of the materials' random numbers (None: zeros; nothing random is drawn
+            without bounces).
+        media : (n,) int or None
+            Per ray, the part (material id) whose medium it starts in, -1 for air
+            (default): the back faces of that part are hits for it, their fronts leakage.
+        vertices : int
+            Hit points to keep per ray (for drawing paths).
 
         Returns
         -------
-        (n, 3) float
+        Outcomes
         """
-        out = points.copy()
-        for axis, length in enumerate(self.period):  # column by column: much faster
-            column = out[:, axis]
-            column -= np.floor(column / length) * length
-        return out
+        n = len(origins)
+        if materials is None:
+            if bounces:
+                raise ValueError("scattering needs materials")
+            count = int(self.tile.material.max(initial=0)) + 1
+            kind, params = np.zeros(count, np.int64), np.zeros((count, 12))
+            tab_int, tab_f = kt.empty_tables(count)
+            curved = curved_table(None, np.zeros(0, bool))
+        else:
+            kind, params, tab_int, tab_f, curved = (materials.kind, materials.params,
+                                                    materials.tab_int, materials.tab_f,
+                                                    materials.curved)
+        key = np.zeros(2, np.uint64) if seed is None else key_of(seed)
+        origins = np.ascontiguousarray(origins, float)
+        dirs = np.ascontiguousarray(dirs, float)
+        media = np.full(n, -1, np.int64) if media is None else np.ascontiguousarray(
+            media, np.int64)
+        out_f = np.zeros((n, kt.O_FLOATS))
+        out_i = np.full((n, kt.OUT_INTS), kt.NO_FACE, np.int64)
+        path = np.full((n, vertices, 3), np.nan)
+        c = self.chunk
 
-    def _budget(self, dirs: np.ndarray) -> np.ndarray:
-        """Most queries a ray may need: a straight path across the slab (length at most
-        height / |dz|) crosses each pair of sides at most length |d_axis| / L + 1 times;
-        the bound is doubled for slack and capped at ``MAX_SEGMENTS``."""
-        a = np.abs(dirs)
-        reach = (a[:, 0] / self.period[0] + a[:, 1] / self.period[1]) * (
-            self.z_top - self.z_bottom)
-        crossings = reach / np.maximum(a[:, 2], 1e-300)
-        return np.minimum(2 * np.ceil(crossings) + 8, MAX_SEGMENTS).astype(np.int64)
+        def chunk(a: int) -> int:
+            b = min(a + c, n)
+            slots_f = np.empty((b - a, kt.SLOT_FLOATS))
+            slots_i = np.empty((b - a, kt.SLOT_INTS), np.int64)
+            live = np.empty(b - a, np.int64)
+            near = np.empty((b - a, 5))
+            o32, d32 = np.empty((b - a, 3), np.float32), np.empty((b - a, 3), np.float32)
+            t32 = np.empty(b - a, np.float32)
+            m = kt.start(a, origins[a:b], dirs[a:b], media[a:b], slots_f, slots_i, live, o32,
+                         d32, t32, self.box)
+            segments = 0
+            while m:
+                prim = self._scene.run(o32[:m], d32[:m], dists=t32[:m])
+                segments += m
+                m = kt.advance(prim, m, slots_f, slots_i, live, near, o32, d32, t32,
+                               self.box, self._faces, kind, params, tab_int, tab_f, bounces,
+                               key, out_f, out_i, path, curved)
+            return segments
+
+        segments = sum(self.map(chunk, range(0, n, c)))
+        self.segments += segments
+        return Outcomes(out_f, out_i, path, segments)
 
     def closest_hit(self, origins: np.ndarray, dirs: np.ndarray,
                     inside: np.ndarray | None = None) -> Hits:
         """First face each ray meets in the periodic continuation of the tile.
-
-        Chunks of ``chunk`` rays are traced on the worker threads; the result does not
-        depend on the chunking.
 
         Parameters
         ----------
@@ -178,86 +261,9 @@ class PeriodicScene:
         -------
         Hits
         """
-        c = self.chunk
-        parts = self.map(lambda i: self._closest_hit(
-            origins[i:i + c], dirs[i:i + c], None if inside is None else inside[i:i + c]),
-            range(0, len(origins), c))
-        self.segments += sum(seg for _, seg in parts)
-        return Hits(*(np.concatenate([getattr(h, f) for h, _ in parts])
-                      for f in ("status", "face", "point")))
-
-    def _closest_hit(self, origins: np.ndarray, dirs: np.ndarray,
-                     inside: np.ndarray | None = None) -> tuple[Hits, int]:
-        """``closest_hit`` in the calling thread; also returns the Embree queries made."""
-        n = len(origins)
-        status = np.full(n, -1, np.int8)
-        face = np.full(n, -1, np.int64)
-        point = self.wrap(origins)
-        budget = self._budget(dirs)
-        dirs32 = dirs.astype(np.float32)
-        # per ray and axis: the box side it runs towards, and 1 / d (huge where d = 0, so
-        # that side is never the nearest; d = 0 runs towards the upper side, not behind)
-        target = np.column_stack([np.where(dirs[:, i] >= 0, hi, lo) for i, (lo, hi) in
-                                  enumerate(zip((0.0, 0.0, self.z_bottom),
-                                                (*self.period, self.z_top), strict=True))])
-        inv = 1.0 / np.where(dirs == 0, 1e-300, dirs)
-        active = np.arange(n)
-        queries = segments = 0
-        while active.size:
-            full = active.size == n
-            o = point if full else np.take(point, active, axis=0)
-            d = dirs if full else np.take(dirs, active, axis=0)
-            # distance to each side of the box along the ray
-            t_side = (target if full else np.take(target, active, axis=0)) - o
-            t_side *= inv if full else np.take(inv, active, axis=0)
-            np.maximum(t_side, 0.0, out=t_side)
-            t_exit = np.minimum(np.minimum(t_side[:, 0], t_side[:, 1]), t_side[:, 2])
-            prim = self._scene.run(o.astype(np.float32),
-                                   dirs32 if full else np.take(dirs32, active, axis=0),
-                                   dists=(t_exit + self.eps).astype(np.float32))
-            segments += len(o)
-            queries += 1
-            got = np.flatnonzero(prim >= 0)
-            # hit point in float64 on the face's plane (Embree's t is float32)
-            idx, p = active[got], prim[got].astype(np.int64)
-            n_f = np.take(self.normals, p, axis=0)
-            d_g, o_g = np.take(d, got, axis=0), np.take(o, got, axis=0)
-            den = np.einsum("ij,ij->i", d_g, n_f)
-            num = self._plane[p] - np.einsum("ij,ij->i", o_g, n_f)
-            t_hit = np.divide(num, den, out=np.zeros(len(p)), where=den != 0)
-            point[idx] = o_g + np.maximum(t_hit, 0.0)[:, None] * d_g
-            face[idx] = p
-            back = den >= 0
-            # the side a ray can reach: the back of its own medium's faces, else the front
-            real = back == (False if inside is None else
-                            np.take(self.tile.material, p) == np.take(inside, idx))
-            status[idx] = np.where(real, HIT, BACKFACE)
-            # a face hit from the wrong side whose plane the origin lies just beyond (at
-            # most 2 eps: where an offset crossed a neighbour's plane at a concave edge) is
-            # the offset's artefact: the ray goes on through it
-            again = np.flatnonzero(~real & (np.where(back, num, -num) <= 2 * self.eps))
-            resume = idx[again]
-            status[resume] = -1
-            point[resume] = self.wrap(self.offset(point[resume], n_f[again], d_g[again]))
-            # no hit: out through the top or bottom, or on into the neighbouring tile
-            miss = np.flatnonzero(prim < 0)
-            axis = np.argmin(t_side[miss], axis=1)
-            vertical = axis == 2
-            ends = miss[vertical]
-            status[active[ends]] = np.where(d[ends, 2] > 0, ESCAPED, LEAKED)
-            on, axis = miss[~vertical], axis[~vertical]
-            idx = active[on]
-            moved = np.take(o, on, axis=0) + t_exit[on, None] * np.take(d, on, axis=0)
-            rows = np.arange(len(on))
-            # enter at the opposite side exactly; the other coordinate stays in the box
-            entry = np.where(d[on, axis] > 0, 0.0, self.period[axis])
-            moved[:, :2] = np.clip(moved[:, :2], 0.0, self.period)
-            moved[rows, axis] = entry
-            point[idx] = moved
-            going = np.concatenate([idx, resume])
-            status[going[budget[going] <= queries]] = TRAPPED
-            active = np.sort(going[budget[going] > queries])
-        return Hits(status, face, point), segments
+        out = self.run(origins, dirs, None, 0, media=inside)
+        return Hits(_STATUS[out.ints[:, kt.O_FATE]], out.ints[:, kt.O_FACE],
+                    out.floats[:, kt.S_PX:kt.S_PZ + 1])
 
     def offset(self, points: np.ndarray, n_f: np.ndarray, dirs: np.ndarray) -> np.ndarray:
         """Origins of secondary rays: ``eps`` off the face on the side ``dirs`` goes.

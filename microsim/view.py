@@ -260,11 +260,9 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
               seed: int, phi_i: float = 0.0) -> list[tuple[np.ndarray, int]]:
     """Polylines of a few rays scattered by the tile, for drawing.
 
-    Uses the tracer's own queries (``PeriodicScene.closest_hit``, ``offset``) and the
-    facets' ``scatter``, so the paths are the ones ``simulate`` traces. Hit points come
-    back wrapped into the tile; each is moved back onto its ray's unwrapped line
-    (t = (p_z − o_z)/d_z), so a path that crosses a side continues into the
-    neighbouring copy instead of jumping back.
+    The paths are traced by the same transport kernel as ``simulate``
+    (``PeriodicScene.run``), which keeps each path's hit points unwrapped: a path that
+    crosses a side continues into the neighbouring copy instead of jumping back.
 
     Parameters
     ----------
@@ -274,7 +272,6 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
     theta_i : float
         Incident polar angle, radians.
     rays, bounces, seed : int
-
     phi_i : float
         Incident azimuth, radians.
 
@@ -286,46 +283,27 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
         its scattering order (0: it did not escape).
     """
     from microsim.compare import direction
+    from microsim.kernel.transport import ESCAPED, O_FATE, O_ORDER, S_DX
     from microsim.materials import FacetMaterials
-    from microsim.refraction import next_medium
-    from microsim.shading import shade
-    from microsim.trace import ESCAPED, HIT, PeriodicScene
+    from microsim.trace import PeriodicScene
 
     rng = np.random.default_rng(seed)
     facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
                             tile.curved)
     lx, ly = tile.period
-    d = np.broadcast_to(-direction(theta_i, phi_i), (rays, 3)).copy()
+    d = np.broadcast_to(-direction(theta_i, phi_i), (rays, 3))
+    reach = 0.3 * max(lx, ly)  # drawn length of the incoming and escaping legs
     with PeriodicScene(tile, threads=1) as scene:
         o = np.column_stack([(0.25 + 0.5 * rng.random((rays, 2))) * [lx, ly],
                              np.full(rays, scene.z_top)])
-        reach = 0.3 * max(lx, ly)  # drawn length of the incoming and escaping legs
-        points = [[p - reach * q, p.copy()] for p, q in zip(o, d, strict=True)]
-        order = np.zeros(rays, int)
-        medium = np.full(rays, -1)  # the part whose medium each ray is in (-1: air)
-        alive = np.arange(rays)
-        for bounce in range(bounces + 1):
-            hits = scene.closest_hit(o[alive], d[alive], medium[alive])
-            up = hits.status == ESCAPED
-            for k in alive[up]:
-                points[k].append(o[k] + reach * d[k])
-                order[k] = bounce
-            hit = hits.status == HIT
-            idx = alive[hit]
-            if not idx.size or bounce == bounces:
-                break
-            n_g = scene.normals[hits.face[hit]]
-            n, at, _ = shade(facets.curved, hits.face[hit], hits.point[hit], d[idx], n_g,
-                             o[idx, 2])
-            t = (at[:, 2] - o[idx, 2]) / np.where(d[idx, 2] != 0, d[idx, 2], 1e-300)
-            p = o[idx] + t[:, None] * d[idx]
-            for k, q in zip(idx, p, strict=True):
-                points[k].append(q)
-            new, _, _ = facets.scatter(hits.face[hit], d[idx], n, rng)
-            o[idx] = p + (scene.offset(at, n, new) - at)
-            part = facets.face_material[hits.face[hit]]
-            medium[idx] = next_medium(part, facets.refracting[part], n_g, d[idx], new,
-                                      medium[idx])[0]
-            d[idx] = new
-            alive = idx
-    return [(np.array(v), int(order[k])) for k, v in enumerate(points)]
+        out = scene.run(o, d, facets, bounces, np.random.SeedSequence(seed),
+                        vertices=bounces + 1)
+    paths = []
+    for k in range(rays):
+        hits = out.vertices[k][~np.isnan(out.vertices[k, :, 0])]
+        points = [o[k] - reach * d[k], o[k], *hits]
+        escaped = out.ints[k, O_FATE] == ESCAPED
+        if escaped:
+            points.append(points[-1] + reach * out.floats[k, S_DX:S_DX + 3])
+        paths.append((np.array(points), int(out.ints[k, O_ORDER]) if escaped else 0))
+    return paths

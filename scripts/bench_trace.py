@@ -1,94 +1,204 @@
-"""Tracing speed: ``simulate`` against bare Embree queries on the same tile.
+"""Tracing speed: ``simulate`` against bare Embree queries on the same tile, in the same run.
 
 Usage::
 
-    python scripts/bench_trace.py [RECIPE] [--repeats 5] [--threads 2] [--target 0.01]
+    python scripts/bench_trace.py [--repeats 5] [--rays 100000] [--write]
+    python scripts/bench_trace.py --scaling [--write]
+    python scripts/bench_trace.py --target 0.01 [--write]
 
-Prints, for the recipe's tile (default surfaces/gaussian-0.3.toml):
-
-- scene build time of ``PeriodicScene`` and of a bare Embree scene of the same mesh;
-- traced segments per second of ``simulate`` (median of the repeats) and rays per second
-  of bare ``EmbreeScene.run`` on the primary rays of the same incidences with the same
-  threads and chunks (median), and their ratio;
-- with ``--target``, the time ``simulate`` needs to reach that median relative error on
-  the lobe bins for theta_i = 0, 10, ..., 80 deg.
+The first form runs each case (mirror, gold conductor and Lambertian facets on the tile of
+surfaces/gaussian-0.3.toml, and the refracting paint of surfaces/paint.toml) ``repeats``
+times, alternating ``simulate`` (θi = 0, 10, …, 80°, 2 threads; segments per second of the
+tracing, scene build excluded) with bare ``EmbreeScene.run`` on incoherent rays from the
+same tile (``microsim.bench.surface_rays``; same threads and chunks), and reports the
+medians and the median of the per-repeat ratios. ``--scaling`` does the same for Gaussian
+tiles of 64² … 1024² (32 correlation lengths per side, mirror facets) with 1 and 2 threads
+and draws docs/bench/scaling.png. ``--target`` times ``simulate`` to that median relative
+standard error on the lobe bins for θi = 0, 10, …, 80°. ``--write`` puts the tables into
+docs/performance.md (marked sections).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import math
 import os
 import platform
 import statistics
 import time
 from pathlib import Path
+from typing import Any
 
+import numba
 import numpy as np
 
-from microsim.bench import bare_rays_per_second, bare_scene
-from microsim.compare import direction
+from microsim.bench import bare_rays_per_second, bare_scene, gaussian, surface_rays
+from microsim.files import replace_marked
 from microsim.goniometer import simulate
-from microsim.recipe import load
+from microsim.recipe import load, resolve
 from microsim.surfaces import build_tile
 from microsim.trace import CHUNK, PeriodicScene
 
 ROOT = Path(__file__).resolve().parent.parent
+DOC = ROOT / "docs" / "performance.md"
+THETA = [float(t) for t in range(0, 81, 10)]
+GOLD = {"kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]}
+BARE_RAYS = 400_000
+
+
+def cases() -> list[tuple[str, dict[str, Any]]]:
+    """(name, resolved recipe) of each speed case."""
+    base = load(ROOT / "surfaces" / "gaussian-0.3.toml")
+    out = [("mirror", base)]
+    for name, material in (("conductor", GOLD),
+                           ("lambertian", {"kind": "lambertian", "albedo": 0.8})):
+        out.append((name, resolve({**base, "material": material})))
+    out.append(("paint (refracting)", load(ROOT / "surfaces" / "paint.toml")))
+    return out
+
+
+def measure(recipe: dict[str, Any], rays: int, repeats: int, threads: int) -> dict[str, Any]:
+    """Alternate ``simulate`` and bare Embree on the recipe's tile ``repeats`` times."""
+    tile = build_tile(recipe["surface"])
+    sim = {**recipe["simulation"], "theta_i": THETA, "rays": rays, "target_error": None}
+    table = {**recipe["table"], "sh_order": 0}
+    with PeriodicScene(tile, threads=1) as scene:
+        o, d = surface_rays(scene, BARE_RAYS, 0)
+    bare = bare_scene(tile.vertices, tile.faces)
+    ours, raw = [], []
+    for _ in range(repeats):
+        result = simulate(tile, recipe["material"], sim, table, threads=threads)
+        ours.append(result.meta["segments_per_second"])
+        raw.append(bare_rays_per_second(bare, o, d, threads))
+    return {"faces": len(tile.faces), "ours": ours, "bare": raw,
+            "segments_per_ray": result.meta["segments"] / (rays * len(THETA)),
+            "ratio": statistics.median(a / b for a, b in zip(ours, raw, strict=True))}
+
+
+def machine() -> str:
+    """The machine, software and load, for the record."""
+    return (f"{platform.machine()}, {os.cpu_count()} CPUs, Python "
+            f"{platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}"
+            f"; load average (1 min) {os.getloadavg()[0]:.1f} at the start")
+
+
+def speed_section(args: argparse.Namespace) -> str:
+    """The per-case speed table."""
+    head = machine()
+    rows = []
+    for name, recipe in cases():
+        m = measure(recipe, args.rays, args.repeats, args.threads)
+        rows.append(f"| {name} | {m['faces']:,} | {m['segments_per_ray']:.2f} | "
+                    f"{statistics.median(m['ours']) / 1e6:.2f} | "
+                    f"{statistics.median(m['bare']) / 1e6:.2f} | **{m['ratio']:.2f}** |")
+        print(rows[-1], flush=True)
+    return "\n".join([
+        "## Tracing speed against bare Embree", "",
+        f"Measured with `python scripts/bench_trace.py --repeats {args.repeats} --rays "
+        f"{args.rays} --write` on {head}. Each case alternates {args.repeats} runs of "
+        f"`simulate` (θi = 0, 10, …, 80°, {args.rays:,} rays each, {args.threads} threads, "
+        f"chunks of {CHUNK:,} rays; segments per second of the tracing, scene build "
+        f"excluded) with bare `EmbreeScene.run` on {BARE_RAYS:,} incoherent rays from the "
+        f"same tile (points uniform over the faces, cosine-distributed directions; same "
+        f"threads and chunks). Ratio: median over the repeats of simulate's segments per "
+        f"second over bare rays per second.", "",
+        "| case | faces | segments per ray | simulate, 10⁶ segments/s | bare Embree, 10⁶ "
+        "rays/s | ratio |", "| --- | --- | --- | --- | --- | --- |", *rows])
+
+
+def scaling_section(args: argparse.Namespace) -> str:
+    """Segments per second against tile size and threads, and the plot."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    head = machine()
+    sizes = [64, 128, 256, 512, 1024]
+    rows, series = [], {}
+    for res in sizes:
+        recipe = resolve({"surface": gaussian(0.3, res, 1), "material": {"kind": "mirror"}})
+        for threads in (1, 2):
+            m = measure(recipe, args.rays, args.repeats, threads)
+            ours, bare = statistics.median(m["ours"]), statistics.median(m["bare"])
+            series.setdefault(threads, []).append((ours, bare))
+            rows.append(f"| {res}² | {m['faces']:,} | {threads} | {ours / 1e6:.2f} | "
+                        f"{bare / 1e6:.2f} | {m['ratio']:.2f} |")
+            print(rows[-1], flush=True)
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    faces = [2 * s * s for s in sizes]
+    for threads, style in ((1, "o"), (2, "s")):
+        pts = np.array(series[threads]) / 1e6
+        line = ax.loglog(faces, pts[:, 0], style + "-", label=f"simulate, {threads} thread"
+                         + ("s" if threads > 1 else ""))[0]
+        ax.loglog(faces, pts[:, 1], style + "--", color=line.get_color(),
+                  label=f"bare Embree, {threads} thread" + ("s" if threads > 1 else ""))
+    ax.set_xlabel("faces of the tile")
+    ax.set_ylabel("10⁶ segments (rays) per second")
+    ax.set_title("Gaussian α = 0.3, mirror facets: simulate against bare Embree\n"
+                 "on incoherent rays from the same tile", fontsize=9)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    out = ROOT / "docs" / "bench" / "scaling.png"
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return "\n".join([
+        "## Scaling with tile size and threads", "",
+        f"Measured with `python scripts/bench_trace.py --scaling --repeats {args.repeats} "
+        f"--rays {args.rays} --write` on {head}: Gaussian tiles of 32 correlation lengths "
+        f"per side, α = 0.3, mirror facets, otherwise as above.", "",
+        "| tile | faces | threads | simulate, 10⁶ segments/s | bare Embree, 10⁶ rays/s "
+        "| ratio |", "| --- | --- | --- | --- | --- | --- |", *rows, "",
+        "![segments per second against tile size](bench/scaling.png)"])
+
+
+def target_section(args: argparse.Namespace) -> str:
+    """Time to a median relative standard error of ``args.target`` on the lobe bins."""
+    head = machine()
+    recipe = load(ROOT / "surfaces" / "gaussian-0.3.toml")
+    tile = build_tile(recipe["surface"])
+    sim = {**recipe["simulation"], "theta_i": THETA, "target_error": args.target}
+    start = time.perf_counter()
+    table = simulate(tile, recipe["material"], sim, {**recipe["table"], "sh_order": 0},
+                     threads=args.threads)
+    wall = time.perf_counter() - start
+    rays = [d["rays"] for d in table.meta["directions"]]
+    return "\n".join([
+        "## Time to a target error", "",
+        f"Measured with `python scripts/bench_trace.py --target {args.target} --write` on "
+        f"{head}: `surfaces/gaussian-0.3.toml` (mirror, 16 bounces), θi = 0, 10, …, 80°, "
+        f"{args.threads} threads, adaptive stop at a median relative standard error of "
+        f"{args.target:.0%} on the lobe bins of each incidence (batches of 65,536 rays), "
+        "harmonics off.", "",
+        f"**{wall:.1f} s** wall ({sum(rays) / 1e6:.1f} M rays; per incidence "
+        f"{', '.join(f'{r / 1e6:.1f}' for r in rays)} M; stop: "
+        f"{', '.join(table.meta['stop'])}; "
+        f"{table.meta['segments_per_second'] / 1e6:.2f} × 10⁶ segments/s)."])
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("recipe", nargs="?", default=str(ROOT / "surfaces/gaussian-0.3.toml"))
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--rays", type=int, default=100_000,
+                        help="rays per incident direction in the speed runs")
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--scaling", action="store_true",
+                        help="tile sizes 64² … 1024², 1 and 2 threads")
     parser.add_argument("--target", type=float, default=None,
-                        help="also time the adaptive stop to this median relative error")
+                        help="time simulate to this median relative standard error")
+    parser.add_argument("--write", action="store_true",
+                        help="write the results into docs/performance.md")
     args = parser.parse_args()
-    recipe = load(args.recipe)
-    tile = build_tile(recipe["surface"])
-    # tracing speed: the bins only (docs/performance.md times the harmonics separately)
-    sim, table = recipe["simulation"], {**recipe["table"], "sh_order": 0}
-
-    start = time.perf_counter()
-    bare = bare_scene(tile.vertices, tile.faces)
-    build_bare = time.perf_counter() - start
-    start = time.perf_counter()
-    PeriodicScene(tile, threads=1).close()
-    build_scene = time.perf_counter() - start
-
-    rng = np.random.default_rng(0)
-    n = int(sim["rays"])
-    z_top = tile.z_range[1]
-    origins = [np.column_stack([rng.random((n, 2)) * tile.period, np.full(n, z_top)])
-               for _ in sim["theta_i"]]
-    dirs = [np.broadcast_to(-direction(math.radians(t), 0.0), (n, 3)) for t in sim["theta_i"]]
-    o32 = np.concatenate(origins).astype(np.float32)
-    d32 = np.concatenate(dirs).astype(np.float32)
-
-    ours, raw = [], []
-    for _ in range(args.repeats):
-        result = simulate(tile, recipe["material"], sim, table, threads=args.threads)
-        ours.append(result.meta["segments_per_second"])
-        raw.append(bare_rays_per_second(bare, o32, d32, args.threads))
-    report = {
-        "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs",
-        "recipe": args.recipe, "faces": len(tile.faces), "threads": args.threads,
-        "chunk": CHUNK, "repeats": args.repeats,
-        "build_s": {"PeriodicScene": build_scene, "bare": build_bare},
-        "simulate_segments_per_s": statistics.median(ours),
-        "bare_run_rays_per_s": statistics.median(raw),
-        "ratio": statistics.median(ours) / statistics.median(raw),
-    }
     if args.target is not None:
-        adaptive = dict(sim, theta_i=list(range(0, 81, 10)), target_error=args.target)
-        result = simulate(tile, recipe["material"], adaptive, table, threads=args.threads)
-        report["target"] = {
-            "target_error": args.target, "wall_s": result.meta["wall_time"],
-            "stop": result.meta["stop"],
-            "rays": [d["rays"] for d in result.meta["directions"]],
-            "rel_error": [d["rel_error"] for d in result.meta["directions"]]}
-    print(json.dumps(report, indent=2))
+        name, text = "bench_trace-target", target_section(args)
+    elif args.scaling:
+        name, text = "bench_trace-scaling", scaling_section(args)
+    else:
+        name, text = "bench_trace-speed", speed_section(args)
+    print(text)
+    if args.write:
+        begin, end = f"<!-- {name}: begin -->", f"<!-- {name}: end -->"
+        replace_marked(DOC, f"{begin}\n{text}\n{end}", begin, end, heading="# Performance")
 
 
 if __name__ == "__main__":

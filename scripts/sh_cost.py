@@ -81,8 +81,8 @@ def main() -> None:
             paths = trace()
             index = np.where(paths.order > 0, bins.index(paths.direction), -1)
             for order in ORDERS:
-                def accumulate(order=order, index=index, paths=paths):
-                    _Sums(bins.size, order).add(index, paths, 0.0, scene.map)
+                def accumulate(order=order, paths=paths):
+                    _Sums(bins.size, order).add(paths, bins, 0.0, scene.map)
 
                 t = median_time(accumulate, args.repeats)
                 rows.append((name, order, t, t_trace))

@@ -14,7 +14,8 @@ from microsim.cli import COMMANDS, build_parser, main
 
 ROOT = Path(__file__).resolve().parent.parent
 RECIPE = str(ROOT / "surfaces" / "gaussian-0.3.toml")
-HEAVY = ("embreex", "pyvista", "vtk", "matplotlib", "OpenEXR", "trimesh", "scipy", "dask")
+HEAVY = ("embreex", "pyvista", "vtk", "matplotlib", "OpenEXR", "trimesh", "scipy", "dask",
+         "numba", "llvmlite")
 
 
 

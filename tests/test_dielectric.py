@@ -11,9 +11,9 @@ from scipy import integrate
 from microsim.analytic.layered import CoatedLambertian
 from microsim.analytic.registry import parse_model_spec
 from microsim.compare import direction
+from microsim.kernel.scatter import reflect, refract
 from microsim.materials import FacetMaterials
 from microsim.paths import trace_paths
-from microsim.refraction import attenuation, fresnel_choice, reflect, refract
 from microsim.surfaces.tile import Tile
 from microsim.trace import PeriodicScene
 
@@ -43,6 +43,12 @@ def hemispherical_reflectance(eta: float) -> float:
     return value
 
 
+def refract_rows(d: np.ndarray, n: np.ndarray, eta: float) -> tuple[np.ndarray, np.ndarray]:
+    """The kernel's ``refract`` of each row: directions (k, 3) and TIR flags (k,)."""
+    rows = [refract(*d[i], *n[i], eta) for i in range(len(d))]
+    return np.array([r[:3] for r in rows]), np.array([r[3] for r in rows])
+
+
 def random_units(rng: np.random.Generator, n: int) -> np.ndarray:
     v = rng.standard_normal((n, 3))
     return v / np.linalg.norm(v, axis=1, keepdims=True)
@@ -53,8 +59,9 @@ def test_refract_obeys_snell_in_the_plane_of_incidence(eta: float) -> None:
     rng = np.random.default_rng(1)
     n = random_units(rng, 5000)
     d = random_units(rng, 5000)
-    d = np.where((np.einsum("ij,ij->i", d, n) < 0)[:, None], d, reflect(d, n))
-    t, tir = refract(d, n, np.full(5000, eta))
+    mirrored = np.array([reflect(*d[i], *n[i]) for i in range(len(d))])
+    d = np.where((np.einsum("ij,ij->i", d, n) < 0)[:, None], d, mirrored)
+    t, tir = refract_rows(d, n, eta)
     cos_i = -np.einsum("ij,ij->i", d, n)
     sin_i = np.sqrt(1 - cos_i**2)
     assert np.array_equal(tir, sin_i > eta)  # TIR exactly beyond the critical angle
@@ -67,36 +74,33 @@ def test_refract_obeys_snell_in_the_plane_of_incidence(eta: float) -> None:
     assert np.all(np.einsum("ij,ij->i", t, n) < 0)  # goes through the interface
     assert np.abs(np.einsum("ij,ij->i", np.cross(d, n), t)).max() < 1e-12  # coplanar
     # reversibility: from behind, with 1 / eta, the path runs back
-    back, back_tir = refract(-t, -n, np.full(len(t), 1 / eta))
+    back, back_tir = refract_rows(-t, -n, 1 / eta)
     assert not back_tir.any()
     np.testing.assert_allclose(back, -d, atol=1e-10)
 
 
 def test_fresnel_choice_reflects_with_probability_f_from_either_side() -> None:
-    rng = np.random.default_rng(2)
+    """The kernel's event at a refracting facet (``FacetMaterials.scatter``): reflection
+    with probability F(θ, η) from the front, F(θ, 1/η) from inside, weight 1 either way."""
     k = 40_000
+    facets = FacetMaterials(np.zeros(1, np.int64), ("base",), {"base": BINDER})
     n = np.tile([0.0, 0.0, 1.0], (k, 1))
-    for theta, side, eta in ((0.0, 1, ETA), (60.0, 1, ETA), (30.0, -1, ETA), (40.0, -1, ETA)):
+    faces = np.zeros(k, np.int64)
+    for seed, (theta, side, eta) in enumerate(((0.0, 1, ETA), (60.0, 1, ETA),
+                                               (30.0, -1, ETA), (40.0, -1, ETA))):
         d = -side * direction(np.radians(np.full(k, theta)), np.zeros(k))
-        out, refracted = fresnel_choice(d, n, eta, rng.random(k))
+        out, factor, into = facets.scatter(faces, d, n, np.random.SeedSequence(seed))
+        refracted = out[:, 2] * d[:, 2] > 0  # through the interface
         f = fresnel_reference(np.cos(np.radians(theta)), eta if side > 0 else 1 / eta)
         sigma = np.sqrt(f * (1 - f) / k)
         assert abs((~refracted).mean() - f) < Z_MAX * sigma
         mirror = d * [1, 1, -1]
         assert np.abs(out[~refracted] - mirror[~refracted]).max() < 1e-15
-        assert np.all(out[refracted, 2] * d[refracted, 2] > 0)  # through
+        assert np.all(factor == 1.0) and np.all(into == 0.0)
     # inside beyond the critical angle (41.8 deg): total internal reflection, always
     d = direction(np.radians(np.full(k, 42.0)), np.zeros(k))
-    out, refracted = fresnel_choice(d, n, ETA, rng.random(k))
-    assert not refracted.any() and np.all(out[:, 2] < 0)
-
-
-def test_attenuation_is_beer_lambert_and_one_without_absorption() -> None:
-    sigma = np.array([[0.0, 0.5, 2.0]] * 3)
-    length = np.array([0.0, 1.3, np.inf])
-    out = attenuation(sigma, length)
-    np.testing.assert_allclose(out[:2], np.exp(-sigma[:2] * length[:2, None]), rtol=1e-15)
-    assert np.array_equal(out[2], [1.0, 0.0, 0.0])  # no absorption: 1 even for inf
+    out, _, _ = facets.scatter(faces, d, n, np.random.SeedSequence(9))
+    assert np.all(out[:, 2] < 0)
 
 
 def test_internal_reflectance_quadrature_is_consistent() -> None:

@@ -8,8 +8,8 @@ from scipy import stats
 from test_dielectric import ETA, Z_MAX, budget, fresnel_reference, layer_paths
 
 from microsim.errors import InputError
+from microsim.kernel.scatter import refract
 from microsim.recipe import resolve
-from microsim.refraction import refract
 from microsim.surfaces import build_tile, estimate_bytes
 from microsim.surfaces.paint import _place, _Top, disc, polyhedron_volume, uv_sphere
 from microsim.surfaces.tile import Tile
@@ -148,7 +148,8 @@ def test_aligned_mirror_flakes_give_a_lobe_that_follows_their_tilts() -> None:
     lobe = (paths.order == 3) & (paths.weight[:, 0] > 0)
     wo = paths.direction[lobe]
     up = np.tile([0.0, 0.0, 1.0], (len(wo), 1))
-    inside, tir = refract(-wo, up, np.full(len(wo), ETA))
+    rows = np.array([refract(*(-w), *u, ETA) for w, u in zip(wo, up, strict=True)])
+    inside, tir = rows[:, :3], rows[:, 3].astype(bool)
     assert not tir.any()
     h = up - inside
     h /= np.linalg.norm(h, axis=1, keepdims=True)

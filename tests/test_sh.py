@@ -156,7 +156,7 @@ def test_projection_of_rays_is_unbiased_with_honest_errors() -> None:
         weight = np.pi * phong(wi, wo)[:, None] * np.array([1.0, 0.5, 0.25])
         orders = np.where(rng.random(n) < 1 / 3, 2, 1)
         paths = Paths(wo, weight, orders, np.zeros(3), np.zeros(3), np.zeros(3), {})
-        acc.add(bins.index(wo), paths)
+        acc.add(paths, bins)
     table = _table(bins, [40.0], [0.0], True, [[acc]], {})
     exact = lobe_coefficients(phong, np.radians([40.0]), order)[0]
     for comp, share in (("total", 1.0), ("single", 2 / 3)):
@@ -241,9 +241,9 @@ def test_sums_pickle_and_same_seed_gives_same_harmonics_whatever_the_threads() -
         assert np.array_equal(one.sh[c], two.sh[c]) and np.array_equal(one.sh_err[c],
                                                                        two.sh_err[c])
     acc = _Sums(8, 6)
-    acc.add(np.zeros(1, np.int64), Paths(np.array([[0.0, 0.6, 0.8]]), np.ones((1, 3)),
+    acc.add(Paths(np.array([[0.0, 0.6, 0.8]]), np.ones((1, 3)),
                                          np.ones(1, np.int64), np.zeros(3), np.zeros(3),
-                                         np.zeros(3), {}))
+                                         np.zeros(3), {}), HemisphereBins(2, 4))
     back = pickle.loads(pickle.dumps(acc))
     assert back.sh_order == 6
     assert all(np.array_equal(back.sh_sums[c], acc.sh_sums[c])

@@ -1,4 +1,4 @@
-"""Shading normals of curved faces (microsim.shading): the entry point on the tube, its
+"""Shading normals of curved faces (microsim.kernel.shading): the entry point on the tube, its
 guards, and the energy a mirror white furnace keeps with them."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from microsim.goniometer import simulate
+from microsim.kernel.shading import CURVED, FALLBACK, FLAT, curved_table, shade
 from microsim.recipe import resolve
-from microsim.shading import CURVED, FALLBACK, FLAT, shade
 from microsim.surfaces import build_tile
 from microsim.surfaces.tile import Tile
 from microsim.trace import HIT, PeriodicScene
@@ -62,7 +62,9 @@ def test_the_normal_is_the_circle_normal_where_the_ray_enters():
         hits = scene.closest_hit(o, d)
         ok = (hits.status == HIT) & (t.material[np.maximum(hits.face, 0)] == 1)
         f, p, dd = hits.face[ok], hits.point[ok], d[ok]
-        normal, point, status = shade(t.curved, f, p, dd, scene.normals[f], o[ok, 2])
+        normal, point, status = shade(curved_table(t.curved, np.zeros(len(t.faces), bool)),
+                                      f, p, np.ascontiguousarray(dd), scene.normals[f],
+                                      o[ok, 2])
     assert ok.sum() > 300 and (status == CURVED).all()
     # independent: the line through p along d in the (x, z) plane against the circle
     centre = np.array([s / 2, r])
@@ -80,30 +82,32 @@ def test_the_normal_is_the_circle_normal_where_the_ray_enters():
 
 
 def test_guards_flat_faces_and_rays_that_start_inside_the_tube():
-    """Flat faces and non-curved tiles come back unchanged (bit for bit); a ray whose
+    """Flat faces and tiles without tubes come back unchanged (bit for bit); a ray whose
     origin lies between the chord and the arc (λ > distance travelled) and a ray parallel
-    to the axis fall back to the facet."""
+    to the axis fall back to the facet; faces the table marks flat (refracting parts)
+    are flat."""
     t = tile_of(kind="cylinders", radius=0.5, spacing=1.0, sink=0.0, segments=8)
+    table = curved_table(t.curved, np.zeros(len(t.faces), bool))
     n_g, _ = t.face_normals_areas()
     base = int(np.flatnonzero(t.material == 0)[0])
     side = int(np.flatnonzero(t.material == 1)[0])
-    p = t.vertices[t.faces[[base, side]]].mean(axis=1)
-    d = np.array([[0.3, 0.1, -0.9], [0.0, 0.0, 0.0]])
-    d[1] = -n_g[side]
+    faces = np.array([base, side])
+    p = t.vertices[t.faces[faces]].mean(axis=1)
+    d = np.array([[0.3, 0.1, -0.9], -n_g[side]])
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     z0 = p[:, 2] - 1e-6 * d[:, 2]  # both rays started 1e-6 before their hit
-    normal, point, status = shade(t.curved, np.array([base, side]), p, d, n_g[[base, side]],
-                                  z0)
+    normal, point, status = shade(table, faces, p, d, n_g[faces], z0)
     assert status.tolist() == [FLAT, FALLBACK]
-    np.testing.assert_array_equal(normal, n_g[[base, side]])
+    np.testing.assert_array_equal(normal, n_g[faces])
     np.testing.assert_array_equal(point, p)
     far = p[:, 2] - 10 * d[:, 2]
-    assert shade(t.curved, np.array([side]), p[1:], d[1:], n_g[[side]], far[1:])[2] == CURVED
-    along = np.array([[0.0, 1.0, 0.0]])
-    assert shade(t.curved, np.array([side]), p[1:], along, n_g[[side]],
-                 np.array([np.nan]))[2] == FALLBACK
-    same = shade(None, np.array([base]), p[:1], d[:1], n_g[[base]], z0[:1])
-    assert same[0] is not None and (same[2] == FLAT).all()
+    assert shade(table, faces, p, d, n_g[faces], far)[2].tolist() == [FLAT, CURVED]
+    along = np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    assert shade(table, faces, p, along, n_g[faces], far)[2][1] == FALLBACK
+    for none in (curved_table(None, np.zeros(0, bool)),
+                 curved_table(t.curved, np.ones(len(t.faces), bool))):
+        n, q, st = shade(none, faces, p, d, n_g[faces], far)
+        assert (st == FLAT).all() and np.array_equal(n, n_g[faces]) and np.array_equal(q, p)
 
 
 def furnace(tile: Tile, materials: dict, theta: list, phi: list, rays: int, bounces: int

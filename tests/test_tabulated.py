@@ -18,6 +18,7 @@ from tilefixtures import flat_tile, height_field_tile, random_tile, vgroove_tile
 from microsim.compare import direction, table_difference
 from microsim.errors import InputError
 from microsim.goniometer import simulate
+from microsim.kernel.scatter import facet_frame
 from microsim.materials import FacetMaterials
 from microsim.paths import trace_paths
 from microsim.recipe import load as resolve_recipe
@@ -27,7 +28,7 @@ from microsim.surfaces.vgroove import face_roughness_tile
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import read_table, write_table
 from microsim.tables.table import BRDFTable
-from microsim.tabulated import TabulatedMaterial, facet_frame
+from microsim.tabulated import TabulatedMaterial
 from microsim.trace import PeriodicScene
 
 Z_MAX = 5.0
@@ -51,6 +52,22 @@ def check_z(estimate: BRDFTable, expected: np.ndarray) -> None:
     z = (f[defined] - expected[defined]) / err[defined]
     assert np.abs(z).max() < Z_MAX
     assert abs(np.mean(z**2) - 1.0) < CHI2_BAND
+
+
+def frames(n: np.ndarray, axis: int, tangents: np.ndarray | None = None
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """The kernel's facet frames (t, b) of unit normals (k, 3), one compiled call each."""
+    e = np.zeros_like(n) if tangents is None else tangents
+    rows = np.array([facet_frame(*n[i], axis, tangents is not None, *e[i])
+                     for i in range(len(n))])
+    return rows[:, :3], rows[:, 3:]
+
+
+def table_facets(source: Path, axis: str, faces: int = 1,
+                 tangents: np.ndarray | None = None) -> FacetMaterials:
+    """Faces of one part whose material is the table file ``source``."""
+    return FacetMaterials(np.zeros(faces, np.int64), ("base",),
+                          {"base": table_material(source, axis=axis)}, tangents)
 
 
 @pytest.fixture(scope="module")
@@ -131,20 +148,21 @@ def test_sampled_directions_follow_the_table_in_the_facet_frame(gold_table, norm
     """The sampler alone on a tilted facet (the second normal is ±x, where axis x falls
     back to y): outgoing directions expressed in the facet frame, binned relative to the
     incident azimuth, reproduce the table's node (40°, 20°) bin by bin."""
-    _, table = gold_table
-    material = TabulatedMaterial(table, axis=axis)
+    source, table = gold_table
+    material = table_facets(source, axis)
     n = np.asarray(normal) / np.linalg.norm(normal)
-    t, b = facet_frame(n[None], material.axis)
+    axis_index = "xy".index(axis)
+    t, b = frames(n[None], axis_index)
     frame = np.stack([t[0], b[0], n])
     assert np.allclose(frame @ frame.T, np.eye(3), atol=1e-12)
     assert np.allclose(np.cross(t[0], b[0]), n)
     # b is the named axis projected onto the facet (or the other axis where n is along it)
-    e = np.eye(3)[material.axis if abs(n[material.axis]) < 1 - 1e-6 else 1 - material.axis]
+    e = np.eye(3)[axis_index if abs(n[axis_index]) < 1 - 1e-6 else 1 - axis_index]
     assert np.allclose(b[0], (e - (e @ n) * n) / np.linalg.norm(e - (e @ n) * n))
     count = 200_000
     wi = direction(math.radians(theta_deg), math.radians(phi_deg)) @ frame
-    out, w = material.scatter(np.broadcast_to(-wi, (count, 3)),
-                              np.broadcast_to(n, (count, 3)), np.random.default_rng(7))
+    out, w, _ = material.scatter(np.zeros(count, np.int64), np.broadcast_to(-wi, (count, 3)),
+                                 np.broadcast_to(n, (count, 3)), np.random.SeedSequence(7))
     local = out @ frame.T
     assert np.all(local[:, 2] > 0)
     bins = table.bins
@@ -295,7 +313,7 @@ def test_velvet_faces_carry_their_fibres_axis_into_the_facet_frame() -> None:
     edges /= np.linalg.norm(edges, axis=2, keepdims=True)
     parallel = np.linalg.norm(np.cross(edges, tile.tangents[whole][:, None]), axis=2)
     assert parallel.min(axis=1).max() < 1e-9
-    t, b = facet_frame(n, 1, tile.tangents)
+    t, b = frames(n, 1, tile.tangents)
     frame = np.stack([t, b, n], axis=1)
     assert np.abs(frame @ frame.transpose(0, 2, 1) - np.eye(3)).max() < 1e-9
     assert np.abs(np.cross(t, b) - n).max() < 1e-9
@@ -306,18 +324,19 @@ def test_tangent_axis_along_x_samples_as_the_world_x_axis(gold_table) -> None:
     """On flat facets with tangents along +x, axis "tangent" builds the frame of axis "x"
     (b = x, t = b × n = −y), so the same random numbers give the same directions and
     weights; without tangents it refuses."""
-    _, table = gold_table
+    source, _ = gold_table
     count = 1000
     d = np.broadcast_to(-direction(0.6, 1.0), (count, 3))
     n = np.broadcast_to([0.0, 0.0, 1.0], (count, 3))
-    along = np.broadcast_to([1.0, 0.0, 0.0], (count, 3))
-    got = TabulatedMaterial(table, axis="tangent").scatter(d, n, np.random.default_rng(2),
-                                                           along)
-    want = TabulatedMaterial(table, axis="x").scatter(d, n, np.random.default_rng(2))
+    along = np.tile([1.0, 0.0, 0.0], (count, 1))
+    faces = np.arange(count)
+    got = table_facets(source, "tangent", count, along).scatter(
+        faces, d, n, np.random.SeedSequence(2))
+    want = table_facets(source, "x", count).scatter(faces, d, n, np.random.SeedSequence(2))
     np.testing.assert_allclose(got[0], want[0], atol=1e-12)
     np.testing.assert_array_equal(got[1], want[1])
-    with pytest.raises(ValueError, match="tangents"):
-        TabulatedMaterial(table, axis="tangent").scatter(d, n, np.random.default_rng(2))
+    with pytest.raises(InputError, match="tangent"):
+        table_facets(source, "tangent", count)
 
 
 def test_tangent_axis_on_a_surface_without_tangents_is_an_input_error(

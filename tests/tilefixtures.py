@@ -116,3 +116,15 @@ def beckmann_vgroove_tile(alpha: float, grooves: int = 256, seed: int = 0) -> Ti
     distribution of a Beckmann surface of roughness alpha across the grooves."""
     slopes = np.abs(np.random.default_rng(seed).normal(0.0, alpha / np.sqrt(2), grooves))
     return vgroove_tile(np.degrees(np.arctan(slopes)), grooves)
+
+
+def cosine_directions(n: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Cosine-distributed unit directions about unit normals ``n`` (k, 3) from uniform
+    numbers ``u`` (k, 2): sin θ = √u1, φ = 2π u2 in a Gram-Schmidt frame of n (made here,
+    apart from the tracer's own sampling)."""
+    helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    t = helper - np.sum(helper * n, axis=1, keepdims=True) * n
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    s = np.cross(n, t)
+    sin_t, phi = np.sqrt(u[:, :1]), 2 * np.pi * u[:, 1:]
+    return sin_t * (np.cos(phi) * t + np.sin(phi) * s) + np.sqrt(1 - sin_t**2) * n

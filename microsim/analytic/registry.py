@@ -9,6 +9,7 @@ gets the list of valid ones and a did-you-mean.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -260,6 +261,28 @@ def _tangent(p: Mapping[str, Any]) -> list[float]:
     return [math.sin(t) * math.cos(f), math.sin(t) * math.sin(f), math.cos(t)]
 
 
+def split_spec(spec: str, what: str) -> tuple[str, dict[str, Any]]:
+    """``NAME[:key=value,...]`` to the name and its values read as TOML (unchecked); a
+    list value keeps its commas, as in ``eta=[0.2,0.9,1.1]``.
+
+    Parameters
+    ----------
+    spec : str
+    what : str
+        How errors name the spec, e.g. ``"model"`` or ``"--light"``.
+    """
+    from microsim.recipe import parse_value
+
+    name, _, rest = spec.strip().partition(":")
+    given: dict[str, Any] = {}
+    for item in filter(None, (s.strip() for s in re.split(r",(?![^\[]*\])", rest))):
+        key, eq, value = item.partition("=")
+        if not eq:
+            raise InputError(f"{what} {name}: {item!r} must be key=value")
+        given[key.strip()] = parse_value(value)
+    return name, given
+
+
 def parse_model_spec(spec: str, defaults: Mapping[str, Any] | None = None
                      ) -> tuple[str, dict[str, Any], Any]:
     """Build a model from ``NAME[:key=value,...]``.
@@ -279,18 +302,10 @@ def parse_model_spec(spec: str, defaults: Mapping[str, Any] | None = None
     model : object
         With ``eval(wi, wo)``.
     """
-    from microsim.recipe import parse_value
-
-    name, _, rest = spec.strip().partition(":")
+    name, given = split_spec(spec, "model")
     if name not in MODELS:
         raise InputError(f"model {name!r}: unknown{suggest(name, MODELS)}; models: "
                          + ", ".join(MODELS))
-    given: dict[str, Any] = {}
-    for item in filter(None, (s.strip() for s in rest.split(","))):
-        key, eq, value = item.partition("=")
-        if not eq:
-            raise InputError(f"model {name}: {item!r} must be key=value")
-        given[key.strip()] = parse_value(value)
     keys = MODELS[name].params
     merged = {k: v for k, v in (defaults or {}).items() if k in keys}
     merged.update(given)

@@ -31,7 +31,7 @@ Gauss-Hermite (normal); 12 tilt and 32 azimuth nodes keep the quadrature within 
 a 64 × 256 one (measured at tilt 30 ± 10°). Or, with ``axes``, the fibres of one tile.
 The kernel is compiled with numba: a table's comparison takes the model at ~10⁵ direction
 pairs times ~400 fibre axes. What the simulated tile adds: its sides are prisms (shaded
-as cylinders, ``microsim.shading``, but with the prism's silhouette, k sin(π/k)/π of the
+as cylinders, ``microsim.kernel.shading``, but with the prism's silhouette, k sin(π/k)/π of the
 circle's width on average: 0.955 at 6 sides, 0.997 at 24), and at any density fibres
 shadow and light each other: the departure this model measures (docs/surfaces.md).
 """

@@ -42,9 +42,9 @@ def run(args: argparse.Namespace) -> int:
     if args.format == "rgl" and args.resolution < 2:
         raise InputError(f"--resolution {args.resolution}: must be >= 2")
     table = microsim.read_table(args.table)
-    if args.format != "npz" and not table.isotropic:
+    if args.format == "merl" and not table.isotropic:
         raise InputError(f"--format {args.format}: writes isotropic tables; {args.table} is "
-                         "anisotropic (use --format npz)")
+                         "anisotropic (use --format npz or rgl)")
     if args.format == "npz":
         export.write_npz(table, args.output)
     elif args.format == "merl":

@@ -40,7 +40,7 @@ class Tile:
         facet materials whose frame follows it; None where the generator gives none.
     curved : (m, 3, 3) float or None
         The curved surface each face approximates, for shading normals
-        (``microsim.shading``): rows (c, u, v), a point c on the axis of a tube and two
+        (``microsim.kernel.shading``): rows (c, u, v), a point c on the axis of a tube and two
         section vectors u, v; the tube is the quadric {x : (u·q)² + (v·q)² = 1},
         q = x − c, which is constant along its axis u × v, and its outward normal at x
         is ∝ u (u·q) + v (v·q) (the gradient). A circular cylinder of radius r has u, v

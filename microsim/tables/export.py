@@ -106,41 +106,100 @@ def _tensor_file(fields: dict[str, np.ndarray]) -> bytes:
     return bytes(out)
 
 
-def rgl_fields(table: BRDFTable, resolution: int = 32, component: str = "total",
-               description: str = "") -> dict[str, np.ndarray]:
-    """The fields of an RGL ``.bsdf`` for an isotropic table (Dupuy & Jakob 2018).
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+"""Rec. 709 luminance weights of linear R, G, B (what the RGL sampling map holds)."""
+SAMPLING_FLOOR = 0.01
+"""Share of the mean that every node of the sampling map keeps, so the sampling density
+is positive wherever the interpolated BRDF is (the estimate stays unbiased)."""
+
+
+def rgl_phi_i(step_deg: float = 15.0) -> np.ndarray:
+    """Incident azimuths of an anisotropic RGL file: −π … π in ``step_deg`` steps, both
+    ends included (Mitsuba 3's ``measured`` reads more than two φi values as anisotropic and
+    folds none of them when they span 2π)."""
+    n = int(round(360.0 / step_deg))
+    return np.linspace(-np.pi, np.pi, n + 1)
+
+
+def rgl_tensor(f: Any, theta_i: np.ndarray, phi_i: np.ndarray | None, resolution: int,
+               description: str) -> dict[str, np.ndarray]:
+    """The fields of an RGL ``.bsdf`` (Dupuy & Jakob 2018) sampling any BRDF.
 
     The colour grid is the plain vertex grid a uniform VNDF gives: axes (φm, θm) with
-    u = 0…1 in ``resolution`` steps, θm = u² π/2 and φm = 2πu − π from φi; each value is
-    f_r(ωi, ωo) cos θo at the mirror direction ωo of ωi about m, which Mitsuba 3's
-    ``measured`` plugin returns as its ``eval`` (it includes the cosine). NDF, σ, VNDF and
-    luminance are uniform (ones), so importance sampling is uniform over the grid.
+    u = 0…1 in ``resolution`` steps, θm = u² π/2 and φm = 2πu − π, measured from φi when
+    isotropic and from the tangent (absolute) otherwise; each value is f_r(ωi, ωo) cos θo
+    at the mirror direction ωo of ωi about m, which Mitsuba 3's ``measured`` plugin returns
+    as its ``eval`` (it includes the cosine). NDF, σ and VNDF are uniform (ones). The
+    ``luminance`` map, which Mitsuba samples before the VNDF, holds the integrand of the
+    albedo in these coordinates, Y(f_r cos θo) · 2π² u sin θm · 4 ⟨ωi, m⟩ (the Jacobian
+    of u → ωo that the plugin divides by), plus ``SAMPLING_FLOOR`` of its mean: sampling
+    follows the lobe, and every sample's weight is close to the albedo.
+
+    Parameters
+    ----------
+    f : callable
+        ``f(wi, wo) -> (..., 3)`` f_r in 1/sr for (..., 3) unit directions.
+    theta_i : (a,) float
+        Incident polar angles of the grid, radians, increasing.
+    phi_i : (b,) float or None
+        None: isotropic (one slice at φi = 0). Otherwise incident azimuths spanning
+        [−π, π] (``rgl_phi_i``).
+    resolution : int
+        Grid vertices per axis, H ≥ 2.
+    description : str
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``description``, ``jacobian``, ``theta_i``, ``phi_i``, ``ndf``, ``sigma`` (H, H),
+        ``vndf``, ``luminance`` (b, a, H, H), ``rgb`` (b, a, 3, H, H).
     """
-    if not table.isotropic:
-        raise ValueError("the RGL export writes isotropic tables; this one is anisotropic")
     h = resolution
     u = np.linspace(0.0, 1.0, h)
     theta_m = u**2 * (np.pi / 2)
     phi_m = 2 * np.pi * u - np.pi
     m = direction(theta_m[None, :], phi_m[:, None])  # (φm, θm, 3)
-    n = len(table.theta_i)
-    rgb = np.zeros((1, n, 3, h, h), np.float32)
-    for k, theta in enumerate(table.theta_i):
-        wi = direction(theta, 0.0)
-        wo = 2 * (m @ wi)[..., None] * m - wi
-        f = table.eval(np.broadcast_to(wi, wo.shape), wo, component)
-        rgb[0, k] = np.moveaxis(f * np.maximum(wo[..., 2:3], 0.0), -1, 0)
+    jac = 2 * np.pi**2 * u[None, :] * np.sin(theta_m)[None, :]  # (1, θm)
+    azimuths = np.zeros(1) if phi_i is None else np.asarray(phi_i, float)
+    rgb = np.zeros((len(azimuths), len(theta_i), 3, h, h), np.float32)
+    lum = np.zeros((len(azimuths), len(theta_i), h, h), np.float32)
+    for b, phi in enumerate(azimuths):
+        for a, theta in enumerate(theta_i):
+            wi = direction(theta, phi)
+            cos_d = m @ wi
+            wo = 2 * cos_d[..., None] * m - wi
+            value = np.asarray(f(np.broadcast_to(wi, wo.shape), wo)) * np.maximum(
+                wo[..., 2:3], 0.0)
+            rgb[b, a] = np.moveaxis(value, -1, 0)
+            density = (value @ LUMINANCE).clip(0.0) * jac * 4 * np.maximum(cos_d, 0.0)
+            lum[b, a] = density + SAMPLING_FLOOR * density.mean() + 1e-30
     ones = np.ones((h, h), np.float32)
     return {
-        "description": np.frombuffer((description or "microsim table").encode(), np.uint8),
+        "description": np.frombuffer(description.encode(), np.uint8),
         "jacobian": np.zeros(1, np.uint8),
-        "theta_i": table.theta_i.astype(np.float32),
-        "phi_i": np.zeros(1, np.float32),
+        "theta_i": np.asarray(theta_i, np.float32),
+        "phi_i": azimuths.astype(np.float32),
         "ndf": ones, "sigma": ones,
-        "vndf": np.ones((1, n, h, h), np.float32),
-        "luminance": np.ones((1, n, h, h), np.float32),
+        "vndf": np.ones(lum.shape, np.float32),
+        "luminance": lum,
         "rgb": rgb,
     }
+
+
+def rgl_fields(table: BRDFTable, resolution: int = 32, component: str = "total",
+               description: str = "", theta_i: np.ndarray | None = None,
+               phi_step: float = 15.0) -> dict[str, np.ndarray]:
+    """The fields of an RGL ``.bsdf`` of a table (``rgl_tensor`` of ``table.eval``).
+
+    Isotropic tables give one φi slice with φm relative to φi; anisotropic ones a slice
+    every ``phi_step`` degrees over [−180°, 180°] with absolute φm (the table's local x
+    axis is the tangent), ``table.eval`` interpolating between the table's own φi.
+    ``theta_i`` (radians) resamples the incidences (default: the table's).
+    """
+    return rgl_tensor(lambda wi, wo: table.eval(wi, wo, component),
+                      table.theta_i if theta_i is None else theta_i,
+                      None if table.isotropic else rgl_phi_i(phi_step), resolution,
+                      description or "microsim table")
 
 
 def write_rgl(table: BRDFTable, path: str | Path, resolution: int = 32,
@@ -149,6 +208,11 @@ def write_rgl(table: BRDFTable, path: str | Path, resolution: int = 32,
     surface: dict[str, Any] = table.meta.get("surface", {})
     fields = rgl_fields(table, resolution, component,
                         f"microsim {component} BRDF of a {surface.get('kind', '')} surface")
+    write_tensor_file(fields, path)
+
+
+def write_tensor_file(fields: dict[str, np.ndarray], path: str | Path) -> None:
+    """Write RGL fields (``rgl_tensor``) as a tensor file, atomically."""
     with atomic_path(path) as tmp:
         tmp.write_bytes(_tensor_file(fields))
 
@@ -159,7 +223,8 @@ def rgl_through_mitsuba(table: BRDFTable, path: str | Path, pairs: int,
     """Evaluate an RGL file with Mitsuba 3's ``measured`` plugin against the table.
 
     Direction pairs are drawn around the mirror direction (θi among the table's
-    incidences, θo uniform in [0, 85°], φo normal about π with σ = 0.5) and kept where
+    incidences (θi, φi), θo uniform in [0, 85°], φo − φi
+    normal about π with σ = 0.5) and kept where
     f_r cos θo is at least ``lobe_fraction`` of its value in the mirror direction.
     Needs the ``mitsuba`` package (a development dependency); sets its ``scalar_rgb``
     variant.
@@ -167,7 +232,7 @@ def rgl_through_mitsuba(table: BRDFTable, path: str | Path, pairs: int,
     Parameters
     ----------
     table : BRDFTable
-        The table the file was written from (isotropic).
+        The table the file was written from.
     path : str or Path
         The ``.bsdf`` file.
     pairs : int
@@ -186,8 +251,9 @@ def rgl_through_mitsuba(table: BRDFTable, path: str | Path, pairs: int,
     bsdf = mi.load_dict({"type": "measured", "filename": str(path)})
     rows: list[tuple[np.ndarray, np.ndarray]] = []
     while len(rows) < pairs:
-        wi = direction(rng.choice(table.theta_i), 0.0)
-        wo = direction(np.radians(rng.uniform(0, 85)), np.pi + rng.normal(0, 0.5))
+        phi = rng.choice(table.phi_i)
+        wi = direction(rng.choice(table.theta_i), phi)
+        wo = direction(np.radians(rng.uniform(0, 85)), phi + np.pi + rng.normal(0, 0.5))
         ref = table.eval(wi, wo) * wo[2]
         if ref.mean() < lobe_fraction * table.eval(wi, wi * [-1, -1, 1]).mean() * wi[2]:
             continue

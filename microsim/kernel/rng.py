@@ -1,0 +1,84 @@
+"""Counter-based random numbers: Philox4x64-10.
+
+A uniform number is a pure function of (key, counter): the key comes from the run's seed,
+the counter names the ray, the scattering event and the dimension, so a path draws the same
+numbers whichever thread traces it and however the rays are chunked (Salmon, Moraes, Dror &
+Shaw 2011, "Parallel random numbers: as easy as 1, 2, 3", SC '11, sec. 4: the Philox
+bijection, 10 rounds, with their multipliers and Weyl key increments; the same generator as
+``numpy.random.Philox``, against which the tests check it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, uint64
+
+M0 = np.uint64(0xD2E7470EE14C6C93)
+M1 = np.uint64(0xCA5A826395121157)
+W0 = np.uint64(0x9E3779B97F4A7C15)
+W1 = np.uint64(0xBB67AE8584CAA73B)
+LOW = np.uint64(0xFFFFFFFF)
+S32 = np.uint64(32)
+S11 = np.uint64(11)
+TO_UNIT = 1.0 / 9007199254740992.0
+"""2^-53: a 53-bit integer to a double in [0, 1)."""
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _mulhilo(a: uint64, b: uint64) -> tuple[uint64, uint64]:
+    """High and low 64-bit words of the 128-bit product a·b, from 32-bit halves."""
+    a_lo, a_hi = a & LOW, a >> S32
+    b_lo, b_hi = b & LOW, b >> S32
+    t = a_hi * b_lo + ((a_lo * b_lo) >> S32)
+    w1 = (t & LOW) + a_lo * b_hi
+    hi = a_hi * b_hi + (t >> S32) + (w1 >> S32)
+    return hi, a * b
+
+
+@njit(cache=True, nogil=True)
+def philox(c0: uint64, c1: uint64, c2: uint64, c3: uint64, k0: uint64, k1: uint64
+           ) -> tuple[uint64, uint64, uint64, uint64]:
+    """Philox4x64-10 of the counter (c0, c1, c2, c3) under the key (k0, k1).
+
+    Each round: (hi0, lo0) = M0·c0, (hi1, lo1) = M1·c2, then
+    c = (hi1 ^ c1 ^ k0, lo1, hi0 ^ c3 ^ k1, lo0), and the key moves by the Weyl constants.
+    """
+    for _ in range(10):
+        hi0, lo0 = _mulhilo(M0, c0)
+        hi1, lo1 = _mulhilo(M1, c2)
+        c0, c1, c2, c3 = hi1 ^ c1 ^ k0, lo1, hi0 ^ c3 ^ k1, lo0
+        k0 += W0
+        k1 += W1
+    return c0, c1, c2, c3
+
+
+@njit(cache=True, nogil=True, inline="always")
+def unit(x: uint64) -> float:
+    """The top 53 bits of a 64-bit word as a double in [0, 1) (numpy's ``next_double``)."""
+    return float(x >> S11) * TO_UNIT
+
+
+@njit(cache=True, nogil=True)
+def uniforms(key: np.ndarray, ray: int, event: int, block: int
+             ) -> tuple[float, float, float, float]:
+    """Four uniform numbers in [0, 1) for one ray and event.
+
+    Parameters
+    ----------
+    key : (2,) uint64
+        The run's key.
+    ray : int
+        Index of the ray in its run (>= 0).
+    event : int
+        Scattering event (0: the ray's start, k: the k-th hit).
+    block : int
+        Which four numbers of the event (0, 1, ...).
+    """
+    c0, c1, c2, c3 = philox(uint64(ray), uint64(event), uint64(block), uint64(0),
+                            key[0], key[1])
+    return unit(c0), unit(c1), unit(c2), unit(c3)
+
+
+def key_of(seed: np.random.SeedSequence) -> np.ndarray:
+    """(2,) uint64 Philox key of a seed sequence (its first two 64-bit state words)."""
+    return seed.generate_state(2, np.uint64)

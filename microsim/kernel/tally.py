@@ -1,0 +1,132 @@
+"""Escape records into sums, compiled and in ray order.
+
+A run's outcomes are written per ray (``transport``); these loops read them in ray order,
+so every floating-point sum is added in the same order whatever the threads and chunks
+that traced the rays: a table is the same bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from microsim.kernel.scatter import JIT, TWO_PI
+from microsim.kernel.transport import (
+    ESCAPED,
+    O_FATE,
+    O_ORDER,
+    S_A0,
+    S_DX,
+    S_T0,
+    S_W0,
+    TRANSMITTED,
+)
+
+
+@njit(**JIT)
+def summarise(out_f: np.ndarray, out_i: np.ndarray, direction: np.ndarray,
+              weight: np.ndarray, order: np.ndarray, energy: np.ndarray,
+              counts: np.ndarray) -> None:
+    """Split a run's outcomes into the escaping rays and the energy of the others.
+
+    Parameters
+    ----------
+    out_f, out_i
+        The run's outcomes (``transport``).
+    direction, weight : (n, 3) float
+        Filled with each escaped ray's direction and weight (zero rows for the others).
+    order : (n,) int
+        Filled with each escaped ray's scattering order (0 for the others).
+    energy : (3, 3) float
+        Filled with the summed RGB weight lost (paths ended by the simulation), transmitted
+        (1 − F at non-refracting dielectrics; paths out through the bottom after a
+        refraction) and absorbed.
+    counts : (len(FATES),) int
+        Filled with the paths per fate.
+    """
+    energy[:, :] = 0.0
+    counts[:] = 0
+    for r in range(len(out_i)):
+        fate = out_i[r, O_FATE]
+        counts[fate] += 1
+        for c in range(3):
+            w = out_f[r, S_W0 + c]
+            energy[1, c] += out_f[r, S_T0 + c]
+            energy[2, c] += out_f[r, S_A0 + c]
+            if fate == ESCAPED:
+                direction[r, c] = out_f[r, S_DX + c]
+                weight[r, c] = w
+            else:
+                direction[r, c] = 0.0
+                weight[r, c] = 0.0
+                energy[1 if fate == TRANSMITTED else 0, c] += w
+        order[r] = out_i[r, O_ORDER] if fate == ESCAPED else 0
+
+
+@njit(**JIT)
+def bin_of(x: float, y: float, z: float, phi_ref: float, theta_bins: int, phi_bins: int,
+           folded: bool) -> int:
+    """Flat bin ``it · phi_bins + ip`` of a unit direction in bins uniform in u = sin²θ
+    and φ − φ_ref (folded: φ reflected into [0, π]), or -1 on or below the horizon
+    (``microsim.tables.binning.HemisphereBins.index``)."""
+    if z <= 0.0:
+        return -1
+    u = min(max(x * x + y * y, 0.0), 1.0)
+    it = min(int(u * theta_bins), theta_bins - 1)
+    phi = (math.atan2(y, x) - phi_ref) % TWO_PI
+    if folded:
+        phi = min(phi, TWO_PI - phi)
+    period = math.pi if folded else TWO_PI
+    ip = min(int(phi * (phi_bins / period)), phi_bins - 1)
+    return it * phi_bins + ip
+
+
+@njit(**JIT)
+def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
+                phi_ref: float, theta_bins: int, phi_bins: int, folded: bool,
+                slot_of_order: np.ndarray, sums: np.ndarray, sums_sq: np.ndarray,
+                index: np.ndarray, unbinned: np.ndarray) -> None:
+    """Add escaping rays' weights w and w² to their bins, per component.
+
+    Parameters
+    ----------
+    direction, weight : (n, 3) float
+    order : (n,) int
+        Scattering order (0: not escaped or never scattered, not binned).
+    phi_ref : float
+        Azimuth the bins' φ is measured from, radians.
+    theta_bins, phi_bins : int
+    folded : bool
+    slot_of_order : (k,) int
+        Component each order adds to besides component 0 (all orders), by order (the
+        last entry for every higher order); -1: none.
+    sums, sums_sq : (c, theta_bins · phi_bins, 3) float
+        Running Σw and Σw² per component, bin and channel.
+    index : (n,) int
+        Filled with each ray's bin (-1: none).
+    unbinned : (3,) float
+        Running summed weight of scattered rays no bin takes (escaping on the horizon).
+    """
+    last = len(slot_of_order) - 1
+    for r in range(len(order)):
+        k = order[r]
+        b = -1
+        if k > 0:
+            b = bin_of(direction[r, 0], direction[r, 1], direction[r, 2], phi_ref,
+                       theta_bins, phi_bins, folded)
+            if b < 0:
+                for c in range(3):
+                    unbinned[c] += weight[r, c]
+        index[r] = b
+        if b < 0:
+            continue
+        slot = slot_of_order[min(k, last)]
+        for c in range(3):
+            w = weight[r, c]
+            sums[0, b, c] += w
+            sums_sq[0, b, c] += w * w
+            if slot > 0:
+                sums[slot, b, c] += w
+                sums_sq[slot, b, c] += w * w

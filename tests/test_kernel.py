@@ -1,0 +1,93 @@
+"""The compiled transport kernel: its random numbers, its scalar physics against the
+analytic module, its binning against the table's, and results that depend on neither the
+threads nor the chunks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from tilefixtures import random_tile
+
+from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
+from microsim.goniometer import assemble_table, measure_directions
+from microsim.kernel import rng, scatter, tally
+from microsim.tables.binning import HemisphereBins
+from microsim.trace import PeriodicScene
+
+
+@pytest.mark.parametrize("key", [(0, 0), (123456789, 987654321), (2**64 - 1, 2**63 + 5)])
+@pytest.mark.parametrize("counter", [(1, 0, 0, 0), (5, 7, 9, 11), (2**64 - 2, 1, 2**40, 3)])
+def test_philox_is_numpys_philox(key, counter) -> None:
+    """Philox4x64-10 (Salmon et al. 2011) against numpy's own implementation: numpy's
+    generator first increments its counter, so its first four words are ours at c + 1."""
+    key = np.array(key, np.uint64)
+    ours = rng.philox(*(np.uint64(c) for c in counter), key[0], key[1])
+    before = np.array(counter, np.uint64)
+    before[0] -= np.uint64(1)  # c0 > 0 in every case above, so no borrow
+    theirs = np.random.Philox(key=key, counter=before).random_raw(4)
+    assert [int(x) for x in ours] == [int(x) for x in theirs]
+
+
+def test_uniforms_are_numpys_doubles_and_in_the_unit_interval() -> None:
+    key = np.array([3, 4], np.uint64)
+    ours = np.array([rng.uniforms(key, ray, 2, 1) for ray in range(1, 2001)])
+    assert ours.min() >= 0.0 and ours.max() < 1.0
+    # numpy turns a 64-bit word into a double the same way (top 53 bits)
+    gen = np.random.Generator(np.random.Philox(key=key, counter=np.array([0, 2, 1, 0],
+                                                                         np.uint64)))
+    np.testing.assert_array_equal(ours[0], gen.random(4))
+    # 8000 uniforms: mean within 5 standard errors of 1/2 (sd of a uniform: 1/√12)
+    assert abs(ours.mean() - 0.5) < 5 / np.sqrt(12 * ours.size)
+
+
+def test_kernel_fresnel_equals_the_analytic_module() -> None:
+    """The kernel's scalar Fresnel factors are the analytic module's (which the analytic
+    tests check against mpmath) to round-off, TIR and grazing included."""
+    cos = np.concatenate([[0.0, 1e-12, 1.0], np.linspace(0.0, 1.0, 301)])
+    for eta in (1.5, 1 / 1.5, 1.0001, 4.0):
+        got = np.array([scatter.fresnel_dielectric(c, eta) for c in cos])
+        np.testing.assert_allclose(got, fresnel_dielectric(cos, eta), rtol=1e-13, atol=1e-15)
+    for eta, k in ((0.2, 3.9), (1.1, 2.14), (1.5, 0.0), (3.0, 100.0)):
+        got = np.array([scatter.fresnel_conductor(c, eta, k) for c in cos])
+        np.testing.assert_allclose(got, fresnel_conductor(cos, eta, k), rtol=1e-13,
+                                   atol=1e-15)
+
+
+@pytest.mark.parametrize("phi_period", [2 * np.pi, np.pi])
+def test_kernel_bins_are_the_tables_bins(phi_period) -> None:
+    """The compiled binning puts every direction where ``HemisphereBins.index`` does,
+    below the horizon included."""
+    bins = HemisphereBins(7, 12, phi_period)
+    g = np.random.default_rng(3)
+    wo = g.standard_normal((20_000, 3))
+    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
+    wo[:10, 2] = 0.0
+    for phi_ref in (0.0, 1.3):
+        want = bins.index(wo, phi_ref)
+        got = [tally.bin_of(*w, phi_ref, 7, 12, bins.folded) for w in wo]
+        np.testing.assert_array_equal(got, want)
+
+
+def test_tables_do_not_depend_on_threads_or_chunks() -> None:
+    """A rough tile of two materials (a random one, Lambertian, and a conductor), harmonics
+    on: one thread with the default chunk and two threads with chunks of 777 rays give the
+    same table, bit for bit."""
+    tile = random_tile(32, 0.5, seed=2)
+    tile.material = (np.arange(len(tile.faces)) % 3 == 0).astype(np.int64)
+    tile.parts = ("a", "b")
+    materials = {"a": {"kind": "lambertian", "albedo": [0.9, 0.6, 0.3]},
+                 "b": {"kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]}}
+    sim = {"theta_i": [0.0, 70.0], "phi_i": [0.0], "rays": 70_000, "bounces": 8, "seed": 5}
+    table = {"theta_bins": 6, "phi_bins": 12, "sh_order": 4}
+    made = []
+    for threads, chunk in ((1, 32768), (2, 777)):
+        with PeriodicScene(tile, threads, chunk) as scene:
+            part = measure_directions(tile, materials, sim, table, scene=scene)
+        made.append(assemble_table([part], materials, sim, table))
+    one, two = made
+    for c in one.values:
+        assert np.array_equal(one.sums[c], two.sums[c])
+        assert np.array_equal(one.sums_sq[c], two.sums_sq[c])
+        assert np.array_equal(one.sh_sums[c], two.sh_sums[c])
+    assert np.array_equal(one.lost_energy, two.lost_energy)
+    assert one.meta["directions"] == two.meta["directions"]
