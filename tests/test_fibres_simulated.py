@@ -91,9 +91,10 @@ def test_lambertian_cylinders_follow_the_exact_arcs_not_kay_kajiyas_uniform_radi
 
 def test_sparse_velvet_follows_the_quadrature_model():
     """Lambertian fibres (r = 0.002, L = 0.15, tilt 30 ± 10°, 24 sides) at 20 per unit
-    area on a black base of side 5 (500 fibres), 5 × 10⁵ rays per incidence, 8 × 16
-    bins: the single scattering matches the sparse model of the tile's own fibre axes
-    bin by bin (chi-square) and in albedo (|z| < 3.5). At θi ≤ 30° a fibre's light
+    area on a black base of side 5 (500 fibres), 5 × 10⁵ rays per incidence, 4 × 8
+    bins (~60 scattered rays a bin: with fewer, a bin's estimate and its error are too
+    skewed for the chi-square): the single scattering matches the sparse model of the
+    tile's own fibre axes bin by bin (chi-square) and in albedo (|z| < 3.5). At θi ≤ 30° a fibre's light
     crosses another with probability ~0.4% each way (density × diameter × path), far
     below the ~2% albedo error: the sparse limit holds. (The distribution's quadrature
     is tested against drawn axes in test_fibre_models.py.)"""
@@ -102,13 +103,13 @@ def test_sparse_velvet_follows_the_quadrature_model():
                "size": 5}
     fibre = {"kind": "lambertian", "albedo": 0.8}
     tile, table = table_of(surface, {"base": BLACK, "fibre": fibre}, [0.0, 30.0], [0.0],
-                           500_000, bins=(8, 16))
+                           500_000, bins=(4, 8))
     axes = np.unique(tile.tangents[tile.material == 1], axis=0)
     model = SparseVelvet(0.002, 0.15, tile.info["fibres"] / 25, 0, 0, 0, 0, 0.8,
                          axes=axes, sides=24)
     result = compare_table(table, model, "single")
     p, bins = chi2_p(table, result["model"])
-    assert p > P_MIN and bins > 150
+    assert p > P_MIN and bins > 40
     for k, row in enumerate(result["per_theta_i"]):
         err = table.albedo_err_of["single"][k, 0, 1]
         assert abs(row["albedo_sim"][1] - row["albedo_model"][1]) < 3.5 * err
