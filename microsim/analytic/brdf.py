@@ -28,6 +28,14 @@ def _arrays(wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return wi, wo
 
 
+def flat_pairs(wi: np.ndarray, wo: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
+    """Direction pairs broadcast together and flattened: ((n, 3), (n, 3), the broadcast
+    shape without the last axis, to reshape results to)."""
+    wi, wo = _arrays(wi, wo)
+    return wi.reshape(-1, 3), wo.reshape(-1, 3), wi.shape[:-1]
+
+
 def mirror(w: np.ndarray) -> np.ndarray:
     """Mirror direction about the macro normal: R(ω) = (−ω_x, −ω_y, ω_z)."""
     return np.asarray(w, float) * np.array([-1.0, -1.0, 1.0])

@@ -56,6 +56,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from microsim.analytic.brdf import flat_pairs
 from microsim.analytic.fresnel import fresnel_dielectric
 
 CORRELATION = math.radians(20.0)
@@ -173,9 +174,7 @@ class MicrocylinderCloth:
 
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """f_r, 1/sr: (..., 3)."""
-        wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
-        shape = wi.shape[:-1]
-        wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
+        wi, wo, shape = flat_pairs(wi, wo)
         above = (wi[:, 2] > 0) & (wo[:, 2] > 0)
         f = np.zeros((len(wi), 3))
         for a, albedo, (ts, ws) in zip(self.coverage, self.albedo, self.families,

@@ -59,6 +59,7 @@ from typing import Any
 
 import numpy as np
 
+from microsim.analytic.brdf import flat_pairs
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
 
 IMPACTS = 2**16
@@ -202,9 +203,7 @@ class CylinderArray:
         -------
         (..., 3) float
         """
-        wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
-        shape = wi.shape[:-1]
-        wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
+        wi, wo, shape = flat_pairs(wi, wo)
         above = (wi[:, 2] > 0) & (wo[:, 2] > 0)
         ci, co = np.where(above, wi[:, 2], 1.0), np.where(above, wo[:, 2], 1.0)
         ai, ao = np.arctan2(wi[:, 2], wi[:, 0]), np.arctan2(wo[:, 2], wo[:, 0])

@@ -44,6 +44,8 @@ import numpy as np
 from numba import njit
 from scipy.special import ndtr
 
+from microsim.analytic.brdf import flat_pairs
+
 MAX_TILT = 80.0
 """The generator's clip of the tilt, degrees (``microsim.surfaces.velvet.MAX_TILT``)."""
 
@@ -198,10 +200,8 @@ class SparseVelvet:
 
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """f_r, 1/sr: (..., 3)."""
-        wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
-        shape = wi.shape[:-1]
-        wi, wo = np.ascontiguousarray(wi.reshape(-1, 3)), np.ascontiguousarray(
-            wo.reshape(-1, 3))
+        wi, wo, shape = flat_pairs(wi, wo)
+        wi, wo = np.ascontiguousarray(wi), np.ascontiguousarray(wo)
         total = _fibre_average(wi, wo, self.u, self.v, self.axes, self.tip_n, self.tip_len,
                                self.weights, self.r, self.length)
         above = (wi[:, 2] > 0) & (wo[:, 2] > 0)
