@@ -127,8 +127,9 @@ def with_floor(t: Tile) -> Tile:
     verts = np.concatenate([t.vertices, [[0, 0, z], [lx, 0, z], [lx, ly, z], [0, ly, z]]])
     faces = np.concatenate([t.faces, [[k, k + 1, k + 2], [k, k + 2, k + 3]]])
     material = np.concatenate([t.material, [len(t.parts)] * 2])
+    curved = None if t.curved is None else np.concatenate([t.curved, np.zeros((2, 3, 3))])
     return Tile(verts, faces, material, (*t.parts, "floor"), t.period, info=t.info,
-                curved=np.concatenate([t.curved, np.zeros((2, 3, 3))]))
+                curved=curved)
 
 
 @pytest.mark.parametrize("surface", [
