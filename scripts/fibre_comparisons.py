@@ -173,7 +173,8 @@ def weaves() -> None:
 
 def furnace() -> None:
     """Mirror white furnace with and without curved normals (losses per direction)."""
-    from tests.test_shading import with_floor
+    sys.path.insert(0, str(ROOT / "tests"))
+    from tilefixtures import with_floor
 
     for surface in ({"kind": "velvet", "density": 400, "seed": 3},
                     {"kind": "weave", "pattern": "plain"},
@@ -197,7 +198,6 @@ def furnace() -> None:
 
 if __name__ == "__main__":
     OUT.mkdir(parents=True, exist_ok=True)
-    sys.path.insert(0, str(ROOT))
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
     for section in sys.argv[1:] or ["cylinders", "velvet", "weaves", "furnace"]:
         globals()[section]()

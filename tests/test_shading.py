@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from tilefixtures import with_floor
 
 from microsim.goniometer import simulate
 from microsim.kernel.shading import CURVED, FALLBACK, FLAT, curved_table, shade
@@ -117,19 +118,6 @@ def furnace(tile: Tile, materials: dict, theta: list, phi: list, rays: int, boun
         "table": {"theta_bins": 2, "phi_bins": 2}})
     table = simulate(tile, materials, r["simulation"], r["table"], threads=1)
     return table.lost_energy[..., 0]
-
-
-def with_floor(t: Tile) -> Tile:
-    """The tile over a white Lambertian floor (part ``floor``) just below it: a closed
-    furnace for a weave, whose gaps otherwise let light through."""
-    (lx, ly), z = t.period, t.z_range[0] - 0.05
-    k = len(t.vertices)
-    verts = np.concatenate([t.vertices, [[0, 0, z], [lx, 0, z], [lx, ly, z], [0, ly, z]]])
-    faces = np.concatenate([t.faces, [[k, k + 1, k + 2], [k, k + 2, k + 3]]])
-    material = np.concatenate([t.material, [len(t.parts)] * 2])
-    curved = None if t.curved is None else np.concatenate([t.curved, np.zeros((2, 3, 3))])
-    return Tile(verts, faces, material, (*t.parts, "floor"), t.period, info=t.info,
-                curved=curved)
 
 
 @pytest.mark.parametrize("surface", [
