@@ -59,6 +59,42 @@ def add_threads_arg(p: argparse.ArgumentParser) -> None:
                    help="tracing threads (default: every CPU; results do not depend on it)")
 
 
+def add_component_arg(p: argparse.ArgumentParser) -> None:
+    """Add ``--component C``: which of a table's components a command reads."""
+    p.add_argument("--component", type=component_name, default="total", metavar="C",
+                   help="the table's component: total (all scattering orders, default), "
+                        "single or order1 (single scattering), order<k> (k scattering "
+                        "events) or order<k>+ (k or more), as the table holds them "
+                        "(docs/table-format.md)")
+
+
+def component_name(text: str) -> str:
+    """argparse type: a component name (``microsim.tables.components``)."""
+    from microsim.tables.components import canonical_component
+
+    try:
+        canonical_component(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not total, single, order<k> or "
+                                         "order<k>+ (k >= 1)") from None
+    return text
+
+
+def table_component(table: Any, name: str, path: Any) -> str:
+    """The stored name of ``--component name`` in a table read from ``path``.
+
+    Raises
+    ------
+    InputError
+        If the table does not hold that component.
+    """
+    try:
+        return table.component(name)
+    except ValueError:
+        raise InputError(f"--component {name}: {path} holds "
+                         + ", ".join(table.components)) from None
+
+
 def seed_override(args: argparse.Namespace, section: str) -> list[str]:
     """``[section.seed=N]`` when ``--seed N`` was given, else ``[]``."""
     return [] if args.seed is None else [f"{section}.seed={args.seed}"]

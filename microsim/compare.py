@@ -32,6 +32,17 @@ class Model(Protocol):
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray: ...
 
 
+class StochasticModel(Model, Protocol):
+    """A Monte Carlo model: an exact part (a ``Model``, or None) plus a random part whose
+    bin averages come with standard errors (``SmithMultipleScattering``)."""
+
+    exact: Model | None
+
+    def random_bin_average(self, wi: np.ndarray, theta_edges: np.ndarray,
+                           phi_edges: np.ndarray, phi_i: float = 0.0
+                           ) -> tuple[np.ndarray, np.ndarray]: ...
+
+
 def direction(theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
     """Unit vectors from polar angles.
 
@@ -135,7 +146,38 @@ def singular_albedo(model: Model, wi: np.ndarray) -> float:
     return float(np.pi * whole.mean())
 
 
-def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray
+def bin_estimate(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
+                 phi_edges: np.ndarray, phi_i: float = 0.0, n: int = 8
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """A model's bin averages with their standard errors.
+
+    An analytic model's averages are ``bin_average``'s, with zero error; a
+    ``StochasticModel``'s are its exact part's ``bin_average`` plus its random part's
+    unbiased Monte Carlo averages (``random_bin_average``), whose errors they carry.
+
+    Parameters
+    ----------
+    model, wi, theta_edges, phi_edges, phi_i, n
+        As ``bin_average``.
+
+    Returns
+    -------
+    mean, stderr : (nt, np, 3) float
+        1/sr.
+    """
+    shape = (len(theta_edges) - 1, len(phi_edges) - 1)
+    random_part = getattr(model, "random_bin_average", None)
+    if random_part is None:
+        return bin_average(model, wi, theta_edges, phi_edges, phi_i, n), np.zeros(shape + (3,))
+    mean, err = (_rgb(x[..., 0] if x.shape[-1] == 1 else x, shape)
+                 for x in random_part(wi, theta_edges, phi_edges, phi_i))
+    if model.exact is not None:
+        mean = mean + bin_average(model.exact, wi, theta_edges, phi_edges, phi_i, n)
+    return mean, err
+
+
+def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
+                   model_err: np.ndarray | None = None
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Relative errors and z-scores over the model's lobe bins.
 
@@ -143,24 +185,29 @@ def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray
     ----------
     sim, err, model : (nt, np, 3) float
         Simulated f_r, its standard error (NaN where undefined), the model's bin average.
+    model_err : (nt, np, 3) float or None
+        The model's own standard error (a Monte Carlo model); None: exact.
 
     Returns
     -------
     rel : (k,) float
         |sim − model| / model over lobe bins (model ≥ 10% of its peak, per channel).
     z : (j,) float
-        (sim − model) / stderr over lobe bins with a defined, non-zero error.
+        (sim − model) / √(stderr² + model_err²) over lobe bins with a defined, non-zero
+        error: the two estimates are independent, so their variances add.
     lobe : (nt, np, 3) bool
     """
     peak = model.max(axis=(0, 1), keepdims=True)
     lobe = model >= LOBE_FRACTION * np.where(peak > 0, peak, np.inf)
     rel = np.abs(sim - model)[lobe] / model[lobe]
+    if model_err is not None:
+        err = np.hypot(err, model_err)
     ok = lobe & np.isfinite(err) & (err > 0)
     return rel, (sim - model)[ok] / err[ok], lobe
 
 
 def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
-            proj: np.ndarray) -> dict[str, Any]:
+            proj: np.ndarray, model_err: np.ndarray | None = None) -> dict[str, Any]:
     """Error metrics of one incidence's simulated bins against the model's bin averages.
 
     Parameters
@@ -169,18 +216,24 @@ def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         Simulated f_r, its standard error (NaN where undefined), the model's bin average.
     proj : (nt, np) float
         Projected solid angle of each bin, sr.
+    model_err : (nt, np, 3) float or None
+        The model's own standard error (None: exact).
 
     Returns
     -------
     dict
         ``median_rel_error`` and ``p90_rel_error`` over lobe bins (model ≥ 10% of its
         peak), ``rms_error`` (1/sr, all bins), ``z_mean`` and ``z_std`` of
-        (sim − model)/stderr over lobe bins with a defined, non-zero error, ``lobe_bins``,
-        ``albedo_sim`` and ``albedo_model`` per channel (Σ f_r Ω_proj), and their difference.
+        (sim − model)/√(stderr² + model_err²) over lobe bins with a defined, non-zero
+        error, ``lobe_bins``, ``albedo_sim`` and ``albedo_model`` per channel
+        (Σ f_r Ω_proj), their difference, and ``albedo_model_err`` (the model's standard
+        error of its albedo: √Σ (σ Ω_proj)², bins being independent estimates).
     """
-    rel, z, lobe = lobe_residuals(sim, err, model)
+    rel, z, lobe = lobe_residuals(sim, err, model, model_err)
     albedo_sim = (sim * proj[..., None]).sum(axis=(0, 1))
     albedo_model = (model * proj[..., None]).sum(axis=(0, 1))
+    albedo_model_err = np.zeros(3) if model_err is None else np.sqrt(
+        ((model_err * proj[..., None]) ** 2).sum(axis=(0, 1)))
     nan = float("nan")
     return {
         "median_rel_error": float(np.median(rel)) if rel.size else nan,
@@ -192,6 +245,7 @@ def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         "albedo_sim": albedo_sim.tolist(),
         "albedo_model": albedo_model.tolist(),
         "albedo_difference": (albedo_sim - albedo_model).tolist(),
+        "albedo_model_err": albedo_model_err.tolist(),
     }
 
 
@@ -227,29 +281,6 @@ def microfacet_model(meta: Mapping[str, Any]) -> Model:
            else Beckmann(alpha))
     material = meta["recipe"]["material"]["base"]
     return TorranceSparrow(ndf, fresnel=fresnel_of(material), shadowing="smith-correlated")
-
-
-def ndf_bin_average(ndf: Any, edges: np.ndarray, n: int = 16) -> np.ndarray:
-    """Bin averages ∫_B D cos θ dω / ∫_B cos θ dω of an isotropic NDF over θ bins.
-
-    Parameters
-    ----------
-    ndf : NDF
-        With ``D(m)``.
-    edges : (k + 1,) float
-        Bin edges in θ, radians.
-    n : int
-        Gauss-Legendre nodes per bin.
-
-    Returns
-    -------
-    (k,) float
-    """
-    x, w = np.polynomial.legendre.leggauss(n)
-    lo, hi = edges[:-1, None], edges[1:, None]
-    t = lo + (hi - lo) * (x + 1) / 2
-    weights = w * (hi - lo) / 2 * np.cos(t) * np.sin(t)
-    return (ndf.D(direction(t, 0.0)) * weights).sum(axis=1) / weights.sum(axis=1)
 
 
 FIBRE_PARTS = ("cylinder", "fibre")
@@ -348,7 +379,7 @@ def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float =
         Components ``total`` and ``single`` alike; albedo = Σ f_r Ω_proj over the bins of
         the (noisy) values, with zero error; no lost energy.
     """
-    from microsim.tables.table import COMPONENTS, BRDFTable
+    from microsim.tables.table import BRDFTable
 
     theta_i = np.asarray(theta_i, float)
     azimuths = np.zeros(1) if phi_i is None else np.asarray(phi_i, float)
@@ -359,10 +390,20 @@ def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float =
     values = avg + rng.standard_normal(avg.shape) * err if sigma_rel else avg
     albedo = (values * bins.projected_solid_angle[None, None, :, :, None]).sum(axis=(2, 3))
     zeros = np.zeros_like(albedo)
-    return BRDFTable(bins, theta_i, azimuths, phi_i is None, {c: values for c in COMPONENTS},
-                     {c: err for c in COMPONENTS}, np.full(avg.shape[:2], 10**6),
-                     {c: albedo for c in COMPONENTS}, {c: zeros for c in COMPONENTS},
+    both = ("total", "single")
+    return BRDFTable(bins, theta_i, azimuths, phi_i is None, {c: values for c in both},
+                     {c: err for c in both}, np.full(avg.shape[:2], 10**6),
+                     {c: albedo for c in both}, {c: zeros for c in both},
                      zeros, dict(meta or {"surface": {"kind": "analytic"}}))
+
+
+def model_for(model: Model, component: str) -> Model:
+    """The model to compare with a table's ``component``: a model that holds chosen
+    scattering orders (``with_orders``) restricted to the component's; any other as is."""
+    from microsim.tables.components import order_range
+
+    return model.with_orders(*order_range(component)) if hasattr(model, "with_orders") \
+        else model
 
 
 def compare_table(table: Any, model: Model, component: str = "total") -> dict[str, Any]:
@@ -373,33 +414,39 @@ def compare_table(table: Any, model: Model, component: str = "total") -> dict[st
     table : BRDFTable
     model : Model
     component : str
-        ``"total"`` or ``"single"``.
+        A component of the table (``"total"``, ``"single"``, ``"order2"``, …). A model
+        that holds chosen scattering orders (``with_orders``: ``beckmann-ms``) is
+        compared with the same orders.
 
     Returns
     -------
     dict
         ``median_rel_error``, ``p90_rel_error``, ``z_mean``, ``z_std`` pooled over every
-        incidence's lobe bins; ``per_theta_i``: one row per incident direction with
-        ``theta_i``, ``phi_i`` (degrees), the ``metrics`` keys and
-        ``multiple_scattering_share`` (the share of the escaping energy scattered more
-        than once: what a single-scattering model leaves out); ``model`` (per-bin bin
-        averages, (a, b, nt, np, 3)) for plots.
+        incidence's lobe bins (z against both errors, ``lobe_residuals``);
+        ``per_theta_i``: one row per incident direction with ``theta_i``, ``phi_i``
+        (degrees), the ``metrics`` keys and ``multiple_scattering_share`` (the share of
+        the escaping energy scattered more than once: what a single-scattering model
+        leaves out); ``model`` and ``model_err`` (per-bin bin averages and their
+        standard errors, (a, b, nt, np, 3)) for plots.
     """
+    component = table.component(component)
+    model = model_for(model, component)
     rows, rels, zs = [], [], []
     averages = np.zeros_like(table.values[component])
+    errors = np.zeros_like(averages)
     for a, theta in enumerate(table.theta_i):
         for b, phi in enumerate(table.phi_i):
             # isotropic tables hold azimuths relative to phi_i, anisotropic ones absolute;
             # a folded table's bins hold phi and -phi alike, which a model symmetric about
             # the plane of incidence fills equally
-            avg = bin_average(model, direction(theta, phi), table.bins.theta_edges,
-                              table.bins.phi_edges, phi if table.isotropic else 0.0)
-            averages[a, b] = avg
+            avg, avg_err = bin_estimate(model, direction(theta, phi), table.bins.theta_edges,
+                                        table.bins.phi_edges, phi if table.isotropic else 0.0)
+            averages[a, b], errors[a, b] = avg, avg_err
             sim, err = table.values[component][a, b], table.errors[component][a, b]
-            rel, z, _ = lobe_residuals(sim, err, avg)
+            rel, z, _ = lobe_residuals(sim, err, avg, avg_err)
             rels.append(rel)
             zs.append(z)
-            m = metrics(sim, err, avg, table.bins.projected_solid_angle)
+            m = metrics(sim, err, avg, table.bins.projected_solid_angle, avg_err)
             total = table.albedo_of["total"][a, b].mean()
             single = table.albedo_of["single"][a, b].mean()
             m.update(theta_i=float(np.degrees(theta)), phi_i=float(np.degrees(phi)),
@@ -415,63 +462,5 @@ def compare_table(table: Any, model: Model, component: str = "total") -> dict[st
         "z_std": float(z.std(ddof=1)) if z.size > 1 else nan,
         "per_theta_i": rows,
         "model": averages,
+        "model_err": errors,
     }
-
-
-def table_difference(a: Any, b: Any, component: str = "total") -> list[dict[str, Any]]:
-    """Two tables of the same axes against each other, incidence by incidence.
-
-    Neither is the truth: both are estimates with standard errors (e.g. a two-level
-    hierarchy of scale and the same surface simulated in one level, docs/materials.md).
-
-    Parameters
-    ----------
-    a, b : BRDFTable
-        Same incident directions and bins.
-    component : str
-        ``"total"`` or ``"single"``.
-
-    Returns
-    -------
-    list of dict
-        Per incident direction: ``theta_i``, ``phi_i`` (degrees); ``albedo_a``,
-        ``albedo_b``, ``albedo_difference`` (a − b) and ``albedo_difference_err`` (3,);
-        ``l1`` = Σ |f_a − f_b| Ω / Σ f_b Ω, the share of b's reflected energy that a
-        places differently (mean over RGB); ``l1_noise``, the L1 noise alone gives in
-        expectation (Σ √(2/π) √(σ_a² + σ_b²) Ω over the same sum: E|N(0, σ²)| =
-        σ √(2/π)); ``z_rms``, the RMS of (f_a − f_b) / √(σ_a² + σ_b²) over bins with a
-        defined error (1 for noise alone).
-
-    Raises
-    ------
-    ValueError
-        If the axes or bins differ.
-    """
-    same = (a.bins.shape == b.bins.shape and a.isotropic == b.isotropic
-            and np.allclose(a.theta_i, b.theta_i) and np.allclose(a.phi_i, b.phi_i))
-    if not same:
-        raise ValueError("tables with different incidences or bins do not compare")
-    omega = a.bins.projected_solid_angle[..., None]
-    rows = []
-    for i, theta in enumerate(a.theta_i):
-        for j, phi in enumerate(a.phi_i):
-            fa, fb = a.values[component][i, j], b.values[component][i, j]
-            ea, eb = a.errors[component][i, j], b.errors[component][i, j]
-            sigma = np.hypot(np.nan_to_num(ea), np.nan_to_num(eb))
-            reflected = (fb * omega).sum(axis=(0, 1))
-            with np.errstate(divide="ignore", invalid="ignore"):
-                l1 = (np.abs(fa - fb) * omega).sum(axis=(0, 1)) / reflected
-                noise = (np.sqrt(2 / np.pi) * sigma * omega).sum(axis=(0, 1)) / reflected
-            defined = sigma > 0
-            z = (fa - fb)[defined] / sigma[defined]
-            da, db = a.albedo_of[component][i, j], b.albedo_of[component][i, j]
-            rows.append({
-                "theta_i": float(np.degrees(theta)), "phi_i": float(np.degrees(phi)),
-                "albedo_a": da.tolist(), "albedo_b": db.tolist(),
-                "albedo_difference": (da - db).tolist(),
-                "albedo_difference_err": np.hypot(a.albedo_err_of[component][i, j],
-                                                  b.albedo_err_of[component][i, j]).tolist(),
-                "l1": float(l1.mean()), "l1_noise": float(noise.mean()),
-                "z_rms": float(np.sqrt(np.mean(z**2))) if z.size else float("nan"),
-            })
-    return rows

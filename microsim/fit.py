@@ -196,7 +196,7 @@ def fit_table(table: Any, spec: str, component: str = "total",
     spec : str
         Model family (see ``family``).
     component : str
-        ``"total"`` or ``"single"``.
+        A component of the table (``"total"``, ``"single"``, ``"order2"``, …).
     start : sequence of float, optional
         Start values (default: the family's; for microfacet models α starts at the
         table's realised roughness when it has one).
@@ -210,6 +210,7 @@ def fit_table(table: Any, spec: str, component: str = "total",
         model) and ``model_bins`` (its bin averages, for plots).
     """
     name, fam = family(spec, model_defaults(table.meta))
+    component = table.component(component)
     sim, err = table.values[component], table.errors[component]
     eps = EPS_FRACTION * float(np.nanmax(sim))
     keep = np.isfinite(err)

@@ -24,31 +24,39 @@ import numpy as np
 
 import microsim
 from microsim.compare import direction
-from microsim.kernel.tally import bin_escapes
+from microsim.kernel.tally import bin_escapes, in_blocks
 from microsim.materials import FacetMaterials
 from microsim.paths import Paths, trace_paths
 from microsim.surfaces.tile import Tile
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.table import COMPONENTS, BRDFTable
+from microsim.tables.components import DEFAULT_ORDERS, components_for
+from microsim.tables.table import BRDFTable
 from microsim.trace import PeriodicScene
 
 BATCH = 65536
 """Rays per batch: the unit of random streams, accumulation and the adaptive stop."""
-SLOT_OF_ORDER = np.array([-1, COMPONENTS.index("single"), -1])
-"""Component of ``COMPONENTS`` each scattering order adds to besides ``total``: order 1
-to ``single``, higher orders (the last entry) to none."""
 
 
 class _Sums:
-    """Running per-bin sums of one incident direction.
+    """Running per-bin sums of one incident direction, per component.
+
+    Row 0 of every array holds every escaping ray (``"total"``); row k, 1 ≤ k < N, the rays
+    that escaped after k scattering events; row N those after N or more
+    (``components_for(N)``, N = ``orders``). The compiled tally adds each ray to row 0 and
+    to the row of its order (``slot_of_order``), so the order rows add up to row 0.
 
     Attributes
     ----------
     rays : int
         Rays launched.
-    sums, sums_sq : dict of str to (b, 3) float
-        Per bin, the sum of exit weights w and of w**2, per component.
+    orders : int
+        N of the order components.
+    slot_of_order : (N + 1,) int
+        Row of scattering order k at index min(k, N) (``microsim.kernel.tally``; order 0,
+        not escaped, has none: −1).
+    sums, sums_sq : (N + 1, b, 3) float
+        Per row and bin, the sum of exit weights w and of w**2.
     lost, transmitted, absorbed : (3,) float
         Summed weight of paths ended by the simulation (bounce limit, leaks), transmitted
         (1 - F at non-refracting dielectrics; refracted paths out through the bottom), and
@@ -57,42 +65,52 @@ class _Sums:
         Paths per ending.
     sh_order : int
         Order L of the spherical-harmonic moments (0: none).
-    sh_sums : dict of str to ((L + 1)², 3) float, or None
-        Σ w Y_k(ωo) over the escaping rays the bins take, per component
+    sh_sums : (N + 1, (L + 1)², 3) float, or None
+        Σ w Y_k(ωo) over the escaping rays the bins take, per row
         (``microsim.tables.sh``; ωo's azimuth relative to ``phi_ref`` of ``add``).
-    sh_sums_sq : dict of str to ((2L + 1)², 3) float, or None
+    sh_sums_sq : (N + 1, (2L + 1)², 3) float, or None
         Σ w² Y_K(ωo) to order 2L, from which ``sh.second_moments`` gives Σ (w Y_k)².
     """
 
-    def __init__(self, bins: int, sh_order: int = 0) -> None:
+    def __init__(self, bins: int, sh_order: int = 0, orders: int = DEFAULT_ORDERS) -> None:
         self.rays = 0
-        self.sums = {c: np.zeros((bins, 3)) for c in COMPONENTS}
-        self.sums_sq = {c: np.zeros((bins, 3)) for c in COMPONENTS}
+        self.orders = int(orders)
+        self.slot_of_order = np.concatenate([[-1], np.arange(1, self.orders + 1)])
+        rows = self.orders + 1
+        self.sums = np.zeros((rows, bins, 3))
+        self.sums_sq = np.zeros((rows, bins, 3))
         self.sh_order = int(sh_order)
-        self.sh_sums = {c: np.zeros((sh.size(sh_order), 3)) for c in COMPONENTS
-                        } if sh_order else None
-        self.sh_sums_sq = {c: np.zeros((sh.size(2 * sh_order), 3)) for c in COMPONENTS
-                           } if sh_order else None
+        self.sh_sums = np.zeros((rows, sh.size(sh_order), 3)) if sh_order else None
+        self.sh_sums_sq = np.zeros((rows, sh.size(2 * sh_order), 3)) if sh_order else None
         self.lost, self.transmitted, self.absorbed = np.zeros(3), np.zeros(3), np.zeros(3)
         self.fates: dict[str, int] = {}
 
+    @property
+    def components(self) -> tuple[str, ...]:
+        """Component names of the rows (``components_for``)."""
+        return components_for(self.orders)
+
     def add(self, paths: Paths, bins: HemisphereBins, phi_ref: float = 0.0,
             mapper: sh.Mapper | None = None) -> None:
-        """Add one batch: the traced ``paths``, binned in ``bins`` (compiled, in ray
-        order: ``microsim.kernel.tally``) with φo measured from the azimuth ``phi_ref``
-        (radians), which the harmonics use too, and what runs the harmonic transforms
-        (``sh.moments``; the sums do not depend on it)."""
+        """Add one batch: the traced ``paths``, binned in ``bins`` with φo measured from the
+        azimuth ``phi_ref`` (radians), which the harmonics use too; ``mapper`` runs the
+        binning's blocks and the harmonic transforms (``sh.Mapper``: e.g. on the tracer's
+        threads; the sums do not depend on it: ``microsim.kernel.tally.in_blocks``)."""
         n = len(paths.order)
         self.rays += n
         index = np.empty(n, np.int64)
-        sums = np.zeros((len(COMPONENTS), bins.size, 3))
-        sums_sq = np.zeros_like(sums)
-        unbinned = np.zeros(3)
-        bin_escapes(paths.direction, paths.weight, paths.order, phi_ref, bins.theta_bins,
-                    bins.phi_bins, bins.folded, SLOT_OF_ORDER, sums, sums_sq, index, unbinned)
-        for j, comp in enumerate(COMPONENTS):
-            self.sums[comp] += sums[j]
-            self.sums_sq[comp] += sums_sq[j]
+
+        def block(a: int, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            sums = np.zeros_like(self.sums)
+            sums_sq, unbinned = np.zeros_like(sums), np.zeros(3)
+            bin_escapes(paths.direction[a:b], paths.weight[a:b], paths.order[a:b], phi_ref,
+                        bins.theta_bins, bins.phi_bins, bins.folded, self.slot_of_order, sums,
+                        sums_sq, index[a:b], unbinned)
+            return sums, sums_sq, unbinned
+
+        sums, sums_sq, unbinned = in_blocks(block, n, mapper)
+        self.sums += sums
+        self.sums_sq += sums_sq
         if self.sh_order:
             self._add_sh(paths, index >= 0, phi_ref, mapper)
         # an escaping ray the bins do not take (none for a closed surface) is lost, not hidden
@@ -104,14 +122,19 @@ class _Sums:
 
     def _add_sh(self, paths: Paths, binned: np.ndarray, phi_ref: float,
                 mapper: sh.Mapper | None) -> None:
-        """Moments of the escaping rays' exit weights against the real harmonics."""
+        """Moments of the escaping rays' exit weights against the real harmonics: one
+        transform per order row over that row's rays alone, the total row their sum."""
         loc = sh.angles(paths.direction[binned], phi_ref)
         w = paths.weight[binned]
-        w = np.concatenate([w, w * (paths.order[binned] == 1)[:, None]], axis=1)  # (n, 6)
-        s1, s2 = sh.moments(loc, w, self.sh_order, mapper)
-        for j, comp in enumerate(COMPONENTS):
-            self.sh_sums[comp] += s1[:, 3 * j:3 * j + 3]
-            self.sh_sums_sq[comp] += s2[:, 3 * j:3 * j + 3]
+        row = self.slot_of_order[np.minimum(paths.order[binned], self.orders)]
+        for k in range(1, self.orders + 1):
+            mine = row == k
+            if mine.any():
+                s1, s2 = sh.moments(loc[mine], w[mine], self.sh_order, mapper)
+                self.sh_sums[k] += s1
+                self.sh_sums_sq[k] += s2
+                self.sh_sums[0] += s1
+                self.sh_sums_sq[0] += s2
 
     @property
     def lost_energy(self) -> np.ndarray:
@@ -127,14 +150,17 @@ def _table(bins: HemisphereBins, theta_deg: Sequence[float], phi_deg: Sequence[f
     def stacked(get: Callable[[_Sums], np.ndarray]) -> np.ndarray:
         return np.stack([np.stack([get(acc) for acc in row]) for row in runs])
 
+    def by_component(get: Callable[[_Sums], np.ndarray]) -> dict[str, np.ndarray]:
+        """Per component, the (a, b, ...) array of its row."""
+        rows = stacked(get)                                  # (a, b, N + 1, ...)
+        return {c: rows[:, :, k] for k, c in enumerate(runs[0][0].components)}
+
     rays = np.array([[acc.rays for acc in row] for row in runs], np.int64)
-    sums = {c: stacked(lambda a, c=c: a.sums[c]) for c in COMPONENTS}
-    sums_sq = {c: stacked(lambda a, c=c: a.sums_sq[c]) for c in COMPONENTS}
+    sums = by_component(lambda a: a.sums)
+    sums_sq = by_component(lambda a: a.sums_sq)
     harmonics = runs[0][0].sh_order > 0
-    sh_sums = {c: stacked(lambda a, c=c: a.sh_sums[c]) for c in COMPONENTS
-               } if harmonics else None
-    sh_sums_sq = {c: stacked(lambda a, c=c: a.sh_sums_sq[c]) for c in COMPONENTS
-                  } if harmonics else None
+    sh_sums = by_component(lambda a: a.sh_sums) if harmonics else None
+    sh_sums_sq = by_component(lambda a: a.sh_sums_sq) if harmonics else None
     return BRDFTable.from_sums(bins, np.radians(theta_deg), np.radians(phi_deg), isotropic,
                                rays, sums, sums_sq, stacked(lambda a: a.lost_energy), meta,
                                sh_sums=sh_sums, sh_sums_sq=sh_sums_sq)
@@ -147,8 +173,8 @@ MAX_RAYS_FACTOR = 100
 def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: HemisphereBins,
                        simulation: Mapping[str, Any], theta: float, phi: float,
                        isotropic: bool, streams: tuple[int, int],
-                       progress: Callable[[dict[str, Any]], None] | None, sh_order: int = 0
-                       ) -> tuple[_Sums, str, float]:
+                       progress: Callable[[dict[str, Any]], None] | None, sh_order: int = 0,
+                       orders: int = DEFAULT_ORDERS) -> tuple[_Sums, str, float]:
     """Run the batches of one incident direction (degrees); see ``simulate``.
 
     Outgoing azimuths are binned relative to ``phi`` for isotropic tables, absolute
@@ -158,7 +184,7 @@ def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: Hemis
     """
     phi_ref = math.radians(phi) if isotropic else 0.0
     wi = direction(math.radians(theta), math.radians(phi))
-    acc = _Sums(bins.size, sh_order)
+    acc = _Sums(bins.size, sh_order, orders)
     planned = int(simulation["rays"])
     target = simulation.get("target_error")
     most = simulation.get("max_rays") or MAX_RAYS_FACTOR * planned
@@ -264,7 +290,8 @@ def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
         built, before = time.perf_counter(), scene.segments
         rows = {l: [_measure_direction(scene, facets, bins, simulation, theta_deg[l], phi,
                                        isotropic, (l, k), progress,
-                                       int(table.get("sh_order", 0)))
+                                       int(table.get("sh_order", 0)),
+                                       int(table.get("orders", DEFAULT_ORDERS)))
                     for k, phi in enumerate(phi_deg)] for l in chosen}
         segments, eps = scene.segments - before, scene.eps
     return Measurement(rows, dict(tile.info), facets.inputs, isotropic, segments, eps,
@@ -359,7 +386,8 @@ def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
         ``bounces``, ``seed``, and optionally ``target_error`` and ``max_rays``.
     table : mapping
         Resolved ``[table]``: ``theta_bins``, ``phi_bins``, and optionally ``sh_order``
-        (spherical-harmonic order of the escaping rays' moments; 0 or absent: none).
+        (spherical-harmonic order of the escaping rays' moments; 0 or absent: none) and
+        ``orders`` (N: the order components; default ``DEFAULT_ORDERS``).
     recipe : mapping or None
         The full resolved recipe, stored in the table's metadata (default: the three
         sections given).
@@ -373,8 +401,9 @@ def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
     Returns
     -------
     BRDFTable
-        Sums per bin for the components ``"total"`` and ``"single"`` (first-order
-        scattering), with metadata (see docs/goniometer.md).
+        Sums per bin for the components ``"total"`` and ``"order1"``, …, ``"order{N}+"``
+        (``components_for(N)``: escaped after 1, …, N − 1 and N or more scattering
+        events, adding up to the total), with metadata (see docs/goniometer.md).
 
     Notes
     -----

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from microsim.kernel.tally import summarise
+from microsim.kernel.tally import in_blocks, summarise
 from microsim.kernel.transport import FATES
 from microsim.trace import PeriodicScene
 
@@ -90,8 +90,13 @@ def trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nda
     n = len(origins)
     direction, weight = np.empty((n, 3)), np.empty((n, 3))
     order = np.empty(n, np.int64)
-    energy = np.empty((3, 3))
-    counts = np.empty(len(FATES), np.int64)
-    summarise(out.floats, out.ints, direction, weight, order, energy, counts)
+
+    def block(a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
+        energy, counts = np.zeros((3, 3)), np.zeros(len(FATES), np.int64)
+        summarise(out.floats[a:b], out.ints[a:b], direction[a:b], weight[a:b], order[a:b],
+                  energy, counts)
+        return energy, counts
+
+    energy, counts = in_blocks(block, n, scene.map)
     return Paths(direction, weight, order, energy[0], energy[1], energy[2],
                  dict(zip(FATES, map(int, counts), strict=True)))

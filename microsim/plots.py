@@ -61,7 +61,7 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
     path : str or Path
         PNG file to write.
     component : str
-        ``"single"`` or ``"total"``.
+        A component of the table (``"single"``, ``"total"``, ``"order2"``, …).
     title : str
         Figure title.
     """
@@ -146,15 +146,19 @@ def half_difference_slices(table: BRDFTable, model: Model, path: str | Path,
 
 
 def z_maps(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
-           component: str = "total", title: str = "") -> None:
+           component: str = "total", title: str = "",
+           model_err: np.ndarray | None = None) -> None:
     """Per incidence, z = (simulated − model) / standard error over (φo, θo) bins
-    (green channel), clipped to ±4; grey where the error is undefined."""
+    (green channel), clipped to ±4; grey where the error is undefined. With ``model_err``
+    (a Monte Carlo model's (a, b, nt, np, 3) standard errors) both errors combine."""
     plt = _pyplot()
     n = len(table.theta_i)
     fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 3.4), squeeze=False)
     te, pe = np.degrees(table.bins.theta_edges), np.degrees(table.bins.phi_edges)
     for k, ax in enumerate(axes[0]):
         err = table.errors[component][k, 0, ..., 1]
+        if model_err is not None:
+            err = np.hypot(err, model_err[k, 0, ..., 1])
         z = (table.values[component][k, 0, ..., 1] - model_bins[k, 0, ..., 1]) / err
         ax.set_facecolor("0.8")
         im = ax.pcolormesh(pe, te, np.ma.masked_invalid(z), cmap="RdBu_r", vmin=-4, vmax=4)
@@ -169,19 +173,20 @@ def z_maps(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
 
 
 def albedo_plot(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
-                title: str = "") -> None:
-    """Directional albedo against θi: simulated total and single scattering (±1 standard
-    error) and the model (Σ bin average × projected solid angle), mean over RGB."""
+                title: str = "", component: str = "total") -> None:
+    """Directional albedo against θi: every simulated component (±1 standard error) and
+    the model of ``component`` (Σ bin average × projected solid angle), mean over RGB."""
     plt = _pyplot()
     theta = np.degrees(table.theta_i)
     proj = table.bins.projected_solid_angle[None, :, :, None]
     model = (model_bins[:, 0] * proj).sum(axis=(1, 2)).mean(axis=-1)
     fig, ax = plt.subplots(figsize=(5.5, 4))
-    for comp, label in (("total", "simulated, all orders"), ("single", "simulated, single")):
+    for comp in table.components:
+        label = "simulated, all orders" if comp == "total" else f"simulated, {comp}"
         ax.errorbar(theta, table.albedo_of[comp][:, 0].mean(axis=-1),
                     yerr=np.nan_to_num(table.albedo_err_of[comp][:, 0].mean(axis=-1)),
                     fmt="o-", ms=4, label=label)
-    ax.plot(theta, model, "s--", color="tab:red", label="model")
+    ax.plot(theta, model, "s--", color="black", label=f"model ({component})")
     ax.set_xlabel("θi (°)")
     ax.set_ylabel("albedo ∫ f_r cos θo dωo")
     ax.grid(alpha=0.3)

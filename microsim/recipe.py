@@ -28,6 +28,7 @@ from typing import Any
 from microsim.errors import InputError
 from microsim.schema import REQUIRED, Key, check_section, suggest, unknown_key
 from microsim.surfaces.params import SURFACE_KINDS
+from microsim.tables.components import DEFAULT_ORDERS
 
 
 def _n(doc: str, default: Any = REQUIRED, **kw: Any) -> Key:
@@ -113,6 +114,10 @@ TABLE: dict[str, Key] = {
                     "escaping rays ((L+1)^2 coefficients of f_r cos theta_o per incidence, "
                     "with standard errors; docs/table-format.md); 0: none.", low=0,
                     high=64),
+    "orders": Key("int", DEFAULT_ORDERS, "Scattering orders kept apart: N gives the components "
+                  "order1, ..., order<N-1> and order<N>+ (N or more scattering events) "
+                  "besides total, which they add up to (docs/table-format.md).", low=2,
+                  high=32),
 }
 SECTIONS = ("surface", "material", "simulation", "table")
 TOP_KEYS = ("description",) + SECTIONS

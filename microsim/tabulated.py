@@ -49,7 +49,7 @@ from microsim.errors import InputError
 from microsim.files import file_digest
 from microsim.kernel import scatter as ev
 from microsim.tables.exr import read_table
-from microsim.tables.table import COMPONENTS, BRDFTable
+from microsim.tables.table import BRDFTable
 
 AXES = ("x", "y", "tangent")
 """What a table material's ``axis`` may name: a world axis, or the per-face tangent a
@@ -64,7 +64,8 @@ class TabulatedMaterial:
     table : BRDFTable
         The lower-scale BRDF (values must be finite and non-negative).
     component : str
-        ``"total"`` (all scattering orders of the lower scale) or ``"single"``.
+        ``"total"`` (all scattering orders of the lower scale), ``"single"``, or another
+        of the table's components.
     axis : str
         ``"y"`` or ``"x"``: the world axis whose projection onto a facet is the table's
         y axis (``microsim.kernel.scatter.facet_frame``); ``"tangent"``: the facet's own
@@ -86,8 +87,7 @@ class TabulatedMaterial:
 
     def __init__(self, table: BRDFTable, component: str = "total", axis: str = "y",
                  source: dict[str, Any] | None = None) -> None:
-        if component not in COMPONENTS:
-            raise ValueError(f"component must be one of {COMPONENTS}, got {component!r}")
+        component = table.component(component)
         if axis not in AXES:
             raise ValueError(f"axis must be one of {AXES}, got {axis!r}")
         self.uses_tangents = axis == "tangent"
@@ -126,7 +126,7 @@ class TabulatedMaterial:
         path : str or Path
             The table (``microsim.tables.exr`` format).
         component : str
-            ``"total"`` or ``"single"``.
+            A component of the table (``"total"``, ``"single"``, ``"order2"``, …).
         key : str
             The recipe key naming the file, for error messages (``material.<part>.path``).
         axis : str

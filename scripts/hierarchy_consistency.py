@@ -19,7 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from microsim.compare import table_difference
+from microsim.table_difference import table_difference
 from microsim.tables.exr import read_table
 
 

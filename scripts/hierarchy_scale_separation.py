@@ -10,7 +10,7 @@ The one-level tile is ``vgroove`` with ``micro_alpha`` (gold facets); the lower 
 ``microsim.surfaces.vgroove.face_roughness_tile``, the very field the faces carry laid
 flat, simulated every 5 degrees from 0 to 85 (16 x 32 bins, ``--rays`` / 1.5 rays per
 node); both upper tables have 8 x 16 bins and ``--rays`` rays per incidence (0, 30, 60
-degrees, across the grooves). Prints ``microsim.compare.table_difference`` per incidence
+degrees, across the grooves). Prints ``microsim.table_difference.table_difference`` per incidence
 (docs/materials.md explains the figures).
 """
 
@@ -22,11 +22,11 @@ import math
 import tempfile
 from pathlib import Path
 
-from microsim.compare import table_difference
 from microsim.goniometer import simulate
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
 from microsim.surfaces.vgroove import face_roughness_tile
+from microsim.table_difference import table_difference
 
 GOLD = {"kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]}
 

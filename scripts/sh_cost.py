@@ -7,8 +7,9 @@ Usage::
 Traces one batch (``microsim.goniometer.BATCH`` rays) of the recipe's tile (default
 surfaces/gaussian-0.3.toml) at θi = 30°, then times ``_Sums.add`` on it without harmonics
 and with orders 8, 16, 32, 64 (median of the repeats), for the recipe's grey mirror
-facets (RGB weights equal: 2 + 2 transforms) and for a gold conductor (RGB weights
-differ: 6 + 6 transforms), next to the time of tracing the batch, and for comparison the
+facets (RGB weights equal: per scattering order of the table's default three, 1 + 1
+transforms over that order's rays) and for a gold conductor (RGB weights differ: 3 + 3
+per order), next to the time of tracing the batch, and for comparison the
 direct method (the explicit (n, (L + 1)²) basis and a matrix product per moment). With
 ``--write-docs``
 the Markdown replaces the section between the ``sh-cost`` markers in
@@ -113,8 +114,8 @@ def main() -> None:
         extra = t - base[name]
         lines.append(f"| {name} | {order} | {1000 * t:.1f} ms | {1000 * extra:.1f} ms | "
                      f"{1000 * t_trace:.1f} ms | {100 * extra / t_trace:.0f}% |")
-    lines += ["", "Projecting the same batch (escaping rays, six weight columns: both components, "
-              "RGB all different) with the first and second moments:", "",
+    lines += ["", "Projecting the same batch (escaping rays, six weight columns, RGB all "
+              "different) with the first and second moments:", "",
               "| order | explicit basis + matrix products "
               "| ducc0 (`sh.moments`, orders L and 2L, one thread) |",
               "| --- | --- | --- |"]

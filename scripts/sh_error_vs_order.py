@@ -30,7 +30,7 @@ from microsim.goniometer import simulate
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
 from microsim.tables.sh_error import order_errors
-from microsim.tables.table import COMPONENTS, BRDFTable
+from microsim.tables.table import BRDFTable
 
 ROOT = Path(__file__).resolve().parent.parent
 MARKERS = ("<!-- sh-error-vs-order -->", "<!-- /sh-error-vs-order -->")
@@ -42,7 +42,7 @@ TARGET = 0.05
 def incidence(table: BRDFTable, l: int) -> BRDFTable:
     """The table of incidence ``l`` alone."""
     def one(d: dict) -> dict:
-        return {c: d[c][l:l + 1] for c in COMPONENTS}
+        return {c: v[l:l + 1] for c, v in d.items()}
 
     return BRDFTable(table.bins, table.theta_i[l:l + 1], table.phi_i, table.isotropic,
                      one(table.values), one(table.errors), table.rays[l:l + 1],

@@ -36,7 +36,7 @@ def test_defaults_filled_in():
     assert r["material"] == {"base": {"kind": "mirror"}}
     assert set(r["simulation"]) >= {"theta_i", "phi_i", "rays", "bounces", "seed"}
     assert "target_error" not in r["simulation"]  # optional without default stays absent
-    assert r["table"] == {"theta_bins": 32, "phi_bins": 64, "sh_order": 32}
+    assert r["table"] == {"theta_bins": 32, "phi_bins": 64, "sh_order": 32, "orders": 3}
 
 
 def test_every_shipped_recipe_is_valid():

@@ -19,9 +19,10 @@ from microsim.paths import Paths
 from microsim.recipe import resolve
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
+from microsim.tables.components import components_for
 from microsim.tables.sh_error import bin_integrals, order_errors
 from microsim.tables.sh_matrix import MAX_ORDER, brdf_matrix, matrix_eval
-from microsim.tables.table import COMPONENTS, BRDFTable
+from microsim.tables.table import BRDFTable
 
 Z_MAX = 4.2
 """Two-sided z bound per coefficient: with 81 coefficients (and two components, whose z
@@ -66,15 +67,15 @@ def phong(wi: np.ndarray, wo: np.ndarray, n: int = 8) -> np.ndarray:
 
 
 def harmonics_table(theta_i: np.ndarray, coefficients: np.ndarray) -> BRDFTable:
-    """An isotropic table holding only the given harmonics (grey, both components)."""
+    """An isotropic table holding only the given harmonics (grey, every component)."""
     a = len(theta_i)
-    zeros = {c: np.zeros((a, 1, 2, 2, 3)) for c in COMPONENTS}
-    flat = {c: np.zeros((a, 1, 3)) for c in COMPONENTS}
+    zeros = {c: np.zeros((a, 1, 2, 2, 3)) for c in components_for(3)}
+    flat = {c: np.zeros((a, 1, 3)) for c in components_for(3)}
     grey = np.repeat(coefficients[:, None, :, None], 3, axis=-1)
     return BRDFTable(HemisphereBins(2, 2), theta_i, np.zeros(1), True, zeros, zeros,
                      np.ones((a, 1), np.int64), flat, flat, np.zeros((a, 1, 3)), {},
-                     sh={c: grey for c in COMPONENTS},
-                     sh_err={c: np.zeros_like(grey) for c in COMPONENTS})
+                     sh={c: grey for c in components_for(3)},
+                     sh_err={c: np.zeros_like(grey) for c in components_for(3)})
 
 
 # --- the basis ----------------------------------------------------------------------------
@@ -139,7 +140,8 @@ def test_windows() -> None:
 def test_projection_of_rays_is_unbiased_with_honest_errors() -> None:
     """Rays leave cosine-distributed (pdf cos θo / π) with weight π f(ωo) per colour, so
     E[w Y_k] = ∫ f cos θo Y_k dωo for the Phong lobe about the mirror of θi = 40°; a third
-    of the rays are second order (weight kept), so "single" holds 2/3 of the lobe. The
+    of the rays are second order (weight kept), so "order1" holds 2/3 of the lobe and
+    "order2" 1/3. The
     goniometer's accumulator and estimator give coefficients whose z-scores against the
     exact values (quadrature with scipy's harmonics) stay within Z_MAX, and whose mean z²
     is near 1 (81 nearly independent z²: the mean has sd ≈ 0.16; bounds 0.5–1.6 are
@@ -159,7 +161,7 @@ def test_projection_of_rays_is_unbiased_with_honest_errors() -> None:
         acc.add(paths, bins)
     table = _table(bins, [40.0], [0.0], True, [[acc]], {})
     exact = lobe_coefficients(phong, np.radians([40.0]), order)[0]
-    for comp, share in (("total", 1.0), ("single", 2 / 3)):
+    for comp, share in (("total", 1.0), ("order1", 2 / 3), ("order2", 1 / 3)):
         z = (table.sh[comp][0, 0] - share * exact[:, None] * [1.0, 0.5, 0.25]) / table.sh_err[
             comp][0, 0]
         assert np.abs(z).max() < Z_MAX, comp
@@ -237,7 +239,7 @@ def test_sums_pickle_and_same_seed_gives_same_harmonics_whatever_the_threads() -
     tile = random_tile()
     one = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"], threads=1)
     two = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"], threads=2)
-    for c in COMPONENTS:
+    for c in one.components:
         assert np.array_equal(one.sh[c], two.sh[c]) and np.array_equal(one.sh_err[c],
                                                                        two.sh_err[c])
     acc = _Sums(8, 6)
@@ -246,8 +248,8 @@ def test_sums_pickle_and_same_seed_gives_same_harmonics_whatever_the_threads() -
                                          np.zeros(3), {}), HemisphereBins(2, 4))
     back = pickle.loads(pickle.dumps(acc))
     assert back.sh_order == 6
-    assert all(np.array_equal(back.sh_sums[c], acc.sh_sums[c])
-               and np.array_equal(back.sh_sums_sq[c], acc.sh_sums_sq[c]) for c in COMPONENTS)
+    assert np.array_equal(back.sh_sums, acc.sh_sums)
+    assert np.array_equal(back.sh_sums_sq, acc.sh_sums_sq)
 
 
 def test_merged_tables_merge_their_harmonics() -> None:
@@ -271,7 +273,8 @@ def test_exr_round_trip_and_tables_without_harmonics(rough: BRDFTable, tmp_path)
     rough.write(tmp_path / "t.exr")
     back = microsim.read_table(tmp_path / "t.exr")
     assert back.sh_order == 16
-    for c in COMPONENTS:
+    assert back.components == rough.components == components_for(3)
+    for c in rough.components:
         assert np.allclose(back.sh[c], rough.sh[c], rtol=1e-6, atol=1e-9)
         assert np.allclose(back.sh_err[c], rough.sh_err[c], rtol=1e-6, atol=1e-12)
         assert np.allclose(back.values[c], rough.values[c], rtol=1e-6, atol=1e-9)
@@ -374,7 +377,7 @@ def test_cli_writes_westin_matrix_and_npz_carries_harmonics(rough: BRDFTable, tm
     arrays = np.load(tmp_path / "t.npz")
     assert int(arrays["sh_order"]) == 16
     assert np.allclose(arrays["sh_total"], rough.sh["total"], rtol=1e-6, atol=1e-9)
-    assert arrays["sh_single_err"].shape == rough.sh_err["single"].shape
+    assert arrays["sh_order2_err"].shape == rough.sh_err["order2"].shape
 
 
 @pytest.mark.parametrize("args, words", [

@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from microsim.analytic.ndf import Beckmann
-from microsim.compare import ndf_bin_average
+from microsim.analytic.ndf import Beckmann, ndf_bin_average
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from tilefixtures import flat_tile, height_field_tile, random_tile, vgroove_tile
 
-from microsim.compare import direction, table_difference
+from microsim.compare import direction
 from microsim.errors import InputError
 from microsim.goniometer import simulate
 from microsim.kernel.scatter import facet_frame
@@ -25,6 +25,7 @@ from microsim.recipe import load as resolve_recipe
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
 from microsim.surfaces.vgroove import face_roughness_tile
+from microsim.table_difference import table_difference
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import read_table, write_table
 from microsim.tables.table import BRDFTable

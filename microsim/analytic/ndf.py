@@ -296,3 +296,29 @@ def _alphas(alpha: float | None, alpha_x: float | None,
     if not (ax > 0 and ay > 0 and math.isfinite(ax) and math.isfinite(ay)):
         raise ValueError("roughness must be finite and > 0")
     return ax, ay
+
+
+def ndf_bin_average(ndf: _NDF, edges: np.ndarray, n: int = 16) -> np.ndarray:
+    """Bin averages ∫_B D cos θ dω / ∫_B cos θ dω of an isotropic NDF over θ bins (what a
+    histogram of area-weighted facet normals estimates), by Gauss-Legendre in θ.
+
+    Parameters
+    ----------
+    ndf : NDF
+        With ``D(m)``.
+    edges : (k + 1,) float
+        Bin edges in θ, radians.
+    n : int
+        Gauss-Legendre nodes per bin.
+
+    Returns
+    -------
+    (k,) float
+    """
+    x, w = np.polynomial.legendre.leggauss(n)
+    lo, hi = edges[:-1, None], edges[1:, None]
+    t = lo + (hi - lo) * (x + 1) / 2
+    weights = w * (hi - lo) / 2 * np.cos(t) * np.sin(t)
+    m = np.stack([np.sin(t), np.zeros_like(t), np.cos(t)], axis=-1)
+    return (ndf.D(m) * weights).sum(axis=1) / weights.sum(axis=1)
+

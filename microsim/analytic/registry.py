@@ -29,26 +29,43 @@ class ModelSpec:
     build: Callable[[dict[str, Any]], Any]
 
 
+def _facets(p: dict[str, Any], ndf_name: str) -> tuple[Any, tuple | None]:
+    """The NDF and the Fresnel argument of a microfacet spec."""
+    from microsim.analytic import ndf as ndfs
+
+    name = p.get("ndf", ndf_name)
+    if name == "blinn":
+        dist = ndfs.Blinn(p["n"])
+    elif name == "gaussian":
+        dist = ndfs.TorranceSparrowGaussian(p["c"])
+    else:
+        cls = ndfs.Beckmann if name == "beckmann" else ndfs.GGX
+        dist = (cls(alpha_x=p["alpha_x"], alpha_y=p["alpha_y"])
+                if "alpha_x" in p else cls(p["alpha"]))
+    fresnel = None
+    if "k" in p:
+        fresnel = ("conductor", np.asarray(p.get("eta", [1.5] * 3)), np.asarray(p["k"]))
+    elif "eta" in p:
+        fresnel = ("dielectric", np.asarray(p["eta"]))
+    return dist, fresnel
+
+
 def _microfacet(ndf_name: str) -> Callable[[dict[str, Any]], Any]:
     def build(p: dict[str, Any]) -> Any:
-        from microsim.analytic import ndf as ndfs
         from microsim.analytic.brdf import TorranceSparrow
 
-        name = p.get("ndf", ndf_name)
-        if name == "blinn":
-            dist = ndfs.Blinn(p["n"])
-        elif name == "gaussian":
-            dist = ndfs.TorranceSparrowGaussian(p["c"])
-        else:
-            cls = ndfs.Beckmann if name == "beckmann" else ndfs.GGX
-            dist = (cls(alpha_x=p["alpha_x"], alpha_y=p["alpha_y"])
-                    if "alpha_x" in p else cls(p["alpha"]))
-        fresnel = None
-        if "k" in p:
-            fresnel = ("conductor", np.asarray(p.get("eta", [1.5] * 3)), np.asarray(p["k"]))
-        elif "eta" in p:
-            fresnel = ("dielectric", np.asarray(p["eta"]))
+        dist, fresnel = _facets(p, ndf_name)
         return TorranceSparrow(dist, fresnel=fresnel, shadowing=p["shadowing"])
+
+    return build
+
+
+def _multiple(ndf_name: str) -> Callable[[dict[str, Any]], Any]:
+    def build(p: dict[str, Any]) -> Any:
+        from microsim.analytic.multiple_scattering import SmithMultipleScattering
+
+        dist, fresnel = _facets(p, ndf_name)
+        return SmithMultipleScattering(dist, fresnel, samples=p["samples"], seed=p["seed"])
 
     return build
 
@@ -74,11 +91,27 @@ MICROFACET = {
              low=0.0, high=100.0),
 }
 
+MULTIPLE = {
+    **{k: v for k, v in MICROFACET.items() if k != "shadowing"},
+    "samples": Key("int", 256, "Random walks per estimate: per direction pair, or per "
+                   "bin when compared with a table (the error falls as 1/sqrt).", low=2,
+                   high=10**8),
+    "seed": Key("int", 0, "Seed of the random walks.", low=0, high=2**63 - 1),
+}
+
 MODELS: dict[str, ModelSpec] = {
     "beckmann": ModelSpec("Torrance-Sparrow with a Beckmann NDF.", MICROFACET,
                           _microfacet("beckmann")),
     "ggx": ModelSpec("Torrance-Sparrow with a GGX (Trowbridge-Reitz) NDF.", MICROFACET,
                      _microfacet("ggx")),
+    "beckmann-ms": ModelSpec(
+        "Every scattering order of a Smith microsurface with a Beckmann NDF (Heitz et al. "
+        "2016's random walk; order 1 is Torrance-Sparrow with height-correlated Smith): "
+        "Monte Carlo, each value with its standard error.", MULTIPLE, _multiple("beckmann")),
+    "ggx-ms": ModelSpec(
+        "Every scattering order of a Smith microsurface with a GGX NDF (Heitz et al. "
+        "2016's random walk): Monte Carlo, each value with its standard error.", MULTIPLE,
+        _multiple("ggx")),
     "torrance-sparrow": ModelSpec(
         "Torrance-Sparrow microfacet BRDF with a chosen NDF.",
         {**MICROFACET,

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from microsim.cli import add_json_arg, print_json
+from microsim.cli import add_component_arg, add_json_arg, print_json, table_component
 
 PLOTS = {
     "incidence_plane": "incidence-plane.png",
@@ -28,8 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("table", metavar="TABLE", help="table file (.exr) from microsim simulate")
     p.add_argument("--model", required=True, metavar="SPEC",
                    help="analytic model, e.g. beckmann or beckmann:alpha=0.31")
-    p.add_argument("--component", choices=("total", "single"), default="total",
-                   help="all scattering orders (default) or single scattering only")
+    add_component_arg(p)
     p.add_argument("--out", type=Path, default=None, metavar="DIR",
                    help="write plots and report.md into DIR")
     add_json_arg(p)
@@ -52,6 +51,12 @@ def _fmt(alpha: Any) -> str:
     return ", ".join(f"{a:.3f}" for a in alpha) if isinstance(alpha, list) else f"{alpha:.3f}"
 
 
+def model_albedo(row: dict[str, Any]) -> str:
+    """The model's albedo (mean over RGB), with its standard error if it has one."""
+    value, err = sum(row["albedo_model"]) / 3, sum(row["albedo_model_err"]) / 3
+    return f"{value:.4f} ± {err:.4f}" if err > 0 else f"{value:.4f}"
+
+
 def write_report(out: Path, result: dict[str, Any], title: str) -> Path:
     """``report.md``: the metrics table and every plot, in one page."""
     lines = [f"# {title}", "", f"Model: `{result['model']}` with parameters "
@@ -59,7 +64,8 @@ def write_report(out: Path, result: dict[str, Any], title: str) -> Path:
              f"Overall: median relative error {100 * result['median_rel_error']:.2f}% "
              f"(p90 {100 * result['p90_rel_error']:.2f}%) over lobe bins; z = (sim − model) "
              f"/ stderr has mean {result['z_mean']:.2f} and spread {result['z_std']:.2f} "
-             "(noise alone gives 0 and 1).", "",
+             "(noise alone gives 0 and 1; a Monte Carlo model's own error is part of "
+             "stderr).", "",
              "| θi (°) | φi (°) | median rel | p90 rel | RMS (1/sr) | z mean | z std | "
              "albedo sim | albedo model | multiple scattering |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
@@ -67,8 +73,7 @@ def write_report(out: Path, result: dict[str, Any], title: str) -> Path:
         lines.append(
             f"| {r['theta_i']:.1f} | {r['phi_i']:.1f} | {100 * r['median_rel_error']:.2f}% | "
             f"{100 * r['p90_rel_error']:.2f}% | {r['rms_error']:.4g} | {r['z_mean']:.2f} | "
-            f"{r['z_std']:.2f} | {sum(r['albedo_sim']) / 3:.4f} | "
-            f"{sum(r['albedo_model']) / 3:.4f} | "
+            f"{r['z_std']:.2f} | {sum(r['albedo_sim']) / 3:.4f} | {model_albedo(r)} | "
             f"{100 * r['multiple_scattering_share']:.2f}% |")
     captions = {
         "incidence_plane": "Plane of incidence: simulation (±1 standard error) and model.",
@@ -87,13 +92,14 @@ def run(args: argparse.Namespace) -> int:
     """Compare, print, and draw."""
     import microsim
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import compare_table, model_defaults
+    from microsim.compare import compare_table, model_defaults, model_for
     from microsim.plots import albedo_plot, half_difference_slices, incidence_plane, z_maps
 
     table = microsim.read_table(args.table)
+    args.component = table_component(table, args.component, args.table)
     name, params, model = parse_model_spec(args.model, model_defaults(table.meta))
     result = compare_table(table, model, args.component)
-    model_bins = result.pop("model")
+    model_bins, model_err = result.pop("model"), result.pop("model_err")
     result = {"model": name, "params": params, "component": args.component,
               "table": str(args.table), **result}
     if args.out is not None:
@@ -102,21 +108,23 @@ def run(args: argparse.Namespace) -> int:
         incidence_plane(table, model_bins, args.out / PLOTS["incidence_plane"],
                         args.component, title)
         if table.isotropic:
-            half_difference_slices(table, model, args.out / PLOTS["half_difference"],
+            half_difference_slices(table, model_for(model, args.component),
+                                   args.out / PLOTS["half_difference"],
                                    args.component, title)
-        z_maps(table, model_bins, args.out / PLOTS["z_maps"], args.component, title)
-        albedo_plot(table, model_bins, args.out / PLOTS["albedo"], title)
+        z_maps(table, model_bins, args.out / PLOTS["z_maps"], args.component, title,
+               model_err)
+        albedo_plot(table, model_bins, args.out / PLOTS["albedo"], title, args.component)
         result["report"] = str(write_report(args.out, result, title))
     if args.json:
         print_json(result)
         return 0
     print(f"{args.component} of {args.table} vs {name} {params}")
     print(f"{'theta_i':>8} {'phi_i':>6} {'median rel':>11} {'p90 rel':>8} {'z mean':>7} "
-          f"{'z std':>6} {'albedo sim':>11} {'model':>7} {'multiple':>9}")
+          f"{'z std':>6} {'albedo sim':>11} {'model':>16} {'multiple':>9}")
     for r in result["per_theta_i"]:
         print(f"{r['theta_i']:8.1f} {r['phi_i']:6.1f} {100 * r['median_rel_error']:10.2f}% "
               f"{100 * r['p90_rel_error']:7.2f}% {r['z_mean']:7.2f} {r['z_std']:6.2f} "
-              f"{sum(r['albedo_sim']) / 3:11.4f} {sum(r['albedo_model']) / 3:7.4f} "
+              f"{sum(r['albedo_sim']) / 3:11.4f} {model_albedo(r):>16} "
               f"{100 * r['multiple_scattering_share']:8.2f}%")
     print(f"overall: median relative error {100 * result['median_rel_error']:.2f}%, z mean "
           f"{result['z_mean']:.2f}, z std {result['z_std']:.2f}")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from microsim.cli import positive_int
+from microsim.cli import add_component_arg, positive_int, table_component
 from microsim.errors import InputError
 
 SUFFIXES = {"npz": ".npz", "merl": ".binary", "rgl": ".bsdf"}
@@ -24,8 +24,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--format", required=True, choices=tuple(SUFFIXES), help="output format")
     p.add_argument("-o", "--output", type=Path, required=True,
                    help="output file (.npz, .binary or .bsdf to match --format)")
-    p.add_argument("--component", choices=("total", "single"), default="total",
-                   help="all scattering orders (default) or single scattering")
+    add_component_arg(p)
     p.add_argument("--resolution", type=positive_int, default=32,
                    help="rgl: grid vertices per axis of the colour tensor (default 32)")
     p.set_defaults(func=run)
@@ -42,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
     if args.format == "rgl" and args.resolution < 2:
         raise InputError(f"--resolution {args.resolution}: must be >= 2")
     table = microsim.read_table(args.table)
+    args.component = table_component(table, args.component, args.table)
     if args.format == "merl" and not table.isotropic:
         raise InputError(f"--format {args.format}: writes isotropic tables; {args.table} is "
                          "anisotropic (use --format npz or rgl)")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from microsim.cli import add_json_arg, print_json
+from microsim.cli import add_component_arg, add_json_arg, print_json, table_component
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -26,8 +26,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "per channel, n; the fibre axis and coverage from the table), "
                         "microcylinder (cloth: coverages, eta, lobe widths in radians, kd, "
                         "albedo per yarn family and channel)")
-    p.add_argument("--component", choices=("total", "single"), default="total",
-                   help="all scattering orders (default) or single scattering")
+    add_component_arg(p)
     p.add_argument("--plot", type=Path, default=None, metavar="PNG",
                    help="draw the plane of incidence, table against the fit")
     add_json_arg(p)
@@ -41,6 +40,7 @@ def run(args: argparse.Namespace) -> int:
 
     family(args.model)  # a bad name fails before the table is read
     table = microsim.read_table(args.table)
+    args.component = table_component(table, args.component, args.table)
     result = fit_table(table, args.model, args.component)
     result.pop("fitted")
     bins = result.pop("model_bins")

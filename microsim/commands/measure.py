@@ -120,8 +120,7 @@ def run_ndf(args: argparse.Namespace) -> int:
     """Histogram the facet normals and compare with Beckmann."""
     import numpy as np
 
-    from microsim.analytic.ndf import Beckmann
-    from microsim.compare import ndf_bin_average
+    from microsim.analytic.ndf import Beckmann, ndf_bin_average
     from microsim.surfaces import build_tile
 
     resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "surface")])

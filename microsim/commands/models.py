@@ -72,15 +72,19 @@ def run_eval(args: argparse.Namespace) -> int:
     name, params, model = parse_model_spec(spec)
     wi = direction(*np.radians(args.wi))
     wo = direction(*np.radians(args.wo))
-    f = np.asarray(model.eval(wi, wo), float)
-    value = f.tolist()
+    estimate = getattr(model, "estimate", None)        # Monte Carlo models: with an error
+    f, err = estimate(wi, wo) if estimate is not None else (model.eval(wi, wo), None)
+    value = np.asarray(f, float).tolist()
+    error = None if err is None else np.asarray(err, float).tolist()
     # a model with a singular part (mirror cylinders' cone) has a delta eval cannot give
     delta = singular_albedo(model, wi)
     if args.json:
         print_json({"model": name, "params": params, "wi": list(args.wi),
-                    "wo": list(args.wo), "f_r": value, "singular_albedo": delta})
+                    "wo": list(args.wo), "f_r": value, "singular_albedo": delta,
+                    **({} if error is None else {"f_r_err": error})})
     else:
-        print(f"{name} {params}: f_r = {value} 1/sr")
+        spread = "" if error is None else f" ± {error} (standard error)"
+        print(f"{name} {params}: f_r = {value}{spread} 1/sr")
         if delta > 0:
             print(f"plus a singular part (a delta on the specular cone) reflecting "
                   f"{delta:.4g} of the incident power, which has no value at one "

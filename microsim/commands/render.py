@@ -7,7 +7,15 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from microsim.cli import add_json_arg, finite_float, nonnegative_int, number_list, positive_int
+from microsim.cli import (
+    add_component_arg,
+    add_json_arg,
+    finite_float,
+    nonnegative_int,
+    number_list,
+    positive_int,
+    table_component,
+)
 from microsim.errors import InputError
 
 DEFAULT_SPP = 64
@@ -64,8 +72,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--rotate", type=finite_float, default=0.0, metavar="DEG",
                    help="turn the material about the normal by DEG degrees, from the "
                         "tangent towards the bitangent (default 0)")
-    p.add_argument("--component", choices=("total", "single"), default="total",
-                   help="all scattering orders (default) or single scattering")
+    add_component_arg(p)
     p.add_argument("--model", action="append", default=None, metavar="SPEC",
                    help="also render an analytic model (microsim models lists them), its "
                         "missing parameters from each table, and the relative difference; "
@@ -94,6 +101,8 @@ def run(args: argparse.Namespace) -> int:
     lights = [scene.parse_light(s) for s in (args.light or scene.DEFAULT_LIGHTS)]
     surface = objects.load_object(args.object)
     tables = [microsim.read_table(path) for path in args.tables]
+    components = [table_component(t, args.component, path)
+                  for t, path in zip(tables, args.tables, strict=True)]
     specs = args.model or []
     if len(specs) not in (0, 1, len(tables)):
         raise InputError(f"--model: given {len(specs)} times; give it once, or once per "
@@ -107,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for k, (path, table) in enumerate(zip(args.tables, tables, strict=True)):
             label = Path(path).stem
-            bsdf = bsdfs.table_bsdf(mi, table, Path(tmp) / f"{k}.bsdf", args.component,
+            bsdf = bsdfs.table_bsdf(mi, table, Path(tmp) / f"{k}.bsdf", components[k],
                                     args.rotate)
             image = scene.render(mi, surface, bsdf, camera, lights, args.spp, args.seed)
             entry: dict[str, Any] = {"table": str(path), "seconds": image.seconds,

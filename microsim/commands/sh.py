@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from microsim.cli import add_json_arg, print_json
+from microsim.cli import add_component_arg, add_json_arg, print_json, table_component
 from microsim.errors import InputError
 
 WINDOWS = ("none", "lanczos", "hanning")
@@ -44,8 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--window", choices=WINDOWS, default="none",
                    help="smoothing window against ringing: none (default), lanczos "
                         "(sigma factors) or hanning; the unwindowed error is reported too")
-    p.add_argument("--component", choices=("total", "single"), default="total",
-                   help="all scattering orders (default) or single scattering")
+    add_component_arg(p)
     p.add_argument("--plot", type=Path, default=None, metavar="PNG",
                    help="draw the error against the order, and the plane of incidence of "
                         "the last incidence: table against the series at each order")
@@ -64,6 +63,7 @@ def run(args: argparse.Namespace) -> int:
     from microsim.tables.sh_error import order_errors
 
     table = microsim.read_table(args.table)
+    args.component = table_component(table, args.component, args.table)
     if table.sh is None:
         raise InputError(f"{args.table}: holds no spherical harmonics (simulate it with "
                          "[table] sh_order > 0)")

@@ -90,6 +90,10 @@ def summary(table: Any, output: Path | None) -> dict[str, Any]:
         "albedo": table.albedo.reshape(-1, 3),
         "albedo_err": table.albedo_err.reshape(-1, 3),
         "single_albedo": table.albedo_of["single"].reshape(-1, 3),
+        "orders": table.orders,
+        "order_albedo": {c: table.albedo_of[c].reshape(-1, 3) for c in table.components[1:]},
+        "order_albedo_err": {c: table.albedo_err_of[c].reshape(-1, 3)
+                             for c in table.components[1:]},
         "lost_energy": table.lost_energy.reshape(-1, 3),
         "median_rel_error": table.median_rel_error("total"),
         "sh_order": table.sh_order,
@@ -100,13 +104,15 @@ def summary(table: Any, output: Path | None) -> dict[str, Any]:
 
 def print_summary(s: dict[str, Any]) -> None:
     """Aligned text for people."""
-    print(f"{'theta_i':>8} {'phi_i':>6} {'rays':>11} {'albedo':>17} {'single':>8} "
-          f"{'lost':>9}  stop")
+    orders = s["order_albedo"]
+    print(f"{'theta_i':>8} {'phi_i':>6} {'rays':>11} {'albedo':>17} "
+          + "".join(f"{c:>9}" for c in orders) + f" {'lost':>9}  stop")
     for k, theta in enumerate(s["theta_i"]):
         a, e = s["albedo"][k].mean(), s["albedo_err"][k].mean()
         print(f"{theta:8.1f} {s['phi_i'][k]:6.1f} {s['rays_per_direction'][k]:11,d} "
-              f"{a:9.5f} ± {e:.5f} {s['single_albedo'][k].mean():8.5f} "
-              f"{s['lost_energy'][k].mean():9.2e}  {s['stop'][k]}")
+              f"{a:9.5f} ± {e:.5f} "
+              + "".join(f"{v[k].mean():9.5f}" for v in orders.values())
+              + f" {s['lost_energy'][k].mean():9.2e}  {s['stop'][k]}")
     surface = s["surface"]
     if "alpha_realised" in surface:
         print(f"surface: alpha target {surface['alpha_target']}, realised "

@@ -1,13 +1,16 @@
 """Escape records into sums, compiled and in ray order.
 
 A run's outcomes are written per ray (``transport``); these loops read them in ray order,
-so every floating-point sum is added in the same order whatever the threads and chunks
-that traced the rays: a table is the same bit for bit.
+in blocks of ``BLOCK`` rays whose sums are added in block order (``in_blocks``), so every
+floating-point sum is added in the same order whatever the threads and chunks that traced
+the rays, and whichever threads summed the blocks: a table is the same bit for bit.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -23,6 +26,40 @@ from microsim.kernel.transport import (
     S_W0,
     TRANSMITTED,
 )
+
+BLOCK = 8192
+"""Rays per block of the sums: a fixed partition of a run, independent of the tracer's
+chunks, so the blocks can be summed on any threads."""
+
+
+def in_blocks(fn: Callable[[int, int], tuple[np.ndarray, ...]], n: int,
+              mapper: Callable[[Callable[[int], Any], range], list[Any]] | None = None
+              ) -> tuple[np.ndarray, ...]:
+    """Sums over rays [0, n) made block by block and added in block order.
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn(a, b)`` returns a tuple of arrays summed over rays [a, b).
+    n : int
+        Rays.
+    mapper : callable or None
+        ``mapper(g, range(k))`` returns ``[g(0), …, g(k − 1)]`` in any schedule (e.g.
+        ``PeriodicScene.map``); default: one block after the other.
+
+    Returns
+    -------
+    tuple of arrays
+        The element-wise sums, the blocks added in order.
+    """
+    starts = range(0, n, BLOCK)
+    run = mapper or (lambda g, jobs: [g(j) for j in jobs])
+    parts = run(lambda a: fn(a, min(a + BLOCK, n)), starts)
+    total = [np.array(x, copy=True) for x in parts[0]]
+    for part in parts[1:]:
+        for acc, x in zip(total, part, strict=True):
+            acc += x
+    return tuple(total)
 
 
 @njit(**JIT)
@@ -40,14 +77,12 @@ def summarise(out_f: np.ndarray, out_i: np.ndarray, direction: np.ndarray,
     order : (n,) int
         Filled with each escaped ray's scattering order (0 for the others).
     energy : (3, 3) float
-        Filled with the summed RGB weight lost (paths ended by the simulation), transmitted
+        Running summed RGB weight lost (paths ended by the simulation), transmitted
         (1 − F at non-refracting dielectrics; paths out through the bottom after a
         refraction) and absorbed.
     counts : (len(FATES),) int
-        Filled with the paths per fate.
+        Running paths per fate.
     """
-    energy[:, :] = 0.0
-    counts[:] = 0
     for r in range(len(out_i)):
         fate = out_i[r, O_FATE]
         counts[fate] += 1

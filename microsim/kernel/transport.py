@@ -207,22 +207,30 @@ def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
     """
     k = len(origins)
     for j in range(k):
-        for c in range(SLOT_FLOATS):
-            slots_f[j, c] = 0.0
-        slots_f[j, S_PX] = _wrap(origins[j, 0], box[B_LX])
-        slots_f[j, S_PY] = _wrap(origins[j, 1], box[B_LY])
-        slots_f[j, S_PZ] = origins[j, 2]
-        slots_f[j, S_UX] = origins[j, 0] - slots_f[j, S_PX]
-        slots_f[j, S_UY] = origins[j, 1] - slots_f[j, S_PY]
-        _aim(slots_f, j, dirs[j, 0], dirs[j, 1], dirs[j, 2], box)
-        slots_f[j, S_W0] = slots_f[j, S_W1] = slots_f[j, S_W2] = 1.0
+        px, py = _wrap(origins[j, 0], box[B_LX]), _wrap(origins[j, 1], box[B_LY])
+        slots_f[j, S_PX], slots_f[j, S_PY], slots_f[j, S_PZ] = px, py, origins[j, 2]
+        slots_f[j, S_UX], slots_f[j, S_UY] = origins[j, 0] - px, origins[j, 1] - py
+        dx, dy, dz = dirs[j, 0], dirs[j, 1], dirs[j, 2]
+        if j > 0 and dx == dirs[j - 1, 0] and dy == dirs[j - 1, 1] and dz == dirs[j - 1, 2]:
+            # a beam: the previous ray's sides, reciprocals and budget
+            for c in range(S_DX, S_DZ + 1):
+                slots_f[j, c] = slots_f[j - 1, c]
+            for c in range(S_SX, S_IZ + 1):
+                slots_f[j, c] = slots_f[j - 1, c]
+            slots_i[j, I_BUDGET] = slots_i[j - 1, I_BUDGET]
+        else:
+            _aim(slots_f, j, dx, dy, dz, box)
+            slots_i[j, I_BUDGET] = budget(dx, dy, dz, box)
+        for c in range(3):
+            slots_f[j, S_W0 + c] = 1.0
+            slots_f[j, S_A0 + c] = 0.0
+            slots_f[j, S_T0 + c] = 0.0
         slots_f[j, S_Z0] = origins[j, 2]
         slots_i[j, I_RAY] = first + j
         slots_i[j, I_MEDIUM] = media[j]
         slots_i[j, I_CROSSED] = 0
         slots_i[j, I_BOUNCE] = 0
         slots_i[j, I_SEG] = 0
-        slots_i[j, I_BUDGET] = budget(dirs[j, 0], dirs[j, 1], dirs[j, 2], box)
         _queue(slots_f, slots_i, live, o32, d32, t32, j, j, box)
     return k
 

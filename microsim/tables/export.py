@@ -16,7 +16,7 @@ import numpy as np
 
 from microsim.compare import direction, half_difference
 from microsim.files import atomic_path
-from microsim.tables.table import COMPONENTS, BRDFTable
+from microsim.tables.table import BRDFTable
 
 MERL_SHAPE = (90, 90, 180)
 MERL_SCALE = np.array([1.0 / 1500, 1.15 / 1500, 1.66 / 1500])
@@ -27,20 +27,25 @@ def write_npz(table: BRDFTable, path: str | Path) -> None:
     """Axes, values, errors and albedo as plain numpy arrays.
 
     Keys: ``theta_i``, ``phi_i`` (radians), ``theta_o_edges``, ``phi_o_edges`` (radians),
-    ``total``, ``total_err``, ``single``, ``single_err`` ((n_theta_i, n_phi_i, theta_bins,
-    phi_bins, 3), f_r in 1/sr and standard errors, NaN where undefined), ``albedo``,
-    ``albedo_err``, ``lost_energy`` ((n_theta_i, n_phi_i, 3)), ``isotropic`` (bool), and
-    ``meta`` (the table's metadata as a JSON string); with spherical harmonics also
-    ``sh_order`` and ``sh_total``, ``sh_total_err``, ``sh_single``, ``sh_single_err``
-    ((n_theta_i, n_phi_i, (L + 1)², 3), docs/table-format.md).
+    ``components`` (the component names, ``"total"`` first), and per component C (e.g.
+    ``total``, ``order1``, ``order2``, ``order3+``) ``C``, ``C_err`` ((n_theta_i, n_phi_i,
+    theta_bins, phi_bins, 3), f_r in 1/sr and standard errors, NaN where undefined) and
+    ``albedo_C``, ``albedo_C_err`` ((n_theta_i, n_phi_i, 3)); ``albedo``, ``albedo_err``
+    (of the total) and ``lost_energy`` ((n_theta_i, n_phi_i, 3)), ``isotropic`` (bool),
+    and ``meta`` (the table's metadata as a JSON string); with spherical harmonics also
+    ``sh_order`` and ``sh_C``, ``sh_C_err`` ((n_theta_i, n_phi_i, (L + 1)², 3),
+    docs/table-format.md).
     """
     arrays = {"theta_i": table.theta_i, "phi_i": table.phi_i,
               "theta_o_edges": table.bins.theta_edges, "phi_o_edges": table.bins.phi_edges,
+              "components": np.array(table.components),
               "albedo": table.albedo, "albedo_err": table.albedo_err,
               "lost_energy": table.lost_energy, "isotropic": np.array(table.isotropic),
               "meta": np.array(json.dumps(table.meta, default=str))}
-    for c in COMPONENTS:
+    for c in table.components:
         arrays[c], arrays[f"{c}_err"] = table.values[c], table.errors[c]
+        arrays[f"albedo_{c}"], arrays[f"albedo_{c}_err"] = (table.albedo_of[c],
+                                                            table.albedo_err_of[c])
         if table.sh is not None and table.sh_err is not None:
             arrays[f"sh_{c}"], arrays[f"sh_{c}_err"] = table.sh[c], table.sh_err[c]
             arrays["sh_order"] = np.array(table.sh_order)

@@ -1,9 +1,11 @@
 """BRDF tables as OpenEXR files (docs/table-format.md describes the layout).
 
-One scanline image of float32 channels ``{total,single}{,_err}.{R,G,B}``. Image rows run
-over (θi, φi, θo) in row-major order, columns over φo. The string attribute ``microsim``
-holds JSON with the axes (bin edges in radians), the channel layout, the per-incidence
-albedo, errors and lost energy at full precision, and the caller's metadata. A table with
+One scanline image of float32 channels ``{component}{,_err}.{R,G,B}`` for every component
+(``total``, ``order1``, …, ``order{N}+``). Image rows run over (θi, φi, θo) in row-major
+order, columns over φo. The string attribute ``microsim`` holds JSON with the axes (bin
+edges in radians), the channel layout, the per-incidence albedo of every component, errors
+and lost energy at full precision, and the caller's metadata. Format 1 files (components
+``total`` and ``single``) still read, with ``single`` as ``order1``. A table with
 spherical harmonics is a two-part file: the bins in part 0 (``table``), the coefficients
 in part 1 (``sh``: rows over (θi, φi), columns over the flat index l² + l + m, the same
 channel names, and a ``microsim_sh`` JSON attribute). Files are written atomically: a
@@ -22,9 +24,11 @@ import numpy as np
 from microsim.errors import InputError
 from microsim.files import atomic_path
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.table import COMPONENTS, BRDFTable
+from microsim.tables.table import BRDFTable
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+"""Written; 2 added the order components (1 held ``total`` and ``single``)."""
+READ_VERSIONS = (1, 2)
 ATTRIBUTE = "microsim"
 SH_ATTRIBUTE = "microsim_sh"
 SH_PART = "sh"
@@ -64,14 +68,15 @@ def header_json(table: BRDFTable) -> dict[str, Any]:
         "layout": {"rows": ["theta_i", "phi_i", "theta_o"], "columns": ["phi_o"],
                    "shape": [a, b, nt, np_],
                    "row": "(i_theta_i * n_phi_i + i_phi_i) * n_theta_o + i_theta_o",
-                   "channels": [f"{c}{s}.{k}" for c in COMPONENTS for s in ("", "_err")
-                                for k in COLOURS],
+                   "channels": _channel_names(table),
                    "value": "f_r in 1/sr (never times cos theta_o); *_err: standard error, "
                             "NaN where undefined (no ray landed in the bin)"},
+        "components": table.components,
+        "orders": table.orders,
         "rays": table.rays,
         "albedo": table.albedo_of["total"], "albedo_err": table.albedo_err_of["total"],
-        "single_albedo": table.albedo_of["single"],
-        "single_albedo_err": table.albedo_err_of["single"],
+        "order_albedo": {c: table.albedo_of[c] for c in table.components[1:]},
+        "order_albedo_err": {c: table.albedo_err_of[c] for c in table.components[1:]},
         "lost_energy": table.lost_energy,
         "meta": table.meta,
     })
@@ -89,17 +94,21 @@ def sh_header_json(table: BRDFTable) -> dict[str, Any]:
             "index": "l * l + l + m",
             "azimuth": "phi_o - phi_i" if table.isotropic else "phi_o",
             "rows": "i_theta_i * n_phi_i + i_phi_i", "shape": [a, b],
-            "channels": [f"{c}{s}.{k}" for c in COMPONENTS for s in ("", "_err")
-                         for k in COLOURS],
+            "channels": _channel_names(table),
             "value": "*_err: standard error of the coefficient"}
+
+
+def _channel_names(table: BRDFTable) -> list[str]:
+    """``{component}{,_err}.{R,G,B}`` for every component of the table."""
+    return [f"{c}{s}.{k}" for c in table.components for s in ("", "_err") for k in COLOURS]
 
 
 def _channels(values: dict[str, np.ndarray], errors: dict[str, np.ndarray], rows: int
               ) -> dict[str, np.ndarray]:
-    """float32 channels ``{c}{,_err}.{R,G,B}`` of (..., columns, 3) arrays as images of
-    ``rows`` rows."""
+    """float32 channels ``{c}{,_err}.{R,G,B}`` of (..., columns, 3) arrays, one pair per
+    component ``c``, as images of ``rows`` rows."""
     channels = {}
-    for c in COMPONENTS:
+    for c in values:
         for suffix, data in (("", values[c]), ("_err", errors[c])):
             image = data.reshape(rows, -1, 3)
             for k, colour in enumerate(COLOURS):
@@ -179,10 +188,19 @@ def read_table(path: str | Path) -> BRDFTable:
         info = json.loads(header[ATTRIBUTE])
     except (TypeError, json.JSONDecodeError):
         raise InputError(f"{path}: the '{ATTRIBUTE}' attribute is not JSON") from None
-    if not isinstance(info, dict) or info.get("format_version") != FORMAT_VERSION:
+    if not isinstance(info, dict) or info.get("format_version") not in READ_VERSIONS:
         version = info.get("format_version") if isinstance(info, dict) else None
-        raise InputError(f"{path}: table format version {version!r}; "
-                         f"this microsim reads version {FORMAT_VERSION}")
+        raise InputError(f"{path}: table format version {version!r}; this microsim "
+                         f"reads versions {', '.join(map(str, READ_VERSIONS))}")
+    if info["format_version"] == 1:
+        # format 1: the components total and single; single is stored as order1 now
+        stored = ("total", "single")
+        albedo = {"total": info["albedo"], "single": info["single_albedo"]}
+        albedo_err = {"total": info["albedo_err"], "single": info["single_albedo_err"]}
+    else:
+        stored = tuple(info["components"])
+        albedo = {"total": info["albedo"], **info["order_albedo"]}
+        albedo_err = {"total": info["albedo_err"], **info["order_albedo_err"]}
     axes = info["axes"]
     bins = HemisphereBins.from_dict(axes)
     shape = tuple(info["layout"]["shape"]) + (3,)
@@ -195,14 +213,13 @@ def read_table(path: str | Path) -> BRDFTable:
     sh = sh_err = None
     if SH_ATTRIBUTE in sh_header:
         sh_shape = tuple(shape[:2]) + (json.loads(sh_header[SH_ATTRIBUTE])["coefficients"], 3)
-        sh = {c: load(c, sh_pixels, sh_shape) for c in COMPONENTS}
-        sh_err = {c: load(f"{c}_err", sh_pixels, sh_shape) for c in COMPONENTS}
+        sh = {c: load(c, sh_pixels, sh_shape) for c in stored}
+        sh_err = {c: load(f"{c}_err", sh_pixels, sh_shape) for c in stored}
 
     return BRDFTable(
         bins, _array(axes["theta_i"]["values"]), _array(axes["phi_i"]["values"]),
         info["isotropic"],
-        {c: load(c) for c in COMPONENTS}, {c: load(f"{c}_err") for c in COMPONENTS},
+        {c: load(c) for c in stored}, {c: load(f"{c}_err") for c in stored},
         np.array(info["rays"], np.int64),
-        {"total": _array(info["albedo"]), "single": _array(info["single_albedo"])},
-        {"total": _array(info["albedo_err"]), "single": _array(info["single_albedo_err"])},
+        {c: _array(albedo[c]) for c in stored}, {c: _array(albedo_err[c]) for c in stored},
         _array(info["lost_energy"]), info["meta"], sh=sh, sh_err=sh_err)

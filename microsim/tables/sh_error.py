@@ -106,7 +106,7 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
         ``"none"``, ``"lanczos"`` or ``"hanning"`` (``sh.window``), applied to each
         truncation.
     component : str
-        ``"total"`` or ``"single"``.
+        A component of the table (``"total"``, ``"single"``, ``"order2"``, …).
 
     Returns
     -------
@@ -129,6 +129,7 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
     """
     if table.sh is None or table.sh_err is None:
         raise ValueError("the table holds no spherical harmonics")
+    component = table.component(component)
     a, b = table.rays.shape
     omega_proj = table.bins.projected_solid_angle.ravel()
     integrals, omega = bin_integrals(max(orders), table.bins)

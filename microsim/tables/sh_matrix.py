@@ -62,7 +62,7 @@ def brdf_matrix(table: BRDFTable, order: int | None = None, component: str = "to
     order : int or None
         Order L of both bases (default: the stored order, at most ``MAX_ORDER``).
     component : str
-        ``"total"`` or ``"single"``.
+        A component of the table (``"total"``, ``"single"``, ``"order2"``, …).
     nodes : int or None
         Gauss-Legendre nodes in θi per interval between incidences (default L + 8: the
         integrand x P̃_l(x) sin θi is a trigonometric polynomial of degree ≤ L + 2 in θi
@@ -88,7 +88,7 @@ def brdf_matrix(table: BRDFTable, order: int | None = None, component: str = "to
     order = min(table.sh_order, MAX_ORDER) if order is None else order
     if order > MAX_ORDER:
         raise ValueError(f"order {order}: the dense matrix is built up to order {MAX_ORDER}")
-    a = sh.truncate(table.sh[component], order)[:, 0]            # (n_theta_i, n, 3)
+    a = sh.truncate(table.sh[table.component(component)], order)[:, 0]   # (n_theta_i, n, 3)
     theta, w = _theta_quadrature(table.theta_i, order + 8 if nodes is None else nodes)
     i0, i1, w1 = linear_weights(theta, table.theta_i)
     interp = np.zeros((len(theta), len(table.theta_i)))

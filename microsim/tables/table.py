@@ -3,8 +3,12 @@
 Axes are (θi, φi, θo, φo): incident directions are the product of ``theta_i`` and
 ``phi_i``; outgoing bins are ``HemisphereBins``. For an isotropic surface ``phi_i`` is
 ``[0]`` and the outgoing azimuth is relative, φo − φi. Arrays of values and errors have
-shape (n_theta_i, n_phi_i, theta_bins, phi_bins, 3) (RGB). Components: ``"total"`` (all
-scattering orders) and ``"single"`` (first order only).
+shape (n_theta_i, n_phi_i, theta_bins, phi_bins, 3) (RGB).
+
+Components split the escaping light by scattering order (bounces before escaping): a
+table simulated with ``orders = N`` holds ``"total"`` (all orders) and ``"order1"``, …,
+``"order{N-1}"`` and ``"order{N}+"`` (N and above), which add up to the total.
+``"single"`` is another name for ``"order1"`` (single scattering).
 """
 
 from __future__ import annotations
@@ -17,9 +21,14 @@ import numpy as np
 
 from microsim.tables import sh
 from microsim.tables.binning import TWO_PI, HemisphereBins
+from microsim.tables.components import (
+    ALIASES,
+    canonical_component,
+    order_components,
+    order_range,
+)
 from microsim.tables.interpolation import linear_weights
 
-COMPONENTS = ("total", "single")
 CHUNK = 65536
 """Direction pairs interpolated at once by ``eval`` and ``stderr``."""
 SH_CHUNK = 1 << 22
@@ -68,14 +77,17 @@ class BRDFTable:
     isotropic : bool
         Outgoing azimuths are relative to the incident one.
     values, errors : dict of str to (a, b, nt, np, 3) float
-        f_r (1/sr) and its standard error per component; an error is NaN where it is
+        f_r (1/sr) and its standard error per component (``"total"`` and the order
+        components; ``"single"`` is read as ``"order1"``); an error is NaN where it is
         undefined (no ray landed in the bin).
     rays : (a, b) int
         Rays launched per incident direction.
-    albedo, albedo_err, single_albedo, single_albedo_err, lost_energy : (a, b, 3) float
-        Directional albedo ∫ f_r cos θo dωo (of escaping light, all orders / first order)
-        with standard errors, and the energy of paths still alive after the bounce limit
-        or absorbed by transmission (per unit incident power).
+    albedo, albedo_err : dict of str to (a, b, 3) float
+        Directional albedo ∫ f_r cos θo dωo of the escaping light per component, with
+        standard errors (the attributes ``albedo_of`` and ``albedo_err_of``).
+    lost_energy : (a, b, 3) float
+        The energy of paths still alive after the bounce limit or absorbed by
+        transmission (per unit incident power).
     meta : dict
         Free-form JSON-able metadata (recipe, surface facts, seed, timings).
     sums, sums_sq : dict or None
@@ -90,6 +102,12 @@ class BRDFTable:
     sh_sums, sh_sums_sq : dict or None
         Raw sums Σ w Y_k (a, b, (L + 1)², 3) and Σ w² Y_K to order 2L (a, b, (2L + 1)², 3)
         of fresh estimates, merged by ``+``.
+
+    Attributes
+    ----------
+    components : tuple of str
+        The stored component names, ``"total"`` first, then the orders from the lowest
+        (``components_for(N)`` for a table simulated with ``orders = N``).
     """
 
     def __init__(self, bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
@@ -108,18 +126,23 @@ class BRDFTable:
         self.theta_i = np.asarray(theta_i, float)
         self.phi_i = np.asarray(phi_i, float)
         self.isotropic = bool(isotropic)
-        self.values = {c: np.asarray(values[c], float) for c in COMPONENTS}
-        self.errors = {c: np.asarray(errors[c], float) for c in COMPONENTS}
+        self.components = _components_of(values)
+        self.values = _by_component(values, self.components, float)
+        self.errors = _by_component(errors, self.components, float)
         self.rays = np.asarray(rays, np.int64)
-        self.albedo_of = {c: np.asarray(albedo[c], float) for c in COMPONENTS}
-        self.albedo_err_of = {c: np.asarray(albedo_err[c], float) for c in COMPONENTS}
+        self.albedo_of = _by_component(albedo, self.components, float)
+        self.albedo_err_of = _by_component(albedo_err, self.components, float)
         self.lost_energy = np.asarray(lost_energy, float)
         self.meta = dict(meta)
-        self.sums, self.sums_sq, self.lost = sums, sums_sq, lost
-        self.sh = None if sh is None else {c: np.asarray(sh[c], float) for c in COMPONENTS}
-        self.sh_err = None if sh_err is None else {c: np.asarray(sh_err[c], float)
-                                                   for c in COMPONENTS}
-        self.sh_sums, self.sh_sums_sq = sh_sums, sh_sums_sq
+        self.sums = None if sums is None else _by_component(sums, self.components)
+        self.sums_sq = None if sums_sq is None else _by_component(sums_sq, self.components)
+        self.lost = lost
+        self.sh = None if sh is None else _by_component(sh, self.components, float)
+        self.sh_err = None if sh_err is None else _by_component(sh_err, self.components,
+                                                                float)
+        self.sh_sums = None if sh_sums is None else _by_component(sh_sums, self.components)
+        self.sh_sums_sq = None if sh_sums_sq is None else _by_component(sh_sums_sq,
+                                                                        self.components)
 
     @classmethod
     def from_sums(cls, bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
@@ -147,7 +170,7 @@ class BRDFTable:
         rays : (a, b) int
             Rays launched per incident direction.
         sums, sums_sq : dict of str to (a, b, nt·np, 3) float
-            Σw and Σw² per bin for "total" and "single".
+            Σw and Σw² per bin for every component (``"total"`` and the orders).
         lost : (a, b, 3) float
             Summed weight of paths lost (bounce limit, transmission).
         meta : dict
@@ -170,13 +193,15 @@ class BRDFTable:
         if rays.shape != (len(theta_i), len(phi_i)) or np.any(rays < 1):
             raise ValueError(f"rays must be (n_theta_i, n_phi_i) = "
                              f"({len(theta_i)}, {len(phi_i)}) counts >= 1, got shape {rays.shape}")
-        for c in COMPONENTS:
+        components = _components_of(sums)
+        sums, sums_sq = _by_component(sums, components), _by_component(sums_sq, components)
+        for c in components:
             expected = rays.shape + (bins.size, 3)
             if not np.shape(sums[c]) == np.shape(sums_sq[c]) == expected:
                 raise ValueError(f"sums[{c!r}] and sums_sq[{c!r}] must have shape {expected}")
         omega = bins.projected_solid_angle.reshape(1, 1, -1, 1)
         values, errors, albedo, albedo_err = {}, {}, {}, {}
-        for c in COMPONENTS:
+        for c in components:
             s1, s2 = np.asarray(sums[c], float), np.asarray(sums_sq[c], float)
             mean, err = _mean_and_error(s1, s2, rays)
             values[c] = (mean / omega).reshape(shape)
@@ -187,7 +212,9 @@ class BRDFTable:
         sh_values = sh_errors = None
         if sh_sums is not None and sh_sums_sq is not None:
             sh_values, sh_errors = {}, {}
-            for c in COMPONENTS:
+            sh_sums = _by_component(sh_sums, components)
+            sh_sums_sq = _by_component(sh_sums_sq, components)
+            for c in components:
                 s1 = np.asarray(sh_sums[c], float)
                 order = sh.order_of(s1.shape[-2])
                 if s1.shape != rays.shape + (sh.size(order), 3) or np.shape(
@@ -198,8 +225,8 @@ class BRDFTable:
                     s1, sh.second_moments(sh_sums_sq[c], order), rays)
         return cls(bins, theta_i, phi_i, isotropic, values, errors, rays, albedo, albedo_err,
                    np.asarray(lost, float) / rays[..., None], meta,
-                   sums={c: np.asarray(sums[c], float) for c in COMPONENTS},
-                   sums_sq={c: np.asarray(sums_sq[c], float) for c in COMPONENTS},
+                   sums={c: np.asarray(sums[c], float) for c in components},
+                   sums_sq={c: np.asarray(sums_sq[c], float) for c in components},
                    lost=np.asarray(lost, float), sh=sh_values, sh_err=sh_errors,
                    sh_sums=sh_sums, sh_sums_sq=sh_sums_sq)
 
@@ -212,17 +239,21 @@ class BRDFTable:
                 and np.array_equal(self.phi_i, other.phi_i))
         if not same:
             raise ValueError("tables with different axes do not merge")
+        if self.components != other.components:
+            raise ValueError(f"tables with different components do not merge: "
+                             f"{self.components} and {other.components}")
+        components = self.components
         harmonics = (self.sh_sums is not None and other.sh_sums is not None
                      and self.sh_order == other.sh_order)
 
         def merged(a: Mapping[str, np.ndarray] | None, b: Mapping[str, np.ndarray] | None
                    ) -> dict[str, np.ndarray] | None:
-            return {c: a[c] + b[c] for c in COMPONENTS} if harmonics else None
+            return {c: a[c] + b[c] for c in components} if harmonics else None
 
         return BRDFTable.from_sums(
             self.bins, self.theta_i, self.phi_i, self.isotropic, self.rays + other.rays,
-            {c: self.sums[c] + other.sums[c] for c in COMPONENTS},
-            {c: self.sums_sq[c] + other.sums_sq[c] for c in COMPONENTS},
+            {c: self.sums[c] + other.sums[c] for c in components},
+            {c: self.sums_sq[c] + other.sums_sq[c] for c in components},
             self.lost + other.lost, self.meta, sh_sums=merged(self.sh_sums, other.sh_sums),
             sh_sums_sq=merged(self.sh_sums_sq, other.sh_sums_sq))
 
@@ -247,24 +278,47 @@ class BRDFTable:
     @property
     def single_albedo(self) -> np.ndarray:
         """(a, b, 3) directional albedo of single scattering."""
-        return self.albedo_of["single"]
+        return self.albedo_of["order1"]
 
     @property
     def single_albedo_err(self) -> np.ndarray:
         """(a, b, 3) standard error of ``single_albedo``."""
-        return self.albedo_err_of["single"]
+        return self.albedo_err_of["order1"]
+
+    @property
+    def orders(self) -> int | None:
+        """N when the table splits all of its light into ``order_components(N)``; None
+        when it holds first-order scattering alone besides the total (format 1 files)."""
+        n = len(self.components) - 1
+        return n if n and self.components[1:] == order_components(n) else None
+
+    def component(self, name: str) -> str:
+        """The stored name of one of this table's components (``"single"`` →
+        ``"order1"``).
+
+        Raises
+        ------
+        ValueError
+            If the name is not a component, or not one this table holds.
+        """
+        canonical = canonical_component(name)
+        if canonical not in self.components:
+            raise ValueError(f"component {name!r}: this table holds "
+                             + ", ".join(self.components))
+        return canonical
 
     def lobe_mask(self, component: str = "total",
                   threshold: float = LOBE_FRACTION) -> np.ndarray:
         """(a, b, nt, np) bool: bins whose f_r (mean over RGB) is at least ``threshold``
         times the peak of their incidence."""
-        f = self.values[component].mean(axis=-1)
+        f = self.values[self.component(component)].mean(axis=-1)
         peak = f.max(axis=(2, 3), keepdims=True)
         return (f >= threshold * peak) & (peak > 0)
 
     def median_rel_error(self, component: str = "total") -> float:
         """Median relative standard error over the lobe bins of every incidence (NaN
         errors, i.e. empty bins, count as infinitely uncertain)."""
+        component = self.component(component)
         f = self.values[component].mean(axis=-1)
         e = self.errors[component].mean(axis=-1)
         lobe = self.lobe_mask(component)
@@ -349,7 +403,7 @@ class BRDFTable:
         wi, wo : (..., 3) float
             Unit directions towards the light and the viewer, local frame.
         component : str
-            ``"total"`` or ``"single"``.
+            A component of the table (``components``; ``"single"`` is ``"order1"``).
         representation : str
             ``"table"`` (the bins, as above) or ``"sh"``: f_r = Σ_k c_k Y_k(ωo) / cos θo
             from the coefficients of f_r cos θo, interpolated linearly in θi (and φi) as
@@ -367,11 +421,11 @@ class BRDFTable:
             For an unknown ``representation``, or ``"sh"`` on a table without harmonics.
         """
         if representation == "sh":
-            return self._eval_sh(wi, wo, self._component(component))
+            return self._eval_sh(wi, wo, self.component(component))
         if representation != "table":
             raise ValueError(f"representation must be one of {REPRESENTATIONS}, "
                              f"got {representation!r}")
-        data = self.values[self._component(component)].reshape(-1, 3)
+        data = self.values[self.component(component)].reshape(-1, 3)
         return self._per_pair(lambda nodes, w: np.einsum("nk,nkc->nc", w, data[nodes]),
                               wi, wo)
 
@@ -418,14 +472,14 @@ class BRDFTable:
         wi, wo : (..., 3) float
             Unit directions, local frame.
         component : str
-            ``"total"`` or ``"single"``.
+            A component of the table (``components``; ``"single"`` is ``"order1"``).
 
         Returns
         -------
         (..., 3) float
             Standard error of f_r in 1/sr per colour.
         """
-        err = self.errors[self._component(component)].reshape(-1, 3)
+        err = self.errors[self.component(component)].reshape(-1, 3)
 
         def kernel(nodes: np.ndarray, weights: np.ndarray) -> np.ndarray:
             known = np.isfinite(err[nodes])                               # (n, 16, 3)
@@ -444,8 +498,45 @@ class BRDFTable:
 
         write_table(self, path)
 
-    @staticmethod
-    def _component(component: str) -> str:
-        if component not in COMPONENTS:
-            raise ValueError(f"component must be one of {COMPONENTS}, got {component!r}")
-        return component
+
+def _components_of(data: Mapping[str, Any]) -> tuple[str, ...]:
+    """The components of a per-component mapping, by stored name: ``"total"`` first, then
+    the orders from the lowest (``"single"`` counts as ``"order1"``).
+
+    Raises
+    ------
+    ValueError
+        If ``"total"`` is missing or a name is not a component, or two names are the same
+        component.
+    """
+    names = [canonical_component(c) for c in data]
+    if "total" not in names or len(set(names)) != len(names):
+        raise ValueError(f"components must include 'total', each once; got {list(data)}")
+    orders = sorted((c for c in names if c != "total"),
+                    key=lambda c: (order_range(c)[0], order_range(c)[1] is None))
+    return ("total", *orders)
+
+
+class ByComponent(dict):
+    """Per-component arrays keyed by stored names that also answer to the other names
+    (``ALIASES``): ``values["single"]`` is ``values["order1"]``. Iteration gives the
+    stored names."""
+
+    def __getitem__(self, key: str) -> Any:
+        return super().__getitem__(ALIASES.get(key, key))
+
+    def __contains__(self, key: object) -> bool:
+        return super().__contains__(ALIASES.get(key, key) if isinstance(key, str) else key)
+
+    def get(self, key: str, default: Any = None) -> Any:
+        """``self[key]`` if present, else ``default``."""
+        return self[key] if key in self else default
+
+
+def _by_component(data: Mapping[str, Any], components: tuple[str, ...],
+                  dtype: type | None = None) -> ByComponent:
+    """``data`` keyed by stored component names, in the order of ``components``."""
+    named = {canonical_component(c): v for c, v in data.items()}
+    if dtype is None:
+        return ByComponent((c, named[c]) for c in components)
+    return ByComponent((c, np.asarray(named[c], dtype)) for c in components)

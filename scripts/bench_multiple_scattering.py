@@ -1,0 +1,89 @@
+"""What the multiple-scattering reference (Heitz et al. 2016's random walk) costs.
+
+Usage::
+
+    python scripts/bench_multiple_scattering.py [--repeats 5] [--write-docs]
+
+Times (median of the repeats, one thread: the walk is numpy) the walks per second of
+``SmithMultipleScattering`` run until they leave (``albedo``) for Beckmann and GGX at
+α = 0.3 and 1.0, θi = 30°, F = 1, with the mean scattering order; and the bin averages of
+``microsim demo``'s comparison (α = 0.29, 32 × 64 bins, 64 walks per bin, one incidence).
+With ``--write-docs`` the Markdown replaces the section between the
+``multiple-scattering-cost`` markers in docs/performance.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import platform
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+from microsim.analytic.multiple_scattering import SmithMultipleScattering
+from microsim.analytic.ndf import GGX, Beckmann
+from microsim.compare import direction
+from microsim.files import replace_marked
+from microsim.tables.binning import HemisphereBins
+
+ROOT = Path(__file__).resolve().parent.parent
+MARKERS = ("<!-- multiple-scattering-cost -->", "<!-- /multiple-scattering-cost -->")
+WALKS = 100_000
+
+
+def median_time(fn, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--write-docs", action="store_true")
+    args = parser.parse_args()
+    loadavg = os.getloadavg()[0]
+    wi = direction(math.radians(30.0), 0.0)
+    rows = []
+    for name, cls in (("Beckmann", Beckmann), ("GGX", GGX)):
+        for alpha in (0.3, 1.0):
+            model = SmithMultipleScattering(cls(alpha), seed=1)
+            t = median_time(lambda m=model: m.albedo(wi, WALKS, [(1, None)]), args.repeats)
+            walks = model.walk(np.broadcast_to(wi, (WALKS, 3)), None, rows=64).escaped
+            mean_order = float((walks[..., 0] * np.arange(1, 65)).sum() / WALKS)
+            rows.append((name, alpha, WALKS / t, mean_order))
+    bins = HemisphereBins(32, 64)
+    demo = SmithMultipleScattering(Beckmann(0.291), samples=64, seed=1)
+    t_demo = median_time(lambda: demo.random_bin_average(wi, bins.theta_edges,
+                                                         bins.phi_edges), args.repeats)
+    lines = [MARKERS[0], "",
+             f"`python scripts/bench_multiple_scattering.py --write-docs` "
+             f"({platform.machine()}, {time.strftime('%Y-%m-%d')}, load average "
+             f"{loadavg:.1f} on {os.cpu_count()} CPUs before the run; median of "
+             f"{args.repeats}; one thread): walks of `SmithMultipleScattering` from θi = 30°, "
+             "F = 1, until they leave.", "",
+             "| NDF | α | walks per second | mean scattering order |",
+             "| --- | --- | --- | --- |"]
+    lines += [f"| {name} | {alpha} | {rate:,.0f} | {order:.2f} |"
+              for name, alpha, rate, order in rows]
+    lines += ["", f"`microsim demo`'s comparison of one incidence with `beckmann-ms` "
+              f"(α = 0.291, 32 × 64 bins, 64 walks per bin: {bins.size * 64:,} walks with "
+              f"next-event estimates): {t_demo:.2f} s.", "", MARKERS[1]]
+    text = "\n".join(lines)
+    print(text)
+    if args.write_docs:
+        path = ROOT / "docs" / "performance.md"
+        replace_marked(path, text, *MARKERS,
+                       heading="## Multiple-scattering reference: cost")
+        print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()
