@@ -286,7 +286,8 @@ def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
     theta_deg = [float(t) for t in simulation["theta_i"]]
     phi_deg = incident_azimuths(isotropic, simulation)
     bins = HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
-    facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents)
+    facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
+                            tile.curved)
     chosen = range(len(theta_deg)) if thetas is None else thetas
     with contextlib.ExitStack() as stack:
         if scene is None:

@@ -12,13 +12,26 @@ from microsim.compare import Model, half_difference
 from microsim.tables.table import BRDFTable
 
 
-def incidence_plane_bins(table: BRDFTable) -> tuple[int, int]:
-    """The φo bins nearest the plane of incidence: (back-scattering side φ ≈ 0, forward
-    side φ ≈ π), for an isotropic table whose azimuths are relative to φi."""
-    centres = table.bins.phi_centers
-    back = int(np.argmin(np.abs(np.angle(np.exp(1j * centres)))))
-    forward = int(np.argmin(np.abs(np.angle(np.exp(1j * (centres - np.pi))))))
-    return back, forward
+def incidence_plane_bins(table: BRDFTable, phi: float = 0.0
+                         ) -> tuple[list[int], list[int]]:
+    """The φo bins of the plane of incidence: (back-scattering side φ = ``phi``, forward
+    side φ = ``phi`` + π), each the bin containing that azimuth, or the two bins on
+    either side when it lies on a bin edge (as φ = 0 does: the plane is then their
+    mean). ``phi`` is 0 for an isotropic table, whose azimuths are relative to φi, and φi
+    (radians) for an anisotropic one."""
+    edges = table.bins.phi_edges
+    period = edges[-1]
+
+    def around(target: float) -> list[int]:
+        x = np.mod(target, period)
+        k = int(np.clip(np.searchsorted(edges, x, side="right") - 1, 0, len(edges) - 2))
+        near = np.isclose(x, edges[k], atol=1e-9) or np.isclose(x, edges[k + 1], atol=1e-9)
+        if not near:
+            return [k]
+        lower = k if np.isclose(x, edges[k + 1], atol=1e-9) else k - 1
+        return sorted({lower % (len(edges) - 1), (lower + 1) % (len(edges) - 1)})
+
+    return around(phi), around(phi + np.pi)
 
 
 def _wrapped(title: str, fig: Any, fontsize: float) -> str:
@@ -40,18 +53,18 @@ def _pyplot() -> Any:
 def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
                     component: str = "single", title: str = "",
                     model_label: str = "model") -> None:
-    """Plot f_r cos θo in the plane of incidence, simulation against model, one panel
-    per incidence (the first incident azimuth).
+    """Plot f_r cos θo in the plane of incidence, simulation against model: one panel per
+    incidence (columns θi; rows φi for an anisotropic table).
 
     The simulated bins (with ±1 standard error bars) and the model averaged over the
     same bins (``compare.compare_table``'s ``model``) are drawn against the signed θo of
     the bin centre: negative on the back-scattering side (towards the light), positive on
-    the forward side (towards the mirror direction).
+    the forward side (towards the mirror direction); where the plane runs along a bin
+    edge, the mean of the bins on either side (``incidence_plane_bins``).
 
     Parameters
     ----------
     table : BRDFTable
-        An isotropic table.
     model_bins : (a, b, nt, np, 3) float
         The model's bin averages.
     path : str or Path
@@ -64,27 +77,35 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
         Legend entry of the model's curve (e.g. the fitted model's name).
     """
     plt = _pyplot()
-    back, forward = incidence_plane_bins(table)
     theta = np.degrees(table.bins.theta_centers)
     cos_o = np.cos(table.bins.theta_centers)
     n = len(table.theta_i)
-    fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 3.4), squeeze=False)
-    for k, ax in enumerate(axes[0]):
-        avg = model_bins[k, 0]
-        values = table.values[component][k, 0]
-        errors = np.nan_to_num(table.errors[component][k, 0])
-        for side, sign in ((back, -1), (forward, 1)):
-            x = sign * theta
-            ax.errorbar(x, values[:, side, 1] * cos_o, yerr=errors[:, side, 1] * cos_o,
-                        fmt="o", ms=3, color="tab:blue", ecolor="tab:blue", elinewidth=1,
-                        label="simulated" if sign > 0 else None)
-            ax.plot(x, avg[:, side, 1] * cos_o, "-", color="tab:red",
-                    label=model_label if sign > 0 else None)
-        ax.set_title(f"θi = {np.degrees(table.theta_i[k]):.0f}°")
-        ax.set_xlabel("θo in the plane of incidence (°)")
-        ax.set_xlim(-90, 90)
-        ax.grid(alpha=0.3)
-    axes[0, 0].set_ylabel("f_r cos θo (1/sr), green")
+    rows = 1 if table.isotropic else len(table.phi_i)
+    fig, axes = plt.subplots(rows, n, figsize=(3.6 * n, 3.4 * rows), squeeze=False)
+    for j in range(rows):
+        back, forward = incidence_plane_bins(table, 0.0 if table.isotropic
+                                             else float(table.phi_i[j]))
+        for k, ax in enumerate(axes[j]):
+            avg = model_bins[k, j]
+            values = table.values[component][k, j]
+            errors = np.nan_to_num(table.errors[component][k, j])
+            for side, sign in ((back, -1), (forward, 1)):
+                x = sign * theta
+                sim = values[:, side, 1].mean(axis=1)
+                err = np.sqrt((errors[:, side, 1] ** 2).sum(axis=1)) / len(side)
+                ax.errorbar(x, sim * cos_o, yerr=err * cos_o, fmt="o", ms=3,
+                            color="tab:blue", ecolor="tab:blue", elinewidth=1,
+                            label="simulated" if sign > 0 else None)
+                ax.plot(x, avg[:, side, 1].mean(axis=1) * cos_o, "-", color="tab:red",
+                        label=model_label if sign > 0 else None)
+            label = f"θi = {np.degrees(table.theta_i[k]):.0f}°"
+            if not table.isotropic:
+                label += f", φi = {np.degrees(table.phi_i[j]):.0f}°"
+            ax.set_title(label)
+            ax.set_xlabel("θo in the plane of incidence (°)")
+            ax.set_xlim(-90, 90)
+            ax.grid(alpha=0.3)
+        axes[j, 0].set_ylabel("f_r cos θo (1/sr), green")
     axes[0, 0].legend(loc="upper left", fontsize=8)
     if title:
         fig.suptitle(_wrapped(title, fig, 10), fontsize=10)
@@ -265,8 +286,10 @@ def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path
     theta = np.degrees(table.bins.theta_centers)
     cos_o = np.cos(table.bins.theta_centers)
     for side, sign in ((back, -1), (forward, 1)):
-        lobe.errorbar(sign * theta, table.values[component][k, 0, :, side, 1] * cos_o,
-                      yerr=np.nan_to_num(table.errors[component][k, 0, :, side, 1]) * cos_o,
+        err = np.nan_to_num(table.errors[component][k, 0][:, side, 1])
+        lobe.errorbar(sign * theta,
+                      table.values[component][k, 0][:, side, 1].mean(axis=1) * cos_o,
+                      yerr=np.sqrt((err**2).sum(axis=1)) / len(side) * cos_o,
                       fmt="o", ms=3, color="black", label="table" if sign > 0 else None)
     signed = np.linspace(-89.5, 89.5, 359)
     phi = np.where(signed < 0, 0.0, np.pi)                # the azimuths of the bins drawn

@@ -202,7 +202,7 @@ def lobe_surface(pv: Any, f: np.ndarray, theta: np.ndarray, phi: np.ndarray,
 def show_lobe(table: Any, theta_i: float, model: Any = None,
               screenshot: str | Path | None = None, radius: str = "fr_cos",
               log: bool = False, component: str = "total", title: str = "",
-              n: int = 64) -> np.ndarray | None:
+              n: int = 64, phi_i: float = 0.0) -> np.ndarray | None:
     """A table's BRDF lobe for one incidence as a radial surface over the hemisphere.
 
     Colour is the relative error against ``model`` (clipped to ±50%) when one is given,
@@ -213,7 +213,7 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
     ----------
     table : BRDFTable
     theta_i : float
-        Incident polar angle, radians (φi = 0).
+        Incident polar angle, radians.
     model : Model or None
     screenshot : str or Path or None
         PNG to render off screen; None opens a window.
@@ -225,6 +225,9 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
     title : str
     n : int
         Grid resolution in θo (2n in φo).
+    phi_i : float
+        Incident azimuth, radians (an anisotropic table's lobe depends on it; an
+        isotropic one turns with it).
 
     Returns
     -------
@@ -237,7 +240,7 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
     theta = np.radians(np.linspace(0.0, 89.5, n))
     phi = np.linspace(0.0, 2 * np.pi, 2 * n + 1)
     t, p = np.meshgrid(theta, phi, indexing="ij")
-    wi = direction(theta_i, 0.0)
+    wi = direction(theta_i, phi_i)
     wo = direction(t, p)
     f = table.eval(wi, wo, component).mean(axis=-1)
     surf = lobe_surface(pv, f, theta, phi, radius, log)
@@ -267,7 +270,7 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
 
 
 def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: int,
-              seed: int) -> list[tuple[np.ndarray, int]]:
+              seed: int, phi_i: float = 0.0) -> list[tuple[np.ndarray, int]]:
     """Polylines of a few rays scattered by the tile, for drawing.
 
     The paths are traced by the same transport kernel as ``simulate``
@@ -280,8 +283,10 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
     materials : mapping
         Resolved ``[material]`` (one section per part).
     theta_i : float
-        Incident polar angle, radians (φi = 0).
+        Incident polar angle, radians.
     rays, bounces, seed : int
+    phi_i : float
+        Incident azimuth, radians.
 
     Returns
     -------
@@ -296,9 +301,10 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
     from microsim.trace import PeriodicScene
 
     rng = np.random.default_rng(seed)
-    facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents)
+    facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
+                            tile.curved)
     lx, ly = tile.period
-    d = np.broadcast_to(-direction(theta_i, 0.0), (rays, 3))
+    d = np.broadcast_to(-direction(theta_i, phi_i), (rays, 3))
     reach = 0.3 * max(lx, ly)  # drawn length of the incoming and escaping legs
     with PeriodicScene(tile, threads=1) as scene:
         o = np.column_stack([(0.25 + 0.5 * rng.random((rays, 2))) * [lx, ly],

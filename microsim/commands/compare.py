@@ -108,9 +108,9 @@ def run(args: argparse.Namespace) -> int:
               "table": str(args.table), **result, "agreement": agreement(result)}
     if args.out is not None:
         title = title_of(table, name, args.component)
+        incidence_plane(table, model_bins, args.out / PLOTS["incidence_plane"],
+                        args.component, title)
         if table.isotropic:
-            incidence_plane(table, model_bins, args.out / PLOTS["incidence_plane"],
-                            args.component, title)
             half_difference_slices(table, model_for(model, args.component),
                                    args.out / PLOTS["half_difference"],
                                    args.component, title)

@@ -20,7 +20,8 @@ from microsim.cli import (
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``fit`` command."""
     p = sub.add_parser(
-        "fit", help="fit beckmann, ggx, oren-nayar, lafortune[:K] or phong to a table",
+        "fit", help="fit beckmann, ggx, oren-nayar, lafortune[:K], phong, kay-kajiya or "
+                    "microcylinder to a table",
         description="Fit an analytic model's parameters to a BRDF table by weighted least "
                     "squares in log space, using the per-bin standard errors (bins without "
                     "an error are skipped); see microsim/fit.py and docs/compare.md. Prints "
@@ -30,7 +31,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--model", required=True, metavar="NAME",
                    help="beckmann, ggx (alpha and Schlick F0 per channel), oren-nayar "
                         "(sigma in radians, albedo per channel), phong (n, ks per channel), "
-                        "lafortune[:K] (K isotropic lobes: Cxy, Cz, n)")
+                        "lafortune[:K] (K isotropic lobes: Cxy, Cz, n), kay-kajiya (kd, ks "
+                        "per channel, n; the fibre axis and coverage from the table), "
+                        "microcylinder (cloth: coverages, eta, lobe widths in radians, kd, "
+                        "albedo per yarn family and channel)")
     add_component_arg(p)
     p.add_argument("--plot", type=Path, default=None, metavar="PNG",
                    help="draw the plane of incidence, table against the fit")
@@ -54,7 +58,6 @@ def progress_printer(enabled: bool) -> Callable[[dict[str, Any]], None] | None:
 def run(args: argparse.Namespace) -> int:
     """Fit and report."""
     import microsim
-    from microsim.errors import InputError
     from microsim.files import PLOT_SUFFIXES, writable_file
     from microsim.fit import family, fit_table
 
@@ -63,8 +66,6 @@ def run(args: argparse.Namespace) -> int:
         writable_file(args.plot, "--plot", PLOT_SUFFIXES)
     table = microsim.read_table(args.table)
     args.component = table_component(table, args.component, args.table)
-    if not table.isotropic:
-        raise InputError(f"{args.table}: fitting takes isotropic tables")
     show = sys.stderr.isatty() and not args.json
     result = fit_table(table, args.model, args.component, progress=progress_printer(show))
     if show:
@@ -88,6 +89,6 @@ def run(args: argparse.Namespace) -> int:
           "over lobe bins "
           f"{100 * result['median_rel_error']:.2f}%")
     for row in result["per_theta_i"]:
-        print(f"  theta_i {row['theta_i']:5.1f}: albedo fit "
+        print(f"  theta_i {row['theta_i']:5.1f}, phi_i {row['phi_i']:5.1f}: albedo fit "
               f"{sum(row['albedo_fit']) / 3:.4f}, table {sum(row['albedo_table']) / 3:.4f}")
     return 0

@@ -51,6 +51,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--theta-i", type=float, default=None, metavar="DEG",
                    help="table: the incidence whose lobe to show, degrees (default: the "
                         "table's first); recipe with --rays: the light's polar angle")
+    p.add_argument("--phi-i", type=float, default=None, metavar="DEG",
+                   help="table: the incident azimuth, degrees (anisotropic tables: "
+                        "interpolated between the table's; default: its first); recipe "
+                        "with --rays: the light's azimuth (default 0)")
     p.add_argument("--model", default=None, metavar="SPEC",
                    help="table: draw this analytic model's lobe as a wireframe and colour "
                         "the table's lobe by the relative error (defaults from the table)")
@@ -66,6 +70,12 @@ def check_theta(theta: float) -> None:
     """--theta-i must be an angle in [0, 90) degrees."""
     if not (math.isfinite(theta) and 0 <= theta < 90):
         raise InputError(f"--theta-i {theta}: must be in [0, 90) degrees")
+
+
+def check_phi(phi: float) -> None:
+    """--phi-i must be a finite angle within ±360 degrees."""
+    if not (math.isfinite(phi) and -360 <= phi <= 360):
+        raise InputError(f"--phi-i {phi}: must be in [-360, 360] degrees")
 
 
 def incidence_note(measured_deg: list[float], theta: float) -> str:
@@ -93,20 +103,28 @@ def view_table(args: argparse.Namespace, source: Path) -> int:
     table = microsim.read_table(source)
     theta = args.theta_i if args.theta_i is not None else math.degrees(table.theta_i[0])
     check_theta(theta)
+    phi = args.phi_i if args.phi_i is not None else math.degrees(table.phi_i[0])
+    check_phi(phi)
     model = None
     title = f"{source.name}: theta_i = {theta:g} deg"
+    if not table.isotropic:
+        title += f", phi_i = {phi:g} deg"
     note = incidence_note([math.degrees(t) for t in table.theta_i], theta)
     if note:
         title += f" ({note})"
         print(f"warning: --theta-i {theta:g}: {note}", file=sys.stderr)
     if args.model is not None:
         from microsim.analytic.registry import parse_model_spec
-        from microsim.compare import model_defaults
+        from microsim.compare import direction, model_defaults, singular_albedo
 
         name, _, model = parse_model_spec(args.model, model_defaults(table.meta))
+        if singular_albedo(model, direction(*np.radians([theta, phi]))) > 0:
+            raise InputError(f"--model {args.model}: its specular cone is a delta, which a "
+                             "lobe has no value for; compare it over the table's bins "
+                             "(microsim compare)")
         title += f" (wireframe: {name}; colour: relative error against it)"
     show_lobe(table, float(np.radians(theta)), model, args.screenshot, args.radius,
-              args.log, title=title)
+              args.log, title=title, phi_i=float(np.radians(phi)))
     if args.screenshot is not None:
         print(f"wrote {args.screenshot}")
     return 0
@@ -150,8 +168,10 @@ def run(args: argparse.Namespace) -> int:
         sim = resolved["simulation"]
         theta = args.theta_i if args.theta_i is not None else sim["theta_i"][0]
         check_theta(theta)
+        phi = args.phi_i if args.phi_i is not None else 0.0
+        check_phi(phi)
         paths = ray_paths(tile, resolved["material"], math.radians(theta), args.rays,
-                          sim["bounces"], sim["seed"])
+                          sim["bounces"], sim["seed"], math.radians(phi))
     # refracting parts enclose a medium: drawn see-through so their contents show
     glass = tuple(part for part, m in (resolved or {}).get("material", {}).items()
                   if m["kind"] == "dielectric" and m["refract"])

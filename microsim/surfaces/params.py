@@ -118,6 +118,9 @@ MICRO_RESOLUTION = 512
 """Default grid of a ``vgroove`` tile with micro-roughness (columns and rows)."""
 SEED = Key("int", 0, "Seed of the generator's random numbers.", low=0, high=2**63 - 1)
 SIZE = _len("Tile side length (period along x and y).", 1.0)
+SMOOTH = Key("bool", True, "Scatter at the curved surface the faces approximate (its "
+             "normal where the ray enters it: docs/surfaces.md); false keeps the flat "
+             "facets.")
 
 
 def _check_gaussian(s: dict[str, Any]) -> None:
@@ -304,6 +307,7 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
                             "reflection turns by twice the facet step, so 128 gives 5.6 "
                             "degree steps: the default phi bin width.", low=6, high=65536),
             "length": _len("Tile period along the cylinder axis (y).", 1.0),
+            "smooth_normals": SMOOTH,
             "seed": SEED,
         },
         _check_cylinders,
@@ -326,6 +330,7 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
             "azimuth_spread": _f("Standard deviation of the tilt azimuth (360 = uniform).",
                                  360.0, unit="deg", low=0.0, high=360.0),
             "sides": Key("int", 6, "Facets around each fibre.", low=3, high=64),
+            "smooth_normals": SMOOTH,
             "size": SIZE,
             "seed": SEED,
         },
@@ -346,8 +351,10 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
             "spacing": _len("Distance between neighbouring yarns (warp and weft).", 1.0),
             "segments": Key("int", 16, "Path samples per yarn crossing.", low=4,
                             high=1024),
-            "sides": Key("int", 12, "Facets around each yarn's cross-section.", low=4,
-                         high=256),
+            "sides": Key("int", 24, "Facets around each yarn's cross-section (with "
+                         "smooth normals, 12 trap mirror light between crossing yarns: "
+                         "docs/surfaces.md).", low=4, high=256),
+            "smooth_normals": SMOOTH,
             "seed": SEED,
         },
         _check_weave,

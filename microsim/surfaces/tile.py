@@ -38,6 +38,16 @@ class Tile:
     tangents : (m, 3) float or None
         A unit direction per face that a generator knows (a velvet fibre's axis), for
         facet materials whose frame follows it; None where the generator gives none.
+    curved : (m, 3, 3) float or None
+        The curved surface each face approximates, for shading normals
+        (``microsim.kernel.shading``): rows (c, u, v), a point c on the axis of a tube and two
+        section vectors u, v; the tube is the quadric {x : (u·q)² + (v·q)² = 1},
+        q = x − c, which is constant along its axis u × v, and its outward normal at x
+        is ∝ u (u·q) + v (v·q) (the gradient). A circular cylinder of radius r has u, v
+        orthonormal and perpendicular to its axis, divided by r; a yarn of elliptical
+        section has the sheared pair its generator documents (``weave.yarn``). The face's
+        vertices lie on the quadric, so the face lies inside it (the tube is convex).
+        Rows with u = v = 0 are flat faces. None: every face is flat.
     """
 
     vertices: np.ndarray
@@ -48,6 +58,7 @@ class Tile:
     info: dict[str, Any] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     tangents: np.ndarray | None = None
+    curved: np.ndarray | None = None
 
     @property
     def z_range(self) -> tuple[float, float]:
