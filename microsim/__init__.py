@@ -17,7 +17,7 @@ if TYPE_CHECKING:
 __version__ = "0.1.0"
 
 
-def read_table(path: str | Path) -> BRDFTable:
+def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
     """Read a BRDF table file (OpenEXR); see ``microsim.tables.exr.read_table``.
 
     OpenEXR is imported on the first call, so ``import microsim`` stays light.
@@ -25,6 +25,9 @@ def read_table(path: str | Path) -> BRDFTable:
     Parameters
     ----------
     path : str or Path
+    require_sh : bool
+        A damaged spherical-harmonics part is an error (False: a warning, and the table
+        is read without harmonics).
 
     Returns
     -------
@@ -33,8 +36,8 @@ def read_table(path: str | Path) -> BRDFTable:
     Raises
     ------
     microsim.errors.InputError
-        If the file is missing, not OpenEXR, or not a microsim table.
+        If the file is missing, not OpenEXR, damaged, or not a microsim table.
     """
     from microsim.tables.exr import read_table as read
 
-    return read(path)
+    return read(path, require_sh)

@@ -44,7 +44,7 @@ def direction_errors(table: BRDFTable, component: str = "total"
 
     Returns
     -------
-    rel_error, ray_share : (a, b) float
+    rel_stderr, ray_share : (a, b) float
     """
     f = table.values[component].mean(axis=-1)
     e = table.errors[component].mean(axis=-1)

@@ -24,7 +24,6 @@ import fcntl
 import functools
 import json
 import os
-import re
 import threading
 import time
 from collections.abc import Callable, Iterator, Mapping
@@ -34,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import microsim
 from microsim.errors import InputError
-from microsim.files import atomic_path
+from microsim.files import atomic_path, remove_stale_temporaries
 from microsim.sweep import Point, Sweep, canonical
 
 if TYPE_CHECKING:
@@ -46,8 +45,6 @@ if TYPE_CHECKING:
 
 MANIFEST = "manifest.json"
 LOCK = ".batch.lock"
-TEMPORARY = re.compile(r"^\.(.+\.exr|manifest\.json)\.(\d+)\.[0-9a-f]{8}\.tmp$")
-"""Names ``microsim.files.atomic_path`` gives the temporary files of this folder's outputs."""
 RETRIES = 1
 """Times a job that raised is run again before its table is marked failed."""
 
@@ -144,41 +141,29 @@ def jobs_of(point: Point, thetas_per_job: int) -> list[Job]:
             for chunk in chunks]
 
 
-def remove_stale_temporaries(folder: Path) -> list[Path]:
-    """Remove temporary files a killed batch left in ``folder`` (their writer is gone).
-
-    Returns
-    -------
-    list of Path
-        The files removed.
-    """
-    removed = []
-    for path in folder.glob(".*.tmp"):
-        match = TEMPORARY.match(path.name)
-        if match is None:
-            continue
-        try:
-            os.kill(int(match.group(2)), 0)
-            continue  # the writer still runs
-        except ProcessLookupError:
-            pass
-        except PermissionError:
-            continue
-        path.unlink(missing_ok=True)
-        removed.append(path)
-    return removed
+_locked: set[Path] = set()
+"""Folders whose lock this process holds (``output_lock`` nests)."""
 
 
 @contextlib.contextmanager
 def output_lock(folder: Path) -> Iterator[None]:
-    """Hold ``folder/.batch.lock``: one batch at a time writes a folder."""
+    """Hold ``folder/.batch.lock``: one batch at a time writes a folder. The command line
+    takes it before it starts a cluster; ``run_batch`` inside it holds it already."""
     folder.mkdir(parents=True, exist_ok=True)
+    key = folder.resolve()
+    if key in _locked:
+        yield
+        return
     with open(folder / LOCK, "a") as handle:
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             raise InputError(f"{folder}: another batch is writing this folder") from None
-        yield
+        _locked.add(key)
+        try:
+            yield
+        finally:
+            _locked.discard(key)
 
 
 def read_manifest(folder: Path) -> dict[str, Any]:
@@ -345,8 +330,8 @@ def _finish(folder: Path, manifest: Manifest, point: Point, parts: list[Measurem
         point.name, status="done", error=None, rays=int(table.rays.sum()),
         segments=int(table.meta["segments"]), jobs=len(parts), wall_s=seconds,
         trace_s=sum(p.trace_time for p in parts),
-        median_rel_error=_finite(table.median_rel_error("total")),
+        median_rel_stderr=_finite(table.median_rel_stderr("total")),
         error_model=table.error_model, realisations=int(table.realisations.max()),
         albedo=table.albedo.reshape(-1, 3).mean(axis=1).tolist(),
         albedo_err=table.albedo_err.reshape(-1, 3).mean(axis=1).tolist(),
-        warnings=warnings)
+        warnings=[*warnings, *table.meta["warnings"]])

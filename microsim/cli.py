@@ -14,11 +14,12 @@ import importlib
 import json
 import math
 import sys
+import warnings
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
 from microsim import __version__
-from microsim.errors import InputError
+from microsim.errors import InputError, InputWarning
 
 COMMANDS = ("check", "models", "generate", "measure", "view", "simulate", "compare", "fit",
             "sh", "export", "render", "bench", "batch", "demo")
@@ -82,6 +83,15 @@ def add_threads_arg(p: argparse.ArgumentParser) -> None:
     """Add ``--threads N`` for the commands that trace."""
     p.add_argument("--threads", type=positive_int, default=None,
                    help="tracing threads (default: every CPU; results do not depend on it)")
+
+
+def add_memory_arg(p: argparse.ArgumentParser) -> None:
+    """Add ``--memory-limit GIB``."""
+    gib = number_list(1, low=0.0, low_open=True, what="a positive number of GiB")
+    p.add_argument("--memory-limit", type=lambda t: gib(t)[0], default=None, metavar="GIB",
+                   help="refuse work (a tile, ray paths, an export grid) estimated to "
+                        "need more memory than this many GiB (default: "
+                        "$MICROSIM_MEMORY_LIMIT or 2)")
 
 
 def add_component_arg(p: argparse.ArgumentParser) -> None:
@@ -192,6 +202,62 @@ def number_list(count: int | None = None, low: float = -math.inf, high: float = 
     return parse
 
 
+LIST_SHOWN = 8
+"""Text output shows lists up to this long whole, longer ones by their ends and length."""
+
+
+def readable(value: Any, digits: int = 4) -> str:
+    """A value for text output: numbers to ``digits`` significant figures, lists and
+    dicts item by item (long lists by their ends and length). JSON keeps full precision.
+
+    Parameters
+    ----------
+    value : Any
+        A number, string, bool, None, or a list / tuple / dict of them.
+    digits : int
+        Significant figures of floats.
+
+    Returns
+    -------
+    str
+    """
+    if isinstance(value, float):
+        return f"{value:.{digits}g}"
+    if isinstance(value, list | tuple):
+        items = [readable(v, digits) for v in value]
+        if len(items) > LIST_SHOWN:
+            items = items[:3] + ["…"] + items[-1:]
+            return f"[{', '.join(items)}] ({len(value)} values)"
+        return f"[{', '.join(items)}]"
+    if isinstance(value, dict):
+        return ", ".join(f"{k} {readable(v, digits)}" for k, v in value.items())
+    return str(value)
+
+
+def with_error(value: float, error: float) -> str:
+    """``value ± error`` with the error to 2 significant figures and the value to the
+    same decimal place (the digits that mean something), e.g. ``0.2912 ± 0.0012``."""
+    if not (math.isfinite(value) and math.isfinite(error) and error > 0):
+        return f"{value:.5g} ± {error:.2g}"
+    places = 1 - math.floor(math.log10(error))
+    if places <= 0:
+        return f"{round(value, places):.0f} ± {round(error, places):.0f}"
+    return f"{value:.{places}f} ± {error:.{places}f}"
+
+
+def roughness_text(info: dict[str, Any]) -> str:
+    """``alpha realised R (target T)`` of a tile's facts, without a target where the
+    surface has none (an imported mesh); pooled over several realisations,
+    ``alpha realised R ± E over K tiles (...)``; ``""`` when no roughness is reported."""
+    if info.get("alpha_realised") is None:
+        return ""
+    target = info.get("alpha_target")
+    pooled = "" if info.get("alpha_realised_stderr") is None else (
+        f" ± {readable(info['alpha_realised_stderr'])} over {info['realisations']} tiles")
+    text = f"alpha realised {readable(info['alpha_realised'])}{pooled} (from facet slopes"
+    return text + ("" if target is None else f"; target {readable(target)}") + ")"
+
+
 def print_json(data: Any) -> None:
     """Print ``data`` as JSON (NaN becomes null, so the output is strict JSON)."""
 
@@ -224,6 +290,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def one_line(message: str) -> str:
+    """``message`` with every character that is not printable (a newline or control
+    character from a user's file name or value) escaped, so it stays one line."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in message)
+
+
+def _show_warning(message: Warning | str, category: type[Warning], filename: str,
+                  lineno: int, file: Any = None, line: str | None = None) -> None:
+    """``warnings.showwarning`` of the CLI: an ``InputWarning`` is one ``warning:`` line on
+    stderr; other warnings as Python shows them."""
+    if issubclass(category, InputWarning):
+        print(f"warning: {one_line(str(message))}", file=sys.stderr)
+    else:
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status.
 
@@ -238,14 +320,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         0 success, 1 internal failure, 2 bad input.
     """
     try:
-        parser = build_parser()
-        args = parser.parse_args(argv)
-        if args.command is None:
-            parser.print_help()
-            return 2
-        return int(args.func(args) or 0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", InputWarning)
+            warnings.showwarning = _show_warning
+            parser = build_parser()
+            args = parser.parse_args(argv)
+            if args.command is None:
+                parser.print_help()
+                return 2
+            return int(args.func(args) or 0)
     except InputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: {one_line(str(exc))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)

@@ -26,7 +26,8 @@ SUB_TILES_MODEL = "sub-tiles"
 """Error model of one realisation's histogram: the scatter of its sub-tiles."""
 
 
-def measure_ndf_recipe(recipe: Mapping[str, Any], bins: int) -> dict[str, Any]:
+def measure_ndf_recipe(recipe: Mapping[str, Any], bins: int,
+                       memory_limit_gib: float | None = None) -> dict[str, Any]:
     """The NDF histogram of a recipe's surface over ``simulation.realisations`` tiles.
 
     Parameters
@@ -36,6 +37,8 @@ def measure_ndf_recipe(recipe: Mapping[str, Any], bins: int) -> dict[str, Any]:
     bins : int
         θh bins, uniform over [0, θmax]: θmax = atan(3.5 α) for the isotropic realised
         roughness α of realisation 0, else 89°.
+    memory_limit_gib : float or None
+        The memory guard's budget for each tile (``microsim.memory``).
 
     Returns
     -------
@@ -48,7 +51,7 @@ def measure_ndf_recipe(recipe: Mapping[str, Any], bins: int) -> dict[str, Any]:
     k = int(recipe["simulation"].get("realisations", 1))
     histograms, infos, theta_max = [], [], None
     for r in range(k):
-        tile = build_tile(realisation(recipe["surface"], r))
+        tile = build_tile(realisation(recipe["surface"], r), memory_limit_gib)
         if theta_max is None:
             alpha = tile.info.get("alpha_realised")
             theta_max = math.atan(3.5 * alpha) if isinstance(alpha, float) else math.radians(

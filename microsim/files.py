@@ -4,10 +4,128 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import secrets
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+
+from microsim.errors import InputError
+
+PLOT_SUFFIXES = (".png", ".pdf", ".svg")
+"""Formats of the matplotlib figures (``--plot``), by suffix."""
+SCREENSHOT_SUFFIXES = (".png", ".jpg", ".jpeg")
+"""Formats of the 3D views' screenshots (``--screenshot``), by suffix."""
+TEMPORARY = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)\.[0-9a-f]{8}\.tmp$")
+"""Names ``atomic_path`` gives its temporary files: ``.<name>.<pid>.<8 hex digits>.tmp``."""
+
+
+def _writer_gone(pid: int) -> bool:
+    """No process ``pid`` runs on this machine (so its temporary files are orphans)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except PermissionError:
+        return False  # another user's live process
+    return False
+
+
+def remove_stale_temporaries(folder: str | Path, name: str | None = None) -> list[Path]:
+    """Remove the temporary files of ``atomic_path`` whose writer is gone (killed during a
+    write): of the target ``name`` in ``folder``, or of every target there.
+
+    Parameters
+    ----------
+    folder : str or Path
+    name : str or None
+        The target file's name; None: every target.
+
+    Returns
+    -------
+    list of Path
+        The files removed.
+    """
+    removed = []
+    for path in Path(folder).glob(".*.tmp"):
+        match = TEMPORARY.match(path.name)
+        if match is None or (name is not None and match["name"] != name):
+            continue
+        if _writer_gone(int(match["pid"])):
+            path.unlink(missing_ok=True)
+            removed.append(path)
+    return removed
+
+
+def _folder_ready(folder: Path, flag: str, given: Path) -> None:
+    """Create ``folder`` if missing and write a probe file in it; ``InputError`` naming
+    ``flag`` and the user's ``given`` path otherwise."""
+    ancestor = next((p for p in (folder, *folder.parents) if p.exists()), None)
+    if ancestor is not None and not ancestor.is_dir():
+        where = "is a file" if ancestor == given else f"{ancestor} is a file"
+        raise InputError(f"{flag} {given}: {where}, not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        probe = folder / f".microsim-probe.{os.getpid()}.{secrets.token_hex(4)}"
+        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        probe.unlink()
+    except OSError as exc:
+        raise InputError(f"{flag} {given}: cannot write in {folder}: "
+                         f"{exc.strerror or exc}") from None
+
+
+def writable_folder(folder: str | Path, flag: str) -> Path:
+    """Create the output folder ``folder`` if missing and make sure files can be written
+    in it, before any work is done (a check that fails after an hour of tracing loses
+    the hour).
+
+    Parameters
+    ----------
+    folder : str or Path
+    flag : str
+        The flag that named it, for the message (e.g. ``"--out"``).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    InputError
+        If it or a parent is a file, or it cannot be created or written in.
+    """
+    folder = Path(folder)
+    _folder_ready(folder, flag, folder)
+    return folder
+
+
+def writable_file(path: str | Path, flag: str, suffixes: tuple[str, ...] = ()) -> Path:
+    """Make sure the output file ``path`` can be written, before any work is done: its
+    folder is created if missing and must take new files, and ``path`` is no folder.
+
+    Parameters
+    ----------
+    path : str or Path
+    flag : str
+        The flag that named it, for the message (e.g. ``"--output"``).
+    suffixes : tuple of str
+        Allowed suffixes, lower case (empty: any).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    InputError
+    """
+    path = Path(path)
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise InputError(f"{flag} {path}: must end in " + " or ".join(suffixes))
+    if path.is_dir():
+        raise InputError(f"{flag} {path}: is a folder; give a file name")
+    _folder_ready(path.parent, flag, path)
+    return path
 
 
 @contextmanager
@@ -17,7 +135,8 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     The folder is created if missing. On any exception the temporary file is removed and
     an existing ``path`` is left untouched; on success ``os.replace`` renames it over
     ``path`` in one step (atomic on POSIX within a file system), so a crash never leaves a
-    partial file under the final name.
+    partial file under the final name. Temporary files of the same target that a killed
+    writer left behind are removed first.
 
     Parameters
     ----------
@@ -31,6 +150,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries(path.parent, path.name)
     tmp = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
     # created like any new file (0666 less the umask), unlike mkstemp's private 0600
     os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))

@@ -18,14 +18,14 @@ exceeds 1 (the model does not explain the noise: the uncertainty widens accordin
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
 
-from microsim.compare import bin_average, compare_table, direction
+from microsim.compare import bin_average, compare_table, direction, model_defaults
 
 EPS_FRACTION = 1e-3
 REL_FLOOR = 0.01
@@ -98,11 +98,65 @@ def _lafortune(lobes: int) -> Family:
                   tuple(v for _ in range(lobes) for v in (50.0, 50.0, 1e4)), build)
 
 
-def family(spec: str) -> tuple[str, Family]:
-    """``beckmann``, ``ggx``, ``oren-nayar``, ``phong`` or ``lafortune[:K]`` (K lobes,
-    default 1)."""
+def _kay_kajiya(defaults: Mapping[str, Any]) -> Family:
+    """Kay-Kajiya as a fibre-layer BRDF (``KayKajiya`` with ``coverage``): kd and ks per
+    channel and the exponent n; the tangent and coverage are the table's (its surface's
+    axis, 2 radius / spacing), 1 and +y without them."""
+
+    def build(p: np.ndarray) -> Any:
+        from microsim.analytic.brdf import KayKajiya
+
+        theta = np.radians(defaults.get("tangent_theta", 90.0))
+        phi = np.radians(defaults.get("tangent_phi", 90.0))
+        t = [np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)]
+        models = [KayKajiya(t, p[c], p[3 + c], p[6], defaults.get("coverage", 1.0))
+                  for c in range(3)]
+
+        class Rgb:
+            def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+                return np.stack([m.eval(wi, wo) for m in models], axis=-1)
+
+        return Rgb()
+
+    kd = defaults.get("kd", 0.05)
+    return Family(("kd_R", "kd_G", "kd_B", "ks_R", "ks_G", "ks_B", "n"),
+                  (kd, kd, kd, 0.5, 0.5, 0.5, 20.0), (0.0,) * 7,
+                  (10.0, 10.0, 10.0, 1e3, 1e3, 1e3, 1e4), build)
+
+
+def _microcylinder(defaults: Mapping[str, Any]) -> Family:
+    """The microcylinder cloth model (``MicrocylinderCloth``): coverage a_1 (warp), a_2
+    (weft), η, γ_s, γ_v (radians), k_d, and the volume scale A per family and channel
+    (up to 5: not an albedo); the tangent curves are the table's weave (``slope``,
+    ``flat``)."""
+
+    def build(p: np.ndarray) -> Any:
+        from microsim.analytic.cloth import MicrocylinderCloth
+
+        return MicrocylinderCloth(p[0:2], p[2], p[3], p[4], p[5], p[6:12].reshape(2, 3),
+                                  defaults.get("slope", 0.0), defaults.get("flat", 0.0))
+
+    a = min(0.95, defaults.get("yarn_width", 0.8) / defaults.get("spacing", 1.0))
+    albedo = [float(np.mean(defaults.get(f"albedo_{part}", 0.5))) for part in
+              ("warp", "weft")]
+    return Family(("a_warp", "a_weft", "eta", "gamma_s", "gamma_v", "kd", "A_warp_R",
+                   "A_warp_G", "A_warp_B", "A_weft_R", "A_weft_G", "A_weft_B"),
+                  (a, a, 1.5, 0.2, 0.4, 0.5, *[albedo[0]] * 3, *[albedo[1]] * 3),
+                  (0.0, 0.0, 1.01, 0.005, 0.005, 0.0, *(0.0,) * 6),
+                  (1.0, 1.0, 3.0, 1.0, 1.5, 1.0, *(5.0,) * 6), build)
+
+
+FAMILIES = "beckmann, ggx, oren-nayar, phong, lafortune[:K], kay-kajiya, microcylinder"
+
+
+def family(spec: str, defaults: Mapping[str, Any] | None = None) -> tuple[str, Family]:
+    """``beckmann``, ``ggx``, ``oren-nayar``, ``phong``, ``lafortune[:K]`` (K lobes,
+    default 1), ``kay-kajiya`` or ``microcylinder``; ``defaults`` are the table's
+    (``compare.model_defaults``: the fibre tangent and coverage, the weave's tangent
+    curves)."""
     from microsim.errors import InputError
 
+    defaults = defaults or {}
     name, _, k = spec.partition(":")
     if name in ("beckmann", "ggx"):
         return name, _microfacet(name)
@@ -110,30 +164,36 @@ def family(spec: str) -> tuple[str, Family]:
         return name, _oren_nayar()
     if name == "phong":
         return name, _phong()
+    if name == "kay-kajiya":
+        return name, _kay_kajiya(defaults)
+    if name == "microcylinder":
+        return name, _microcylinder(defaults)
     if name == "lafortune":
         if k and not (k.isdigit() and 1 <= int(k) <= 4):
             raise InputError(f"--model {spec}: lafortune takes 1 to 4 lobes, e.g. "
                              "lafortune:2")
         return name, _lafortune(int(k or 1))
-    raise InputError(f"--model {spec}: must be one of beckmann, ggx, oren-nayar, phong, "
-                     "lafortune[:K]")
+    raise InputError(f"--model {spec}: must be one of {FAMILIES}")
 
 
 def model_bins(model: Any, table: Any, n: int) -> np.ndarray:
-    """The model's bin averages over the whole table: (a, b, nt, np, 3)."""
+    """The model's bin averages over the whole table: (a, b, nt, np, 3) (azimuths
+    relative to φi for isotropic tables, absolute otherwise)."""
     return np.stack([np.stack([bin_average(model, direction(t, p), table.bins.theta_edges,
-                                           table.bins.phi_edges, p, n)
+                                           table.bins.phi_edges,
+                                           p if table.isotropic else 0.0, n)
                                for p in table.phi_i]) for t in table.theta_i])
 
 
 def fit_table(table: Any, spec: str, component: str = "total",
-              start: Sequence[float] | None = None) -> dict[str, Any]:
+              start: Sequence[float] | None = None,
+              progress: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
     """Fit a model family to a table.
 
     Parameters
     ----------
     table : BRDFTable
-        Isotropic.
+        Isotropic, or anisotropic (every incident azimuth is fitted).
     spec : str
         Model family (see ``family``).
     component : str
@@ -141,16 +201,19 @@ def fit_table(table: Any, spec: str, component: str = "total",
     start : sequence of float, optional
         Start values (default: the family's; for microfacet models α starts at the
         table's realised roughness when it has one).
+    progress : callable or None
+        Called after every evaluation of the model over the table with a dict:
+        ``evaluations`` (so far) and ``chi2_dof`` (of that evaluation).
 
     Returns
     -------
     dict
         ``model``, ``params`` (name → value), ``uncertainty`` (name → 1σ), ``chi2_dof``,
-        ``median_rel_error`` (over lobe bins, as ``compare``), ``per_theta_i`` (θi in
-        degrees, albedo of fit and table per channel), ``nfev``, ``fitted`` (the model)
-        and ``model_bins`` (its bin averages, for plots).
+        ``median_rel_error`` (over lobe bins, as ``compare``), ``per_theta_i`` (θi and φi
+        in degrees, albedo of fit and table per channel), ``nfev``, ``fitted`` (the
+        model) and ``model_bins`` (its bin averages, for plots).
     """
-    name, fam = family(spec)
+    name, fam = family(spec, model_defaults(table.meta))
     component = table.component(component)
     sim, err = table.values[component], table.errors[component]
     eps = EPS_FRACTION * float(np.nanmax(sim))
@@ -162,12 +225,19 @@ def fit_table(table: Any, spec: str, component: str = "total",
     if start is None and fam.names[0] == "alpha" and isinstance(alpha, float):
         x0[0] = alpha
 
+    dof = max(int(keep.sum()) - len(x0), 1)
+    evaluations = 0
+
     def residuals(p: np.ndarray) -> np.ndarray:
+        nonlocal evaluations
         m = model_bins(fam.build(p), table, SUBSAMPLES)[keep]
-        return (np.log(np.maximum(m, 0.0) + eps) - target) / sigma
+        r = (np.log(np.maximum(m, 0.0) + eps) - target) / sigma
+        evaluations += 1
+        if progress is not None:
+            progress({"evaluations": evaluations, "chi2_dof": float(r @ r) / dof})
+        return r
 
     result = least_squares(residuals, x0, bounds=(fam.lower, fam.upper), x_scale="jac")
-    dof = max(int(keep.sum()) - len(x0), 1)
     chi2 = float(np.sum(result.fun**2))
     try:
         cov = np.linalg.inv(result.jac.T @ result.jac) * max(chi2 / dof, 1.0)
@@ -178,9 +248,10 @@ def fit_table(table: Any, spec: str, component: str = "total",
     compared = compare_table(table, fitted, component)
     proj = table.bins.projected_solid_angle[None, None, :, :, None]
     albedo_fit = (compared["model"] * proj).sum(axis=(2, 3))
-    rows = [{"theta_i": float(np.degrees(t)), "albedo_fit": albedo_fit[k, 0].tolist(),
-             "albedo_table": table.albedo_of[component][k, 0].tolist()}
-            for k, t in enumerate(table.theta_i)]
+    rows = [{"theta_i": float(np.degrees(t)), "phi_i": float(np.degrees(p)),
+             "albedo_fit": albedo_fit[k, j].tolist(),
+             "albedo_table": table.albedo_of[component][k, j].tolist()}
+            for k, t in enumerate(table.theta_i) for j, p in enumerate(table.phi_i)]
     return {"model": spec if name != "lafortune" else f"lafortune:{len(x0) // 3}",
             "params": dict(zip(fam.names, result.x.tolist(), strict=True)),
             "uncertainty": dict(zip(fam.names, unc.tolist(), strict=True)),

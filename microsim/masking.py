@@ -20,6 +20,10 @@ from microsim.compare import direction
 from microsim.surfaces.tile import Tile
 from microsim.trace import ESCAPED, PeriodicScene
 
+G1_BYTES_PER_RAY = 200
+"""Working memory per ray and angle of ``measure_g1`` (which traces them all at once):
+measured 140-160 B (5 angles, 10⁶ and 2 · 10⁶ rays each), rounded up."""
+
 
 def sample_faces(tile: Tile, weights: np.ndarray, n: int, rng: np.random.Generator
                  ) -> tuple[np.ndarray, np.ndarray]:
@@ -95,7 +99,8 @@ def measure_g1(scene: PeriodicScene, theta: Sequence[float] | np.ndarray, phi: f
 
 
 def measure_g1_recipe(recipe: Mapping[str, Any], thetas_deg: Sequence[float], rays: int,
-                      phi_deg: float = 0.0, threads: int | None = None) -> dict[str, Any]:
+                      phi_deg: float = 0.0, threads: int | None = None,
+                      memory_limit_gib: float | None = None) -> dict[str, Any]:
     """G1 of a recipe's surface over its realisations, with the numbers a report needs.
 
     Each of the ``simulation.realisations`` tiles (built one at a time,
@@ -118,6 +123,9 @@ def measure_g1_recipe(recipe: Mapping[str, Any], thetas_deg: Sequence[float], ra
         Azimuth, degrees.
     threads : int or None
         Tracing threads (default: every CPU).
+    memory_limit_gib : float or None
+        The memory guard's budget for each tile (``microsim.memory``); the rays need
+        ``G1_BYTES_PER_RAY`` each per angle.
 
     Returns
     -------
@@ -137,7 +145,7 @@ def measure_g1_recipe(recipe: Mapping[str, Any], thetas_deg: Sequence[float], ra
     seed = recipe["simulation"]["seed"]
     hits, infos, segments = [], [], 0
     for r in range(k):
-        tile = build_tile(realisation(recipe["surface"], r))
+        tile = build_tile(realisation(recipe["surface"], r), memory_limit_gib)
         with PeriodicScene(tile, threads) as scene:
             g1, _ = measure_g1(scene, np.radians(thetas_deg), math.radians(phi_deg), n,
                                np.random.default_rng(np.random.SeedSequence(

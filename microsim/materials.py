@@ -34,6 +34,7 @@ from numba import njit
 from microsim.errors import InputError
 from microsim.kernel import scatter as events
 from microsim.kernel.rng import key_of
+from microsim.kernel.shading import curved_table
 from microsim.tabulated import TabulatedMaterial
 
 KINDS = {"mirror": events.MIRROR, "conductor": events.CONDUCTOR,
@@ -56,6 +57,8 @@ class FacetMaterials:
     tangents : (m, 3) float or None
         Unit tangent per face from the generator (``Tile.tangents``), for table materials
         with ``axis = "tangent"``.
+    curved : (m, 3, 3) float or None
+        The tube each face approximates (``Tile.curved``), for shading normals.
 
     Attributes
     ----------
@@ -74,6 +77,9 @@ class FacetMaterials:
         The tables' nodes, bin edges, cumulative probabilities and weights.
     tangents : (m, 3) float
         The faces' tangents (zeros when the tile gives none).
+    curved : (m, 9) or (0, 9) float
+        The faces' tubes for the kernel (``microsim.kernel.shading.curved_table``:
+        refracting parts flat; no rows when no face is curved).
 
     Raises
     ------
@@ -83,7 +89,8 @@ class FacetMaterials:
 
     def __init__(self, face_material: np.ndarray, parts: Sequence[str],
                  materials: Mapping[str, Mapping[str, Any]],
-                 tangents: np.ndarray | None = None) -> None:
+                 tangents: np.ndarray | None = None,
+                 curved: np.ndarray | None = None) -> None:
         self.face_material = np.ascontiguousarray(face_material, np.int64)
         specs = [dict(materials[p]) for p in parts]
         self.tables = {m: TabulatedMaterial.load(spec["path"], spec["component"],
@@ -112,6 +119,7 @@ class FacetMaterials:
             chunks.append(data)
             used += len(data)
         self.tab_f = np.concatenate(chunks)
+        self.curved = curved_table(curved, self.kind[self.face_material] == events.REFRACTING)
 
     def scatter(self, faces: np.ndarray, d: np.ndarray, n: np.ndarray,
                 seed: np.random.SeedSequence, event: int = 1

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -11,13 +12,33 @@ from microsim.compare import Model, half_difference
 from microsim.tables.table import BRDFTable
 
 
-def incidence_plane_bins(table: BRDFTable) -> tuple[int, int]:
-    """The φo bins nearest the plane of incidence: (back-scattering side φ ≈ 0, forward
-    side φ ≈ π), for an isotropic table whose azimuths are relative to φi."""
-    centres = table.bins.phi_centers
-    back = int(np.argmin(np.abs(np.angle(np.exp(1j * centres)))))
-    forward = int(np.argmin(np.abs(np.angle(np.exp(1j * (centres - np.pi))))))
-    return back, forward
+def incidence_plane_bins(table: BRDFTable, phi: float = 0.0
+                         ) -> tuple[list[int], list[int]]:
+    """The φo bins of the plane of incidence: (back-scattering side φ = ``phi``, forward
+    side φ = ``phi`` + π), each the bin containing that azimuth, or the two bins on
+    either side when it lies on a bin edge (as φ = 0 does: the plane is then their
+    mean). ``phi`` is 0 for an isotropic table, whose azimuths are relative to φi, and φi
+    (radians) for an anisotropic one."""
+    edges = table.bins.phi_edges
+    period = edges[-1]
+
+    def around(target: float) -> list[int]:
+        x = np.mod(target, period)
+        k = int(np.clip(np.searchsorted(edges, x, side="right") - 1, 0, len(edges) - 2))
+        near = np.isclose(x, edges[k], atol=1e-9) or np.isclose(x, edges[k + 1], atol=1e-9)
+        if not near:
+            return [k]
+        lower = k if np.isclose(x, edges[k + 1], atol=1e-9) else k - 1
+        return sorted({lower % (len(edges) - 1), (lower + 1) % (len(edges) - 1)})
+
+    return around(phi), around(phi + np.pi)
+
+
+def _wrapped(title: str, fig: Any, fontsize: float) -> str:
+    """``title`` in lines that fit the figure's width at ``fontsize`` points (a character
+    of DejaVu Sans is at most about 0.6 em wide on average)."""
+    width_pt = fig.get_figwidth() * 72
+    return textwrap.fill(title, max(20, int(width_pt / (0.6 * fontsize))))
 
 
 def _pyplot() -> Any:
@@ -30,19 +51,20 @@ def _pyplot() -> Any:
 
 
 def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
-                    component: str = "single", title: str = "") -> None:
-    """Plot f_r cos θo in the plane of incidence, simulation against model, one panel
-    per incidence (the first incident azimuth).
+                    component: str = "single", title: str = "",
+                    model_label: str = "model") -> None:
+    """Plot f_r cos θo in the plane of incidence, simulation against model: one panel per
+    incidence (columns θi; rows φi for an anisotropic table).
 
     The simulated bins (with ±1 standard error bars) and the model averaged over the
     same bins (``compare.compare_table``'s ``model``) are drawn against the signed θo of
     the bin centre: negative on the back-scattering side (towards the light), positive on
-    the forward side (towards the mirror direction).
+    the forward side (towards the mirror direction); where the plane runs along a bin
+    edge, the mean of the bins on either side (``incidence_plane_bins``).
 
     Parameters
     ----------
     table : BRDFTable
-        An isotropic table.
     model_bins : (a, b, nt, np, 3) float
         The model's bin averages.
     path : str or Path
@@ -51,32 +73,42 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
         A component of the table (``"single"``, ``"total"``, ``"order2"``, …).
     title : str
         Figure title.
+    model_label : str
+        Legend entry of the model's curve (e.g. the fitted model's name).
     """
     plt = _pyplot()
-    back, forward = incidence_plane_bins(table)
     theta = np.degrees(table.bins.theta_centers)
     cos_o = np.cos(table.bins.theta_centers)
     n = len(table.theta_i)
-    fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 3.4), squeeze=False)
-    for k, ax in enumerate(axes[0]):
-        avg = model_bins[k, 0]
-        values = table.values[component][k, 0]
-        errors = np.nan_to_num(table.errors[component][k, 0])
-        for side, sign in ((back, -1), (forward, 1)):
-            x = sign * theta
-            ax.errorbar(x, values[:, side, 1] * cos_o, yerr=errors[:, side, 1] * cos_o,
-                        fmt="o", ms=3, color="tab:blue", ecolor="tab:blue", elinewidth=1,
-                        label="simulated" if sign > 0 else None)
-            ax.plot(x, avg[:, side, 1] * cos_o, "-", color="tab:red",
-                    label="model" if sign > 0 else None)
-        ax.set_title(f"θi = {np.degrees(table.theta_i[k]):.0f}°")
-        ax.set_xlabel("θo in the plane of incidence (°)")
-        ax.set_xlim(-90, 90)
-        ax.grid(alpha=0.3)
-    axes[0, 0].set_ylabel("f_r cos θo (1/sr), green channel")
+    rows = 1 if table.isotropic else len(table.phi_i)
+    fig, axes = plt.subplots(rows, n, figsize=(3.6 * n, 3.4 * rows), squeeze=False)
+    for j in range(rows):
+        back, forward = incidence_plane_bins(table, 0.0 if table.isotropic
+                                             else float(table.phi_i[j]))
+        for k, ax in enumerate(axes[j]):
+            avg = model_bins[k, j]
+            values = table.values[component][k, j]
+            errors = np.nan_to_num(table.errors[component][k, j])
+            for side, sign in ((back, -1), (forward, 1)):
+                x = sign * theta
+                sim = values[:, side, 1].mean(axis=1)
+                err = np.sqrt((errors[:, side, 1] ** 2).sum(axis=1)) / len(side)
+                ax.errorbar(x, sim * cos_o, yerr=err * cos_o, fmt="o", ms=3,
+                            color="tab:blue", ecolor="tab:blue", elinewidth=1,
+                            label="simulated" if sign > 0 else None)
+                ax.plot(x, avg[:, side, 1].mean(axis=1) * cos_o, "-", color="tab:red",
+                        label=model_label if sign > 0 else None)
+            label = f"θi = {np.degrees(table.theta_i[k]):.0f}°"
+            if not table.isotropic:
+                label += f", φi = {np.degrees(table.phi_i[j]):.0f}°"
+            ax.set_title(label)
+            ax.set_xlabel("θo in the plane of incidence (°)")
+            ax.set_xlim(-90, 90)
+            ax.grid(alpha=0.3)
+        axes[j, 0].set_ylabel("f_r cos θo (1/sr), green")
     axes[0, 0].legend(loc="upper left", fontsize=8)
     if title:
-        fig.suptitle(title, fontsize=10)
+        fig.suptitle(_wrapped(title, fig, 10), fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -96,15 +128,17 @@ def half_difference_slices(table: BRDFTable, model: Model, path: str | Path,
     mod = mod.mean(axis=-1) if mod.ndim == 3 else mod
     valid = (wi[..., 2] > 0) & (wo[..., 2] > 0)
     ratio = np.full(sim.shape, np.nan)
-    # the ratio only where the model holds at least 1% of its peak: further out it shows
-    # how the table's bins smear the lobe's edge, not how model and simulation differ
-    both = valid & (sim > 0) & (mod > 0.01 * np.max(np.where(valid, mod, 0.0)))
+    # the ratio only where the model holds at least 1% of its peak at the same θd: further
+    # out it shows how the table's bins smear the lobe's edge, not how model and
+    # simulation differ (one peak for the whole image would follow the grazing θd alone)
+    peak = np.max(np.where(valid, mod, 0.0), axis=0, keepdims=True)
+    both = valid & (sim > 0) & (mod > 0.01 * peak)
     ratio[both] = np.log10(sim[both] / mod[both])
     floor = max(np.nanmax(np.where(valid, mod, np.nan)) * 1e-4, 1e-6)
     images = [np.log10(np.where(valid, np.maximum(sim, floor), np.nan)),
               np.log10(np.where(valid, np.maximum(mod, floor), np.nan)), ratio]
     names = ["simulated log10 f_r", "model log10 f_r",
-             "log10(simulated / model), model ≥ 1% of peak"]
+             "log10(simulated / model),\nmodel ≥ 1% of its peak at that θd"]
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.8))
     lo = np.nanmin(images[1])
     hi = np.nanmax(images[1])
@@ -118,7 +152,7 @@ def half_difference_slices(table: BRDFTable, model: Model, path: str | Path,
         ax.set_title(name, fontsize=9)
         fig.colorbar(im, ax=ax, shrink=0.8)
     if title:
-        fig.suptitle(title + "  (φd = 90°)", fontsize=10)
+        fig.suptitle(_wrapped(title + "  (φd = 90°)", fig, 10), fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -132,7 +166,8 @@ def z_maps(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
     (a Monte Carlo model's (a, b, nt, np, 3) standard errors) both errors combine."""
     plt = _pyplot()
     n = len(table.theta_i)
-    fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 3.4), squeeze=False)
+    fig, axes = plt.subplots(1, n, figsize=(3.2 * n + 1.2, 3.6), squeeze=False, sharey=True,
+                             layout="constrained")
     te, pe = np.degrees(table.bins.theta_edges), np.degrees(table.bins.phi_edges)
     for k, ax in enumerate(axes[0]):
         err = table.errors[component][k, 0, ..., 1]
@@ -143,11 +178,12 @@ def z_maps(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
         im = ax.pcolormesh(pe, te, np.ma.masked_invalid(z), cmap="RdBu_r", vmin=-4, vmax=4)
         ax.set_title(f"θi = {np.degrees(table.theta_i[k]):.0f}°")
         ax.set_xlabel("φo − φi (°)")
-        ax.set_ylabel("θo (°)")
+        ax.set_xticks(np.arange(0, 361, 90))
+    axes[0, 0].set_ylabel("θo (°)")
     fig.colorbar(im, ax=axes[0].tolist(), shrink=0.8, label="z")
     if title:
-        fig.suptitle(title, fontsize=10, y=1.04)
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+        fig.suptitle(_wrapped(title, fig, 10), fontsize=10)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
@@ -171,7 +207,7 @@ def albedo_plot(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     if title:
-        ax.set_title(title, fontsize=9)
+        ax.set_title(_wrapped(title, fig, 9), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -208,7 +244,7 @@ def ndf_plot(theta_deg: np.ndarray, measured: np.ndarray, stderr: np.ndarray,
     ax.grid(alpha=0.3)
     ax.legend()
     if title:
-        ax.set_title(title, fontsize=9)
+        ax.set_title(_wrapped(title, fig, 9), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -250,8 +286,10 @@ def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path
     theta = np.degrees(table.bins.theta_centers)
     cos_o = np.cos(table.bins.theta_centers)
     for side, sign in ((back, -1), (forward, 1)):
-        lobe.errorbar(sign * theta, table.values[component][k, 0, :, side, 1] * cos_o,
-                      yerr=np.nan_to_num(table.errors[component][k, 0, :, side, 1]) * cos_o,
+        err = np.nan_to_num(table.errors[component][k, 0][:, side, 1])
+        lobe.errorbar(sign * theta,
+                      table.values[component][k, 0][:, side, 1].mean(axis=1) * cos_o,
+                      yerr=np.sqrt((err**2).sum(axis=1)) / len(side) * cos_o,
                       fmt="o", ms=3, color="black", label="table" if sign > 0 else None)
     signed = np.linspace(-89.5, 89.5, 359)
     phi = np.where(signed < 0, 0.0, np.pi)                # the azimuths of the bins drawn
@@ -268,8 +306,8 @@ def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path
     lobe.grid(alpha=0.3)
     lobe.legend(fontsize=7)
     if title:
-        fig.suptitle(title, fontsize=10)
+        fig.suptitle(_wrapped(title, fig, 10), fontsize=10)
     fig.tight_layout()
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+        fig.savefig(tmp, dpi=110, format=Path(path).suffix.lstrip(".").lower() or "png")
     plt.close(fig)

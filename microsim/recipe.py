@@ -27,7 +27,7 @@ from typing import Any
 
 from microsim.errors import InputError
 from microsim.schema import REQUIRED, Key, check_section, suggest, unknown_key
-from microsim.surfaces.params import SURFACE_KINDS
+from microsim.surfaces.params import SURFACE_KINDS, check_span
 from microsim.tables.components import DEFAULT_ORDERS
 
 
@@ -49,8 +49,8 @@ MATERIAL_KINDS: dict[str, dict[str, Key]] = {
     },
     "dielectric": {
         "eta": _n("Index of refraction relative to the medium in front of the faces (air; "
-                  "for particles inside a paint's binder, relative to the binder).", 1.5,
-                  low=1.0, high=10.0),
+                  "for particles inside a paint's binder, relative to the binder); 1 would "
+                  "be no interface at all.", 1.5, low=1.0, low_open=True, high=10.0),
         "refract": Key("bool", False, "Refract as well as reflect: a Fresnel-weighted "
                        "choice, Snell's law, total internal reflection; the part's faces "
                        "enclose a medium behind them (docs/materials.md). false: reflect "
@@ -143,7 +143,7 @@ def _material(raw: Mapping[str, Any], where: str) -> dict:
     if kind is REQUIRED:
         raise InputError(f"{where}kind: missing; must be one of "
                          + ", ".join(repr(k) for k in MATERIAL_KINDS))
-    if kind not in MATERIAL_KINDS:
+    if not isinstance(kind, str) or kind not in MATERIAL_KINDS:
         raise InputError(f"{where}kind = {kind!r}: must be one of "
                          + ", ".join(repr(k) for k in MATERIAL_KINDS)
                          + suggest(str(kind), MATERIAL_KINDS))
@@ -231,7 +231,7 @@ def resolve(raw: Mapping[str, Any]) -> dict:
     if kind is None:
         raise InputError("surface.kind: missing; must be one of "
                          + ", ".join(repr(k) for k in SURFACE_KINDS))
-    if kind not in SURFACE_KINDS:
+    if not isinstance(kind, str) or kind not in SURFACE_KINDS:
         raise InputError(f"surface.kind = {kind!r}: must be one of "
                          + ", ".join(repr(k) for k in SURFACE_KINDS)
                          + suggest(str(kind), SURFACE_KINDS))
@@ -240,6 +240,7 @@ def resolve(raw: Mapping[str, Any]) -> dict:
     surf = {"kind": kind, **check_section(rest, spec.keys, "surface.")}
     if spec.check is not None:
         spec.check(surf)
+    check_span(surf, spec.keys)
     materials = _materials(raw.get("material", {}), spec.parts)
     _check_media(surf, materials)
     return {
@@ -332,15 +333,30 @@ def apply_overrides(raw: dict, overrides: Iterable[str]) -> dict:
     return out
 
 
+MAX_BYTES = 1 << 20
+"""A recipe or sweep is a text file of a few kB: more than this (an endless device such as
+/dev/zero, a file given by mistake) is refused before it fills the memory."""
+
+
 def read_toml(path: str | Path) -> dict:
-    """Parse a TOML file, turning a missing file or a syntax error into ``InputError``."""
+    """Parse a TOML file, turning a missing, unreadable, oversized or non-UTF-8 file or a
+    syntax error into ``InputError``."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        with path.open("rb") as f:
+            data = f.read(MAX_BYTES + 1)
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+    except OSError as exc:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if len(data) > MAX_BYTES:
+        raise InputError(f"{path}: larger than {MAX_BYTES >> 20} MiB; a recipe is a short "
+                         "TOML text file")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not UTF-8 text (byte {exc.start}); a recipe is a TOML "
+                         "text file") from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -74,10 +74,11 @@ class Key:
         if self.kind == "floats" and self.length:
             what = f"a list of {self.length} numbers"
         bounds = []
+        number = (lambda v: str(int(v))) if self.kind == "int" else (lambda v: f"{v:g}")
         if self.low is not None:
-            bounds.append(f"{'>' if self.low_open else '>='} {self.low:g}")
+            bounds.append(f"{'>' if self.low_open else '>='} {number(self.low)}")
         if self.high is not None:
-            bounds.append(f"{'<' if self.high_open else '<='} {self.high:g}")
+            bounds.append(f"{'<' if self.high_open else '<='} {number(self.high)}")
         if bounds:
             what += " " + " and ".join(bounds)
         if self.unit == "deg":

@@ -24,6 +24,7 @@ from microsim.goniometer import (
     Measurement,
     Run,
     incident_azimuths,
+    lost_energy_warnings,
     measure_directions,
     rays_per_realisation,
 )
@@ -44,11 +45,13 @@ class Tiles:
         ``microsim.surfaces.realisations.realisation(surface, r)``.
     tile : Tile or None
         Instead of ``surface``: one given tile, realisation 0 and the only one.
+    memory_limit_gib : float or None
+        The memory guard's budget for each tile (``microsim.memory``).
     """
 
-    def __init__(self, surface: Mapping[str, Any] | None = None, tile: Tile | None = None
-                 ) -> None:
-        self.surface, self.tile = surface, tile
+    def __init__(self, surface: Mapping[str, Any] | None = None, tile: Tile | None = None,
+                 memory_limit_gib: float | None = None) -> None:
+        self.surface, self.tile, self.memory_limit_gib = surface, tile, memory_limit_gib
 
     def __call__(self, r: int) -> Tile:
         """Realisation r's tile."""
@@ -59,7 +62,7 @@ class Tiles:
             return self.tile
         from microsim.surfaces import build_tile
 
-        return build_tile(realisation(self.surface, r))
+        return build_tile(realisation(self.surface, r), self.memory_limit_gib)
 
 
 def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mapping[str, Any]],
@@ -256,11 +259,13 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Mapping
                                        result.albedo[i, d[1]])
                        for i, l in enumerate(chosen) for d in directions if d[0] == l],
         "stop": sorted({stops.get(d, "rays") for d in directions}),
-        "warnings": list(dict.fromkeys(w for part in parts for w in part.warnings)),
         "segments": segments,
         "batch": BATCH,
         "offset": next((p.offset for p in parts if 0 in p.surfaces), first.offset),
     }
+    meta["warnings"] = list(dict.fromkeys(
+        [w for part in parts for w in part.warnings]
+        + lost_energy_warnings(meta["directions"])))
     if wall_time is not None:
         traced = sum(part.trace_time for part in parts)
         meta.update(wall_time=wall_time, scene_time=sum(part.scene_time for part in parts),
@@ -287,7 +292,7 @@ def _direction_meta(runs: Mapping[tuple[int, int, int], Run], d: tuple[int, int]
             "realisations": k, "rays_per_realisation": [acc.rays for acc in sums],
             "lost": mean(lambda a: a.lost), "transmitted": mean(lambda a: a.transmitted),
             "absorbed": mean(lambda a: a.absorbed), "fates": fates, "stop": stop,
-            "rel_error": rel, "ray_share": share, "albedo": albedo.tolist()}
+            "rel_stderr": rel, "ray_share": share, "albedo": albedo.tolist()}
 
 
 def _table(bins: HemisphereBins, theta_deg: Sequence[float], phi_deg: Sequence[float],
@@ -370,14 +375,15 @@ def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
 def simulate_surface(surface: Mapping[str, Any], materials: Mapping[str, Mapping[str, Any]],
                      simulation: Mapping[str, Any], table: Mapping[str, Any], *,
                      recipe: Mapping[str, Any] | None = None, threads: int | None = None,
-                     progress: Callable[[dict[str, Any]], None] | None = None
-                     ) -> BRDFTable:
+                     progress: Callable[[dict[str, Any]], None] | None = None,
+                     memory_limit_gib: float | None = None) -> BRDFTable:
     """The table of a surface: the mean over ``simulation["realisations"]`` tiles.
 
     As ``simulate``, with ``surface`` a resolved ``[surface]`` section whose realisations
-    are built one at a time. Direction (l, k) of realisation r runs batches of ``BATCH``
-    rays; batch b draws from ``SeedSequence(seed, spawn_key=(l, k, r, b))``, so the
-    numbers depend on neither the thread count nor the order of work. With
+    are built one at a time (each under the memory guard's ``memory_limit_gib``).
+    Direction (l, k) of realisation r runs batches of ``BATCH`` rays; batch b draws from
+    ``SeedSequence(seed, spawn_key=(l, k, r, b))``, so the numbers depend on neither the
+    thread count nor the order of work. With
     ``target_error``, rounds of rays and realisations are added until every direction's
     median relative error over its lobe bins is at most the target or a cap is reached
     (``measure_ensemble``; the metadata says which).
@@ -385,8 +391,8 @@ def simulate_surface(surface: Mapping[str, Any], materials: Mapping[str, Mapping
     if recipe is None:
         recipe = {"surface": dict(surface), "material": dict(materials),
                   "simulation": dict(simulation), "table": dict(table)}
-    return _simulate(Tiles(surface), materials, simulation, table, recipe, threads,
-                     progress)
+    return _simulate(Tiles(surface, memory_limit_gib=memory_limit_gib), materials, simulation,
+                     table, recipe, threads, progress)
 
 
 def _simulate(tiles: Tiles, materials: Mapping[str, Any], simulation: Mapping[str, Any],
@@ -402,9 +408,10 @@ def _simulate(tiles: Tiles, materials: Mapping[str, Any], simulation: Mapping[st
 
 
 def simulate_recipe(recipe: Mapping[str, Any], progress: Callable[[dict[str, Any]], None]
-                    | None = None, threads: int | None = None) -> BRDFTable:
+                    | None = None, threads: int | None = None,
+                    memory_limit_gib: float | None = None) -> BRDFTable:
     """Measure a resolved recipe's surface (all its realisations; see
     ``simulate_surface``)."""
     return simulate_surface(recipe["surface"], recipe["material"], recipe["simulation"],
                             recipe["table"], recipe=recipe, threads=threads,
-                            progress=progress)
+                            progress=progress, memory_limit_gib=memory_limit_gib)

@@ -30,6 +30,7 @@ from embreex.rtcore_scene import EmbreeScene
 
 from microsim.kernel import transport as kt
 from microsim.kernel.rng import key_of
+from microsim.kernel.shading import curved_table
 from microsim.surfaces.tile import Tile
 
 if TYPE_CHECKING:
@@ -204,9 +205,11 @@ class PeriodicScene:
             count = int(self.tile.material.max(initial=0)) + 1
             kind, params = np.zeros(count, np.int64), np.zeros((count, 12))
             tab_int, tab_f = kt.empty_tables(count)
+            curved = curved_table(None, np.zeros(0, bool))
         else:
-            kind, params, tab_int, tab_f = (materials.kind, materials.params,
-                                            materials.tab_int, materials.tab_f)
+            kind, params, tab_int, tab_f, curved = (materials.kind, materials.params,
+                                                    materials.tab_int, materials.tab_f,
+                                                    materials.curved)
         key = np.zeros(2, np.uint64) if seed is None else key_of(seed)
         origins = np.ascontiguousarray(origins, float)
         dirs = np.ascontiguousarray(dirs, float)
@@ -233,7 +236,7 @@ class PeriodicScene:
                 segments += m
                 m = kt.advance(prim, m, slots_f, slots_i, live, near, o32, d32, t32,
                                self.box, self._faces, kind, params, tab_int, tab_f, bounces,
-                               key, out_f, out_i, path)
+                               key, out_f, out_i, path, curved)
             return segments
 
         segments = sum(self.map(chunk, range(0, n, c)))

@@ -15,6 +15,17 @@ from microsim.surfaces.tile import Tile
 WINDOW = (800, 600)
 GLASS = 0.3
 """Opacity of see-through (refracting) parts."""
+TILE_BAR = {"vertical": False, "position_x": 0.5, "position_y": 0.82, "width": 0.45,
+            "height": 0.1, "title_font_size": 16, "label_font_size": 14}
+"""The tile view's colour bar: across the top right, which the iso view leaves empty,
+clear of the axis labels it puts at the bottom corner. Titles of horizontal bars end in a
+newline, which lifts them clear of the labels VTK puts above the bar."""
+LOBE_BAR = {"vertical": False, "position_x": 0.3, "position_y": 0.02, "width": 0.6,
+            "height": 0.12, "title_font_size": 16, "label_font_size": 14}
+"""The lobe view's colour bar: along the bottom (titles end in a newline, as for
+``TILE_BAR``)."""
+REL_ERROR = "(simulated - model) / model"
+"""The lobe view's colour, the relative error against the model, clipped to ±50%."""
 THIN = 0.1
 """A tile whose height range is below this fraction of its period is drawn with its z axis
 stretched to reach it (said in the title): true scale would show a flat sheet."""
@@ -135,11 +146,11 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
         cmap = ListedColormap(colormaps["Set2"].colors[:max(n, 2)])
         plotter.add_mesh(mesh, scalars="material", cmap=cmap, n_colors=max(n, 2),
                          clim=(-0.5, max(n, 2) - 0.5), annotations=labels,
-                         scalar_bar_args={"title": "part", "n_labels": 0})
+                         scalar_bar_args={"title": "part", "n_labels": 0, **TILE_BAR})
     else:
         top = float(np.ceil(np.percentile(mesh.cell_data["slope"], 99.5) / 5) * 5)
         plotter.add_mesh(mesh, scalars="slope", cmap="viridis", clim=(0, max(top, 5.0)),
-                         scalar_bar_args={"title": "facet slope (deg)"})
+                         scalar_bar_args={"title": "facet slope (deg)\n", **TILE_BAR})
     colours = {0: "black", 1: "gold", 2: "orangered", 3: "magenta"}
     for points, order in paths or []:
         line = pv.lines_from_points(points * [1.0, 1.0, z_scale])
@@ -147,7 +158,7 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
     if paths:
         plotter.add_legend([["single", "gold"], ["double", "orangered"],
                             ["3 or more", "magenta"], ["not escaped", "black"]],
-                           bcolor="white", size=(0.18, 0.16))
+                           bcolor="white", size=(0.18, 0.16), loc="lower left")
     plotter.show_bounds(xtitle="x (tile units)", ytitle="y (tile units)",
                         ztitle="z (drawn)" if z_scale > 1.0 else "z (tile units)",
                         font_size=10)
@@ -191,7 +202,7 @@ def lobe_surface(pv: Any, f: np.ndarray, theta: np.ndarray, phi: np.ndarray,
 def show_lobe(table: Any, theta_i: float, model: Any = None,
               screenshot: str | Path | None = None, radius: str = "fr_cos",
               log: bool = False, component: str = "total", title: str = "",
-              n: int = 64) -> np.ndarray | None:
+              n: int = 64, phi_i: float = 0.0) -> np.ndarray | None:
     """A table's BRDF lobe for one incidence as a radial surface over the hemisphere.
 
     Colour is the relative error against ``model`` (clipped to ±50%) when one is given,
@@ -202,7 +213,7 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
     ----------
     table : BRDFTable
     theta_i : float
-        Incident polar angle, radians (φi = 0).
+        Incident polar angle, radians.
     model : Model or None
     screenshot : str or Path or None
         PNG to render off screen; None opens a window.
@@ -214,6 +225,9 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
     title : str
     n : int
         Grid resolution in θo (2n in φo).
+    phi_i : float
+        Incident azimuth, radians (an anisotropic table's lobe depends on it; an
+        isotropic one turns with it).
 
     Returns
     -------
@@ -226,7 +240,7 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
     theta = np.radians(np.linspace(0.0, 89.5, n))
     phi = np.linspace(0.0, 2 * np.pi, 2 * n + 1)
     t, p = np.meshgrid(theta, phi, indexing="ij")
-    wi = direction(theta_i, 0.0)
+    wi = direction(theta_i, phi_i)
     wo = direction(t, p)
     f = table.eval(wi, wo, component).mean(axis=-1)
     surf = lobe_surface(pv, f, theta, phi, radius, log)
@@ -235,13 +249,15 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
         g = np.asarray(model.eval(np.broadcast_to(wi, wo.shape), wo), float)
         g = g.mean(axis=-1) if g.ndim == 3 else g
         rel = np.where(g > 0, (f - g) / np.where(g > 0, g, 1.0), 0.0)
-        surf.point_data["relative error"] = np.clip(rel, -0.5, 0.5).ravel(order="F")
-        plotter.add_mesh(surf, scalars="relative error", cmap="RdBu_r", clim=(-0.5, 0.5))
+        surf.point_data[REL_ERROR] = np.clip(rel, -0.5, 0.5).ravel(order="F")
+        plotter.add_mesh(surf, scalars=REL_ERROR, cmap="RdBu_r", clim=(-0.5, 0.5),
+                         scalar_bar_args={"title": f"{REL_ERROR}\n", **LOBE_BAR})
         plotter.add_mesh(lobe_surface(pv, g, theta, phi, radius, log), style="wireframe",
                          color="black", opacity=0.35)
     else:
         surf.point_data["f_r (1/sr)"] = f.ravel(order="F")
-        plotter.add_mesh(surf, scalars="f_r (1/sr)", cmap="viridis")
+        plotter.add_mesh(surf, scalars="f_r (1/sr)", cmap="viridis",
+                         scalar_bar_args={"title": "f_r (1/sr)\n", **LOBE_BAR})
     size = max(float(np.abs(surf.points).max()), 1e-9)
     plotter.add_mesh(pv.Arrow(start=wi * 1.3 * size, direction=-wi, scale=0.5 * size),
                      color="orange")
@@ -254,7 +270,7 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
 
 
 def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: int,
-              seed: int) -> list[tuple[np.ndarray, int]]:
+              seed: int, phi_i: float = 0.0) -> list[tuple[np.ndarray, int]]:
     """Polylines of a few rays scattered by the tile, for drawing.
 
     The paths are traced by the same transport kernel as ``simulate``
@@ -267,8 +283,10 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
     materials : mapping
         Resolved ``[material]`` (one section per part).
     theta_i : float
-        Incident polar angle, radians (φi = 0).
+        Incident polar angle, radians.
     rays, bounces, seed : int
+    phi_i : float
+        Incident azimuth, radians.
 
     Returns
     -------
@@ -283,9 +301,10 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
     from microsim.trace import PeriodicScene
 
     rng = np.random.default_rng(seed)
-    facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents)
+    facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
+                            tile.curved)
     lx, ly = tile.period
-    d = np.broadcast_to(-direction(theta_i, 0.0), (rays, 3))
+    d = np.broadcast_to(-direction(theta_i, phi_i), (rays, 3))
     reach = 0.3 * max(lx, ly)  # drawn length of the incoming and escaping legs
     with PeriodicScene(tile, threads=1) as scene:
         o = np.column_stack([(0.25 + 0.5 * rng.random((rays, 2))) * [lx, ly],

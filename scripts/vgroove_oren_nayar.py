@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 
 import numpy as np
 
@@ -38,7 +39,7 @@ def main() -> None:
                       "simulation": {"theta_i": theta, "rays": args.rays, "seed": 1},
                       "table": {"theta_bins": 8, "phi_bins": 16}})
     tile = build_tile(recipe["surface"])
-    sigma = float(np.sqrt(np.mean(np.radians(tile.info["slopes_deg"]) ** 2)))
+    sigma = math.radians(tile.info["slopes_deg"]["rms"])
     table = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"])
     model = OrenNayar(sigma, 0.8, "full")
     rows = []

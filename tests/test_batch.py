@@ -29,7 +29,7 @@ BASE = """
 [base.surface]
 kind = "gaussian"
 resolution = 32
-correlation_length = 2.0
+correlation_length = 0.25
 seed = 5
 
 [base.simulation]

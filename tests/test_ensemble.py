@@ -276,12 +276,12 @@ def test_adaptive_stop_adds_realisations_and_says_what_limited() -> None:
     table = simulate_recipe(recipe, threads=2)
     done = table.meta["directions"][0]
     assert done["stop"] == "target_error" and done["realisations"] > 3
-    assert done["rel_error"] <= 0.08 and done["rel_error"] == table.median_rel_error()
+    assert done["rel_stderr"] <= 0.08 and done["rel_stderr"] == table.median_rel_stderr()
     capped = simulate_recipe(small_gaussian(3, 6000, theta_i=(30.0,), target_error=0.01,
                                             max_realisations=5, max_rays=10**6), threads=2)
     done = capped.meta["directions"][0]
     assert done["stop"] == "max_realisations" and done["realisations"] == 5
-    assert done["rel_error"] > 0.01
+    assert done["rel_stderr"] > 0.01
     few = simulate_recipe(small_gaussian(3, 6000, theta_i=(30.0,), target_error=0.01,
                                          max_rays=9000), threads=2)
     done = few.meta["directions"][0]

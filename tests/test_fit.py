@@ -48,13 +48,26 @@ def test_oren_nayar_without_noise():
     assert r["params"]["albedo_G"] == pytest.approx(0.5, rel=0.01)
 
 
-@pytest.mark.parametrize("spec", ["phong", "lafortune:2", "ggx"])
-def test_other_families_run_and_improve_on_their_start(spec):
-    truth = TorranceSparrow(Beckmann(0.3))
-    t = table_of(truth)
-    r = fit_table(t, spec)
-    assert np.isfinite(r["chi2_dof"]) and r["median_rel_error"] < 0.5
-    assert set(r["params"]) == set(r["uncertainty"])
+@pytest.mark.parametrize(("spec", "truth"), [
+    ("ggx", {"alpha": 0.3, "F0_R": 0.9, "F0_G": 0.6, "F0_B": 0.3}),
+    ("phong", {"n": 40.0, "ks_R": 0.6, "ks_G": 0.5, "ks_B": 0.4}),
+    ("lafortune:2", {"Cxy_1": -0.9, "Cz_1": 0.95, "n_1": 30.0,
+                     "Cxy_2": -0.4, "Cz_2": 0.5, "n_2": 3.0}),
+])
+def test_other_families_recover_their_own_parameters(spec, truth):
+    """A noiseless table made from the family's own model with known parameters (8²
+    midpoints per bin) comes back within 1% per parameter: the fit's coarser bin averages
+    (5² midpoints) are the only difference, and moved no parameter by more than 0.2% when
+    this was written."""
+    from microsim.fit import family
+
+    _, fam = family(spec)
+    model = fam.build(np.array([truth[name] for name in fam.names]))
+    r = fit_table(table_of(model), spec)
+    assert set(r["params"]) == set(truth) == set(r["uncertainty"])
+    for name, value in truth.items():
+        assert r["params"][name] == pytest.approx(value, rel=0.01), name
+    assert r["median_rel_error"] < 0.01
 
 
 def test_simulated_gaussian_fits_beckmann_at_its_realised_alpha(cli, tmp_path):

@@ -187,8 +187,8 @@ def test_adaptive_stop_reaches_the_target_or_the_limit() -> None:
     result = simulate(tile, material, simulation, table)
     done = result.meta["directions"][0]
     assert done["stop"] == "target_error" and done["rays"] > 20_000
-    assert done["rel_error"] <= 0.03
-    assert done["rel_error"] == result.median_rel_error()
+    assert done["rel_stderr"] <= 0.03
+    assert done["rel_stderr"] == result.median_rel_stderr()
     assert (done["rays"] - 20_000) % 65_536 == 0  # whole batches after the first rays
     capped = simulate(tile, material, {**simulation, "target_error": 1e-4,
                                        "max_rays": 30_000}, table)

@@ -31,6 +31,21 @@ def recipe(surface, material="mirror", theta=(0.0,), rays=20_000, bounces=64, bi
                     "table": {"theta_bins": bins, "phi_bins": 2 * bins}})
 
 
+LOST_MAX = 1e-4
+"""Energy a closed tile of lossless facets may lose (leaks through the surface, paths cut
+at the bounce limit): the cases here lose none (measured 0 of every ray), so more than one
+ray in 10⁴ is a tracer fault, not noise; ``albedo + lost = 1`` alone would hold even if
+every ray leaked."""
+
+
+def assert_furnace_closes(table):
+    """Bookkeeping (escaped + lost = 1 to round-off) and the lost energy itself."""
+    np.testing.assert_allclose(table.albedo + table.lost_energy, 1.0, atol=1e-12)
+    assert table.lost_energy.max() <= LOST_MAX
+    for d in table.meta["directions"]:
+        assert d["fates"]["leaked"] == d["fates"]["backface"] == d["fates"]["trapped"] == 0
+
+
 def run(r, tile=None):
     tile = tile or build_tile(r["surface"])
     return tile, simulate(tile, r["material"], r["simulation"], r["table"], threads=1)
@@ -38,29 +53,30 @@ def run(r, tile=None):
 
 def test_grazing_incidence_crosses_many_tiles_and_conserves_energy():
     """θi = 89 and 89.9°: rays cross tens of tiles before they land; a mirror furnace
-    returns every ray (escaped + lost = 1 exactly: weights stay 1) with finite bins."""
+    returns every ray (lost energy at most ``LOST_MAX``; weights stay 1) with finite
+    bins."""
     _, table = run(recipe({"kind": "gaussian", "alpha": 0.5, "resolution": 128},
                           theta=(89.0, 89.9)))
-    total = table.albedo + table.lost_energy
-    np.testing.assert_allclose(total, 1.0, atol=1e-12)
+    assert_furnace_closes(table)
     assert np.isfinite(table.values["total"]).all()
     assert table.meta["segments"] > 2 * table.rays.sum()  # many periodic crossings
 
 
 def test_g1_at_grazing_and_exactly_90_degrees():
-    """Smith's G1 at 89.9° is 0.0123 for α = 0.5; a 256² tile (32 correlation lengths)
-    measures it within 0.01 — Smith is reliable for the ensemble, the tile's few
-    independent slopes set the tolerance. At exactly 90° rays run level: none can escape
-    the slab, G1 = 0 = Smith's limit."""
+    """Smith's G1 at 89.9° is 0.0125 at this tile's realised α; the traced G1 of 40 000
+    rays lies within 4 binomial standard errors of it (measured 0.0131 ± 0.0006, z = 1;
+    |z| > 4 happens with probability 6e-5 by noise alone, so a failure is Smith's
+    residual on this tile or a tracer fault). At exactly 90° rays run level: none can
+    escape the slab, G1 = 0 = Smith's limit."""
     tile = build_tile(resolve({"surface": {"kind": "gaussian", "alpha": 0.5,
                                            "seed": 2}})["surface"])
     theta = np.radians([89.9, 90.0])
     with PeriodicScene(tile) as scene:
-        g1, _ = measure_g1(scene, theta[:1], 0.0, 40_000, np.random.default_rng(1))
+        g1, err = measure_g1(scene, theta[:1], 0.0, 40_000, np.random.default_rng(1))
         # level rays use up their query budget before giving up: few of them
         level, _ = measure_g1(scene, theta[1:], 0.0, 500, np.random.default_rng(1))
     smith = Beckmann(tile.info["alpha_realised"]).G1(direction(theta, 0.0))
-    assert abs(g1[0] - smith[0]) < 0.01
+    assert err[0] > 0 and abs(g1[0] - smith[0]) < 4 * err[0]
     assert level[0] == 0.0 and smith[1] < 1e-12
 
 
@@ -89,13 +105,13 @@ def test_very_smooth_surfaces_integrated_quantities(alpha):
 
 @pytest.mark.parametrize("alpha", [2.0, 3.0])
 def test_very_rough_surfaces(alpha):
-    """Deep masking, many bounces: the mirror furnace still closes (escaped + lost = 1 to
-    1e-12), paths cut at 64 bounces are reported as lost, multiple scattering is a large
-    share, and G1 at 60° stays within 0.03 of Smith (steep 8-cell facets under-resolve
-    the slopes: the realised α, at which Smith is evaluated, absorbs most of it)."""
+    """Deep masking, many bounces: the mirror furnace still closes (lost energy at most
+    ``LOST_MAX``: no path needs 64 bounces), multiple scattering is a large share, and G1
+    at 60° stays within 0.03 of Smith (steep 8-cell facets under-resolve the slopes: the
+    realised α, at which Smith is evaluated, absorbs most of it)."""
     tile, table = run(recipe({"kind": "gaussian", "alpha": alpha, "resolution": 128},
                              theta=(0.0, 60.0), rays=10_000))
-    np.testing.assert_allclose(table.albedo + table.lost_energy, 1.0, atol=1e-12)
+    assert_furnace_closes(table)
     single = table.albedo_of["single"].mean()
     assert single < 0.8 * table.albedo.mean()
     with PeriodicScene(tile) as scene:
@@ -116,12 +132,13 @@ def test_conductor_with_huge_k_reflects_almost_everything():
 
 
 def test_lambertian_albedo_one_white_furnace():
-    """Lambertian facets of albedo 1 on a rough tile: every path keeps weight 1, so
-    escaped + lost = 1 exactly, and the flat tile's bins estimate 1/π within 5 σ."""
+    """Lambertian facets of albedo 1 on a rough tile: every path keeps weight 1 and
+    comes back (lost energy at most ``LOST_MAX``), and the flat tile's bins estimate 1/π
+    within 5 σ."""
     _, table = run(recipe({"kind": "gaussian", "alpha": 1.0, "resolution": 64},
                           {"kind": "lambertian", "albedo": 1.0}, theta=(0.0, 70.0),
                           rays=10_000, bounces=200))
-    np.testing.assert_allclose(table.albedo + table.lost_energy, 1.0, atol=1e-12)
+    assert_furnace_closes(table)
     _, flat = run(recipe({"kind": "flat"}, {"kind": "lambertian", "albedo": 1.0},
                          theta=(30.0,), rays=50_000))
     z = (flat.values["total"] - 1 / np.pi) / flat.errors["total"]

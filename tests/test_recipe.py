@@ -59,7 +59,7 @@ def test_resolved_recipe_round_trips_through_toml(tmp_path):
     [
         ({"surface": {"kind": "gaussian", "alpah": 0.3}}, "surface.alpah: unknown key (did you mean 'alpha'?)"),
         ({"surface": {"kind": "gausian"}}, "did you mean 'gaussian'?"),
-        ({"surface": {"kind": "gaussian", "alpha": -1.0}}, "surface.alpha = -1.0: must be a number > 0"),
+        ({"surface": {"kind": "gaussian", "alpha": -1.0}}, "surface.alpha = -1.0: must be a number >= 0.001"),
         ({"surface": {"kind": "gaussian", "alpha": math.nan}}, "surface.alpha = nan"),
         ({"surface": {"kind": "gaussian", "alpha": math.inf}}, "surface.alpha = inf"),
         ({"surface": {"kind": "gaussian", "alpha": "0.3"}}, "surface.alpha = '0.3': must be a number"),

@@ -99,7 +99,8 @@ def test_vgroove_periodic_and_inside_its_box():
     assert v[:, 1].min() == 0 and v[:, 1].max() == ly
     ends = v[v[:, 0] == 0, 2], v[np.isclose(v[:, 0], lx), 2]
     np.testing.assert_array_equal(*ends)  # both ends are peaks at z = 0
-    assert len(t.info["slopes_deg"]) == 32
+    assert t.info["slopes_deg"]["count"] == 32
+    assert 0 < t.info["slopes_deg"]["min"] <= t.info["slopes_deg"]["max"] < 90
 
 
 def test_vgroove_beckmann_slopes():

@@ -128,3 +128,16 @@ def cosine_directions(n: np.ndarray, u: np.ndarray) -> np.ndarray:
     s = np.cross(n, t)
     sin_t, phi = np.sqrt(u[:, :1]), 2 * np.pi * u[:, 1:]
     return sin_t * (np.cos(phi) * t + np.sin(phi) * s) + np.sqrt(1 - sin_t**2) * n
+
+
+def with_floor(t: Tile) -> Tile:
+    """The tile over a white Lambertian floor (part ``floor``) just below it: a closed
+    furnace for a weave, whose gaps otherwise let light through."""
+    (lx, ly), z = t.period, t.z_range[0] - 0.05
+    k = len(t.vertices)
+    verts = np.concatenate([t.vertices, [[0, 0, z], [lx, 0, z], [lx, ly, z], [0, ly, z]]])
+    faces = np.concatenate([t.faces, [[k, k + 1, k + 2], [k, k + 2, k + 3]]])
+    material = np.concatenate([t.material, [len(t.parts)] * 2])
+    curved = None if t.curved is None else np.concatenate([t.curved, np.zeros((2, 3, 3))])
+    return Tile(verts, faces, material, (*t.parts, "floor"), t.period, info=t.info,
+                curved=curved)

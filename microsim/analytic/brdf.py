@@ -28,6 +28,14 @@ def _arrays(wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return wi, wo
 
 
+def flat_pairs(wi: np.ndarray, wo: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
+    """Direction pairs broadcast together and flattened: ((n, 3), (n, 3), the broadcast
+    shape without the last axis, to reshape results to)."""
+    wi, wo = _arrays(wi, wo)
+    return wi.reshape(-1, 3), wo.reshape(-1, 3), wi.shape[:-1]
+
+
 def mirror(w: np.ndarray) -> np.ndarray:
     """Mirror direction about the macro normal: R(ω) = (−ω_x, −ω_y, ω_z)."""
     return np.asarray(w, float) * np.array([-1.0, -1.0, 1.0])
@@ -280,6 +288,20 @@ class KayKajiya:
     on the cone of mirror directions about the fibre. The specular term is reciprocal;
     the diffuse term, a shading heuristic, is not (it depends on ωi alone).
 
+    What the two terms claim: the radiance of the fibre, per unit irradiance normal to
+    the light, seen from ωo. The diffuse term is the Lambertian cylinder's reflected
+    power spread evenly over the directions around the fibre (it ignores which part of
+    the lit half the viewer sees): with kd = ρ/π² it is exact in energy, and it is the
+    exact Lambertian cylinder's radiance averaged over the azimuth around the fibre
+    (tested). The specular term is a lobe of arbitrary width about the cone, constant
+    around it.
+
+    As a BRDF (``coverage`` given): a layer of parallel fibres of diameter D at spacing s,
+    coverage c = D/s, nothing shadowing: a fibre intercepts D sin(t, ωi) per unit length
+    and unit irradiance normal to the beam and is seen over a width D sin(t, ωo), so
+    f_r = c L(ωi, ωo) sin(t, ωo) / (cos θ_i cos θ_o), L = kd sin(t, ωi) + ks cos^n.
+    Without ``coverage``, ``eval`` returns L itself (the shading model).
+
     Parameters
     ----------
     tangent : (3,) float
@@ -288,12 +310,16 @@ class KayKajiya:
         Diffuse and specular coefficients, 1/sr.
     n : float
         Specular exponent.
+    coverage : float or None
+        Projected fibre area per unit area of the layer (D/s), or None (shading form).
     """
 
-    def __init__(self, tangent: Sequence[float], kd: float, ks: float, n: float) -> None:
+    def __init__(self, tangent: Sequence[float], kd: float, ks: float, n: float,
+                 coverage: float | None = None) -> None:
         t = np.asarray(tangent, float)
         self.tangent = t / np.linalg.norm(t)
         self.kd, self.ks, self.n = float(kd), float(ks), float(n)
+        self.coverage = None if coverage is None else float(coverage)
 
     def specular(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """ks cos^n(θi − θo), clamped at 0."""
@@ -304,8 +330,15 @@ class KayKajiya:
         return self.ks * np.maximum(ci * co + si * so, 0.0) ** self.n
 
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-        """f_r, 1/sr."""
+        """f_r, 1/sr (the layer BRDF with ``coverage``, else the fibre's L)."""
         wi, wo = _arrays(wi, wo)
         ci = wi @ self.tangent
         diffuse = self.kd * np.sqrt(np.maximum(1.0 - ci * ci, 0.0))
-        return np.where(_above(wi, wo), diffuse + self.specular(wi, wo), 0.0)
+        f = diffuse + self.specular(wi, wo)
+        above = _above(wi, wo)
+        if self.coverage is not None:
+            co = wo @ self.tangent
+            seen = np.sqrt(np.maximum(1.0 - co * co, 0.0))
+            den = np.where(above, wi[..., 2] * wo[..., 2], 1.0)
+            f = self.coverage * f * seen / den
+        return np.where(above, f, 0.0)

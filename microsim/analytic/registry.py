@@ -75,13 +75,16 @@ def _check_alphas(p: dict[str, Any]) -> None:
         raise InputError("model: give both alpha_x and alpha_y, or alpha")
 
 
+ALPHA_MIN = 1e-4
+"""Smallest roughness a model spec takes: the range the analytic models are tested in
+(tests/test_analytic_*.py); far below, D overflows float64 near the peak."""
 MICROFACET = {
-    "alpha": Key("float", 0.3, "Roughness (Walter et al. 2007's alpha).", low=0.0,
-                 low_open=True, high=10.0),
-    "alpha_x": Key("float", None, "Anisotropic roughness along x (with alpha_y).", low=0.0,
-                   low_open=True, high=10.0),
-    "alpha_y": Key("float", None, "Anisotropic roughness along y (with alpha_x).", low=0.0,
-                   low_open=True, high=10.0),
+    "alpha": Key("float", 0.3, "Roughness (Walter et al. 2007's alpha).", low=ALPHA_MIN,
+                 high=10.0),
+    "alpha_x": Key("float", None, "Anisotropic roughness along x (with alpha_y).",
+                   low=ALPHA_MIN, high=10.0),
+    "alpha_y": Key("float", None, "Anisotropic roughness along y (with alpha_x).",
+                   low=ALPHA_MIN, high=10.0),
     "shadowing": Key("str", "smith-correlated", "Masking-shadowing.",
                      choices=("smith-correlated", "smith-separable", "v-groove", "none")),
     "eta": Key("rgb", None, "Fresnel: index of refraction, one or three (R, G, B) values "
@@ -162,16 +165,119 @@ MODELS: dict[str, ModelSpec] = {
          "n": Key("float", 10.0, "Exponent.", low=0.0, high=1e6)},
         lambda p: _brdf("Lafortune")([(p["cx"], p["cy"], p["cz"], p["n"])])),
     "kay-kajiya": ModelSpec(
-        "Kay-Kajiya fibre reflection: kd sin(t, wi) + ks cos^n(theta_i - theta_o).",
+        "Kay-Kajiya fibre reflection L = kd sin(t, wi) + ks cos^n(theta_i - theta_o) "
+        "(the fibre's radiance per unit irradiance); with coverage, the BRDF of a layer of "
+        "parallel fibres, coverage L sin(t, wo) / (cos theta_i cos theta_o). Compared with "
+        "a table, the tangent and coverage come from its surface (cylinders: along y, "
+        "diameter / spacing) and kd = albedo / pi^2 from Lambertian fibres.",
         {"tangent_theta": Key("float", 90.0, "Fibre tangent polar angle.", unit="deg",
                               low=0.0, high=180.0),
          "tangent_phi": Key("float", 0.0, "Fibre tangent azimuth.", unit="deg", low=-360.0,
                             high=360.0),
          "kd": Key("float", 0.1, "Diffuse coefficient, 1/sr.", low=0.0, high=1e3),
          "ks": Key("float", 0.5, "Specular coefficient, 1/sr.", low=0.0, high=1e3),
-         "n": Key("float", 20.0, "Specular exponent.", low=0.0, high=1e6)},
-        lambda p: _brdf("KayKajiya")(_tangent(p), p["kd"], p["ks"], p["n"])),
+         "n": Key("float", 20.0, "Specular exponent.", low=0.0, high=1e6),
+         "coverage": Key("float", None, "Projected fibre area per unit area (diameter / "
+                         "spacing): the layer BRDF; unset: L itself.", low=0.0,
+                         low_open=True, high=1.0)},
+        lambda p: _brdf("KayKajiya")(_tangent(p), p["kd"], p["ks"], p["n"],
+                                     p.get("coverage"))),
+    "cylinders": ModelSpec(
+        "Exact single scattering of parallel cylinders along y on a base (the cylinders "
+        "surface made smooth): specular cylinders reflect into the cone with Marschner et "
+        "al. 2003's R-lobe distribution 1/4 cos(phi/2) and the exact Fresnel factor, "
+        "Lambertian ones over their lit and seen arc; neighbours and base shadow exactly; "
+        "a Lambertian base of albedo base_albedo (0: black).",
+        {"radius": Key("float", 0.5, "Cylinder radius.", unit="length", low=0.0,
+                       low_open=True),
+         "spacing": Key("float", 1.0, "Distance between axes (>= 2 radius).",
+                        unit="length", low=0.0, low_open=True),
+         "sink": Key("float", 0.0, "Depth sunk into the base (< 2 radius).", unit="length",
+                     low=0.0),
+         "kind": Key("str", "mirror", "The cylinders' facet material.",
+                     choices=("mirror", "conductor", "dielectric", "lambertian")),
+         "eta": Key("rgb", None, "Index of refraction (conductor, dielectric).", low=0.0,
+                    low_open=True, high=100.0),
+         "k": Key("rgb", None, "Extinction coefficient (conductor).", low=0.0, high=100.0),
+         "albedo": Key("rgb", 0.8, "Albedo (lambertian).", low=0.0, high=1.0),
+         "base_albedo": Key("rgb", 0.0, "Albedo of a Lambertian base.", low=0.0, high=1.0)},
+        lambda p: _cylinders(p)),
+    "velvet-sparse": ModelSpec(
+        "Single scattering of sparse velvet: Lambertian fibres (smooth cylinders with the "
+        "velvet surface's pyramid tips) on a black base, no fibre shadowing another, "
+        "averaged over the fibre axes by quadrature (Westin et al. 1992's velvet in the "
+        "low-density limit).",
+        {"fibre_radius": Key("float", 0.01, "Fibre radius.", unit="length", low=0.0,
+                             low_open=True),
+         "fibre_length": Key("float", 0.15, "Fibre length.", unit="length", low=0.0,
+                             low_open=True),
+         "density": Key("float", 400.0, "Fibres per unit area.", low=0.0, low_open=True),
+         "tilt": Key("float", 10.0, "Mean tilt from +z.", unit="deg", low=0.0, high=89.0),
+         "tilt_spread": Key("float", 5.0, "Tilt standard deviation.", unit="deg", low=0.0,
+                            high=90.0),
+         "azimuth": Key("float", 0.0, "Mean tilt azimuth.", unit="deg", low=-360.0,
+                        high=360.0),
+         "azimuth_spread": Key("float", 360.0, "Azimuth standard deviation (360: uniform).",
+                               unit="deg", low=0.0, high=360.0),
+         "sides": Key("int", 6, "Faces of each fibre's tip.", low=3, high=64),
+         "kind": Key("str", "lambertian", "The fibres' facet material.",
+                     choices=("lambertian",)),
+         "albedo": Key("rgb", 0.8, "The fibres' albedo.", low=0.0, high=1.0),
+         "base_albedo": Key("rgb", 0.0, "The base's albedo: must be 0 (the model's base "
+                            "is black).", low=0.0, high=0.0)},
+        lambda p: _velvet(p)),
+    "microcylinder": ModelSpec(
+        "Woven cloth: Sadeghi et al. 2013's microcylinder model (thread scattering with a "
+        "Fresnel surface lobe and a volume lobe, shadowing-masking, two thread families "
+        "with the weave's tangent curves), combined as layers of cylinders.",
+        {"a_warp": Key("float", 0.8, "Coverage of the warp.", low=0.0, high=1.0),
+         "a_weft": Key("float", 0.8, "Coverage of the weft.", low=0.0, high=1.0),
+         "eta": Key("float", 1.5, "The threads' index of refraction.", low=1.0, low_open=True,
+                    high=10.0),
+         "gamma_s": Key("float", 10.0, "Width of the surface lobe.", unit="deg", low=0.01,
+                        high=90.0),
+         "gamma_v": Key("float", 20.0, "Width of the volume lobe.", unit="deg", low=0.01,
+                        high=90.0),
+         "kd": Key("float", 0.5, "Isotropic share of the volume scattering.", low=0.0,
+                   high=1.0),
+         "albedo_warp": Key("rgb", 0.5, "Volume scale A of the warp.", low=0.0, high=5.0),
+         "albedo_weft": Key("rgb", 0.5, "Volume scale A of the weft.", low=0.0, high=5.0),
+         "slope": Key("float", 0.0, "Largest slope of the yarns (pi crimp / spacing).",
+                      low=0.0, high=100.0),
+         "flat": Key("float", 0.0, "Share of the yarns' length that is flat.", low=0.0,
+                     high=1.0)},
+        lambda p: _cloth(p)),
 }
+
+
+def _cloth(p: Mapping[str, Any]) -> Any:
+    from microsim.analytic.cloth import MicrocylinderCloth
+
+    albedo = np.stack([np.broadcast_to(np.asarray(p[f"albedo_{part}"], float), (3,))
+                       for part in ("warp", "weft")])
+    return MicrocylinderCloth([p["a_warp"], p["a_weft"]], p["eta"],
+                              math.radians(p["gamma_s"]), math.radians(p["gamma_v"]),
+                              p["kd"], albedo, p["slope"], p["flat"])
+
+
+def _velvet(p: Mapping[str, Any]) -> Any:
+    from microsim.analytic.velvet import SparseVelvet
+
+    return SparseVelvet(p["fibre_radius"], p["fibre_length"], p["density"], p["tilt"],
+                        p["tilt_spread"], p["azimuth"], p["azimuth_spread"], p["albedo"],
+                        sides=p["sides"])
+
+
+def _cylinders(p: Mapping[str, Any]) -> Any:
+    from microsim.analytic.cylinders import CylinderArray
+
+    need = {"conductor": ("eta", "k"), "dielectric": ("eta",)}.get(p["kind"], ())
+    missing = [k for k in need if p.get(k) is None]
+    if missing:
+        raise InputError(f"model cylinders: kind = {p['kind']} needs " + " and ".join(missing))
+    if not (p["spacing"] >= 2 * p["radius"] and p["sink"] < 2 * p["radius"]):
+        raise InputError("model cylinders: need spacing >= 2 radius and sink < 2 radius")
+    return CylinderArray(p["radius"], p["spacing"], p["sink"], p, p["base_albedo"])
 
 
 def _brdf(name: str) -> Any:

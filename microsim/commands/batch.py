@@ -11,8 +11,9 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from microsim.cli import add_json_arg, positive_int, print_json
+from microsim.cli import add_json_arg, add_memory_arg, positive_int, print_json
 from microsim.errors import InputError
+from microsim.files import writable_folder
 
 CONNECT_TIMEOUT = 20
 """Seconds to wait for ``--scheduler`` before giving up."""
@@ -43,6 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--resume", action=argparse.BooleanOptionalAction, default=True,
                    help="skip tables already done with the same recipe (default); "
                         "--no-resume recomputes every table")
+    add_memory_arg(p)
     add_json_arg(p)
     p.set_defaults(func=run)
 
@@ -125,15 +127,39 @@ def print_summary(s: dict[str, Any]) -> None:
         print(f"failed: {failure['table']}: {failure['error']}")
 
 
+@contextlib.contextmanager
+def worker_memory_limit(limit_gib: float | None) -> Iterator[None]:
+    """``--memory-limit`` for the workers of a local cluster, which inherit the
+    environment: ``$MICROSIM_MEMORY_LIMIT`` while the block runs."""
+    from microsim.memory import LIMIT_ENV
+
+    before = os.environ.get(LIMIT_ENV)
+    if limit_gib is not None:
+        os.environ[LIMIT_ENV] = repr(limit_gib)
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(LIMIT_ENV, None)
+        else:
+            os.environ[LIMIT_ENV] = before
+
+
 def run(args: argparse.Namespace) -> int:
     """Load and check the whole sweep, run it, print the summary; 1 if a table failed."""
-    from microsim.batch import run_batch
+    from microsim.batch import output_lock, run_batch
+    from microsim.commands.simulate import check_table_memory
+    from microsim.surfaces import check_tile_memory
     from microsim.sweep import load_sweep
 
     sweep = load_sweep(args.sweep)
-    if args.output.exists() and not args.output.is_dir():
-        raise InputError(f"--output {args.output}: not a folder")
-    with dask_client(args.workers, args.scheduler) as client, \
+    for point in sweep.points:  # before a cluster starts (isotropy unknown: every phi_i)
+        check_tile_memory(point.recipe["surface"], args.memory_limit, f"point {point.name}: ")
+        check_table_memory(point.recipe, False, args.memory_limit, f"point {point.name}: ")
+    writable_folder(args.output, "--output")
+    # the lock before the cluster: a second batch on the folder stops at once
+    with output_lock(args.output), worker_memory_limit(args.memory_limit), \
+            dask_client(args.workers, args.scheduler) as client, \
             progress_bar(sys.stderr.isatty() and not args.json) as show:
         summary = run_batch(sweep, args.output, client, resume=args.resume,
                             threads=args.threads, progress=show)

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from microsim.cli import add_json_arg, add_seed_arg, print_json
+from microsim.files import writable_folder
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -47,10 +48,10 @@ def run(args: argparse.Namespace) -> int:
     """Sweep, write, summarise."""
     from microsim.bench import plot, sweep, write_csv
 
+    writable_folder(args.out, "--out")
     start = time.perf_counter()
     log = (lambda text: None) if args.json else (lambda text: print(text, file=sys.stderr))
     rows = sweep(args.quick, seed=1 if args.seed is None else args.seed, log=log)
-    args.out.mkdir(parents=True, exist_ok=True)
     write_csv(rows, args.out / "bench.csv")
     plots = plot(rows, args.out)
     result = {**summary(rows, time.perf_counter() - start),

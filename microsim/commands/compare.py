@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -11,8 +12,10 @@ from microsim.cli import (
     add_json_arg,
     error_model_note,
     print_json,
+    readable,
     table_component,
 )
+from microsim.files import writable_folder
 
 PLOTS = {
     "incidence_plane": "incidence-plane.png",
@@ -47,14 +50,10 @@ def title_of(table: Any, name: str, component: str) -> str:
     surface = meta.get("surface", {})
     materials = {m["kind"] for m in meta.get("recipe", {}).get("material", {}).values()}
     alpha = surface.get("alpha_realised")
-    alpha_text = "" if alpha is None else f", α realised {_fmt(alpha)}"
+    alpha_text = "" if alpha is None else f", α realised {readable(alpha, 3)}"
     return (f"{surface.get('kind', 'surface')}, {'/'.join(sorted(materials))} facets"
             f"{alpha_text}, {int(table.rays.max()):,} rays per direction; {component} "
             f"vs {name}")
-
-
-def _fmt(alpha: Any) -> str:
-    return ", ".join(f"{a:.3f}" for a in alpha) if isinstance(alpha, list) else f"{alpha:.3f}"
 
 
 def model_albedo(row: dict[str, Any]) -> str:
@@ -65,15 +64,16 @@ def model_albedo(row: dict[str, Any]) -> str:
 
 def write_report(out: Path, result: dict[str, Any], title: str) -> Path:
     """``report.md``: the metrics table and every plot, in one page."""
+    from microsim.agreement import verdict_text
+
     lines = [f"# {title}", "", f"Model: `{result['model']}` with parameters "
-             f"`{result['params']}` (component: {result['component']}).", "",
-             f"Overall: median relative error {100 * result['median_rel_error']:.2f}% "
-             f"(p90 {100 * result['p90_rel_error']:.2f}%) over lobe bins; z = (sim − model) "
-             f"/ stderr has mean {result['z_mean']:.2f} and spread {result['z_std']:.2f} "
-             "(noise alone gives 0 and 1; a Monte Carlo model's own error is part of "
-             "stderr).", "",
+             f"{readable(result['params'])} (component: {result['component']}).", "",
+             f"Overall: median relative error against the model "
+             f"{100 * result['median_rel_error']:.2f}% (p90 {100 * result['p90_rel_error']:.2f}%) "
+             f"over lobe bins; {verdict_text(result, result['agreement'])} (a Monte Carlo "
+             "model's own error is part of stderr).", "",
              error_model_note(result["error_model"], result["realisations"]) + ".", "",
-             "| θi (°) | φi (°) | median rel | p90 rel | RMS (1/sr) | z mean | z std | "
+             "| θi (°) | φi (°) | median err | p90 err | RMS (1/sr) | z mean | z std | "
              "albedo sim | albedo model | multiple scattering |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in result["per_theta_i"]:
@@ -98,23 +98,27 @@ def write_report(out: Path, result: dict[str, Any], title: str) -> Path:
 def run(args: argparse.Namespace) -> int:
     """Compare, print, and draw."""
     import microsim
+    from microsim.agreement import agreement, verdict_text
     from microsim.analytic.registry import parse_model_spec
     from microsim.compare import compare_table, model_defaults, model_for
     from microsim.plots import albedo_plot, half_difference_slices, incidence_plane, z_maps
 
     table = microsim.read_table(args.table)
+    for warning in table.meta.get("warnings", []):
+        print(f"warning: {args.table}: {warning}", file=sys.stderr)
     args.component = table_component(table, args.component, args.table)
     name, params, model = parse_model_spec(args.model, model_defaults(table.meta))
+    if args.out is not None:
+        writable_folder(args.out, "--out")
     result = compare_table(table, model, args.component)
     model_bins, model_err = result.pop("model"), result.pop("model_err")
     result = {"model": name, "params": params, "component": args.component,
-              "table": str(args.table), **result}
+              "table": str(args.table), **result, "agreement": agreement(result)}
     if args.out is not None:
-        args.out.mkdir(parents=True, exist_ok=True)
         title = title_of(table, name, args.component)
+        incidence_plane(table, model_bins, args.out / PLOTS["incidence_plane"],
+                        args.component, title)
         if table.isotropic:
-            incidence_plane(table, model_bins, args.out / PLOTS["incidence_plane"],
-                            args.component, title)
             half_difference_slices(table, model_for(model, args.component),
                                    args.out / PLOTS["half_difference"],
                                    args.component, title)
@@ -125,16 +129,18 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(result)
         return 0
-    print(f"{args.component} of {args.table} vs {name} {params}")
-    print(f"{'theta_i':>8} {'phi_i':>6} {'median rel':>11} {'p90 rel':>8} {'z mean':>7} "
+    print(f"{args.component} of {args.table} vs {name} ({readable(params)})")
+    print(f"{'theta_i':>8} {'phi_i':>6} {'median err':>11} {'p90 err':>8} {'z mean':>7} "
           f"{'z std':>6} {'albedo sim':>11} {'model':>16} {'multiple':>9}")
     for r in result["per_theta_i"]:
         print(f"{r['theta_i']:8.1f} {r['phi_i']:6.1f} {100 * r['median_rel_error']:10.2f}% "
               f"{100 * r['p90_rel_error']:7.2f}% {r['z_mean']:7.2f} {r['z_std']:6.2f} "
               f"{sum(r['albedo_sim']) / 3:11.4f} {model_albedo(r):>16} "
               f"{100 * r['multiple_scattering_share']:8.2f}%")
-    print(f"overall: median relative error {100 * result['median_rel_error']:.2f}%, z mean "
-          f"{result['z_mean']:.2f}, z std {result['z_std']:.2f}")
+    print(f"overall: median relative error against the model "
+          f"{100 * result['median_rel_error']:.2f}% (err: |sim - model| / model over lobe "
+          f"bins), z mean {result['z_mean']:.2f}, z std {result['z_std']:.2f}")
+    print(verdict_text(result, result["agreement"]))
     print(error_model_note(result["error_model"], result["realisations"]))
     if "report" in result:
         print(f"wrote {result['report']}")

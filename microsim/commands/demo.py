@@ -18,6 +18,7 @@ from microsim.cli import (
     print_json,
     seed_override,
 )
+from microsim.files import PLOT_SUFFIXES, writable_file
 
 RECIPE = Path(microsim.__file__).resolve().parent.parent / "surfaces" / "gaussian-0.3.toml"
 MS_SAMPLES = 64
@@ -55,19 +56,21 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def comparison(table: Any) -> dict[str, Any]:
     """Simulated single scattering against the microfacet model at the realised alpha."""
+    from microsim.agreement import agreement
     from microsim.compare import compare_table, microfacet_model
 
     result = compare_table(table, microfacet_model(table.meta), "single")
-    surface = table.meta["surface"]
     return {"model": "torrance-sparrow:ndf=beckmann,shadowing=smith-correlated",
-            "alpha_realised": surface["alpha_realised"],
-            "alpha_realised_stderr": surface.get("alpha_realised_stderr"),
-            "alpha_target": surface["alpha_target"], **result}
+            "alpha_realised": table.meta["surface"]["alpha_realised"],
+            "alpha_realised_stderr": table.meta["surface"].get("alpha_realised_stderr"),
+            "alpha_target": table.meta["surface"]["alpha_target"], **result,
+            "agreement": agreement(result)}
 
 
 def total_comparison(table: Any) -> dict[str, Any]:
     """All simulated orders against the multiple-scattering Smith microsurface at the
     realised alpha (``MS_SAMPLES`` walks per bin, seeded with the table's seed)."""
+    from microsim.agreement import agreement
     from microsim.analytic.registry import parse_model_spec
     from microsim.compare import compare_table, model_defaults
 
@@ -76,17 +79,21 @@ def total_comparison(table: Any) -> dict[str, Any]:
     result = compare_table(table, model, "total")
     for bins in ("model", "model_err"):
         result.pop(bins)
-    return {"model": spec, "params": params, **result}
+    return {"model": spec, "params": params, **result, "agreement": agreement(result)}
 
 
 def run(args: argparse.Namespace) -> int:
     """Simulate, write, compare, print."""
+    from microsim.agreement import verdict_text
     from microsim.commands.simulate import print_summary, simulate_resolved, summary
 
     overrides = seed_override(args, "simulation")
     if args.rays is not None:
         overrides.append(f"simulation.rays={args.rays}")
     resolved = recipe.load(RECIPE, overrides)
+    writable_file(args.output, "--output", (".exr",))
+    if args.plot is not None:
+        writable_file(args.plot, "--plot", PLOT_SUFFIXES)
     table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json)
     table.write(args.output)
     compared = comparison(table)
@@ -115,8 +122,8 @@ def run(args: argparse.Namespace) -> int:
     t = result["comparison_total"]
     print(f"{'':8} {'single vs Torrance-Sparrow':^40}   "
           f"{'all orders vs multiple-scattering Smith':^48}")
-    print(f"{'theta_i':>8} {'median rel':>11} {'z mean':>7} {'z std':>6} {'albedo sim':>11} "
-          f"{'model':>7}   {'median rel':>11} {'z mean':>7} {'z std':>6} {'albedo sim':>11} "
+    print(f"{'theta_i':>8} {'median err':>11} {'z mean':>7} {'z std':>6} {'albedo sim':>11} "
+          f"{'model':>7}   {'median err':>11} {'z mean':>7} {'z std':>6} {'albedo sim':>11} "
           f"{'model':>16}")
     for r, q in zip(c["per_theta_i"], t["per_theta_i"], strict=True):
         print(f"{r['theta_i']:8.1f} {100 * r['median_rel_error']:10.2f}% {r['z_mean']:7.2f} "
@@ -124,10 +131,13 @@ def run(args: argparse.Namespace) -> int:
               f"{100 * q['median_rel_error']:10.2f}% {q['z_mean']:7.2f} {q['z_std']:6.2f} "
               f"{q['albedo_sim'][1]:11.4f} {q['albedo_model'][1]:9.4f} ± "
               f"{q['albedo_model_err'][1]:.4f}")
-    print("(relative errors over lobe bins, model >= 10% of its peak; z = (sim - model) / "
-          f"stderr, the model's own Monte Carlo error ({MS_SAMPLES} walks per bin) "
-          "included; Torrance-Sparrow leaves out the light scattered more than once, the "
-          "multiple-scattering model holds it)")
+    print("(err: relative error against the model, |sim - model| / model, over lobe bins "
+          "where the model reaches 10% of its peak; z = (sim - model) / stderr, standard "
+          f"normal if the two differ by noise alone, the model's own Monte Carlo error "
+          f"({MS_SAMPLES} walks per bin) included; Torrance-Sparrow leaves out the light "
+          "scattered more than once, the multiple-scattering model holds it)")
+    print(verdict_text(c, c["agreement"], "single scattering vs Torrance-Sparrow"))
+    print(verdict_text(t, t["agreement"], "all orders vs multiple-scattering Smith"))
     print(error_model_note(c["error_model"], c["realisations"]))
     if "plot" in result:
         print(f"wrote {result['plot']}")

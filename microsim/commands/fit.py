@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from microsim.cli import (
     add_component_arg,
@@ -11,13 +14,15 @@ from microsim.cli import (
     error_model_note,
     print_json,
     table_component,
+    with_error,
 )
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``fit`` command."""
     p = sub.add_parser(
-        "fit", help="fit beckmann, ggx, oren-nayar, lafortune[:K] or phong to a table",
+        "fit", help="fit beckmann, ggx, oren-nayar, lafortune[:K], phong, kay-kajiya or "
+                    "microcylinder to a table",
         description="Fit an analytic model's parameters to a BRDF table by weighted least "
                     "squares in log space, using the per-bin standard errors (bins without "
                     "an error are skipped); see microsim/fit.py and docs/compare.md. Prints "
@@ -27,7 +32,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--model", required=True, metavar="NAME",
                    help="beckmann, ggx (alpha and Schlick F0 per channel), oren-nayar "
                         "(sigma in radians, albedo per channel), phong (n, ks per channel), "
-                        "lafortune[:K] (K isotropic lobes: Cxy, Cz, n)")
+                        "lafortune[:K] (K isotropic lobes: Cxy, Cz, n), kay-kajiya (kd, ks "
+                        "per channel, n; the fibre axis and coverage from the table), "
+                        "microcylinder (cloth: coverages, eta, lobe widths in radians, kd, "
+                        "albedo per yarn family and channel)")
     add_component_arg(p)
     p.add_argument("--plot", type=Path, default=None, metavar="PNG",
                    help="draw the plane of incidence, table against the fit")
@@ -35,18 +43,34 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+def progress_printer(enabled: bool) -> Callable[[dict[str, Any]], None] | None:
+    """A ``fit_table`` progress callback rewriting one line on stderr, or None."""
+    if not enabled:
+        return None
+
+    def show(state: dict[str, Any]) -> None:
+        print(f"\rfitting: {state['evaluations']:4d} evaluations of the model over the "
+              f"table, chi^2/dof {state['chi2_dof']:.4g}   ", end="", file=sys.stderr,
+              flush=True)
+
+    return show
+
+
 def run(args: argparse.Namespace) -> int:
     """Fit and report."""
     import microsim
-    from microsim.errors import InputError
+    from microsim.files import PLOT_SUFFIXES, writable_file
     from microsim.fit import family, fit_table
 
     family(args.model)  # a bad name fails before the table is read
+    if args.plot is not None:
+        writable_file(args.plot, "--plot", PLOT_SUFFIXES)
     table = microsim.read_table(args.table)
     args.component = table_component(table, args.component, args.table)
-    if not table.isotropic:
-        raise InputError(f"{args.table}: fitting takes isotropic tables")
-    result = fit_table(table, args.model, args.component)
+    show = sys.stderr.isatty() and not args.json
+    result = fit_table(table, args.model, args.component, progress=progress_printer(show))
+    if show:
+        print(file=sys.stderr)
     result.update(error_model=table.error_model,
                   realisations=int(table.realisations.max()),
                   alpha_realised=table.meta.get("surface", {}).get("alpha_realised"))
@@ -56,18 +80,20 @@ def run(args: argparse.Namespace) -> int:
         from microsim.plots import incidence_plane
 
         incidence_plane(table, bins, args.plot, args.component,
-                        f"{args.table}: {args.component} vs fitted {result['model']}")
+                        f"{args.table}: {args.component} vs fitted {result['model']}",
+                        model_label=f"fit: {result['model']}")
         result["plot"] = str(args.plot)
     if args.json:
         print_json(result)
         return 0
     print(f"{result['model']} fitted to the {args.component} of {args.table}:")
     for name, value in result["params"].items():
-        print(f"  {name:>10} = {value:.5g} ± {result['uncertainty'][name]:.2g}")
-    print(f"  chi^2/dof {result['chi2_dof']:.3g}, median relative error over lobe bins "
+        print(f"  {name:>10} = {with_error(value, result['uncertainty'][name])}")
+    print(f"  chi^2/dof {result['chi2_dof']:.3g}, median relative error against the fit "
+          "over lobe bins "
           f"{100 * result['median_rel_error']:.2f}%")
     for row in result["per_theta_i"]:
-        print(f"  theta_i {row['theta_i']:5.1f}: albedo fit "
+        print(f"  theta_i {row['theta_i']:5.1f}, phi_i {row['phi_i']:5.1f}: albedo fit "
               f"{sum(row['albedo_fit']) / 3:.4f}, table {sum(row['albedo_table']) / 3:.4f}")
     if result["alpha_realised"] is not None:
         print(f"  the surface's realised alpha (pooled over its tiles): "

@@ -10,24 +10,16 @@ from typing import Any
 from microsim import recipe
 from microsim.cli import (
     add_json_arg,
+    add_memory_arg,
     add_recipe_args,
     add_seed_arg,
-    number_list,
     print_json,
+    readable,
     seed_override,
 )
-from microsim.errors import InputError
-from microsim.files import atomic_path
+from microsim.files import atomic_path, writable_file
 
 FORMATS = (".ply", ".obj")
-
-
-def add_memory_arg(p: argparse.ArgumentParser) -> None:
-    """Add ``--memory-limit GIB``."""
-    gib = number_list(1, low=0.0, low_open=True, what="a positive number of GiB")
-    p.add_argument("--memory-limit", type=lambda t: gib(t)[0], default=None, metavar="GIB",
-                   help="refuse tiles estimated to need more memory than this (default: "
-                        "$MICROSIM_MEMORY_LIMIT or 2 GiB)")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -82,8 +74,7 @@ def run(args: argparse.Namespace) -> int:
     """Build, write, report."""
     from microsim.surfaces import build_tile
 
-    if args.output.suffix.lower() not in FORMATS:
-        raise InputError(f"--output {args.output}: must end in .ply or .obj")
+    writable_file(args.output, "--output", FORMATS)
     resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "surface")])
     tile = build_tile(resolved["surface"], args.memory_limit)
     for warning in tile.warnings:
@@ -95,5 +86,5 @@ def run(args: argparse.Namespace) -> int:
         return 0
     for key, value in facts.items():
         if key != "warnings":
-            print(f"{key:>20}: {value}")
+            print(f"{key:>20}: {readable(value)}")
     return 0

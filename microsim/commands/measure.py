@@ -11,6 +11,7 @@ from microsim import recipe
 from microsim.cli import (
     Parser,
     add_json_arg,
+    add_memory_arg,
     add_realisations_arg,
     add_recipe_args,
     add_seed_arg,
@@ -20,9 +21,11 @@ from microsim.cli import (
     positive_int,
     print_json,
     realisations_override,
+    roughness_text,
     seed_override,
 )
 from microsim.errors import InputError
+from microsim.files import PLOT_SUFFIXES, writable_file
 
 degree_list = number_list(low=0.0, high=90.0,
                           what="a comma-separated list of angles in [0, 90] degrees")
@@ -53,6 +56,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_realisations_arg(g)
     add_threads_arg(g)
     add_seed_arg(g, "simulation")
+    add_memory_arg(g)
     add_json_arg(g)
     g.set_defaults(func=run_g1)
     n = inner.add_parser(
@@ -68,6 +72,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     n.add_argument("--plot", default=None, metavar="PNG", help="also draw it")
     add_realisations_arg(n)
     add_seed_arg(n, "surface")
+    add_memory_arg(n)
     add_json_arg(n)
     n.set_defaults(func=run_ndf)
 
@@ -89,7 +94,8 @@ def run_g1(args: argparse.Namespace) -> int:
     import numpy as np
 
     from microsim.compare import direction
-    from microsim.masking import measure_g1_recipe
+    from microsim.masking import G1_BYTES_PER_RAY, measure_g1_recipe
+    from microsim.memory import check_memory
 
     if not math.isfinite(args.phi):
         raise InputError(f"--phi {args.phi}: must be a finite angle in degrees")
@@ -100,7 +106,13 @@ def run_g1(args: argparse.Namespace) -> int:
         print(f"warning: part {inside[0]!r} refracts: G1 samples every face, also those "
               "inside its medium (particles, substrate), so it is not the masking of the "
               "surface light meets first", file=sys.stderr)
-    result = measure_g1_recipe(resolved, args.theta, args.rays, args.phi, args.threads)
+    realisations = int(resolved["simulation"]["realisations"])
+    per_tile = -(-args.rays // realisations)
+    check_memory(G1_BYTES_PER_RAY * per_tile * len(args.theta), f"--rays {args.rays} at "
+                 f"{len(args.theta)} angles over {realisations} realisations",
+                 "use fewer rays", args.memory_limit)
+    result = measure_g1_recipe(resolved, args.theta, args.rays, args.phi, args.threads,
+                               args.memory_limit)
     info = result["surface"]
     model = smith_model(info)
     smith = None
@@ -125,20 +137,12 @@ def run_g1(args: argparse.Namespace) -> int:
         s = "" if smith is None else f"{smith[k]:9.5f}"
         z = "" if smith is None or e == 0 else f"{(g - smith[k]) / e:9.2f}"
         print(f"{theta:6.1f} {g:9.5f} {e:9.5f} {s:>9} {z:>9}")
-    print(f"alpha realised {_alpha_text(info)} (target {out['alpha_target']}), "
-          f"{out['rays']:,} rays per angle, {out['wall_s']:.1f} s")
+    print(f"{roughness_text(info) or 'no roughness reported'}; {out['rays']:,} rays per "
+          f"angle, {out['wall_s']:.1f} s")
     print(error_model_note(out["error_model"], out["realisations"])
           + (f"; diff/err is Student-t with {out['dof']:.0f} degrees of freedom"
              if out["error_model"] == "ensemble" else ""))
     return 0
-
-
-def _alpha_text(info: dict[str, Any]) -> str:
-    """The realised roughness, with its standard error over realisations when pooled."""
-    alpha, err = info.get("alpha_realised"), info.get("alpha_realised_stderr")
-    if err is None or isinstance(alpha, list):
-        return f"{alpha}"
-    return f"{alpha:.5f} ± {err:.5f} (pooled over {info['realisations']} tiles)"
 
 
 def run_ndf(args: argparse.Namespace) -> int:
@@ -150,7 +154,9 @@ def run_ndf(args: argparse.Namespace) -> int:
 
     resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "surface"),
                                          *realisations_override(args)])
-    m = measure_ndf_recipe(resolved, args.bins)
+    if args.plot:
+        writable_file(args.plot, "--plot", PLOT_SUFFIXES)
+    m = measure_ndf_recipe(resolved, args.bins, args.memory_limit)
     info = m["surface"]
     alpha = info.get("alpha_realised")
     iso = alpha if isinstance(alpha, float) else None
@@ -165,8 +171,8 @@ def run_ndf(args: argparse.Namespace) -> int:
         from microsim.plots import ndf_plot
 
         ndf_plot(centres, m["D"], m["stderr"], model, args.plot,
-                 title=f"{resolved['surface']['kind']} surface, alpha realised "
-                       f"{_alpha_text(info)}")
+                 title=f"{resolved['surface']['kind']} surface, "
+                       f"{roughness_text(info) or 'no roughness reported'}")
         out["plot"] = args.plot
     if args.json:
         print_json(out)
@@ -175,9 +181,10 @@ def run_ndf(args: argparse.Namespace) -> int:
     for k, c in enumerate(centres):
         b = "" if model is None else f"{model[k]:11.5g}"
         r = "" if model is None or model[k] == 0 else f"{m['D'][k] / model[k]:7.3f}"
-        print(f"{c:8.2f} {m['D'][k]:11.5g} {m['stderr'][k]:10.3g} {b:>11} {r:>7}")
-    print(f"alpha realised {_alpha_text(info)} (target {info.get('alpha_target')})")
-    note = ("errors: from 4 x 4 sub-tiles of one tile" if m["error_model"] != "ensemble"
-            else error_model_note(m["error_model"], m["realisations"]))
-    print(note)
+        e = m["stderr"][k]
+        e_text = f"{e:10.3g}" if np.isfinite(e) else f"{'n/a':>10}"
+        print(f"{c:8.2f} {m['D'][k]:11.5g} {e_text} {b:>11} {r:>7}")
+    print(roughness_text(info) or "no roughness reported: no Beckmann reference")
+    print("errors: from 4 x 4 sub-tiles of one tile" if m["error_model"] != "ensemble"
+          else error_model_note(m["error_model"], m["realisations"]))
     return 0

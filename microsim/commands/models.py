@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from microsim.cli import Parser, add_json_arg, number_list, print_json
+from microsim.cli import Parser, add_json_arg, number_list, print_json, readable
 from microsim.errors import InputError
 
 angle_pair = number_list(2, what="THETA,PHI in degrees")
@@ -62,7 +62,7 @@ def run_eval(args: argparse.Namespace) -> int:
     import numpy as np
 
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import direction
+    from microsim.compare import direction, singular_albedo
 
     spec = args.spec
     for item in args.param:
@@ -76,11 +76,17 @@ def run_eval(args: argparse.Namespace) -> int:
     f, err = estimate(wi, wo) if estimate is not None else (model.eval(wi, wo), None)
     value = np.asarray(f, float).tolist()
     error = None if err is None else np.asarray(err, float).tolist()
+    # a model with a singular part (mirror cylinders' cone) has a delta eval cannot give
+    delta = singular_albedo(model, wi)
     if args.json:
         print_json({"model": name, "params": params, "wi": list(args.wi),
-                    "wo": list(args.wo), "f_r": value,
+                    "wo": list(args.wo), "f_r": value, "singular_albedo": delta,
                     **({} if error is None else {"f_r_err": error})})
     else:
-        spread = "" if error is None else f" ± {error} (standard error)"
-        print(f"{name} {params}: f_r = {value}{spread} 1/sr")
+        spread = "" if error is None else f" ± {readable(error, 2)} (standard error)"
+        print(f"{name} ({readable(params)}): f_r = {readable(value, 6)}{spread} 1/sr")
+        if delta > 0:
+            print(f"plus a singular part (a delta on the specular cone) reflecting "
+                  f"{delta:.4g} of the incident power, which has no value at one "
+                  "direction: compare and fit average it over table bins")
     return 0

@@ -17,6 +17,7 @@ from microsim.cli import (
     table_component,
 )
 from microsim.errors import InputError
+from microsim.files import writable_file
 
 DEFAULT_SPP = 64
 
@@ -93,8 +94,7 @@ def run(args: argparse.Namespace) -> int:
     from microsim.compare import model_defaults
     from microsim.render import backend, bsdfs, figure, objects, scene
 
-    if args.output.suffix.lower() != ".png":
-        raise InputError(f"--output {args.output}: must end in .png")
+    writable_file(args.output, "--output", (".png",))
     for path in args.tables:
         if not Path(path).is_file():
             raise InputError(f"TABLE {path}: no such file")

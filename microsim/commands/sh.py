@@ -7,6 +7,7 @@ from pathlib import Path
 
 from microsim.cli import add_component_arg, add_json_arg, print_json, table_component
 from microsim.errors import InputError
+from microsim.files import PLOT_SUFFIXES, writable_file
 
 WINDOWS = ("none", "lanczos", "hanning")
 """``microsim.tables.sh.WINDOWS``, spelled out so that ``--help`` does not import numpy."""
@@ -62,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     import microsim
     from microsim.tables.sh_error import order_errors
 
-    table = microsim.read_table(args.table)
+    table = microsim.read_table(args.table, require_sh=True)
     args.component = table_component(table, args.component, args.table)
     if table.sh is None:
         raise InputError(f"{args.table}: holds no spherical harmonics (simulate it with "
@@ -75,8 +76,10 @@ def run(args: argparse.Namespace) -> int:
     if args.matrix is not None and not table.isotropic:
         raise InputError(f"--matrix: Westin's matrix is built for isotropic tables; "
                          f"{args.table} is anisotropic")
-    if args.matrix is not None and args.matrix.suffix.lower() != ".npz":
-        raise InputError(f"--matrix {args.matrix}: must end in .npz")
+    if args.matrix is not None:
+        writable_file(args.matrix, "--matrix", (".npz",))
+    if args.plot is not None:
+        writable_file(args.plot, "--plot", PLOT_SUFFIXES)
     if args.matrix is not None and max(args.orders) > MATRIX_MAX_ORDER:
         raise InputError(f"--matrix: built up to order {MATRIX_MAX_ORDER} (a dense "
                          f"(L+1)^4 x 3 array); the highest of --orders is {max(args.orders)}")

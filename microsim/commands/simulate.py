@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -10,6 +11,7 @@ from typing import Any
 from microsim import recipe
 from microsim.cli import (
     add_json_arg,
+    add_memory_arg,
     add_realisations_arg,
     add_recipe_args,
     add_seed_arg,
@@ -17,8 +19,34 @@ from microsim.cli import (
     error_model_note,
     positive_int,
     print_json,
+    roughness_text,
 )
-from microsim.errors import InputError
+from microsim.files import writable_file
+from microsim.memory import check_memory
+from microsim.tables.components import DEFAULT_ORDERS
+
+TABLE_BYTES_PER_BIN = 450
+"""Memory per table bin and incident direction while a table is estimated and written:
+measured 407 B (512 x 1024 bins, 4 incidences, peak resident memory), rounded up."""
+REALISATION_BYTES_PER_BIN_ROW = 48
+"""Memory per table bin, incident direction, realisation and component row of the
+per-realisation sums kept until the table is assembled (Σw and Σw², RGB float64)."""
+
+
+def check_table_memory(resolved: dict[str, Any], isotropic: bool,
+                       memory_limit_gib: float | None, where: str = "") -> None:
+    """Refuse (``InputError``) a table whose bins would need more memory than the budget:
+    ``theta_bins`` x ``phi_bins`` per incident direction (every ``phi_i`` unless the
+    surface is isotropic)."""
+    table, simulation = resolved["table"], resolved["simulation"]
+    directions = len(simulation["theta_i"]) * (1 if isotropic else len(simulation["phi_i"]))
+    bins = table["theta_bins"] * table["phi_bins"]
+    rows = int(table.get("orders", DEFAULT_ORDERS)) + 1
+    kept = REALISATION_BYTES_PER_BIN_ROW * rows * int(simulation.get("realisations", 1))
+    check_memory((TABLE_BYTES_PER_BIN + kept) * bins * directions,
+                 f"{where}table: {bins:,} bins x {directions} incident directions x "
+                 f"{simulation.get('realisations', 1)} realisations",
+                 "use fewer bins, incidences or realisations", memory_limit_gib)
 
 
 def add_tracing_args(p: argparse.ArgumentParser) -> None:
@@ -38,6 +66,7 @@ def add_tracing_args(p: argparse.ArgumentParser) -> None:
                         "direction")
     add_threads_arg(p)
     add_seed_arg(p, "simulation")
+    add_memory_arg(p)
 
 
 def tracing_overrides(args: argparse.Namespace) -> list[str]:
@@ -103,7 +132,7 @@ def summary(table: Any, output: Path | None) -> dict[str, Any]:
         "order_albedo_err": {c: table.albedo_err_of[c].reshape(-1, 3)
                              for c in table.components[1:]},
         "lost_energy": table.lost_energy.reshape(-1, 3),
-        "median_rel_error": table.median_rel_error("total"),
+        "median_rel_stderr": table.median_rel_stderr("total"),
         "sh_order": table.sh_order,
         "stop": [d["stop"] for d in meta["directions"]],
         "realisations_per_direction": [d["realisations"] for d in meta["directions"]],
@@ -121,23 +150,24 @@ def print_summary(s: dict[str, Any]) -> None:
           + "".join(f"{c:>9}" for c in orders) + f" {'lost':>9} {'ray share':>9}  stop")
     for k, theta in enumerate(s["theta_i"]):
         a, e = s["albedo"][k].mean(), s["albedo_err"][k].mean()
+        # no escaping ray: the albedo is 0 and its standard error unknown
+        e_text = f"{e:.5f}" if math.isfinite(e) else "n/a".ljust(7)
         print(f"{theta:8.1f} {s['phi_i'][k]:6.1f} {s['rays_per_direction'][k]:11,d} "
-              f"{s['realisations_per_direction'][k]:5d} {a:9.5f} ± {e:.5f} "
+              f"{s['realisations_per_direction'][k]:5d} {a:9.5f} ± {e_text} "
               + "".join(f"{v[k].mean():9.5f}" for v in orders.values())
               + f" {s['lost_energy'][k].mean():9.2e} {100 * s['ray_share'][k]:8.0f}%  "
               f"{s['stop'][k]}")
     print("(tiles: surface realisations averaged; ray share: the rays' part of the "
           "variance of the lobe bins, the rest is the spread between tiles)")
-    surface = s["surface"]
-    if "alpha_realised" in surface:
-        pooled = "" if s["realisations"] == 1 else (
-            f" ± {surface['alpha_realised_stderr']} pooled over {s['realisations']} tiles")
-        print(f"surface: alpha target {surface['alpha_target']}, realised "
-              f"{surface['alpha_realised']}{pooled} (from facet slopes)")
+    if roughness_text(s["surface"]):
+        print(f"surface: {roughness_text(s['surface'])}")
     print(error_model_note(s["error_model"], s["realisations"]))
+    stderr = s["median_rel_stderr"]
+    stderr_text = (f"{100 * stderr:.2f}%" if math.isfinite(stderr)
+                   else "n/a (no lobe bin holds a ray)")
     print(f"{s['rays']:,} rays, {s['segments']:,} segments in {s['wall_s']:.1f} s "
-          f"({s['segments_per_s']:,.0f} segments/s); median relative error over lobe "
-          f"bins {100 * s['median_rel_error']:.2f}%")
+          f"({s['segments_per_s']:,.0f} segments/s); median relative standard error over "
+          f"lobe bins {stderr_text}")
     if s["sh_order"]:
         print(f"spherical harmonics to order {s['sh_order']} stored beside the bins "
               "(microsim sh TABLE: their error against the bins)")
@@ -145,26 +175,37 @@ def print_summary(s: dict[str, Any]) -> None:
         print(f"wrote {s['output']}")
 
 
-def simulate_resolved(resolved: dict[str, Any], threads: int | None, show_progress: bool):
-    """Run the goniophotometer over the recipe's realisations (tile warnings to stderr)."""
+def simulate_resolved(resolved: dict[str, Any], threads: int | None, show_progress: bool,
+                      memory_limit_gib: float | None = None):
+    """Run the goniophotometer over the recipe's realisations, one tile at a time. The
+    first tile is built beforehand for the memory guard and its warnings (to stderr); the
+    others' warnings follow the run."""
     from microsim.simulation import simulate_recipe
+    from microsim.surfaces import build_tile
 
+    tile = build_tile(resolved["surface"], memory_limit_gib)
+    check_table_memory(resolved, tile.info.get("isotropic", False), memory_limit_gib)
+    first = list(tile.warnings)
+    for warning in first:
+        print(f"warning: {warning}", file=sys.stderr)
+    del tile
     progress = progress_printer(show_progress)
-    table = simulate_recipe(resolved, progress, threads)
+    table = simulate_recipe(resolved, progress, threads, memory_limit_gib)
     if progress is not None:
         print(file=sys.stderr)
-    for warning in table.meta["warnings"]:
-        print(f"warning: {warning}", file=sys.stderr)
+    for warning in table.meta["warnings"]:  # recorded in the table too
+        if warning not in first:
+            print(f"warning: {warning}", file=sys.stderr)
     return table
 
 
 def run(args: argparse.Namespace) -> int:
     """Simulate, write the table, print the summary."""
     resolved = recipe.load(args.recipe, [*args.overrides, *tracing_overrides(args)])
-    output = args.output or Path("tables") / (Path(args.recipe).stem + ".exr")
-    if output.suffix.lower() != ".exr":
-        raise InputError(f"--output {output}: must end in .exr (an OpenEXR table)")
-    table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json)
+    output = writable_file(args.output or Path("tables") / (Path(args.recipe).stem + ".exr"),
+                           "--output", (".exr",))
+    table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json,
+                              args.memory_limit)
     table.write(output)
     s = summary(table, output)
     print_json(s) if args.json else print_summary(s)

@@ -4,14 +4,20 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 from microsim import recipe
-from microsim.cli import add_seed_arg, number_list, positive_int, seed_override
-from microsim.commands.generate import add_memory_arg
+from microsim.cli import add_memory_arg, add_seed_arg, number_list, positive_int, seed_override
 from microsim.errors import InputError
+from microsim.files import SCREENSHOT_SUFFIXES, writable_file
+from microsim.memory import check_memory
 
 MESHES = (".ply", ".obj", ".stl")
+PATH_BYTES = 128_000
+"""Memory per drawn ray path (its tracing and its line in the 3D view): measured 105 kB
+(20 000 paths over a 64² tile, peak resident memory less the view without paths),
+rounded up. The memory guard bounds ``--rays`` with it before anything is traced."""
 
 
 period_pair = number_list(2, low=0.0, low_open=True, what="LX,LY (two positive numbers)")
@@ -45,6 +51,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--theta-i", type=float, default=None, metavar="DEG",
                    help="table: the incidence whose lobe to show, degrees (default: the "
                         "table's first); recipe with --rays: the light's polar angle")
+    p.add_argument("--phi-i", type=float, default=None, metavar="DEG",
+                   help="table: the incident azimuth, degrees (anisotropic tables: "
+                        "interpolated between the table's; default: its first); recipe "
+                        "with --rays: the light's azimuth (default 0)")
     p.add_argument("--model", default=None, metavar="SPEC",
                    help="table: draw this analytic model's lobe as a wireframe and colour "
                         "the table's lobe by the relative error (defaults from the table)")
@@ -62,6 +72,27 @@ def check_theta(theta: float) -> None:
         raise InputError(f"--theta-i {theta}: must be in [0, 90) degrees")
 
 
+def check_phi(phi: float) -> None:
+    """--phi-i must be a finite angle within ±360 degrees."""
+    if not (math.isfinite(phi) and -360 <= phi <= 360):
+        raise InputError(f"--phi-i {phi}: must be in [-360, 360] degrees")
+
+
+def incidence_note(measured_deg: list[float], theta: float) -> str:
+    """How a table's lobe at ``theta`` (degrees) is drawn when ``theta`` is none of its
+    measured incidences: interpolated linearly between its neighbours, or the nearest one
+    (the table clamps outside its range); ``""`` when it was measured."""
+    if any(math.isclose(theta, t, abs_tol=1e-6) for t in measured_deg):
+        return ""
+    below = [t for t in measured_deg if t < theta]
+    above = [t for t in measured_deg if t > theta]
+    if below and above:
+        return (f"not measured: interpolated between the table's theta_i {max(below):g} "
+                f"and {min(above):g} deg")
+    nearest = max(below) if below else min(above)
+    return f"not measured: the table's nearest theta_i, {nearest:g} deg, is drawn"
+
+
 def view_table(args: argparse.Namespace, source: Path) -> int:
     """The lobe of a table at one incidence, optionally against a model."""
     import numpy as np
@@ -72,16 +103,28 @@ def view_table(args: argparse.Namespace, source: Path) -> int:
     table = microsim.read_table(source)
     theta = args.theta_i if args.theta_i is not None else math.degrees(table.theta_i[0])
     check_theta(theta)
+    phi = args.phi_i if args.phi_i is not None else math.degrees(table.phi_i[0])
+    check_phi(phi)
     model = None
     title = f"{source.name}: theta_i = {theta:g} deg"
+    if not table.isotropic:
+        title += f", phi_i = {phi:g} deg"
+    note = incidence_note([math.degrees(t) for t in table.theta_i], theta)
+    if note:
+        title += f" ({note})"
+        print(f"warning: --theta-i {theta:g}: {note}", file=sys.stderr)
     if args.model is not None:
         from microsim.analytic.registry import parse_model_spec
-        from microsim.compare import model_defaults
+        from microsim.compare import direction, model_defaults, singular_albedo
 
         name, _, model = parse_model_spec(args.model, model_defaults(table.meta))
-        title += f" (wireframe: {name}; colour: relative error)"
+        if singular_albedo(model, direction(*np.radians([theta, phi]))) > 0:
+            raise InputError(f"--model {args.model}: its specular cone is a delta, which a "
+                             "lobe has no value for; compare it over the table's bins "
+                             "(microsim compare)")
+        title += f" (wireframe: {name}; colour: relative error against it)"
     show_lobe(table, float(np.radians(theta)), model, args.screenshot, args.radius,
-              args.log, title=title)
+              args.log, title=title, phi_i=float(np.radians(phi)))
     if args.screenshot is not None:
         print(f"wrote {args.screenshot}")
     return 0
@@ -94,6 +137,8 @@ def run(args: argparse.Namespace) -> int:
 
     source = Path(args.source)
     suffix = source.suffix.lower()
+    if args.screenshot is not None:
+        writable_file(args.screenshot, "--screenshot", SCREENSHOT_SUFFIXES)
     if suffix in MESHES:
         if args.period is None:
             raise InputError(f"--period: required for a mesh file ({source.name}); give "
@@ -118,11 +163,15 @@ def run(args: argparse.Namespace) -> int:
 
         if resolved is None:
             raise InputError("--rays: needs a recipe (its materials scatter the rays)")
+        check_memory(PATH_BYTES * args.rays, f"--rays {args.rays}: drawing the paths",
+                     "draw fewer (a few hundred show the scattering)", args.memory_limit)
         sim = resolved["simulation"]
         theta = args.theta_i if args.theta_i is not None else sim["theta_i"][0]
         check_theta(theta)
+        phi = args.phi_i if args.phi_i is not None else 0.0
+        check_phi(phi)
         paths = ray_paths(tile, resolved["material"], math.radians(theta), args.rays,
-                          sim["bounces"], sim["seed"])
+                          sim["bounces"], sim["seed"], math.radians(phi))
     # refracting parts enclose a medium: drawn see-through so their contents show
     glass = tuple(part for part, m in (resolved or {}).get("material", {}).items()
                   if m["kind"] == "dielectric" and m["refract"])

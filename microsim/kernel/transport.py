@@ -16,7 +16,9 @@ The paths of a chunk live in slots (``Slots``): origin, direction, weight, mediu
    segment's start (x and y wrap, z does not).
 4. **Scattering** by the face's material (``scatter.scatter_event``), with the refracting
    part's medium entered or left when the ray went through the face, unless the bounce
-   limit is reached (the path ends, ``BOUNCES``).
+   limit is reached (the path ends, ``BOUNCES``). A face that approximates a curved tube
+   scatters at the point where the ray entered the tube, about its normal there
+   (``shading.shade_one``); the offset of step 5 follows that normal.
 5. **Offset.** The next segment starts ``eps`` off the face on the side its direction
    goes, so it never re-hits the face through round-off.
 6. **No hit: the box.** Each query is clipped at the first side of the tile's box the ray
@@ -49,6 +51,7 @@ from microsim.kernel.scatter import (
     reflect,
     scatter_event,
 )
+from microsim.kernel.shading import shade_one
 
 ESCAPED, BOUNCES, TRANSMITTED, LEAKED, TRAPPED, BACKFACE = range(6)
 """How a path ends: out through the top, alive after the bounce limit (for a query without
@@ -257,8 +260,8 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
             live: np.ndarray, near: np.ndarray, o32: np.ndarray, d32: np.ndarray,
             t32: np.ndarray, box: np.ndarray, faces: np.ndarray, kind: np.ndarray,
             params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, bounces: int,
-            key: np.ndarray, out_f: np.ndarray, out_i: np.ndarray, vertices: np.ndarray
-            ) -> int:
+            key: np.ndarray, out_f: np.ndarray, out_i: np.ndarray, vertices: np.ndarray,
+            curved: np.ndarray) -> int:
     """Move every live path on after one query; see the module's steps 1 to 7.
 
     Parameters
@@ -299,6 +302,9 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
         Outcomes per ray of the run.
     vertices : (n, v, 3) float
         Unwrapped hit points per ray and bounce (v = 0: not recorded).
+    curved : (f, 9) or (0, 9) float
+        The faces' tubes for shading normals (``shading.curved_table``; no rows: every
+        face flat).
 
     Returns
     -------
@@ -351,6 +357,10 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                 # 3. absorption along the segment inside a medium
                 if medium >= 0:
                     _absorb(slots_f, i, params, medium, hz, dz)
+                if curved.shape[0] > 0:
+                    # a curved face scatters at the tube's entry point, about its normal
+                    nx, ny, nz, hx, hy, hz, _ = shade_one(curved, f, hx, hy, hz, dx, dy,
+                                                          dz, nx, ny, nz, slots_f[i, S_Z0])
                 bounce = slots_i[i, I_BOUNCE]
                 if bounce < keep:
                     r = slots_i[i, I_RAY]

@@ -60,7 +60,8 @@ def build(surface: Mapping[str, Any]) -> Tile:
     ----------
     surface : mapping
         Kind ``cylinders``: ``radius``, ``spacing`` (≥ 2 radius), ``sink`` (< 2 radius),
-        ``segments``, ``length``.
+        ``segments``, ``length``, ``smooth_normals`` (the cylinder faces carry their
+        circle in ``Tile.curved``; default true).
 
     Returns
     -------
@@ -76,6 +77,12 @@ def build(surface: Mapping[str, Any]) -> Tile:
                                 np.repeat(points[:, 1], 2)])
     faces = grid_faces(k, 2)
     material = np.concatenate([part, part]).astype(np.int32)  # grid_faces: two halves
+    curved = None
+    if surface.get("smooth_normals", True):
+        # the circle of radius r about the axis (s/2, ·, r − sink) along y
+        tube = np.array([[s / 2, 0.0, r - float(surface["sink"])], [1 / r, 0.0, 0.0],
+                         [0.0, 0.0, 1 / r]])
+        curved = np.where((material == 1)[:, None, None], tube, 0.0)
     return Tile(vertices, faces, material, ("base", "cylinder"), (s, length),
                 info={"kind": "cylinders", "isotropic": False,
-                      "axis": [0.0, 1.0, 0.0]})
+                      "axis": [0.0, 1.0, 0.0]}, curved=curved)

@@ -51,30 +51,60 @@ def _f(doc: str, default: Any = REQUIRED, **kw: Any) -> Key:
     return Key("float", default, doc, **kw)
 
 
-MICRO_RESOLUTION = 512
-"""Default grid of a ``vgroove`` tile with micro-roughness (columns and rows)."""
-SEED = Key("int", 0, "Seed of the generator's random numbers.", low=0, high=2**63 - 1)
-SIZE = _f("Tile side length (period along x and y).", 1.0, unit="length", low=0.0,
-          low_open=True)
-DEFAULT_CELLS = 8
-"""Default correlation length of a Gaussian height field in grid cells (DESIGN.md: τ = 8
-cells gives G1 within 0.005 of Smith)."""
+LENGTH_MIN, LENGTH_MAX = 1e-9, 1e9
+"""Bounds of every length, in tile units: lengths are scale-free (only ratios matter), and
+this range holds any unit from nanometres to kilometres while squares and products of
+lengths stay far inside float64 (and the tile's coordinates inside float32)."""
+SPAN = 1e4
+"""Largest ratio between two lengths of one tile (the period, heights, radii,
+thicknesses, correlation lengths): the tracer offsets secondary rays by 1e-6 of the
+tile's extent (microsim.trace.EPS_REL), so the smallest feature stays 100 offsets wide."""
+ALPHA_MIN = 1e-3
+"""Smallest roughness a recipe asks for: below it a surface is a mirror at every bin
+resolution a table has (its lobe is narrower than 0.06 degrees)."""
+
+
+def _len(doc: str, default: Any = REQUIRED, zero: bool = False) -> Key:
+    """A length key: in [LENGTH_MIN, LENGTH_MAX] tile units (or 0 with ``zero``)."""
+    return Key("float", default, doc, unit="length", low=0.0 if zero else LENGTH_MIN,
+               high=LENGTH_MAX)
+
+
+def _alpha(doc: str, high: float = 10.0) -> Key:
+    """An optional roughness key, alpha in [ALPHA_MIN, high]."""
+    return Key("float", None, doc, low=ALPHA_MIN, high=high)
+
+
+def check_span(s: dict[str, Any], keys: dict[str, Key], where: str = "surface.") -> None:
+    """The lengths of a resolved section (zeros aside) lie within a factor ``SPAN`` of
+    each other; ``InputError`` names the smallest and the largest otherwise."""
+    lengths = {f"{name}[{i}]" if isinstance(s[name], list) else name: v
+               for name, key in keys.items() if key.unit == "length" and name in s
+               for i, v in enumerate(s[name] if isinstance(s[name], list) else [s[name]])
+               if v > 0}
+    if len(lengths) < 2:
+        return
+    low, high = min(lengths, key=lengths.get), max(lengths, key=lengths.get)
+    if lengths[high] > SPAN * lengths[low]:
+        raise InputError(f"{where}{low} = {lengths[low]!r}: at most {SPAN:g} times smaller "
+                         f"than {where}{high} = {lengths[high]!r} (the tracer resolves "
+                         "features down to 1e-4 of the tile); rescale one of them")
+
+
+def _check_correlation(s: dict[str, Any], name: str, tau: float, cell: float,
+                       length: float) -> None:
+    """A correlation length ``tau`` (set by key ``name``) spans at least one grid cell and
+    at most the tile's ``length``: outside, the heights are white noise or one bump."""
+    if not cell <= tau <= length:
+        raise InputError(f"surface.{name} = {s[name]!r}: gives a correlation length of "
+                         f"{tau:.3g}, which must lie between one grid cell ({cell:.3g}) and "
+                         f"the tile ({length:.3g})")
 
 
 def correlation_lengths(surface: dict[str, Any]) -> tuple[float, float, float]:
-    """(σ, τx, τy) of a Gaussian surface from whichever of alpha / alpha_x, alpha_y / sigma
-    the recipe gives.
-
-    Parameters
-    ----------
-    surface : dict
-        Resolved ``[surface]`` of kind ``gaussian``.
-
-    Returns
-    -------
-    sigma, tau_x, tau_y : float
-        RMS height and the correlation lengths along the rotated axes (tile units).
-    """
+    """(σ, τx, τy) of a resolved gaussian ``[surface]`` from whichever of alpha /
+    alpha_x, alpha_y / sigma it gives: RMS height and the correlation lengths along the
+    rotated axes (tile units); α = 2σ/τ."""
     cell = surface["size"] / surface["resolution"]
     tau = surface.get("correlation_length", DEFAULT_CELLS * cell)
     if "sigma" in surface:
@@ -86,6 +116,16 @@ def correlation_lengths(surface: dict[str, Any]) -> tuple[float, float, float]:
     return sigma, 2 * sigma / ax, 2 * sigma / ay
 
 
+DEFAULT_CELLS = 8
+"""Default correlation length in grid cells (DESIGN.md: τ = 8 cells gives G1 within 0.005
+of Smith)."""
+MICRO_RESOLUTION = 512
+"""Default grid of a ``vgroove`` tile with micro-roughness (columns and rows)."""
+SEED = Key("int", 0, "Seed of the generator's random numbers.", low=0, high=2**63 - 1)
+SIZE = _len("Tile side length (period along x and y).", 1.0)
+SMOOTH = Key("bool", True, "Scatter at the curved surface the faces approximate (its "
+             "normal where the ray enters it: docs/surfaces.md); false keeps the flat "
+             "facets.")
 ENSEMBLE_AREAS = 32 * 32**2
 """Correlation areas a Gaussian table's realisations hold together by default: 32 tiles of
 32 × 32 correlation lengths (the shipped 256² tile), with which the shipped recipe's lobe
@@ -136,6 +176,17 @@ def _check_gaussian(s: dict[str, Any]) -> None:
     if "sigma" in s and "correlation_length" not in s:
         raise InputError("surface.correlation_length: missing; sigma needs it "
                          "(alpha = 2 sigma / correlation_length)")
+    sigma, tau_x, tau_y = correlation_lengths(s)
+    cell = s["size"] / s["resolution"]
+    if "sigma" in s and not ALPHA_MIN <= 2 * sigma / tau_x <= 10:
+        raise InputError(f"surface.sigma = {sigma!r}: gives alpha = 2 sigma / "
+                         f"correlation_length = {2 * sigma / tau_x:.3g}; must be in "
+                         f"[{ALPHA_MIN:g}, 10]")
+    base = "correlation_length" if "correlation_length" in s else "resolution"
+    for axis, tau in (("x", tau_x), ("y", tau_y)):
+        # the smoother axis of an anisotropic surface gets the longer correlation length
+        name = f"alpha_{axis}" if "alpha_x" in s and tau > s["size"] else base
+        _check_correlation(s, name, tau, cell, s["size"])
 
 
 def _check_vgroove(s: dict[str, Any]) -> None:
@@ -151,6 +202,9 @@ def _check_vgroove(s: dict[str, Any]) -> None:
         raise InputError(f"surface.micro_resolution = {n!r}: must be a "
                          f"multiple of 2 * grooves = {2 * s['grooves']} (whole grid columns "
                          "per groove face)")
+    if "micro_correlation" in s:
+        _check_correlation(s, "micro_correlation", s["micro_correlation"], s["size"] / n,
+                           s["size"])
 
 
 def _check_velvet(s: dict[str, Any]) -> None:
@@ -196,6 +250,12 @@ def _check_paint(s: dict[str, Any]) -> None:
         raise InputError(f"surface.pigment_radius = {s['pigment_radius']!r}: the largest "
                          f"radius {r_max:g} must be <= a quarter of the tile size "
                          f"({0.25 * s['size']:g}); raise size")
+    if 0 < s["top_alpha"] < ALPHA_MIN:
+        raise InputError(f"surface.top_alpha = {s['top_alpha']!r}: must be 0 (flat) or at "
+                         f"least {ALPHA_MIN:g}")
+    if s["top_alpha"] > 0 and "top_correlation_length" in s:
+        _check_correlation(s, "top_correlation_length", s["top_correlation_length"],
+                           s["size"] / s["resolution"], s["size"])
     if flake and s["flake_thickness"] >= s["pigment_radius"]:
         raise InputError(f"surface.flake_thickness = {s['flake_thickness']!r}: must be below "
                          f"pigment_radius = {s['pigment_radius']!r} (a flake is thin)")
@@ -232,17 +292,13 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
         "different correlation lengths along the rotated x and y axes.",
         ("base",),
         {
-            "alpha": _f("Target roughness (isotropic).", None, low=0.0, low_open=True,
-                        high=10.0),
-            "alpha_x": _f("Target roughness along the (rotated) x axis.", None, low=0.0,
-                          low_open=True, high=10.0),
-            "alpha_y": _f("Target roughness along the (rotated) y axis.", None, low=0.0,
-                          low_open=True, high=10.0),
-            "sigma": _f("RMS height (with correlation_length instead of alpha).", None,
-                        unit="length", low=0.0, low_open=True),
-            "correlation_length": _f(
+            "alpha": _alpha("Target roughness (isotropic)."),
+            "alpha_x": _alpha("Target roughness along the (rotated) x axis."),
+            "alpha_y": _alpha("Target roughness along the (rotated) y axis."),
+            "sigma": _len("RMS height (with correlation_length instead of alpha).", None),
+            "correlation_length": _len(
                 "Correlation length tau (of the larger roughness axis when anisotropic). "
-                "Default: 8 grid cells.", None, unit="length", low=0.0, low_open=True),
+                "Default: 8 grid cells.", None),
             "rotation": _f("Rotation of the anisotropy axes about +z.", 0.0, unit="deg",
                            low=-360.0, high=360.0),
             "resolution": Key("int", 256, "Vertices per tile side.", low=4, high=8192),
@@ -261,19 +317,18 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
         {
             "slope": _f("Slope angle of every groove face (give slope or alpha).", None,
                         unit="deg", low=0.0, low_open=True, high=89.0),
-            "alpha": _f("Draw each groove's slope from a Beckmann slope distribution of "
-                        "this roughness (give slope or alpha).", None, low=0.0,
-                        low_open=True, high=10.0),
+            "alpha": _alpha("Draw each groove's slope from a Beckmann slope distribution "
+                            "of this roughness (give slope or alpha)."),
             "grooves": Key("int", 64, "Grooves per tile.", low=1, high=1_000_000),
-            "micro_alpha": _f("Gaussian micro-roughness alpha of every groove face, "
-                              "displaced along the face's normal (with slope); optional.",
-                              None, low=0.0, low_open=True, high=2.0),
+            "micro_alpha": _alpha("Gaussian micro-roughness alpha of every groove face, "
+                                  "displaced along the face's normal (with slope); "
+                                  "optional.", high=2.0),
             "micro_resolution": Key("int", None, "Grid columns (and rows) of a tile with "
                                     f"micro_alpha; a multiple of 2 * grooves. Default: "
                                     f"{MICRO_RESOLUTION}.", low=8, high=8192),
-            "micro_correlation": _f("Correlation length of the micro-roughness along a "
+            "micro_correlation": _len("Correlation length of the micro-roughness along a "
                                     "face. Default: 8 grid cells measured along the face.",
-                                    None, unit="length", low=0.0, low_open=True),
+                                    None),
             "size": SIZE,
             "seed": SEED,
         },
@@ -287,16 +342,15 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
         "brushed metal, hair-like anisotropic surfaces.",
         ("base", "cylinder"),
         {
-            "radius": _f("Cylinder radius.", 0.5, unit="length", low=0.0, low_open=True),
-            "spacing": _f("Distance between cylinder axes (the tile period along x).", 1.0,
-                          unit="length", low=0.0, low_open=True),
-            "sink": _f("Depth the cylinders are sunk into the base plane.", 0.0,
-                       unit="length", low=0.0),
+            "radius": _len("Cylinder radius.", 0.5),
+            "spacing": _len("Distance between cylinder axes (the tile period along x).", 1.0),
+            "sink": _len("Depth the cylinders are sunk into the base plane.", 0.0,
+                         zero=True),
             "segments": Key("int", 128, "Facets around a full circumference. A mirror "
                             "reflection turns by twice the facet step, so 128 gives 5.6 "
                             "degree steps: the default phi bin width.", low=6, high=65536),
-            "length": _f("Tile period along the cylinder axis (y).", 1.0, unit="length",
-                         low=0.0, low_open=True),
+            "length": _len("Tile period along the cylinder axis (y).", 1.0),
+            "smooth_normals": SMOOTH,
             "seed": SEED,
         },
         _check_cylinders,
@@ -307,10 +361,8 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
         "by a seeded jittered-grid process, periodic; fibres are closed tubes with tips.",
         ("base", "fibre"),
         {
-            "fibre_radius": _f("Fibre radius.", 0.01, unit="length", low=0.0,
-                               low_open=True),
-            "fibre_length": _f("Fibre length.", 0.15, unit="length", low=0.0,
-                               low_open=True),
+            "fibre_radius": _len("Fibre radius.", 0.01),
+            "fibre_length": _len("Fibre length.", 0.15),
             "density": _f("Fibres per unit area.", 400.0, low=0.0, low_open=True),
             "tilt": _f("Mean tilt of the fibres from +z.", 10.0, unit="deg", low=0.0,
                        high=89.0),
@@ -321,6 +373,7 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
             "azimuth_spread": _f("Standard deviation of the tilt azimuth (360 = uniform).",
                                  360.0, unit="deg", low=0.0, high=360.0),
             "sides": Key("int", 6, "Facets around each fibre.", low=3, high=64),
+            "smooth_normals": SMOOTH,
             "size": SIZE,
             "seed": SEED,
         },
@@ -337,16 +390,15 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
             "float": Key("floats", [2.0, 1.0], "Twill float: yarns passed over, then under "
                          "(e.g. [2, 1] for 2/1 twill, [2, 2] for 2/2).", low=1, high=16,
                          length=2),
-            "yarn_width": _f("Yarn cross-section width.", 0.8, unit="length", low=0.0,
-                             low_open=True),
-            "yarn_thickness": _f("Yarn cross-section thickness.", 0.3, unit="length",
-                                 low=0.0, low_open=True),
-            "spacing": _f("Distance between neighbouring yarns (warp and weft).", 1.0,
-                          unit="length", low=0.0, low_open=True),
+            "yarn_width": _len("Yarn cross-section width.", 0.8),
+            "yarn_thickness": _len("Yarn cross-section thickness.", 0.3),
+            "spacing": _len("Distance between neighbouring yarns (warp and weft).", 1.0),
             "segments": Key("int", 16, "Path samples per yarn crossing.", low=4,
                             high=1024),
-            "sides": Key("int", 12, "Facets around each yarn's cross-section.", low=4,
-                         high=256),
+            "sides": Key("int", 24, "Facets around each yarn's cross-section (with "
+                         "smooth normals, 12 trap mirror light between crossing yarns: "
+                         "docs/surfaces.md).", low=4, high=256),
+            "smooth_normals": SMOOTH,
             "seed": SEED,
         },
         _check_weave,
@@ -359,13 +411,11 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
         "z = 0. Give the binder a dielectric material with refract = true.",
         ("binder", "pigment", "substrate"),
         {
-            "binder_thickness": _f("Mean thickness of the binder layer.", 0.2,
-                                   unit="length", low=0.0, low_open=True),
+            "binder_thickness": _len("Mean thickness of the binder layer.", 0.2),
             "top_alpha": _f("Roughness alpha of the binder's top (a Gaussian height "
                             "field); 0 = flat.", 0.0, low=0.0, high=2.0),
-            "top_correlation_length": _f("Correlation length of the top's heights. "
-                                         "Default: 8 grid cells.", None, unit="length",
-                                         low=0.0, low_open=True),
+            "top_correlation_length": _len("Correlation length of the top's heights. "
+                                         "Default: 8 grid cells.", None),
             "resolution": Key("int", 256, "Vertices per tile side of a rough top.", low=4,
                               high=8192),
             "pigment_fraction": _f("Pigment volume over binder volume (pigment included); "
@@ -373,13 +423,11 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
             "pigment_shape": Key("str", "sphere", "Particle shape: spheres, or thin discs "
                                  "(flakes) with tilted normals.",
                                  choices=("sphere", "flake")),
-            "pigment_radius": _f("Median particle radius (a flake's disc radius).", 0.03,
-                                 unit="length", low=0.0, low_open=True),
+            "pigment_radius": _len("Median particle radius (a flake's disc radius).", 0.03),
             "radius_spread": _f("Log-standard deviation of the lognormal radius (clipped "
                                 "at 2 standard deviations); 0 = all equal.", 0.2, low=0.0,
                                 high=1.0),
-            "flake_thickness": _f("Thickness of a flake.", 0.002, unit="length", low=0.0,
-                                  low_open=True),
+            "flake_thickness": _len("Thickness of a flake.", 0.002),
             "flake_tilt_spread": _f("RMS tilt of the flake normals from +z (tilt vector "
                                     "Gaussian, azimuth uniform).", 10.0, unit="deg",
                                     low=0.0, high=60.0),
@@ -399,7 +447,7 @@ SURFACE_KINDS: dict[str, SurfaceKind] = {
         {
             "path": Key("path", REQUIRED, "Mesh file (relative to the recipe's folder)."),
             "period": Key("pair", REQUIRED, "Tile period [Lx, Ly].", unit="length",
-                          low=0.0, low_open=True),
+                          low=LENGTH_MIN, high=LENGTH_MAX),
             "seed": SEED,
         },
     ),

@@ -38,6 +38,16 @@ class Tile:
     tangents : (m, 3) float or None
         A unit direction per face that a generator knows (a velvet fibre's axis), for
         facet materials whose frame follows it; None where the generator gives none.
+    curved : (m, 3, 3) float or None
+        The curved surface each face approximates, for shading normals
+        (``microsim.kernel.shading``): rows (c, u, v), a point c on the axis of a tube and two
+        section vectors u, v; the tube is the quadric {x : (u·q)² + (v·q)² = 1},
+        q = x − c, which is constant along its axis u × v, and its outward normal at x
+        is ∝ u (u·q) + v (v·q) (the gradient). A circular cylinder of radius r has u, v
+        orthonormal and perpendicular to its axis, divided by r; a yarn of elliptical
+        section has the sheared pair its generator documents (``weave.yarn``). The face's
+        vertices lie on the quadric, so the face lies inside it (the tube is convex).
+        Rows with u = v = 0 are flat faces. None: every face is flat.
     """
 
     vertices: np.ndarray
@@ -48,6 +58,7 @@ class Tile:
     info: dict[str, Any] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     tangents: np.ndarray | None = None
+    curved: np.ndarray | None = None
 
     @property
     def z_range(self) -> tuple[float, float]:
@@ -138,9 +149,13 @@ class Tile:
                        0, blocks - 1)
         hist = np.zeros((blocks * blocks, bins + 1))
         np.add.at(hist, (cell[:, 0] * blocks + cell[:, 1], index), weight)
-        share = hist[:, :bins] / hist.sum(axis=1, keepdims=True)
+        # sub-tiles that hold facets (a tile of a few large faces leaves some empty)
+        hist_filled = hist[hist.sum(axis=1) > 0]
+        share = hist_filled[:, :bins] / hist_filled.sum(axis=1, keepdims=True)
         total = hist.sum(axis=0)[:bins]
-        err = share.std(axis=0, ddof=1) / np.sqrt(blocks * blocks) / solid
+        n = len(hist_filled)
+        err = (share.std(axis=0, ddof=1) / np.sqrt(n) / solid if n > 1
+               else np.full(bins, np.nan))
         # a bin no facet falls in has value 0 and an undefined error, not a zero one
         return {"edges": edges, "D": total / hist.sum() / solid,
                 "stderr": np.where(total > 0, err, np.nan)}

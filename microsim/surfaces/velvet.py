@@ -43,6 +43,20 @@ def jittered_points(n: int, size: float, rng: np.random.Generator) -> np.ndarray
     return (ij + rng.random((n, 2))) * (size / m)
 
 
+def section_axes(axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit vectors u, v with (u, v, axis) right-handed: a fibre's section plane (u from
+    the axis crossed with +z, or with +x for fibres within 26° of +z).
+
+    Returns
+    -------
+    u, v : (n, 3) float
+    """
+    helper = np.where(np.abs(axes[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
+    u = np.cross(axes, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    return u, np.cross(axes, u)
+
+
 def tubes(roots: np.ndarray, axes: np.ndarray, radius: float, start: np.ndarray,
           length: float, sides: int) -> tuple[np.ndarray, np.ndarray]:
     """Closed tubes with cone tips: for fibre k, a prism of ``sides`` faces from
@@ -55,10 +69,7 @@ def tubes(roots: np.ndarray, axes: np.ndarray, radius: float, start: np.ndarray,
     faces : (n · 4 sides, 3) int
     """
     n = len(roots)
-    helper = np.where(np.abs(axes[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
-    u = np.cross(axes, helper)
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
-    v = np.cross(axes, u)
+    u, v = section_axes(axes)
     ang = 2 * math.pi * np.arange(sides) / sides
     ring = radius * (np.cos(ang)[None, :, None] * u[:, None] + np.sin(ang)[None, :, None]
                      * v[:, None])  # (n, sides, 3)
@@ -94,7 +105,8 @@ def build(surface: Mapping[str, Any]) -> Tile:
     surface : mapping
         Kind ``velvet``: ``fibre_radius``, ``fibre_length``, ``density``, ``tilt``,
         ``tilt_spread``, ``azimuth``, ``azimuth_spread`` (degrees), ``sides``, ``size``,
-        ``seed``.
+        ``seed``, ``smooth_normals`` (the fibres' side faces carry their cylinder in
+        ``Tile.curved``; default true).
 
     Returns
     -------
@@ -114,15 +126,38 @@ def build(surface: Mapping[str, Any]) -> Tile:
     base_v = np.array([[0, 0, 0], [size, 0, 0], [size, size, 0], [0, size, 0]], float)
     vertices = np.concatenate([base_v, fv])
     faces = np.concatenate([[[0, 1, 2], [0, 2, 3]], ff + 4])
-    groups = np.concatenate([[0, 0], 1 + np.repeat(np.arange(n), 4 * sides)])
-    # the cut carries one integer per face: the material (0 base, 1 fibre) and the group
-    # (0 base, 1 + k fibre k), as material + 2 group, so cut pieces keep their fibre's axis
+    # groups: 0 the base, 1 + 2k the sides of fibre k, 2 + 2k its tip and bottom cap
+    ends = np.tile(np.repeat([0, 1], 2 * sides), n)
+    groups = np.concatenate([[0, 0], 1 + 2 * np.repeat(np.arange(n), 4 * sides) + ends])
+    # the cut carries one integer per face: the material (0 base, 1 fibre) and the group,
+    # as material + 2 group, so cut pieces keep their fibre
     label = np.minimum(groups, 1) + 2 * groups
     vertices, faces, label = wrap_into_box(vertices, faces, label, (size, size), groups)
     material, group = label % 2, label // 2
+    fibre = np.maximum(group - 1, 0) // 2
     # per face: the base's +y, a fibre's axis (its side faces contain it)
-    tangents = np.concatenate([[[0.0, 1.0, 0.0]], axes])[group]
+    tangents = np.where((group > 0)[:, None], axes[fibre], [0.0, 1.0, 0.0])
+    curved = None
+    if surface.get("smooth_normals", True):
+        curved = _fibre_tubes(vertices, faces, (group > 0) & (group % 2 == 1), roots[fibre]
+                              + 0.5 * length * axes[fibre], axes[fibre], radius, size)
     isotropic = surface["azimuth_spread"] >= 360.0 or surface["tilt"] == 0
     return Tile(vertices, faces, material, ("base", "fibre"), (size, size),
                 info={"kind": "velvet", "isotropic": bool(isotropic), "fibres": n},
-                tangents=tangents)
+                tangents=tangents, curved=curved)
+
+
+def _fibre_tubes(vertices: np.ndarray, faces: np.ndarray, side: np.ndarray,
+                 middle: np.ndarray, axes: np.ndarray, radius: float, size: float
+                 ) -> np.ndarray:
+    """``Tile.curved`` of a velvet tile: each side face's fibre cylinder (its axis through
+    the fibre's middle, moved by whole periods to the copy nearest the face, which is the
+    copy the face belongs to: no face lies more than 0.41 size from its fibre's middle,
+    by the limits on length and radius), u and v its section axes over the radius; tips,
+    caps and base flat."""
+    centroid = vertices[faces].mean(axis=1)
+    c = middle.copy()
+    c[:, :2] += size * np.round((centroid[:, :2] - middle[:, :2]) / size)
+    u, v = section_axes(axes)
+    curved = np.stack([c, u / radius, v / radius], axis=1)
+    return np.where(side[:, None, None], curved, 0.0)

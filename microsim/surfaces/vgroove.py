@@ -40,16 +40,19 @@ def build(surface: Mapping[str, Any]) -> Tile:
     Returns
     -------
     Tile
-        Anisotropic (``info["isotropic"] = False``); ``info["slopes_deg"]`` per groove.
+        Anisotropic (``info["isotropic"] = False``); ``info["slopes_deg"]`` summarises
+        the grooves' slopes (``slope_facts``).
     """
     size, grooves = float(surface["size"]), int(surface["grooves"])
     if "micro_alpha" in surface:
         return rough_faces(surface)
     if "slope" in surface:
         tan_s = np.full(grooves, math.tan(math.radians(surface["slope"])))
+        slopes = np.full(grooves, float(surface["slope"]))
     else:
         rng = np.random.default_rng(surface["seed"])
         tan_s = np.abs(rng.normal(0.0, surface["alpha"] / math.sqrt(2.0), grooves))
+        slopes = np.degrees(np.arctan(tan_s))
     width = size / grooves
     x = np.arange(2 * grooves + 1) * (width / 2)
     z = np.zeros(2 * grooves + 1)
@@ -60,11 +63,30 @@ def build(surface: Mapping[str, Any]) -> Tile:
     faces = grid_faces(len(x), 2)
     tile = Tile(vertices, faces, np.zeros(len(faces), np.int32), ("base",),
                 (size, size), info={"kind": "vgroove", "isotropic": False,
-                                    "slopes_deg": np.degrees(np.arctan(tan_s)).tolist()})
+                                    "slopes_deg": slope_facts(slopes)})
     if "alpha" in surface:
         rx, ry = tile.realised_alpha()
         tile.info.update(alpha_target=surface["alpha"], alpha_realised_x=rx)
     return tile
+
+
+def slope_facts(slopes_deg: np.ndarray) -> dict[str, float | int]:
+    """What a tile reports about its grooves' slopes: a summary, not one number per
+    groove (a tile may have a million grooves).
+
+    Parameters
+    ----------
+    slopes_deg : (grooves,) float
+        Slope angle of each groove, degrees.
+
+    Returns
+    -------
+    dict
+        ``count``, ``min``, ``mean``, ``rms`` and ``max`` of the angles, degrees.
+    """
+    return {"count": len(slopes_deg), "min": float(slopes_deg.min()),
+            "mean": float(slopes_deg.mean()),
+            "rms": float(np.sqrt(np.mean(slopes_deg**2))), "max": float(slopes_deg.max())}
 
 
 def _face_field(surface: Mapping[str, Any]) -> tuple[int, float, float, np.ndarray]:
@@ -156,7 +178,7 @@ def rough_faces(surface: Mapping[str, Any]) -> Tile:
     tile = Tile(np.column_stack([x.ravel(), y.ravel(), z.ravel()]), faces,
                 np.zeros(len(faces), np.int32), ("base",), (size, size),
                 info={"kind": "vgroove", "isotropic": False,
-                      "slopes_deg": [surface["slope"]] * grooves,
+                      "slopes_deg": slope_facts(np.full(grooves, float(surface["slope"]))),
                       "micro_alpha_target": surface["micro_alpha"],
                       "micro_correlation_length": tau})
     # facet normals in their face's frame (face of the grid column a facet starts in)

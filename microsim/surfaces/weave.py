@@ -58,10 +58,20 @@ def yarn(position: float, heights: np.ndarray, spacing: float, width: float,
     The section lies in the plane across the yarn's direction of travel (vertical), so its
     ends are exactly the tile's sides. Faces wind outward.
 
+    The faces between path samples t_j and t_(j+1) are chords of one elliptic
+    cylinder: with the centre c_j = (t_j, position, z_j) (in travel, across, up
+    coordinates), the chord slope k = (z_(j+1) − z_j) / (t_(j+1) − t_j) and unit vectors
+    ê_t (travel), ê_a (across), ê_z, the points x with ((x − c_j)·ê_a / (w/2))² +
+    (((x − c_j)·(ê_z − k ê_t)) / (h/2))² = 1 (h the thickness) are the vertical
+    ellipse swept along the chord of the centre line, and every vertex of the segment
+    lies on it. ``curved`` holds (c_j, ê_a / (w/2), (ê_z − k ê_t) / (h/2)) per face
+    (``Tile.curved``).
+
     Returns
     -------
     vertices : ((samples + 1) sides, 3) float
     faces : (2 samples sides, 3) int
+    curved : (2 samples sides, 3, 3) float
     """
     period = len(heights) * spacing
     t = np.linspace(0.0, period, samples + 1)
@@ -78,7 +88,16 @@ def yarn(position: float, heights: np.ndarray, spacing: float, width: float,
     b = (k * sides + (l + 1) % sides).ravel()
     c, d = a + sides, b + sides
     faces = np.concatenate([np.column_stack([a, c, d]), np.column_stack([a, d, b])])
-    return vertices, faces
+    slope = np.diff(z) / np.diff(t)
+    travel, side = (0, 1) if along_x else (1, 0)
+    centre = np.zeros((samples, 3))
+    centre[:, travel], centre[:, side], centre[:, 2] = t[:-1], position, z[:-1]
+    u = np.zeros((samples, 3))
+    u[:, side] = 2.0 / width
+    v = np.zeros((samples, 3))
+    v[:, travel], v[:, 2] = -slope * 2.0 / thickness, 2.0 / thickness
+    curved = np.stack([centre, u, v], axis=1)[np.tile(k.ravel(), 2)]
+    return vertices, faces, curved
 
 
 def build(surface: Mapping[str, Any]) -> Tile:
@@ -89,7 +108,8 @@ def build(surface: Mapping[str, Any]) -> Tile:
     surface : mapping
         Kind ``weave``: ``pattern``, ``float`` ([over, under] for twill), ``yarn_width``,
         ``yarn_thickness``, ``spacing``, ``segments`` (path samples per crossing),
-        ``sides``.
+        ``sides``, ``smooth_normals`` (the yarn faces carry their elliptic cylinders in
+        ``Tile.curved``; default true).
 
     Returns
     -------
@@ -109,17 +129,20 @@ def build(surface: Mapping[str, Any]) -> Tile:
     top = over(n, up)  # top[i, j]: warp i over weft j
     samples = n * int(surface["segments"])
     sides = int(surface["sides"])
-    verts, faces, material = [], [], []
+    verts, faces, material, curved = [], [], [], []
     count = 0
     for k in range(n):
         for part, along_x, heights in ((0, False, np.where(top[k], amp, -amp)),
                                        (1, True, np.where(top[:, k], -amp, amp))):
-            v, f = yarn((k + 0.5) * s, heights, s, w, th, samples, sides, along_x)
+            v, f, c = yarn((k + 0.5) * s, heights, s, w, th, samples, sides, along_x)
             verts.append(v)
             faces.append(f + count)
             material.append(np.full(len(f), part, np.int32))
+            curved.append(c)
             count += len(v)
     return Tile(np.concatenate(verts), np.concatenate(faces).astype(np.int64),
                 np.concatenate(material), ("warp", "weft"), (n * s, n * s),
                 info={"kind": "weave", "isotropic": False, "repeat": n,
-                      "crimp_amplitude": amp})
+                      "crimp_amplitude": amp},
+                curved=np.concatenate(curved) if surface.get("smooth_normals", True)
+                else None)

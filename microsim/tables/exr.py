@@ -14,14 +14,20 @@ temporary file in the same folder, renamed over the target.
 
 from __future__ import annotations
 
+import ctypes
 import json
 import math
+import os
+import sys
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager, redirect_stderr, redirect_stdout
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from microsim.errors import InputError
+from microsim.errors import InputError, InputWarning
 from microsim.files import atomic_path
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.estimator import RAYS
@@ -34,6 +40,10 @@ ATTRIBUTE = "microsim"
 SH_ATTRIBUTE = "microsim_sh"
 SH_PART = "sh"
 COLOURS = ("R", "G", "B")
+MAGIC = b"v/1\x01"
+"""The first four bytes of every OpenEXR file."""
+MULTIPART = 0x1000
+"""Bit of the version field (bytes 4-7) set in multi-part files (a table with harmonics)."""
 
 
 def _jsonable(x: Any) -> Any:
@@ -154,12 +164,38 @@ def write_table(table: BRDFTable, path: str | Path) -> None:
         image.write(str(tmp))
 
 
-def read_table(path: str | Path) -> BRDFTable:
+@contextmanager
+def _output_silenced() -> Iterator[None]:
+    """Silence what OpenEXR prints, through Python's streams and C's file descriptors 1
+    and 2, for the duration of the block: it reports damaged parts there, which would
+    corrupt ``--json`` on stdout. ``read_table`` reports the damage itself."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    libc = ctypes.CDLL(None)
+    saved = os.dup(1), os.dup(2)
+    with open(os.devnull, "w") as null, redirect_stdout(null), redirect_stderr(null):
+        try:
+            os.dup2(null.fileno(), 1)
+            os.dup2(null.fileno(), 2)
+            yield
+        finally:
+            libc.fflush(None)  # C stdio buffers, before the descriptors point back
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            os.close(saved[0])
+            os.close(saved[1])
+
+
+def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
     """Read a table file written by ``write_table``.
 
     Parameters
     ----------
     path : str or Path
+    require_sh : bool
+        A damaged spherical-harmonics part (a truncated file whose bins are intact) is an
+        error; False: it is a warning (``InputWarning``) and the table is read without
+        harmonics.
 
     Returns
     -------
@@ -169,24 +205,37 @@ def read_table(path: str | Path) -> BRDFTable:
     Raises
     ------
     InputError
-        If the file is missing, not OpenEXR, or not a microsim table.
+        If the file is missing, not OpenEXR, damaged, or not a microsim table.
     """
     import OpenEXR
 
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such file")
+    with open(path, "rb") as f:
+        start = f.read(8)
+    if len(start) < 8 or start[:4] != MAGIC:
+        raise InputError(f"{path}: not an OpenEXR file")
+    damaged = f"{path}: damaged (truncated or corrupt) OpenEXR file"
     try:
-        with OpenEXR.File(str(path), separate_channels=True) as f:
+        with _output_silenced(), OpenEXR.File(str(path), separate_channels=True) as f:
             # copies: the file's header and pixel views do not outlive the file object
-            header = dict(f.header())
-            pixels = {name: np.array(ch.pixels) for name, ch in f.channels().items()}
-            sh_part = next((p for p in f.parts if p.name() == SH_PART), None)
-            sh_header = {} if sh_part is None else dict(sh_part.header)
-            sh_pixels = {} if sh_part is None else {
-                name: np.array(ch.pixels) for name, ch in sh_part.channels.items()}
-    except RuntimeError:
-        raise InputError(f"{path}: not an OpenEXR file") from None
+            parts = {p.name(): (dict(p.header), {name: np.array(ch.pixels)
+                                                 for name, ch in p.channels.items()})
+                     for p in f.parts}
+    except (RuntimeError, ValueError, OSError):
+        raise InputError(f"{damaged}: its header cannot be read") from None
+    header, pixels = next((part for part in parts.values() if ATTRIBUTE in part[0]),
+                          ({}, {}))
+    if not parts or (not header and int.from_bytes(start[4:8], "little") & MULTIPART):
+        raise InputError(f"{damaged}: the bins cannot be read")
+    sh_header, sh_pixels = parts.get(SH_PART, ({}, {}))
+    if int.from_bytes(start[4:8], "little") & MULTIPART and SH_PART not in parts:
+        message = (f"{damaged}: its spherical-harmonics part cannot be read (the bins "
+                   "can)")
+        if require_sh:
+            raise InputError(message)
+        warnings.warn(f"{message}; reading the bins only", InputWarning, stacklevel=2)
     if ATTRIBUTE not in header:
         raise InputError(f"{path}: not a microsim table (no '{ATTRIBUTE}' attribute)")
     try:

@@ -373,7 +373,7 @@ class BRDFTable:
         peak = f.max(axis=(2, 3), keepdims=True)
         return (f >= threshold * peak) & (peak > 0)
 
-    def median_rel_error(self, component: str = "total") -> float:
+    def median_rel_stderr(self, component: str = "total") -> float:
         """Median relative standard error over the lobe bins of every incidence (NaN
         errors, i.e. empty bins, count as infinitely uncertain)."""
         component = self.component(component)

@@ -1,0 +1,59 @@
+"""The memory guard: work estimated to need more memory than the budget is refused
+before it starts, with the estimate, the budget and how to raise it.
+
+The budget is ``--memory-limit GIB`` where a command has it, else the environment
+variable ``MICROSIM_MEMORY_LIMIT`` (GiB), else 2 GiB. Pure Python, imports nothing heavy.
+"""
+
+from __future__ import annotations
+
+import os
+
+from microsim.errors import InputError
+
+DEFAULT_LIMIT_GIB = 2.0
+LIMIT_ENV = "MICROSIM_MEMORY_LIMIT"
+
+
+def memory_limit(flag: float | None = None) -> float:
+    """The memory budget in GiB: the ``--memory-limit`` flag, else $MICROSIM_MEMORY_LIMIT,
+    else 2."""
+    if flag is not None:
+        return flag
+    text = os.environ.get(LIMIT_ENV)
+    if text is None:
+        return DEFAULT_LIMIT_GIB
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value > 0 or value == float("inf"):
+        raise InputError(f"${LIMIT_ENV} = {text!r}: must be a positive number of GiB")
+    return value
+
+
+def check_memory(need_bytes: float, what: str, remedy: str,
+                 limit_gib: float | None = None) -> None:
+    """Refuse work whose estimated memory exceeds the budget.
+
+    Parameters
+    ----------
+    need_bytes : float
+        The estimate (may be huge or infinite for absurd parameters).
+    what : str
+        What needs it, starting the message, e.g. ``"surface: this tile"``.
+    remedy : str
+        How to need less, e.g. ``"lower the resolution"``.
+    limit_gib : float or None
+        The ``--memory-limit`` flag, if given.
+
+    Raises
+    ------
+    InputError
+        Naming the estimate (3 significant figures), the budget and how to raise it.
+    """
+    limit = memory_limit(limit_gib)
+    if need_bytes > limit * 2**30:
+        raise InputError(f"{what} needs about {need_bytes / 2**30:.3g} GiB (estimated), over "
+                         f"the {limit:g} GiB limit; {remedy}, or raise the limit with "
+                         f"--memory-limit GIB or ${LIMIT_ENV}")
