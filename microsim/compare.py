@@ -159,9 +159,12 @@ def normal_z(t: np.ndarray, dof: np.ndarray | float) -> np.ndarray:
         return np.asarray(t, float)
     from scipy import stats
 
-    # through the smaller tail, so large |t| keep their precision
+    # through the smaller tail, so large |t| keep their precision; where that tail
+    # underflows (|t| in the tens or more) t itself stands, a finite bound
     p = stats.t.sf(np.abs(t), dof)
-    return np.where(dof >= NORMAL_DOF, t, np.sign(t) * stats.norm.isf(p))
+    with np.errstate(divide="ignore"):
+        z = np.sign(t) * stats.norm.isf(p)
+    return np.where((dof >= NORMAL_DOF) | ~np.isfinite(z), t, z)
 
 
 def bin_estimate(model: Model, wi: np.ndarray, theta_edges: np.ndarray,

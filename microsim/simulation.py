@@ -263,9 +263,8 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Mapping
         "batch": BATCH,
         "offset": next((p.offset for p in parts if 0 in p.surfaces), first.offset),
     }
-    meta["warnings"] = list(dict.fromkeys(
-        [w for part in parts for w in part.warnings]
-        + lost_energy_warnings(meta["directions"])))
+    meta["tile_warnings"] = list(dict.fromkeys(w for part in parts for w in part.warnings))
+    meta["warnings"] = lost_energy_warnings(meta["directions"])
     if wall_time is not None:
         traced = sum(part.trace_time for part in parts)
         meta.update(wall_time=wall_time, scene_time=sum(part.scene_time for part in parts),

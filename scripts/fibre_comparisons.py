@@ -19,9 +19,9 @@ import numpy as np
 from microsim.analytic.registry import parse_model_spec
 from microsim.compare import compare_table, model_defaults
 from microsim.fit import fit_table
-from microsim.goniometer import simulate
 from microsim.plots import incidence_plane
 from microsim.recipe import load, resolve
+from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.tile import Tile
 

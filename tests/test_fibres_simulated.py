@@ -11,8 +11,8 @@ from microsim.analytic.brdf import KayKajiya
 from microsim.analytic.cylinders import CylinderArray
 from microsim.analytic.velvet import SparseVelvet
 from microsim.compare import compare_table
-from microsim.goniometer import simulate
 from microsim.recipe import resolve
+from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 
 P_MIN = 1e-3

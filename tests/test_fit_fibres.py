@@ -10,8 +10,8 @@ import pytest
 
 from microsim.compare import model_defaults
 from microsim.fit import family, fit_table, model_bins
-from microsim.goniometer import simulate
 from microsim.recipe import resolve
+from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 
 

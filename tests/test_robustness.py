@@ -169,10 +169,10 @@ def _no_work(*args, **kwargs):
 @pytest.mark.parametrize(
     ("argv", "flag", "patch"),
     [
-        (["simulate", GAUSSIAN, "-o", "{file}/t.exr"], "--output", "microsim.goniometer.simulate"),
-        (["simulate", GAUSSIAN, "-o", "{folder}"], "--output", "microsim.goniometer.simulate"),
-        (["demo", "-o", "{file}/t.exr"], "--output", "microsim.goniometer.simulate"),
-        (["demo", "-o", "{tmp}/d.exr", "--plot", "{file}/p.png"], "--plot", "microsim.goniometer.simulate"),
+        (["simulate", GAUSSIAN, "-o", "{file}/t.exr"], "--output", "microsim.simulation.simulate_recipe"),
+        (["simulate", GAUSSIAN, "-o", "{folder}"], "--output", "microsim.simulation.simulate_recipe"),
+        (["demo", "-o", "{file}/t.exr"], "--output", "microsim.simulation.simulate_recipe"),
+        (["demo", "-o", "{tmp}/d.exr", "--plot", "{file}/p.png"], "--plot", "microsim.simulation.simulate_recipe"),
         (["generate", GAUSSIAN, "-o", "{file}/t.ply"], "--output", "microsim.surfaces.build_tile"),
         (["export", "{table}", "--format", "npz", "-o", "{file}/t.npz"], "--output", "microsim.tables.export.write_npz"),
         (["compare", "{table}", "--model", "beckmann", "--out", "{file}"], "--out", "microsim.compare.compare_table"),
@@ -204,7 +204,7 @@ def test_unwritable_output_is_refused_before_the_work(cli, small_table, tmp_path
 def test_read_only_folder_is_refused_before_the_work(cli, tmp_path, monkeypatch):
     locked = tmp_path / "locked"
     locked.mkdir(mode=0o500)
-    monkeypatch.setattr("microsim.goniometer.simulate", _no_work)
+    monkeypatch.setattr("microsim.simulation.simulate_recipe", _no_work)
     code, _, err = cli("simulate", GAUSSIAN, "-o", str(locked / "t.exr"))
     one_error_line(code, err, "--output", "cannot write")
 
@@ -692,7 +692,7 @@ def test_half_difference_ratio_covers_the_lobe_at_every_theta_d(small_table, tmp
     ],
 )
 def test_inputs_the_fuzzer_found(cli, small_table, tmp_path, monkeypatch, argv, needle):
-    monkeypatch.setattr("microsim.goniometer.simulate", _no_work)
+    monkeypatch.setattr("microsim.simulation.simulate_recipe", _no_work)
     code, _, err = cli(*[a.format(table=small_table, tmp=tmp_path) for a in argv])
     one_error_line(code, err, needle)
 

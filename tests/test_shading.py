@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from tilefixtures import with_floor
 
-from microsim.goniometer import simulate
 from microsim.kernel.shading import CURVED, FALLBACK, FLAT, curved_table, shade
 from microsim.recipe import resolve
+from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.tile import Tile
 from microsim.trace import HIT, PeriodicScene

@@ -155,7 +155,7 @@ def print_summary(s: dict[str, Any]) -> None:
         print(f"{theta:8.1f} {s['phi_i'][k]:6.1f} {s['rays_per_direction'][k]:11,d} "
               f"{s['realisations_per_direction'][k]:5d} {a:9.5f} ± {e_text} "
               + "".join(f"{v[k].mean():9.5f}" for v in orders.values())
-              + f" {s['lost_energy'][k].mean():9.2e} {100 * s['ray_share'][k]:8.0f}%  "
+              + f" {s['lost_energy'][k].mean():9.2e} {_percent(s['ray_share'][k]):>9}  "
               f"{s['stop'][k]}")
     print("(tiles: surface realisations averaged; ray share: the rays' part of the "
           "variance of the lobe bins, the rest is the spread between tiles)")
@@ -173,6 +173,11 @@ def print_summary(s: dict[str, Any]) -> None:
               "(microsim sh TABLE: their error against the bins)")
     if s["output"]:
         print(f"wrote {s['output']}")
+
+
+def _percent(x: float) -> str:
+    """``x`` as a whole percentage, ``n/a`` where undefined (no lobe bin holds a ray)."""
+    return f"{100 * x:.0f}%" if math.isfinite(x) else "n/a"
 
 
 def simulate_resolved(resolved: dict[str, Any], threads: int | None, show_progress: bool,
@@ -193,9 +198,9 @@ def simulate_resolved(resolved: dict[str, Any], threads: int | None, show_progre
     table = simulate_recipe(resolved, progress, threads, memory_limit_gib)
     if progress is not None:
         print(file=sys.stderr)
-    for warning in table.meta["warnings"]:  # recorded in the table too
-        if warning not in first:
-            print(f"warning: {warning}", file=sys.stderr)
+    later = [w for w in table.meta["tile_warnings"] if w not in first]
+    for warning in later + table.meta["warnings"]:  # recorded in the table too
+        print(f"warning: {warning}", file=sys.stderr)
     return table
 
 
