@@ -19,7 +19,6 @@ multiplied by, and the fraction transmitted into a non-refracting dielectric; th
 
 from __future__ import annotations
 
-import cmath
 import math
 
 import numpy as np
@@ -80,16 +79,28 @@ def fresnel_dielectric(cos_i: float, eta: float) -> float:
 
 @njit(**INLINE)
 def fresnel_conductor(cos_i: float, eta: float, k: float) -> float:
-    """Exact unpolarised Fresnel reflectance of a conductor of complex index η + ik: the
-    dielectric formulas in complex arithmetic, cos θt = √(1 − sin²θi / n²) on the principal
-    branch (Born & Wolf, sec. 14.2; pbrt-v4 ``FrComplex``)."""
+    """Exact unpolarised Fresnel reflectance of a conductor of complex index η + ik, in
+    real arithmetic: with a² + b² = √((η² − k² − sin²θ)² + 4η²k²) and
+    a = √((a² + b² + η² − k² − sin²θ) / 2),
+    R_s = (a² + b² + cos²θ − 2a cos θ) / (a² + b² + cos²θ + 2a cos θ),
+    R_p = R_s (cos²θ (a² + b²) + sin⁴θ − 2a cos θ sin²θ)
+            / (cos²θ (a² + b²) + sin⁴θ + 2a cos θ sin²θ), F = (R_s + R_p) / 2
+    (pbrt-v3, sec. 8.2.1, ``FrConductor``; the same function as Born & Wolf's complex form,
+    sec. 14.2, which ``microsim.analytic.fresnel`` evaluates and the tests compare)."""
     c = min(max(cos_i, 0.0), 1.0)
-    n = complex(eta, k)
-    cos_t = cmath.sqrt(1.0 - (1.0 - c * c) / (n * n))
-    r_s = (c - n * cos_t) / (c + n * cos_t)
-    r_p = (n * c - cos_t) / (n * c + cos_t)
-    f = 0.5 * (abs(r_s) ** 2 + abs(r_p) ** 2)
-    return min(max(f, 0.0), 1.0)
+    c2 = c * c
+    s2 = 1.0 - c2
+    e2, k2 = eta * eta, k * k
+    t0 = e2 - k2 - s2
+    a2b2 = math.sqrt(t0 * t0 + 4.0 * e2 * k2)
+    a = math.sqrt(max(0.5 * (a2b2 + t0), 0.0))
+    t1 = a2b2 + c2
+    t2 = 2.0 * c * a
+    r_s = (t1 - t2) / (t1 + t2)
+    t3 = c2 * a2b2 + s2 * s2
+    t4 = t2 * s2
+    r_p = r_s * (t3 - t4) / (t3 + t4)
+    return min(max(0.5 * (r_s + r_p), 0.0), 1.0)
 
 
 @njit(**INLINE)
