@@ -19,6 +19,7 @@ the side their direction goes, so a ray never re-hits the face it left through r
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -41,8 +42,9 @@ EPS_REL = 1e-6
 coordinate. Measured (docs/goniometer.md): no self-hit on rough tiles down to 1e-8; at a
 concave edge sharper than 90 deg an origin within about eps of the edge can lie behind the
 neighbouring face, so a larger offset loses more rays there (1e-5 lost ten times more)."""
-CHUNK = 32768
-"""Rays per worker task: a chunk is traced whole (wrap loop, bounces) on one thread
+CHUNK = 4096
+"""Rays per worker task: a chunk is traced whole (every query and bounce) on one thread;
+small enough that its slots stay in a core's cache and the threads share a batch evenly
 (chosen by measurement: docs/performance.md)."""
 HIT, ESCAPED, LEAKED, TRAPPED, BACKFACE = range(5)
 """Outcomes of a first-hit query (``closest_hit``): a hit on the side of a face the ray
@@ -146,6 +148,7 @@ class PeriodicScene:
         self.threads = threads or os.cpu_count() or 1
         self.chunk = chunk
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        self._local = threading.local()
         self.segments = 0
 
     def close(self) -> None:
@@ -215,19 +218,14 @@ class PeriodicScene:
         dirs = np.ascontiguousarray(dirs, float)
         media = np.full(n, -1, np.int64) if media is None else np.ascontiguousarray(
             media, np.int64)
-        out_f = np.zeros((n, kt.O_FLOATS))
+        out_f = np.empty((n, kt.O_FLOATS))  # every ray ends once and fills its row
         out_i = np.full((n, kt.OUT_INTS), kt.NO_FACE, np.int64)
         path = np.full((n, vertices, 3), np.nan)
         c = self.chunk
 
         def chunk(a: int) -> int:
             b = min(a + c, n)
-            slots_f = np.empty((b - a, kt.SLOT_FLOATS))
-            slots_i = np.empty((b - a, kt.SLOT_INTS), np.int64)
-            live = np.empty(b - a, np.int64)
-            near = np.empty((b - a, 5))
-            o32, d32 = np.empty((b - a, 3), np.float32), np.empty((b - a, 3), np.float32)
-            t32 = np.empty(b - a, np.float32)
+            slots_f, slots_i, live, near, o32, d32, t32 = self._buffers()
             m = kt.start(a, origins[a:b], dirs[a:b], media[a:b], slots_f, slots_i, live, o32,
                          d32, t32, self.box)
             segments = 0
@@ -242,6 +240,18 @@ class PeriodicScene:
         segments = sum(self.map(chunk, range(0, n, c)))
         self.segments += segments
         return Outcomes(out_f, out_i, path, segments)
+
+    def _buffers(self) -> tuple[np.ndarray, ...]:
+        """The calling thread's chunk buffers (``CHUNK`` rows each), made once per thread:
+        the slots, the query of each slot, the faces gathered, the float32 queries."""
+        work = getattr(self._local, "work", None)
+        if work is None:
+            c = self.chunk
+            work = (np.empty((c, kt.SLOT_FLOATS)), np.empty((c, kt.SLOT_INTS), np.int64),
+                    np.empty(c, np.int64), np.empty((c, 5)), np.empty((c, 3), np.float32),
+                    np.empty((c, 3), np.float32), np.empty(c, np.float32))
+            self._local.work = work
+        return work
 
     def closest_hit(self, origins: np.ndarray, dirs: np.ndarray,
                     inside: np.ndarray | None = None) -> Hits:

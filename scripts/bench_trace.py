@@ -98,9 +98,9 @@ def speed_section(args: argparse.Namespace) -> str:
         f"`simulate` (θi = 0, 10, …, 80°, {args.rays:,} rays each, {args.threads} threads, "
         f"chunks of {CHUNK:,} rays; segments per second of the tracing, scene build "
         f"excluded) with bare `EmbreeScene.run` on {BARE_RAYS:,} incoherent rays from the "
-        f"same tile (points uniform over the faces, cosine-distributed directions; same "
-        f"threads and chunks). Ratio: median over the repeats of simulate's segments per "
-        f"second over bare rays per second.", "",
+        f"same tile (points uniform over the faces, cosine-distributed directions; the same "
+        f"threads, one call per thread: Embree's best case). Ratio: median over the repeats "
+        f"of simulate's segments per second over bare rays per second.", "",
         "| case | faces | segments per ray | simulate, 10⁶ segments/s | bare Embree, 10⁶ "
         "rays/s | ratio |", "| --- | --- | --- | --- | --- | --- |", *rows])
 
