@@ -1,12 +1,12 @@
 """The periodic tile in Embree, and the driver of the compiled transport kernel.
 
 The tile is put into one Embree scene as it is (no replicated neighbours). Rays are traced
-in chunks on a thread pool; each chunk loads its rays into slots and alternates one Embree
-query of its live slots (``EmbreeScene.run``, which releases the GIL) with one compiled
-step of the transport kernel (``microsim.kernel.transport.advance``, ``nogil``), which
-moves every path on (hit point, materials, side wrap, escape) and compacts the live ones,
-until none is left. Each query is clipped at the first side of the tile's box the ray
-reaches; a ray that reaches a side without a hit re-enters at the opposite side. A path
+in chunks on a thread pool; each chunk is one call of the compiled transport kernel
+(``microsim.kernel.transport.trace_chunk``, ``nogil``), which follows every path of the
+chunk to its end, asking Embree for each segment's closest hit through Embree's C API
+(``microsim.kernel.embree``: the Embree 4 library ``embreex`` installs). Each query is
+clipped at the first side of the tile's box the ray reaches; a ray that reaches a side
+without a hit re-enters at the opposite side. A path
 ends when it escapes through the top of the slab, leaves through the bottom, exceeds the
 side crossings its direction allows within the slab (trapped), hits the wrong side of a
 face, or reaches the bounce limit; docs/goniometer.md explains it.
@@ -26,10 +26,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
-from embreex.mesh_construction import TriangleMesh
-from embreex.rtcore_scene import EmbreeScene
 
 from microsim.kernel import transport as kt
+from microsim.kernel.embree import Scene, rayhit_buffer
 from microsim.kernel.rng import key_of
 from microsim.kernel.shading import curved_table
 from microsim.surfaces.tile import Tile
@@ -140,11 +139,7 @@ class PeriodicScene:
         self.z_bottom = z_min - 4 * self.eps
         self.box = np.array([*self.period, self.z_bottom, self.z_top, self.eps,
                              *(1.0 / self.period)])
-        self._scene = EmbreeScene()
-        TriangleMesh(self._scene, np.ascontiguousarray(tile.vertices, np.float32),
-                     np.ascontiguousarray(tile.faces, np.int32))
-        # the first query builds the BVH: do it here, so scene set-up is timed as such
-        self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))
+        self._scene = Scene(tile.vertices, tile.faces)
         self.threads = threads or os.cpu_count() or 1
         self.chunk = chunk
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
@@ -152,10 +147,11 @@ class PeriodicScene:
         self.segments = 0
 
     def close(self) -> None:
-        """Stop the worker threads."""
+        """Stop the worker threads and release the Embree scene."""
         if self._pool is not None:
             self._pool.shutdown()
             self._pool = None
+        self._scene.close()
 
     def __enter__(self) -> PeriodicScene:
         return self
@@ -225,31 +221,26 @@ class PeriodicScene:
 
         def chunk(a: int) -> int:
             b = min(a + c, n)
-            slots_f, slots_i, live, near, o32, d32, t32 = self._buffers()
-            m = kt.start(a, origins[a:b], dirs[a:b], media[a:b], slots_f, slots_i, live, o32,
-                         d32, t32, self.box)
-            segments = 0
-            while m:
-                prim = self._scene.run(o32[:m], d32[:m], dists=t32[:m])
-                segments += m
-                m = kt.advance(prim, m, slots_f, slots_i, live, near, o32, d32, t32,
-                               self.box, self._faces, kind, params, tab_int, tab_f, bounces,
-                               key, out_f, out_i, path, curved)
-            return segments
+            rayhit, slots_f, slots_i, live, near, prim = self._buffers()
+            return kt.trace_chunk(a, origins[a:b], dirs[a:b], media[a:b],
+                                  self._scene.handle, self._scene.intersect, rayhit, slots_f,
+                                  slots_i, live, near, prim, self.box, self._faces, kind,
+                                  params, tab_int, tab_f, bounces, key, out_f, out_i, path,
+                                  curved)
 
         segments = sum(self.map(chunk, range(0, n, c)))
         self.segments += segments
         return Outcomes(out_f, out_i, path, segments)
 
     def _buffers(self) -> tuple[np.ndarray, ...]:
-        """The calling thread's chunk buffers (``CHUNK`` rows each), made once per thread:
-        the slots, the query of each slot, the faces gathered, the float32 queries."""
+        """The calling thread's ``RTCRayHit`` record, path slots (``CHUNK`` rows), queries,
+        faces gathered and answers, made once per thread."""
         work = getattr(self._local, "work", None)
         if work is None:
             c = self.chunk
-            work = (np.empty((c, kt.SLOT_FLOATS)), np.empty((c, kt.SLOT_INTS), np.int64),
-                    np.empty(c, np.int64), np.empty((c, 5)), np.empty((c, 3), np.float32),
-                    np.empty((c, 3), np.float32), np.empty(c, np.float32))
+            work = (rayhit_buffer(), np.empty((c, kt.SLOT_FLOATS)),
+                    np.empty((c, kt.SLOT_INTS), np.int64), np.empty(c, np.int64),
+                    np.empty((c, 5)), np.empty(c, np.int64))
             self._local.work = work
         return work
 
