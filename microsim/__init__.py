@@ -41,3 +41,17 @@ def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
     from microsim.tables.exr import read_table as read
 
     return read(path, require_sh)
+
+
+def write_table(table: BRDFTable, path: str | Path) -> None:
+    """Write a BRDF table file (OpenEXR), atomically; see ``microsim.tables.exr.write_table``.
+
+    Parameters
+    ----------
+    table : BRDFTable
+    path : str or Path
+        Target file; its folder is created if missing.
+    """
+    from microsim.tables.exr import write_table as write
+
+    write(table, path)

@@ -35,6 +35,7 @@ import microsim
 from microsim.errors import InputError
 from microsim.files import atomic_path, remove_stale_temporaries
 from microsim.sweep import Point, Sweep, canonical
+from microsim.tables.exr import write_table
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -325,7 +326,7 @@ def _finish(folder: Path, manifest: Manifest, point: Point, parts: list[Measurem
     recipe = point.recipe
     table = assemble_table(parts, recipe["material"], recipe["simulation"], recipe["table"],
                      recipe=recipe)
-    table.write(folder / f"{point.name}.exr")
+    write_table(table, folder / f"{point.name}.exr")
     manifest.update(
         point.name, status="done", error=None, rays=int(table.rays.sum()),
         segments=int(table.meta["segments"]), jobs=len(parts), wall_s=seconds,

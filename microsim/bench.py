@@ -35,7 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from microsim.compare import compare_table, direction, microfacet_model
+from microsim.compare import compare_table, microfacet_model
+from microsim.geometry import direction
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
 from microsim.trace import PeriodicScene

@@ -17,8 +17,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
-LOBE_FRACTION = 0.1
-"""Lobe bins: those where the model's bin average is at least this fraction of its peak."""
+from microsim.geometry import direction
+from microsim.tables.table import LOBE_FRACTION
 
 
 class Model(Protocol):
@@ -43,46 +43,7 @@ class StochasticModel(Model, Protocol):
                            ) -> tuple[np.ndarray, np.ndarray]: ...
 
 
-def direction(theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """Unit vectors from polar angles.
-
-    Parameters
-    ----------
-    theta, phi : (...) float
-        Polar angle from +z and azimuth from +x towards +y, radians.
-
-    Returns
-    -------
-    (..., 3) float
-    """
-    theta, phi = np.broadcast_arrays(np.asarray(theta, float), np.asarray(phi, float))
-    s = np.sin(theta)
-    return np.stack([s * np.cos(phi), s * np.sin(phi), np.cos(theta)], axis=-1)
-
-
-def half_difference(theta_h: np.ndarray, theta_d: np.ndarray, phi_d: float
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """(ωi, ωo) from Rusinkiewicz's half/difference angles with φh = 0 (Rusinkiewicz
-    1998, "A new change of variables for efficient BRDF representation", sec. 3): the
-    difference vector d(θd, φd) in the half vector's frame, rotated by θh about y; ωo is
-    d mirrored about h.
-
-    Returns
-    -------
-    wi, wo : (..., 3) float
-    """
-    d = direction(theta_d, phi_d)
-    e = d * np.array([-1.0, -1.0, 1.0])
-    c, s = np.cos(theta_h)[..., None], np.sin(theta_h)[..., None]
-
-    def rot(v: np.ndarray) -> np.ndarray:
-        return np.stack([c[..., 0] * v[..., 0] + s[..., 0] * v[..., 2], v[..., 1],
-                         -s[..., 0] * v[..., 0] + c[..., 0] * v[..., 2]], axis=-1)
-
-    return rot(d), rot(e)
-
-
-def _rgb(values: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+def as_rgb(values: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     """Broadcast a model's scalar or RGB output to ``shape + (3,)``."""
     values = np.asarray(values, float)
     if values.shape == shape:
@@ -130,7 +91,7 @@ def bin_average(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
         weight[-1] = w * s / np.sum(w * s)
     p = phi_edges[:-1, None] + np.diff(phi_edges)[:, None] * t  # (np, n)
     wo = direction(theta[:, None, :, None], phi_i + p[None, :, None, :])  # (nt, np, n, n, 3)
-    f = _rgb(model.eval(np.broadcast_to(wi, wo.shape), wo), wo.shape[:-1])
+    f = as_rgb(model.eval(np.broadcast_to(wi, wo.shape), wo), wo.shape[:-1])
     f = np.einsum("tpijc,ti->tpc", f, weight) / n
     if hasattr(model, "singular"):
         f = f + model.singular(wi, theta_edges, phi_edges, phi_i)
@@ -190,7 +151,7 @@ def bin_estimate(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
     random_part = getattr(model, "random_bin_average", None)
     if random_part is None:
         return bin_average(model, wi, theta_edges, phi_edges, phi_i, n), np.zeros(shape + (3,))
-    mean, err = (_rgb(x[..., 0] if x.shape[-1] == 1 else x, shape)
+    mean, err = (as_rgb(x[..., 0] if x.shape[-1] == 1 else x, shape)
                  for x in random_part(wi, theta_edges, phi_edges, phi_i))
     if model.exact is not None:
         mean = mean + bin_average(model.exact, wi, theta_edges, phi_edges, phi_i, n)

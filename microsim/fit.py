@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from microsim.compare import bin_average, compare_table, direction, model_defaults
+from microsim.compare import bin_average, compare_table, model_defaults
+from microsim.geometry import direction
 
 EPS_FRACTION = 1e-3
 REL_FLOOR = 0.01

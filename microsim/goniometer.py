@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from microsim.compare import direction
+from microsim.geometry import direction
 from microsim.kernel.tally import bin_escapes, in_blocks
 from microsim.materials import FacetMaterials
 from microsim.paths import Paths, trace_paths

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from microsim.compare import direction
+from microsim.geometry import direction
 from microsim.surfaces.tile import Tile
 from microsim.trace import ESCAPED, PeriodicScene
 

@@ -8,7 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from microsim.compare import Model, half_difference
+from microsim.compare import Model
+from microsim.geometry import half_difference
 from microsim.tables.table import BRDFTable
 
 

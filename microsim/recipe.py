@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from microsim.errors import InputError
-from microsim.schema import REQUIRED, Key, check_section, suggest, unknown_key
+from microsim.schema import REQUIRED, Key, check_section, parse_value, suggest, unknown_key
 from microsim.surfaces.params import SURFACE_KINDS, check_span
 from microsim.tables.components import DEFAULT_ORDERS
 
@@ -303,16 +303,6 @@ def parse_override(text: str) -> tuple[list[str], Any]:
         raise InputError(f"--set {text!r}: must be section.key=value, e.g. "
                          "--set surface.alpha=0.3")
     return path, parse_value(value)
-
-
-def parse_value(text: str) -> Any:
-    """A command-line value read as TOML (``0.3``, ``[0, 45]``, ``"x"``, ``true``); a bare
-    word that is not valid TOML is taken as a string."""
-    text = text.strip()
-    try:
-        return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
-        return text
 
 
 def apply_overrides(raw: dict, overrides: Iterable[str]) -> dict:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import copy
 import difflib
 import math
+import tomllib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -192,3 +193,11 @@ def check_section(raw: Mapping[str, Any], keys: Mapping[str, Key], where: str) -
     return out
 
 
+def parse_value(text: str) -> Any:
+    """A command-line value read as TOML (``0.3``, ``[0, 45]``, ``"x"``, ``true``); a bare
+    word that is not valid TOML is taken as a string."""
+    text = text.strip()
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text

@@ -189,7 +189,7 @@ def lobe_surface(pv: Any, f: np.ndarray, theta: np.ndarray, phi: np.ndarray,
     -------
     pyvista.StructuredGrid
     """
-    from microsim.compare import direction
+    from microsim.geometry import direction
 
     t, p = np.meshgrid(theta, phi, indexing="ij")
     r = f * np.cos(t) if radius == "fr_cos" else f.copy()
@@ -233,7 +233,7 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
     -------
     (h, w, 3) uint8 or None
     """
-    from microsim.compare import direction
+    from microsim.geometry import direction
 
     off = screenshot is not None
     pv = import_pyvista(off)
@@ -295,7 +295,7 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
         entry into the slab, the hit points, and 0.3 periods along the escaping ray) and
         its scattering order (0: it did not escape).
     """
-    from microsim.compare import direction
+    from microsim.geometry import direction
     from microsim.kernel.transport import ESCAPED, O_FATE, O_ORDER, S_DX
     from microsim.materials import FacetMaterials
     from microsim.trace import PeriodicScene

@@ -26,8 +26,8 @@ import numpy as np
 
 from microsim.analytic.multiple_scattering import SmithMultipleScattering
 from microsim.analytic.ndf import GGX, Beckmann
-from microsim.compare import direction
 from microsim.files import replace_marked
+from microsim.geometry import direction
 from microsim.tables.binning import HemisphereBins
 
 ROOT = Path(__file__).resolve().parent.parent

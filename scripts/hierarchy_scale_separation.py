@@ -27,6 +27,7 @@ from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.vgroove import face_roughness_tile
 from microsim.table_difference import table_difference
+from microsim.tables.exr import write_table
 
 GOLD = {"kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]}
 
@@ -61,7 +62,7 @@ def main() -> None:
                                  "grooves": args.grooves}})["surface"]
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "faces.exr"
-        low.write(path)
+        write_table(low, path)
         hier = simulate(build_tile(plain), {"base": {"kind": "table", "path": str(path),
                                                      "component": "total"}}, sim, grid)
     rows = table_difference(hier, direct)

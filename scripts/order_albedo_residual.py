@@ -20,7 +20,7 @@ import numpy as np
 
 from microsim.analytic.multiple_scattering import SmithMultipleScattering
 from microsim.analytic.ndf import Beckmann
-from microsim.compare import direction
+from microsim.geometry import direction
 from microsim.recipe import resolve
 from microsim.simulation import simulate
 from microsim.surfaces import build_tile

@@ -22,7 +22,7 @@ from microsim.analytic.ndf import Beckmann
 from microsim.compare import model_table
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.export import rgl_through_mitsuba, write_rgl
-from microsim.tables.exr import read_table
+from microsim.tables.exr import read_table, write_table
 from microsim.tables.table import BRDFTable
 
 THETA_I = np.radians([0.0, 20.0, 40.0, 60.0, 75.0])
@@ -43,7 +43,7 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "t.exr"
-        smooth_table().write(path)
+        write_table(smooth_table(), path)
         table = read_table(path)
         print(f"{'H':>4} {'pairs':>6} {'median':>8} {'p90':>8} {'max':>8}")
         for h in (int(r) for r in args.resolutions.split(",")):

@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from microsim.compare import direction
 from microsim.files import replace_marked
+from microsim.geometry import direction
 from microsim.goniometer import BATCH, _Sums
 from microsim.materials import FacetMaterials
 from microsim.paths import trace_paths

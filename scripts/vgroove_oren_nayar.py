@@ -21,7 +21,8 @@ import math
 import numpy as np
 
 from microsim.analytic.brdf import OrenNayar
-from microsim.compare import bin_average, direction, metrics
+from microsim.compare import bin_average, metrics
+from microsim.geometry import direction
 from microsim.recipe import resolve
 from microsim.simulation import simulate
 from microsim.surfaces import build_tile

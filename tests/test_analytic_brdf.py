@@ -21,7 +21,7 @@ from microsim.analytic.brdf import (
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
 from microsim.analytic.ndf import GGX, Beckmann, Blinn
 from microsim.analytic.shadowing import smith_g2, vgroove_G
-from microsim.compare import direction
+from microsim.geometry import direction
 
 GOLD = (np.array([0.2, 0.92, 1.1]), np.array([3.9, 2.45, 2.14]))
 

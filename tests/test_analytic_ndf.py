@@ -13,7 +13,7 @@ from scipy import integrate
 
 from microsim.analytic.ndf import GGX, Beckmann, Blinn, TorranceSparrowGaussian, lambda_beckmann
 from microsim.analytic.shadowing import vcavity_G1
-from microsim.compare import direction
+from microsim.geometry import direction
 
 ALPHAS = [0.01, 0.1, 0.5, 1.0, 3.0]
 

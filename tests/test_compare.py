@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from microsim.compare import bin_average, direction, metrics
+from microsim.compare import bin_average, metrics
+from microsim.geometry import direction
 
 
 class Lobe:

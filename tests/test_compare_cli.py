@@ -11,6 +11,7 @@ from microsim.analytic.registry import parse_model_spec
 from microsim.compare import compare_table, model_defaults
 from microsim.compare import model_table as analytic_table
 from microsim.tables.binning import HemisphereBins
+from microsim.tables.exr import write_table
 
 THETA_I = np.radians([0.0, 40.0, 70.0])
 
@@ -70,7 +71,7 @@ def table_file(tmp_path):
     path = tmp_path / "t.exr"
     meta = {"surface": {"kind": "gaussian", "alpha_realised": 0.3},
             "recipe": {"material": {"base": {"kind": "mirror"}}}}
-    model_table("beckmann:alpha=0.3", 0.02, meta=meta).write(path)
+    write_table(model_table("beckmann:alpha=0.3", 0.02, meta=meta), path)
     return path
 
 

@@ -10,7 +10,7 @@ from scipy import integrate
 
 from microsim.analytic.layered import CoatedLambertian
 from microsim.analytic.registry import parse_model_spec
-from microsim.compare import direction
+from microsim.geometry import direction
 from microsim.kernel.scatter import reflect, refract
 from microsim.materials import FacetMaterials
 from microsim.paths import trace_paths

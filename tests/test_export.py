@@ -15,6 +15,7 @@ from microsim.analytic.ndf import Beckmann
 from microsim.compare import model_table
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.export import rgl_through_mitsuba
+from microsim.tables.exr import write_table
 
 THETA_I = np.radians([0.0, 20.0, 40.0, 60.0, 75.0])
 
@@ -26,7 +27,7 @@ def table_path(tmp_path_factory):
                                                      np.array([3.9, 2.4, 2.1])))
     table = model_table(model, THETA_I, HemisphereBins(32, 64), meta={"surface": {"kind": "test"}})
     path = tmp_path_factory.mktemp("export") / "t.exr"
-    table.write(path)
+    write_table(table, path)
     return path
 
 

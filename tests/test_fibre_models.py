@@ -15,7 +15,7 @@ from microsim.analytic.brdf import KayKajiya
 from microsim.analytic.cylinders import CylinderArray
 from microsim.analytic.fresnel import fresnel_conductor
 from microsim.analytic.velvet import SparseVelvet
-from microsim.compare import direction
+from microsim.geometry import direction
 from microsim.surfaces.velvet import fibre_directions, tubes
 
 GOLD = {"kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]}

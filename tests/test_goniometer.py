@@ -8,7 +8,8 @@ from tilefixtures import beckmann_vgroove_tile, flat_tile, random_tile, vgroove_
 
 import microsim
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
-from microsim.compare import bin_average, direction, metrics, microfacet_model
+from microsim.compare import bin_average, metrics, microfacet_model
+from microsim.geometry import direction
 from microsim.masking import measure_g1, measure_g1_recipe
 from microsim.materials import FacetMaterials
 from microsim.paths import trace_paths

@@ -14,7 +14,7 @@ import pytest
 
 from microsim.analytic.fresnel import fresnel_conductor
 from microsim.analytic.ndf import Beckmann
-from microsim.compare import direction
+from microsim.geometry import direction
 from microsim.masking import measure_g1
 from microsim.recipe import resolve
 from microsim.simulation import simulate

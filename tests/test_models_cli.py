@@ -8,8 +8,8 @@ import math
 import pytest
 
 from microsim.analytic.registry import MODELS, parse_model_spec
-from microsim.compare import direction
 from microsim.errors import InputError
+from microsim.geometry import direction
 
 
 def test_list_names_every_model(cli):

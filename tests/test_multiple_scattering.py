@@ -21,7 +21,7 @@ from microsim.analytic.brdf import TorranceSparrow
 from microsim.analytic.multiple_scattering import SmithMultipleScattering
 from microsim.analytic.ndf import GGX, Beckmann
 from microsim.analytic.visible_normals import projected_area, sample_visible, visible_pdf
-from microsim.compare import direction
+from microsim.geometry import direction
 
 Z_MAX = 3.5
 GOLD = ("conductor", np.array([0.2, 0.92, 1.1]), np.array([3.9, 2.45, 2.14]))

@@ -18,9 +18,11 @@ import pytest
 
 from microsim.analytic.brdf import Lambertian, OrenNayar, TorranceSparrow
 from microsim.analytic.ndf import GGX, Beckmann
-from microsim.compare import direction, model_table
+from microsim.compare import model_table
+from microsim.geometry import direction
 from microsim.render import bsdfs, figure, objects, scene
 from microsim.tables.binning import HemisphereBins
+from microsim.tables.exr import write_table
 
 ETA, K = np.array([0.2, 0.9, 1.1]), np.array([3.9, 2.4, 2.1])  # gold-like, R G B
 SUN = [("sun", {"elevation": 50.0, "azimuth": -40.0, "irradiance": 3.0})]
@@ -284,7 +286,7 @@ def table_file(tmp_path_factory):
     table = model_table(model, np.radians([0, 30, 60, 80]), HemisphereBins(16, 32),
                         meta={"surface": {"kind": "analytic", "alpha_realised": 0.3}})
     path = tmp_path_factory.mktemp("render") / "gold.exr"
-    table.write(path)
+    write_table(table, path)
     return path
 
 

@@ -21,6 +21,7 @@ from microsim.simulation import _table, simulate
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import components_for
+from microsim.tables.exr import write_table
 from microsim.tables.sh_error import bin_integrals, order_errors
 from microsim.tables.sh_matrix import MAX_ORDER, brdf_matrix, matrix_eval
 from microsim.tables.table import BRDFTable
@@ -271,7 +272,7 @@ def test_merged_tables_merge_their_harmonics() -> None:
 
 # --- storage ------------------------------------------------------------------------------
 def test_exr_round_trip_and_tables_without_harmonics(rough: BRDFTable, tmp_path) -> None:
-    rough.write(tmp_path / "t.exr")
+    write_table(rough, tmp_path / "t.exr")
     back = microsim.read_table(tmp_path / "t.exr")
     assert back.sh_order == 16
     assert back.components == rough.components == components_for(3)
@@ -282,7 +283,7 @@ def test_exr_round_trip_and_tables_without_harmonics(rough: BRDFTable, tmp_path)
     plain = BRDFTable(rough.bins, rough.theta_i, rough.phi_i, True, rough.values,
                       rough.errors, rough.rays, rough.albedo_of, rough.albedo_err_of,
                       rough.lost_energy, rough.meta)
-    plain.write(tmp_path / "plain.exr")
+    write_table(plain, tmp_path / "plain.exr")
     old = microsim.read_table(tmp_path / "plain.exr")
     assert old.sh is None and old.sh_order == 0
     assert np.allclose(old.values["total"], rough.values["total"], rtol=1e-6, atol=1e-9)
@@ -342,7 +343,7 @@ def test_matrix_refuses_anisotropic_tables() -> None:
 
 # --- the command --------------------------------------------------------------------------
 def test_cli_reports_error_against_order(rough: BRDFTable, tmp_path, cli) -> None:
-    rough.write(tmp_path / "t.exr")
+    write_table(rough, tmp_path / "t.exr")
     code, out, err = cli("sh", str(tmp_path / "t.exr"), "--orders", "2,4,8", "--json",
                          "--window", "hanning", "--plot", str(tmp_path / "e.png"))
     assert code == 0, err
@@ -360,7 +361,7 @@ def test_cli_reports_error_against_order(rough: BRDFTable, tmp_path, cli) -> Non
 
 def test_cli_writes_westin_matrix_and_npz_carries_harmonics(rough: BRDFTable, tmp_path,
                                                            cli) -> None:
-    rough.write(tmp_path / "t.exr")
+    write_table(rough, tmp_path / "t.exr")
     code, out, err = cli("sh", str(tmp_path / "t.exr"), "--orders", "2,6", "--json",
                          "--matrix", str(tmp_path / "m.npz"))
     assert code == 0, err
@@ -388,7 +389,7 @@ def test_cli_writes_westin_matrix_and_npz_carries_harmonics(rough: BRDFTable, tm
     (["--window", "gauss"], "--window"),
 ])
 def test_cli_bad_flags(rough: BRDFTable, tmp_path, cli, args, words) -> None:
-    rough.write(tmp_path / "t.exr")
+    write_table(rough, tmp_path / "t.exr")
     code, out, err = cli("sh", str(tmp_path / "t.exr"), *args)
     assert code == 2 and err.startswith("error:") and words in err and out == ""
     assert len(err.strip().splitlines()) == 1
@@ -400,8 +401,8 @@ def test_cli_table_without_harmonics(tmp_path, cli) -> None:
                       "table": {"theta_bins": 4, "phi_bins": 8, "sh_order": 0}})
     from tilefixtures import flat_tile
 
-    simulate(flat_tile(), recipe["material"], recipe["simulation"], recipe["table"]).write(
-        tmp_path / "p.exr")
+    write_table(simulate(flat_tile(), recipe["material"], recipe["simulation"],
+                         recipe["table"]), tmp_path / "p.exr")
     code, _, err = cli("sh", str(tmp_path / "p.exr"))
     assert code == 2 and "no spherical harmonics" in err and "sh_order" in err
     code, _, err = cli("sh", str(tmp_path / "missing.exr"))
@@ -469,8 +470,8 @@ def test_black_table_reports_nan_not_a_traceback(tmp_path, cli) -> None:
                       "material": {"kind": "lambertian", "albedo": 0.0},
                       "simulation": {"theta_i": [10.0], "rays": 500},
                       "table": {"theta_bins": 4, "phi_bins": 8, "sh_order": 4}})
-    simulate(flat_tile(), recipe["material"], recipe["simulation"], recipe["table"]).write(
-        tmp_path / "black.exr")
+    write_table(simulate(flat_tile(), recipe["material"], recipe["simulation"],
+                         recipe["table"]), tmp_path / "black.exr")
     code, out, err = cli("sh", str(tmp_path / "black.exr"), "--orders", "2,4", "--json")
     assert code == 0, err
     row = json.loads(out)[0]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-from microsim.compare import direction
+from microsim.geometry import direction
 from microsim.tables.binning import HemisphereBins
 
 

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from tilefixtures import flat_tile, height_field_tile, random_tile, vgroove_tile
 
-from microsim.compare import direction
 from microsim.errors import InputError
+from microsim.geometry import direction
 from microsim.kernel.scatter import facet_frame
 from microsim.materials import FacetMaterials
 from microsim.paths import trace_paths
@@ -125,7 +125,7 @@ def test_anisotropic_table_interpolates_in_phi_i_in_the_facet_frame(tmp_path: Pa
                                                  "albedo": [0.9, 0.5, 0.2]}}, sim,
                    {"theta_bins": 8, "phi_bins": 16})
     path = tmp_path / "aniso.exr"
-    low.write(path)
+    write_table(low, path)
     flat = height_field_tile(np.zeros((4, 4)), info={"isotropic": False})
     up = simulate(flat, {"base": table_material(path)},
                   {**sim, "phi_i": [0, 45, 90], "rays": 40_000, "seed": 5},
@@ -431,7 +431,7 @@ def test_vgrooves_with_a_rough_surface_table_agree_with_the_rough_geometry(
     grid = {"theta_bins": 8, "phi_bins": 16}
     direct = simulate(direct_tile, {"base": GOLD}, sim, grid)
     path = tmp_path / "low.exr"
-    low.write(path)
+    write_table(low, path)
     hier = simulate(vgroove_tile(slope, grooves), {"base": table_material(path)}, sim, grid)
     for row in table_difference(hier, direct):
         assert np.abs(row["albedo_difference"]).max() < 0.006

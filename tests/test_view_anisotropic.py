@@ -11,6 +11,7 @@ import pytest
 from microsim.recipe import resolve
 from microsim.simulation import simulate
 from microsim.surfaces import build_tile
+from microsim.tables.exr import write_table
 
 
 @pytest.fixture(scope="module")
@@ -23,8 +24,8 @@ def cylinders_table(tmp_path_factory):
                                 "bounces": 4},
                  "table": {"theta_bins": 8, "phi_bins": 16}})
     path = tmp_path_factory.mktemp("aniso") / "cyl.exr"
-    simulate(build_tile(r["surface"]), r["material"], r["simulation"], r["table"],
-             threads=1, recipe=r).write(path)
+    write_table(simulate(build_tile(r["surface"]), r["material"], r["simulation"], r["table"],
+                         threads=1, recipe=r), path)
     return path
 
 

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from microsim.errors import InputError
-from microsim.schema import Key, check_section, suggest
+from microsim.schema import Key, check_section, parse_value, suggest
 
 
 @dataclass(frozen=True)
@@ -307,8 +307,6 @@ def split_spec(spec: str, what: str) -> tuple[str, dict[str, Any]]:
     what : str
         How errors name the spec, e.g. ``"model"`` or ``"--light"``.
     """
-    from microsim.recipe import parse_value
-
     name, _, rest = spec.strip().partition(":")
     given: dict[str, Any] = {}
     for item in filter(None, (s.strip() for s in re.split(r",(?![^\[]*\])", rest))):

@@ -19,6 +19,7 @@ from microsim.cli import (
     seed_override,
 )
 from microsim.files import PLOT_SUFFIXES, writable_file
+from microsim.tables.exr import write_table
 
 RECIPE = Path(microsim.__file__).resolve().parent.parent / "surfaces" / "gaussian-0.3.toml"
 MS_SAMPLES = 64
@@ -95,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None:
         writable_file(args.plot, "--plot", PLOT_SUFFIXES)
     table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json)
-    table.write(args.output)
+    write_table(table, args.output)
     compared = comparison(table)
     model_bins = compared.pop("model")
     compared.pop("model_err")

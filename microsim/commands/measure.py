@@ -93,7 +93,7 @@ def run_g1(args: argparse.Namespace) -> int:
     """Trace G1 and print it next to Smith's."""
     import numpy as np
 
-    from microsim.compare import direction
+    from microsim.geometry import direction
     from microsim.masking import G1_BYTES_PER_RAY, measure_g1_recipe
     from microsim.memory import check_memory
 

@@ -62,7 +62,8 @@ def run_eval(args: argparse.Namespace) -> int:
     import numpy as np
 
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import direction, singular_albedo
+    from microsim.compare import singular_albedo
+    from microsim.geometry import direction
 
     spec = args.spec
     for item in args.param:

@@ -24,6 +24,7 @@ from microsim.cli import (
 from microsim.files import writable_file
 from microsim.memory import check_memory
 from microsim.tables.components import DEFAULT_ORDERS
+from microsim.tables.exr import write_table
 
 TABLE_BYTES_PER_BIN = 450
 """Memory per table bin and incident direction while a table is estimated and written:
@@ -211,7 +212,7 @@ def run(args: argparse.Namespace) -> int:
                            "--output", (".exr",))
     table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json,
                               args.memory_limit)
-    table.write(output)
+    write_table(table, output)
     s = summary(table, output)
     print_json(s) if args.json else print_summary(s)
     return 0

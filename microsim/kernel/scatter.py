@@ -126,7 +126,7 @@ def refract(dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, et
 def orthonormal_basis(nx: float, ny: float, nz: float
                       ) -> tuple[float, float, float, float, float, float]:
     """Unit t, s with t × s = n (Duff et al. 2017, "Building an orthonormal basis,
-    revisited", JCGT 6(1), listing 3; ``microsim.frames``)."""
+    revisited", JCGT 6(1), listing 3; ``microsim.geometry``)."""
     sign = math.copysign(1.0, nz)
     a = -1.0 / (sign + nz)
     b = nx * ny * a

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from microsim.compare import _rgb
+from microsim.compare import as_rgb
 from microsim.tables.export import rgl_phi_i, rgl_tensor, write_tensor_file
 
 THETA_NODES = {True: 32, False: 16}
@@ -179,7 +179,7 @@ def python_bsdf(mi: Any, model: Any, rotation: float = 0.0) -> Any:
 
         def _value(self, wi: Any, wo: Any, active: Any) -> Any:
             a, b = _numpy(wi), _numpy(wo)
-            value = _rgb(f(a, b), a.shape[:-1]) * np.maximum(b[..., 2:3], 0.0)
+            value = as_rgb(f(a, b), a.shape[:-1]) * np.maximum(b[..., 2:3], 0.0)
             colour = (mi.Color3f(*value) if value.ndim == 1 else
                       mi.Color3f(np.ascontiguousarray(value.T, dtype=np.float32)))
             return dr.select(active & (wi.z > 0) & (wo.z > 0), colour, 0.0)

@@ -33,8 +33,8 @@ from typing import Any
 
 import numpy as np
 
-from microsim.compare import direction
 from microsim.errors import InputError
+from microsim.geometry import direction
 from microsim.render.bsdfs import rgb_spectrum
 from microsim.render.objects import RADIUS, Surface, corner_arrays
 from microsim.schema import Key, check_section, suggest

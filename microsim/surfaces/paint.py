@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from microsim.errors import InputError
-from microsim.frames import orthonormal_basis
+from microsim.geometry import orthonormal_basis
 from microsim.surfaces.gaussian import MIN_LENGTHS, heights
 from microsim.surfaces.params import DEFAULT_CELLS
 from microsim.surfaces.periodic import wrap_into_box

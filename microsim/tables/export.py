@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from microsim.compare import direction, half_difference
 from microsim.files import atomic_path
+from microsim.geometry import direction, half_difference
 from microsim.tables.table import BRDFTable
 
 MERL_SHAPE = (90, 90, 180)

@@ -14,7 +14,6 @@ table simulated with ``orders = N`` holds ``"total"`` (all orders) and ``"order1
 from __future__ import annotations
 
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -36,7 +35,8 @@ SH_CHUNK = 1 << 22
 """Basis values (pairs × (L + 1)²) evaluated at once from spherical harmonics (32 MB)."""
 REPRESENTATIONS = ("table", "sh")
 LOBE_FRACTION = 0.1
-"""Lobe bins: where f_r (mean over RGB) is at least this fraction of the incidence's peak."""
+"""Lobe bins: where f_r (mean over RGB; a table's, or a model's bin average when a table is
+compared with it) is at least this fraction of the incidence's peak."""
 
 
 class BRDFTable:
@@ -549,12 +549,6 @@ class BRDFTable:
             return np.where(undefined, np.nan, out)
 
         return self._per_pair(kernel, wi, wo)
-
-    def write(self, path: str | Path) -> None:
-        """Write the table as OpenEXR, atomically (see ``microsim.tables.exr``)."""
-        from microsim.tables.exr import write_table
-
-        write_table(self, path)
 
 
 def _components_of(data: Mapping[str, Any]) -> tuple[str, ...]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from microsim.frames import orthonormal_basis
+from microsim.geometry import orthonormal_basis
 
 
 def test_frames_are_orthonormal_and_right_handed_everywhere() -> None:
