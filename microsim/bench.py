@@ -94,12 +94,13 @@ def surface_rays(scene: PeriodicScene, n: int, seed: int) -> tuple[np.ndarray, n
     -------
     origins, dirs : (n, 3) float
     """
+    from microsim.kernel.packing import FacetMaterials
     from microsim.masking import sample_faces
-    from microsim.materials import FacetMaterials
+    from microsim.materials import Lambertian
 
     faces, points = sample_faces(scene.tile, scene.areas, n, np.random.default_rng(seed))
     lambert = FacetMaterials(np.zeros(len(scene.areas), np.int64), ("surface",),
-                             {"surface": {"kind": "lambertian", "albedo": 1.0}})
+                             {"surface": Lambertian(albedo=(1.0, 1.0, 1.0))})
     normals = scene.normals[faces]
     dirs, _, _ = lambert.scatter(faces, -normals, normals, np.random.SeedSequence(seed))
     return scene.offset(points, normals, dirs), dirs

@@ -26,8 +26,9 @@ from typing import Any
 import numpy as np
 
 from microsim.geometry import direction
+from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.tally import bin_escapes, in_blocks
-from microsim.materials import FacetMaterials
+from microsim.materials import material_from_json
 from microsim.paths import Paths, trace_paths
 from microsim.surfaces.tile import Tile
 from microsim.tables import sh
@@ -288,7 +289,9 @@ def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
         work = {(l, k): n for l in (range(len(theta_deg)) if thetas is None else thetas)
                 for k in range(len(phi_deg))}
     bins = HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
-    facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
+    facets = FacetMaterials(tile.material, tile.parts,
+                            {p: material_from_json(m) for p, m in materials.items()},
+                            tile.tangents,
                             tile.curved)
     runs = {} if runs is None else runs
     traced = {}

@@ -21,7 +21,7 @@ from microsim.kernel.transport import FATES
 from microsim.trace import PeriodicScene
 
 if TYPE_CHECKING:
-    from microsim.materials import FacetMaterials
+    from microsim.kernel.packing import FacetMaterials
 
 
 @dataclass

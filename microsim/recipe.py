@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from microsim.errors import InputError
+from microsim.materials import MATERIALS, material_from_json, parse_material
 from microsim.schema import REQUIRED, Key, check_section, parse_value, suggest, unknown_key
 from microsim.surfaces.params import SURFACE_KINDS, check_span
 from microsim.tables.components import DEFAULT_ORDERS
@@ -37,56 +38,8 @@ def _n(doc: str, default: Any = REQUIRED, **kw: Any) -> Key:
 
 
 # --- materials --------------------------------------------------------------------------
-MATERIAL_KINDS: dict[str, dict[str, Key]] = {
-    "mirror": {},
-    "conductor": {
-        "eta": Key("rgb", [0.2, 0.92, 1.1], "Real part of the complex index of refraction "
-                   "(R, G, B) relative to the medium in front of the faces (air, or a "
-                   "paint's binder: divide by its eta, as for k); default gold in air.",
-                   low=0.0, low_open=True),
-        "k": Key("rgb", [3.9, 2.45, 2.14], "Extinction coefficient (R, G, B); default gold.",
-                 low=0.0),
-    },
-    "dielectric": {
-        "eta": _n("Index of refraction relative to the medium in front of the faces (air; "
-                  "for particles inside a paint's binder, relative to the binder); 1 would "
-                  "be no interface at all.", 1.5, low=1.0, low_open=True, high=10.0),
-        "refract": Key("bool", False, "Refract as well as reflect: a Fresnel-weighted "
-                       "choice, Snell's law, total internal reflection; the part's faces "
-                       "enclose a medium behind them (docs/materials.md). false: reflect "
-                       "with weight F, report 1 - F as transmitted."),
-        "absorption": Key("rgb", 0.0, "Beer-Lambert absorption coefficient inside the "
-                          "medium, per tile unit of path length (R, G, B); needs refract = "
-                          "true.",
-                          low=0.0),
-    },
-    "lambertian": {
-        "albedo": Key("rgb", 0.8, "Diffuse reflectance (R, G, B).", low=0.0, high=1.0),
-    },
-    "table": {
-        "path": Key("path", REQUIRED, "BRDF table (.exr, as `microsim simulate` writes "
-                    "it), relative to the recipe's folder."),
-        "component": Key("str", "total", "The table's component the facets reflect: all "
-                         "scattering orders of the lower scale, or single scattering.",
-                         choices=("total", "single")),
-        "axis": Key("str", "y", "World axis whose projection onto each facet is the "
-                    "table's y axis (its x axis, phi = 0, is that projection times the "
-                    "normal), e.g. the axis a yarn runs along; or \"tangent\": each face's "
-                    "own direction from the generator (a velvet fibre's axis). Matters "
-                    "for anisotropic tables only.", choices=("x", "y", "tangent")),
-    },
-}
-MATERIAL_DOCS = {
-    "mirror": "Perfect specular reflection, F = 1.",
-    "conductor": "Specular reflection with exact conductor Fresnel per colour channel.",
-    "dielectric": "Specular reflection with dielectric Fresnel; the refracted part is "
-    "absorbed and reported as lost energy, or, with refract = true, refracted into the "
-    "medium behind the faces (absorbing per unit length) and out again.",
-    "lambertian": "Cosine-weighted diffuse reflection with the given albedo.",
-    "table": "Reflection importance-sampled from a simulated BRDF table in the facet's "
-    "local frame, weighted by the table's albedo (hierarchies of scale; "
-    "docs/materials.md).",
-}
+MATERIAL_KINDS: dict[str, dict[str, Key]] = {kind: cls.keys() for kind, cls in MATERIALS.items()}
+"""The keys of every material kind (``microsim.materials``), by kind."""
 
 # --- simulation and table ---------------------------------------------------------------
 SIMULATION: dict[str, Key] = {
@@ -139,26 +92,8 @@ def _table(raw: Any, name: str) -> Mapping[str, Any]:
 
 
 def _material(raw: Mapping[str, Any], where: str) -> dict:
-    kind = raw.get("kind", REQUIRED)
-    if kind is REQUIRED:
-        raise InputError(f"{where}kind: missing; must be one of "
-                         + ", ".join(repr(k) for k in MATERIAL_KINDS))
-    if not isinstance(kind, str) or kind not in MATERIAL_KINDS:
-        raise InputError(f"{where}kind = {kind!r}: must be one of "
-                         + ", ".join(repr(k) for k in MATERIAL_KINDS)
-                         + suggest(str(kind), MATERIAL_KINDS))
-    rest = {k: v for k, v in raw.items() if k != "kind"}
-    out = {"kind": kind, **check_section(rest, MATERIAL_KINDS[kind], where)}
-    if kind == "dielectric" and not out["refract"] and any(
-            a > 0 for a in _rgb(out["absorption"])):
-        raise InputError(f"{where}absorption = {out['absorption']!r}: needs refract = true "
-                         "(without refraction no light enters the medium)")
-    return out
-
-
-def _rgb(value: Any) -> list[float]:
-    """An ``rgb`` key's value as three numbers."""
-    return list(value) if isinstance(value, list) else [value] * 3
+    """One ``[material]`` section resolved (``microsim.materials``), as the recipe holds it."""
+    return parse_material(raw, where).to_json()
 
 
 def _materials(raw: Any, parts: tuple[str, ...]) -> dict:
@@ -190,7 +125,7 @@ def _check_media(surface: Mapping[str, Any], materials: Mapping[str, Mapping[str
     if surface["kind"] != "paint":
         return
     for part in ("pigment", "substrate"):
-        if materials[part]["kind"] == "dielectric" and materials[part]["refract"]:
+        if material_from_json(materials[part]).medium() is not None:
             raise InputError(f"material.{part}.refract = true: only the binder of a paint "
                              "may refract (nested media are not modelled)")
     binder = materials["binder"]
@@ -487,9 +422,9 @@ def schema_markdown() -> str:
               "Either one material for every part (`[material]` with `kind`), or one "
               "sub-table per part (`[material.<part>]`). Without `[material]` every part "
               "is a `mirror`.", ""]
-    for kind, keys in MATERIAL_KINDS.items():
-        lines += [f"### `kind = \"{kind}\"`", "", MATERIAL_DOCS[kind], ""]
-        lines += (rows(keys) if keys else ["No parameters."]) + [""]
+    for kind, cls in MATERIALS.items():
+        lines += [f"### `kind = \"{kind}\"`", "", cls.doc, ""]
+        lines += (rows(cls.keys()) if cls.keys() else ["No parameters."]) + [""]
     lines += ["## `[simulation]`", ""] + rows(SIMULATION) + [""]
     lines += ["## `[table]`", ""] + rows(TABLE) + [""]
     return "\n".join(lines)

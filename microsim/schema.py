@@ -9,6 +9,7 @@ and defaults are filled in. Pure Python, imports nothing heavy.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import difflib
 import math
 import tomllib
@@ -86,6 +87,32 @@ class Key:
             what += " (degrees)"
         return what
 
+
+
+def key(kind: str, default: Any = REQUIRED, doc: str = "", **kw: Any) -> Any:
+    """A dataclass field that is a recipe key: its ``Key`` in the field's metadata, its
+    default the key's (lists as tuples; none for a required key).
+
+    Parameters
+    ----------
+    kind, default, doc, **kw
+        As for ``Key``.
+    """
+    spec = Key(kind, default, doc, **kw)
+    metadata = {"key": spec}
+    if default is REQUIRED:
+        return dataclasses.field(metadata=metadata)
+    if isinstance(default, list):
+        return dataclasses.field(default=tuple(default), metadata=metadata)
+    if kind == "rgb" and isinstance(default, int | float):
+        return dataclasses.field(default=(float(default),) * 3, metadata=metadata)
+    return dataclasses.field(default=default, metadata=metadata)
+
+
+def schema_of(cls: type) -> dict[str, Key]:
+    """The recipe keys of a dataclass whose fields were made with ``key``, in field
+    order."""
+    return {f.name: f.metadata["key"] for f in dataclasses.fields(cls) if "key" in f.metadata}
 
 
 def suggest(name: str, options: Iterable[str]) -> str:

@@ -34,7 +34,7 @@ from microsim.kernel.shading import curved_table
 from microsim.surfaces.tile import Tile
 
 if TYPE_CHECKING:
-    from microsim.materials import FacetMaterials
+    from microsim.kernel.packing import FacetMaterials
 
 EPS_REL = 1e-6
 """Secondary-ray offset as a fraction of the scene's extent: 8 float32 ulps of the largest
@@ -202,7 +202,7 @@ class PeriodicScene:
             if bounces:
                 raise ValueError("scattering needs materials")
             count = int(self.tile.material.max(initial=0)) + 1
-            kind, params = np.zeros(count, np.int64), np.zeros((count, 12))
+            kind, params = kt.empty_params(count)
             tab_int, tab_f = kt.empty_tables(count)
             curved = curved_table(None, np.zeros(0, bool))
         else:

@@ -11,8 +11,9 @@ from scipy import integrate
 from microsim.analytic.layered import CoatedLambertian
 from microsim.analytic.registry import parse_model_spec
 from microsim.geometry import direction
-from microsim.kernel.scatter import reflect, refract
-from microsim.materials import FacetMaterials
+from microsim.kernel.packing import FacetMaterials
+from microsim.materials import material_from_json
+from microsim.materials.optics import reflect, refract
 from microsim.paths import trace_paths
 from microsim.surfaces.tile import Tile
 from microsim.trace import PeriodicScene
@@ -83,7 +84,7 @@ def test_fresnel_choice_reflects_with_probability_f_from_either_side() -> None:
     """The kernel's event at a refracting facet (``FacetMaterials.scatter``): reflection
     with probability F(θ, η) from the front, F(θ, 1/η) from inside, weight 1 either way."""
     k = 40_000
-    facets = FacetMaterials(np.zeros(1, np.int64), ("base",), {"base": BINDER})
+    facets = FacetMaterials(np.zeros(1, np.int64), ("base",), {"base": material_from_json(BINDER)})
     n = np.tile([0.0, 0.0, 1.0], (k, 1))
     faces = np.zeros(k, np.int64)
     for seed, (theta, side, eta) in enumerate(((0.0, 1, ETA), (60.0, 1, ETA),
@@ -131,7 +132,8 @@ def layer_paths(tile: Tile, materials: dict, theta_deg: float, rays: int, bounce
     wi = direction(np.radians(theta_deg), 0.0)
     ss = np.random.SeedSequence(seed)
     rng = np.random.default_rng(ss)
-    facets = FacetMaterials(tile.material, tile.parts, materials)
+    facets = FacetMaterials(tile.material, tile.parts,
+                            {p: material_from_json(m) for p, m in materials.items()})
     with PeriodicScene(tile, threads=1) as scene:
         origins = np.column_stack([rng.random((rays, 2)) * tile.period,
                                    np.full(rays, scene.z_top)])

@@ -10,8 +10,9 @@ import microsim
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
 from microsim.compare import bin_average, metrics, microfacet_model
 from microsim.geometry import direction
+from microsim.kernel.packing import FacetMaterials
 from microsim.masking import measure_g1, measure_g1_recipe
-from microsim.materials import FacetMaterials
+from microsim.materials import Mirror, material_from_json
 from microsim.paths import trace_paths
 from microsim.recipe import resolve
 from microsim.simulation import simulate, simulate_recipe
@@ -60,7 +61,7 @@ def mirror_paths(tile, theta_deg: float, rays: int, bounces: int = 16, seed: int
     rng = np.random.default_rng(ss)
     with PeriodicScene(tile) as scene:
         origins = np.column_stack([rng.random((rays, 2)), np.full(rays, scene.z_top)])
-        facets = FacetMaterials(tile.material, tile.parts, {"base": {"kind": "mirror"}})
+        facets = FacetMaterials(tile.material, tile.parts, {"base": Mirror()})
         return wi, trace_paths(scene, facets, origins, np.broadcast_to(-wi, (rays, 3)),
                                bounces, ss)
 
@@ -127,7 +128,7 @@ def test_reciprocity_bin_to_bin() -> None:
     tile = random_tile(64, rms_slope=0.5, cells=4.0, seed=3)
     bins = HemisphereBins(8, 4)
     n = 10_000
-    facets = FacetMaterials(tile.material, tile.parts, {"base": {"kind": "mirror"}})
+    facets = FacetMaterials(tile.material, tile.parts, {"base": Mirror()})
     rng = np.random.default_rng(8)
     source = np.repeat(np.arange(bins.size), n)
     wi = bins.sample(source, rng.random(len(source)), rng.random(len(source)))
@@ -235,7 +236,8 @@ def test_conductor_single_scattering_is_mirror_times_fresnel_at_the_half_vector(
         rng = np.random.default_rng(3)
         with PeriodicScene(tile) as scene:
             origins = np.column_stack([rng.random((n, 2)), np.full(n, scene.z_top)])
-            facets = FacetMaterials(tile.material, tile.parts, {"base": material})
+            facets = FacetMaterials(tile.material, tile.parts,
+                                    {"base": material_from_json(material)})
             runs.append(trace_paths(scene, facets, origins, np.broadcast_to(-wi, (n, 3)),
                                     8, np.random.SeedSequence(4)))
     mirror, conductor = runs

@@ -10,7 +10,8 @@ from tilefixtures import random_tile
 
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
 from microsim.goniometer import measure_directions
-from microsim.kernel import rng, scatter, tally
+from microsim.kernel import rng, tally
+from microsim.materials import optics
 from microsim.simulation import assemble_table
 from microsim.tables.binning import HemisphereBins
 from microsim.trace import PeriodicScene
@@ -46,10 +47,10 @@ def test_kernel_fresnel_equals_the_analytic_module() -> None:
     tests check against mpmath) to round-off, TIR and grazing included."""
     cos = np.concatenate([[0.0, 1e-12, 1.0], np.linspace(0.0, 1.0, 301)])
     for eta in (1.5, 1 / 1.5, 1.0001, 4.0):
-        got = np.array([scatter.fresnel_dielectric(c, eta) for c in cos])
+        got = np.array([optics.fresnel_dielectric(c, eta) for c in cos])
         np.testing.assert_allclose(got, fresnel_dielectric(cos, eta), rtol=1e-13, atol=1e-15)
     for eta, k in ((0.2, 3.9), (1.1, 2.14), (1.5, 0.0), (3.0, 100.0)):
-        got = np.array([scatter.fresnel_conductor(c, eta, k) for c in cos])
+        got = np.array([optics.fresnel_conductor(c, eta, k) for c in cos])
         np.testing.assert_allclose(got, fresnel_conductor(cos, eta, k), rtol=1e-13,
                                    atol=1e-15)
 

@@ -8,7 +8,7 @@ from scipy import stats
 from test_dielectric import ETA, Z_MAX, budget, fresnel_reference, layer_paths
 
 from microsim.errors import InputError
-from microsim.kernel.scatter import refract
+from microsim.materials.optics import refract
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile, estimate_bytes
 from microsim.surfaces.paint import _place, _Top, disc, polyhedron_volume, uv_sphere

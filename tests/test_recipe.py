@@ -96,7 +96,7 @@ def test_per_part_materials():
                                      "fibre": {"kind": "dielectric"}}})
     assert r["material"]["base"] == {"kind": "lambertian", "albedo": [0.5, 0.5, 0.5]}
     assert r["material"]["fibre"] == {"kind": "dielectric", "eta": 1.5, "refract": False,
-                                     "absorption": 0.0}
+                                     "absorption": [0.0, 0.0, 0.0]}
 
 
 def test_one_material_applies_to_every_part():

@@ -17,8 +17,10 @@ from tilefixtures import flat_tile, height_field_tile, random_tile, vgroove_tile
 
 from microsim.errors import InputError
 from microsim.geometry import direction
-from microsim.kernel.scatter import facet_frame
-from microsim.materials import FacetMaterials
+from microsim.kernel.packing import FacetMaterials
+from microsim.kernel.tabulated import TabulatedMaterial
+from microsim.materials import material_from_json
+from microsim.materials.table import facet_frame
 from microsim.paths import trace_paths
 from microsim.recipe import load as resolve_recipe
 from microsim.recipe import resolve
@@ -29,7 +31,6 @@ from microsim.table_difference import table_difference
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import read_table, write_table
 from microsim.tables.table import BRDFTable
-from microsim.tabulated import TabulatedMaterial
 from microsim.trace import PeriodicScene
 
 Z_MAX = 5.0
@@ -57,7 +58,7 @@ def check_z(estimate: BRDFTable, expected: np.ndarray) -> None:
 
 def frames(n: np.ndarray, axis: int, tangents: np.ndarray | None = None
            ) -> tuple[np.ndarray, np.ndarray]:
-    """The kernel's facet frames (t, b) of unit normals (k, 3), one compiled call each."""
+    """The kernel's facet frames (t, b) of unit normals (k, 3), one call each."""
     e = np.zeros_like(n) if tangents is None else tangents
     rows = np.array([facet_frame(*n[i], axis, tangents is not None, *e[i])
                      for i in range(len(n))])
@@ -68,7 +69,7 @@ def table_facets(source: Path, axis: str, faces: int = 1,
                  tangents: np.ndarray | None = None) -> FacetMaterials:
     """Faces of one part whose material is the table file ``source``."""
     return FacetMaterials(np.zeros(faces, np.int64), ("base",),
-                          {"base": table_material(source, axis=axis)}, tangents)
+                          {"base": material_from_json(table_material(source, axis=axis))}, tangents)
 
 
 @pytest.fixture(scope="module")
@@ -215,7 +216,8 @@ def test_grey_table_weights_every_bounce_by_its_albedo_exactly(tmp_path: Path) -
         table = lobe_table(shaped_values(bins, [a] * 3, 3.0), [0.0], bins)
         path = tmp_path / f"grey{a}.exr"
         write_table(table, path)
-        facets = FacetMaterials(tile.material, tile.parts, {"base": table_material(path)})
+        facets = FacetMaterials(tile.material, tile.parts,
+                                {"base": material_from_json(table_material(path))})
         rays = 20_000
         rng = np.random.default_rng(8)
         with PeriodicScene(tile) as scene:

@@ -13,6 +13,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, uint64
 
+from microsim.jit import INLINE, JIT
+
 M0 = np.uint64(0xD2E7470EE14C6C93)
 M1 = np.uint64(0xCA5A826395121157)
 W0 = np.uint64(0x9E3779B97F4A7C15)
@@ -24,7 +26,7 @@ TO_UNIT = 1.0 / 9007199254740992.0
 """2^-53: a 53-bit integer to a double in [0, 1)."""
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(**INLINE)
 def _mulhilo(a: uint64, b: uint64) -> tuple[uint64, uint64]:
     """High and low 64-bit words of the 128-bit product a·b, from 32-bit halves."""
     a_lo, a_hi = a & LOW, a >> S32
@@ -35,7 +37,7 @@ def _mulhilo(a: uint64, b: uint64) -> tuple[uint64, uint64]:
     return hi, a * b
 
 
-@njit(cache=True, nogil=True)
+@njit(**JIT)
 def philox(c0: uint64, c1: uint64, c2: uint64, c3: uint64, k0: uint64, k1: uint64
            ) -> tuple[uint64, uint64, uint64, uint64]:
     """Philox4x64-10 of the counter (c0, c1, c2, c3) under the key (k0, k1).
@@ -52,13 +54,13 @@ def philox(c0: uint64, c1: uint64, c2: uint64, c3: uint64, k0: uint64, k1: uint6
     return c0, c1, c2, c3
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(**INLINE)
 def unit(x: uint64) -> float:
     """The top 53 bits of a 64-bit word as a double in [0, 1) (numpy's ``next_double``)."""
     return float(x >> S11) * TO_UNIT
 
 
-@njit(cache=True, nogil=True)
+@njit(**JIT)
 def uniforms(key: np.ndarray, ray: int, event: int, block: int
              ) -> tuple[float, float, float, float]:
     """Four uniform numbers in [0, 1) for one ray and event.

@@ -55,7 +55,7 @@ import math
 import numpy as np
 from numba import njit
 
-from microsim.kernel.scatter import INLINE, JIT
+from microsim.jit import INLINE, JIT
 
 FLAT, CURVED, FALLBACK = range(3)
 """Per hit: a flat face (facet normal), the tube's normal at the entry point, or a curved

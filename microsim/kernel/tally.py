@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from microsim.kernel.scatter import JIT, TWO_PI
+from microsim.jit import JIT
 from microsim.kernel.transport import (
     ESCAPED,
     O_FATE,
@@ -26,6 +26,7 @@ from microsim.kernel.transport import (
     S_W0,
     TRANSMITTED,
 )
+from microsim.materials.optics import TWO_PI
 
 BLOCK = 32768
 """Rays per block of the sums: a fixed partition of a run, independent of the tracer's

@@ -45,18 +45,12 @@ import math
 import numpy as np
 from numba import njit
 
+from microsim.jit import INLINE, JIT
 from microsim.kernel.embree import INVALID, R_DIR_X, R_GEOM, R_MASK, R_PRIM, R_TFAR, call3
-from microsim.kernel.scatter import (
-    INLINE,
-    JIT,
-    MIRROR,
-    P_ABSORPTION,
-    REFRACTING,
-    TABLE_COLUMNS,
-    reflect,
-    scatter_event,
-)
+from microsim.kernel.events import scatter_event
 from microsim.kernel.shading import shade_one
+from microsim.materials.base import P_ABSORPTION, P_MEDIUM, PARAMS
+from microsim.materials.table import TABLE_COLUMNS
 
 ESCAPED, BOUNCES, TRANSMITTED, LEAKED, TRAPPED, BACKFACE = range(6)
 """How a path ends: out through the top, alive after the bounce limit (for a query without
@@ -283,7 +277,7 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
         plane n·x = c, its part, its unit tangent (zeros when the tile gives none).
     kind : (p,) int
         Material kind per part.
-    params : (p, 12) float
+    params : (p, PARAMS) float
         Material parameters per part.
     tab_int : (p, TABLE_COLUMNS) int
         Table layout per part (table materials).
@@ -369,14 +363,11 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                     out_i[slots_i[i, I_RAY], O_FACE] = f
                     px, py, pz = hx, hy, hz
                     ox, oy, oz = dx, dy, dz
-                elif kind[part] == MIRROR:
-                    # 4. scattering: a mirror, the commonest event, keeps the weight
-                    ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
                 else:
                     # 4. scattering: the weight takes the factor, the rest is absorbed or
                     # transmitted
                     ox, oy, oz, f0, f1, f2, i0, i1, i2 = scatter_event(
-                        kind[part], params, tab_int, part, tab_f, dx, dy, dz, nx, ny, nz,
+                        kind[part], params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz,
                         faces[f, F_TX], faces[f, F_TY], faces[f, F_TZ], key,
                         slots_i[i, I_RAY], bounce + 1)
                     w0, w1, w2 = slots_f[i, S_W0], slots_f[i, S_W1], slots_f[i, S_W2]
@@ -388,9 +379,10 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                     slots_f[i, S_A2] += w2 * (1.0 - f2 - i2)
                     slots_f[i, S_W0], slots_f[i, S_W1], slots_f[i, S_W2] = (w0 * f0, w1 * f1,
                                                                             w2 * f2)
-                    if kind[part] == REFRACTING:
-                        # through the face (the direction kept the side of d·n): into the
-                        # part's medium when it now goes behind the face, else out to air
+                    if params[part, P_MEDIUM] != 0.0:
+                        # through a refracting face (the direction kept the side of d·n):
+                        # into the part's medium when it now goes behind the face, else out
+                        # to air
                         side_out = ox * nx + oy * ny + oz * nz
                         if den * side_out > 0.0:
                             slots_i[i, I_MEDIUM] = part if side_out < 0.0 else -1
@@ -482,7 +474,7 @@ def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.nda
         plane n·x = c, its part, its unit tangent (zeros when the tile gives none).
     kind : (p,) int
         Material kind per part.
-    params : (p, 12) float
+    params : (p, PARAMS) float
         Material parameters per part.
     tab_int : (p, TABLE_COLUMNS) int
         Table layout per part (table materials).
@@ -558,3 +550,9 @@ def _absorb(slots_f: np.ndarray, i: int, params: np.ndarray, medium: int, z_end:
 def empty_tables(parts: int) -> tuple[np.ndarray, np.ndarray]:
     """``tab_int`` and ``tab_f`` of ``parts`` materials without tables."""
     return np.zeros((parts, TABLE_COLUMNS), np.int64), np.zeros(1)
+
+
+def empty_params(parts: int) -> tuple[np.ndarray, np.ndarray]:
+    """``kind`` and ``params`` of ``parts`` materials of kind code 0 that enclose no
+    medium (for queries without scattering)."""
+    return np.zeros(parts, np.int64), np.zeros((parts, PARAMS))

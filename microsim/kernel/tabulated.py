@@ -3,7 +3,7 @@ scale up (Westin, Arvo & Torrance 1992, "Predicting reflectance functions from c
 surfaces", SIGGRAPH '92, sec. 3: hierarchies of scale).
 
 A ray hitting a facet of kind ``table`` leaves in a direction importance-sampled from the
-table in the facet's local frame (``microsim.kernel.scatter.sample_table``, which this
+table in the facet's local frame (``microsim.materials.table.scatter``, which this
 class's ``packed`` layout feeds), and its weight is multiplied by the estimator's ratio
 f_r cos θo / pdf (the importance-sampled Monte Carlo estimator: Pharr, Jakob & Humphreys,
 PBR 4th ed., sec. 2.2.2). docs/materials.md derives the weights; in short, with a table of
@@ -47,13 +47,10 @@ import numpy as np
 
 from microsim.errors import InputError
 from microsim.files import file_digest
-from microsim.kernel import scatter as ev
+from microsim.materials import table as ev
+from microsim.materials.table import AXES
 from microsim.tables.exr import read_table
 from microsim.tables.table import BRDFTable
-
-AXES = ("x", "y", "tangent")
-"""What a table material's ``axis`` may name: a world axis, or the per-face tangent a
-generator gives (``Tile.tangents``: a velvet fibre's axis)."""
 
 
 class TabulatedMaterial:
@@ -68,7 +65,7 @@ class TabulatedMaterial:
         of the table's components.
     axis : str
         ``"y"`` or ``"x"``: the world axis whose projection onto a facet is the table's
-        y axis (``microsim.kernel.scatter.facet_frame``); ``"tangent"``: the facet's own
+        y axis (``microsim.materials.table.facet_frame``); ``"tangent"``: the facet's own
         tangent (``Tile.tangents``) projected so.
     source : dict or None
         Provenance recorded by tables made with this material (path, digest, component).
@@ -149,7 +146,7 @@ class TabulatedMaterial:
             raise InputError(f"{key} = {str(path)!r}: {exc}") from None
 
     def packed(self, at: int) -> tuple[np.ndarray, np.ndarray]:
-        """The table laid out for the transport kernel (``microsim.kernel.scatter``).
+        """The table laid out for the transport kernel (``microsim.materials.table``).
 
         Parameters
         ----------

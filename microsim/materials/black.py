@@ -1,0 +1,39 @@
+"""The ``black`` facet: it absorbs every ray that hits it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from microsim.materials.base import Material, kernel
+from microsim.materials.optics import reflect
+
+
+@kernel
+def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
+            dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
+            ey: float, ez: float, u: tuple) -> tuple[float, ...]:
+    """Factor 0: the whole weight is absorbed. The path goes on (mirrored, carrying
+    nothing) to its end, as every path does, so its fate is counted as usual."""
+    ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
+    return ox, oy, oz, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class Black(Material):
+    """A perfectly absorbing facet (a Lambertian facet of albedo 0 that draws nothing)."""
+
+    kind: ClassVar[str] = "black"
+    doc: ClassVar[str] = ("Absorbs every ray that hits it: a black base under fibres, "
+                          "the reference of single-scattering models.")
+    scatter: ClassVar = scatter
+
+    def diffuse_albedo(self) -> tuple[float, float, float] | None:
+        """Zero: a black facet is a diffuse facet that reflects nothing."""
+        return (0.0, 0.0, 0.0)
+
+    def model_defaults(self) -> dict[str, Any]:
+        """``albedo`` 0."""
+        return {"albedo": [0.0, 0.0, 0.0]}

@@ -1,0 +1,37 @@
+"""The ``mirror`` facet: perfect specular reflection, F = 1."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from microsim.materials.base import Material, kernel
+from microsim.materials.optics import reflect
+
+
+@kernel
+def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
+            dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
+            ey: float, ez: float, u: tuple) -> tuple[float, ...]:
+    """Mirror reflection about n; the weight is kept."""
+    ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
+    return ox, oy, oz, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class Mirror(Material):
+    """Perfect specular reflection, F = 1."""
+
+    kind: ClassVar[str] = "mirror"
+    doc: ClassVar[str] = "Perfect specular reflection, F = 1."
+    scatter: ClassVar = scatter
+
+    def fresnel(self) -> tuple | None:
+        """F = 1: no Fresnel factor."""
+        return None
+
+    def model_defaults(self) -> dict[str, Any]:
+        """A mirror implies no model parameter."""
+        return {}
