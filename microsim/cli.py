@@ -10,269 +10,35 @@ and ``microsim check`` start fast.
 from __future__ import annotations
 
 import argparse
-import importlib
-import json
-import math
 import sys
 import warnings
 from collections.abc import Sequence
-from typing import Any, NoReturn
+from typing import Any
 
 from microsim import __version__
+from microsim.commands import (
+    batch,
+    bench,
+    check,
+    compare,
+    demo,
+    export,
+    fit,
+    generate,
+    measure,
+    models,
+    render,
+    sh,
+    simulate,
+    view,
+)
+from microsim.commands.common import Parser
 from microsim.errors import InputError, InputWarning
 
-COMMANDS = ("check", "models", "generate", "measure", "view", "simulate", "compare", "fit",
-            "sh", "export", "render", "bench", "batch", "demo")
-"""Command modules under ``microsim.commands``, in the order ``--help`` lists them."""
-
-
-class Parser(argparse.ArgumentParser):
-    """An ``ArgumentParser`` whose usage errors are one ``error:`` line and exit 2."""
-
-    def error(self, message: str) -> NoReturn:
-        """Print ``error: <prog>: <message>`` and exit with status 2."""
-        raise InputError(f"{self.prog}: {message}")
-
-
-def add_recipe_args(p: argparse.ArgumentParser) -> None:
-    """Add the ``RECIPE`` argument and the repeatable ``--set section.key=value``."""
-    p.add_argument("recipe", metavar="RECIPE", help="recipe file (TOML), see docs/recipes.md")
-    p.add_argument("--set", dest="overrides", action="append", default=[],
-                   metavar="SECTION.KEY=VALUE",
-                   help="override a recipe value (repeatable), e.g. --set surface.alpha=0.3; "
-                        "angles in degrees")
-
-
-def add_json_arg(p: argparse.ArgumentParser) -> None:
-    """Add ``--json``: print machine-readable output instead of a table."""
-    p.add_argument("--json", action="store_true", help="print JSON instead of text")
-
-
-def add_seed_arg(p: argparse.ArgumentParser, what: str) -> None:
-    """Add ``--seed N`` overriding the recipe's seed of ``what``."""
-    p.add_argument("--seed", type=nonnegative_int, default=None,
-                   help=f"override the recipe's {what} seed (integer >= 0)")
-
-
-def add_realisations_arg(p: argparse.ArgumentParser) -> None:
-    """Add ``--realisations K`` overriding ``simulation.realisations``."""
-    p.add_argument("--realisations", type=positive_int, default=None, metavar="K",
-                   help="independent surface realisations to average (overrides "
-                        "simulation.realisations; default: the generator's, 1 for "
-                        "deterministic geometry)")
-
-
-def realisations_override(args: argparse.Namespace) -> list[str]:
-    """``[simulation.realisations=K]`` when ``--realisations K`` was given, else ``[]``."""
-    return [] if args.realisations is None else [f"simulation.realisations={args.realisations}"]
-
-
-def error_model_note(model: str, realisations: int, what: str = "z-scores") -> str:
-    """One line saying what a result's errors include (``rays``, ``ensemble``, ...) and so
-    what ``what`` (the numbers made from them) are about."""
-    if model == "ensemble":
-        return (f"errors: ensemble of {realisations} surface realisations (they include the "
-                f"spread between tiles, so {what} are about the surface)")
-    if model == "rays":
-        return (f"errors: rays only, one tile ({what} are conditional on this tile, not "
-                "on the surface its recipe names)")
-    return f"errors: {model}"
-
-
-def add_threads_arg(p: argparse.ArgumentParser) -> None:
-    """Add ``--threads N`` for the commands that trace."""
-    p.add_argument("--threads", type=positive_int, default=None,
-                   help="tracing threads (default: every CPU; results do not depend on it)")
-
-
-def add_memory_arg(p: argparse.ArgumentParser) -> None:
-    """Add ``--memory-limit GIB``."""
-    gib = number_list(1, low=0.0, low_open=True, what="a positive number of GiB")
-    p.add_argument("--memory-limit", type=lambda t: gib(t)[0], default=None, metavar="GIB",
-                   help="refuse work (a tile, ray paths, an export grid) estimated to "
-                        "need more memory than this many GiB (default: "
-                        "$MICROSIM_MEMORY_LIMIT or 2)")
-
-
-def add_component_arg(p: argparse.ArgumentParser) -> None:
-    """Add ``--component C``: which of a table's components a command reads."""
-    p.add_argument("--component", type=component_name, default="total", metavar="C",
-                   help="the table's component: total (all scattering orders, default), "
-                        "single or order1 (single scattering), order<k> (k scattering "
-                        "events) or order<k>+ (k or more), as the table holds them "
-                        "(docs/table-format.md)")
-
-
-def component_name(text: str) -> str:
-    """argparse type: a component name (``microsim.tables.components``)."""
-    from microsim.tables.components import canonical_component
-
-    try:
-        canonical_component(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not total, single, order<k> or "
-                                         "order<k>+ (k >= 1)") from None
-    return text
-
-
-def table_component(table: Any, name: str, path: Any) -> str:
-    """The stored name of ``--component name`` in a table read from ``path``.
-
-    Raises
-    ------
-    InputError
-        If the table does not hold that component.
-    """
-    try:
-        return table.component(name)
-    except ValueError:
-        raise InputError(f"--component {name}: {path} holds "
-                         + ", ".join(table.components)) from None
-
-
-def seed_override(args: argparse.Namespace, section: str) -> list[str]:
-    """``[section.seed=N]`` when ``--seed N`` was given, else ``[]``."""
-    return [] if args.seed is None else [f"{section}.seed={args.seed}"]
-
-
-def nonnegative_int(text: str) -> int:
-    """argparse type: an integer >= 0."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 0") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 0")
-    return value
-
-
-def positive_int(text: str) -> int:
-    """argparse type: an integer >= 1 (plain digits or scientific like 1e6)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not math.isfinite(value) or value < 1 or not value.is_integer():
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 1")
-    return int(value)
-
-
-def finite_float(text: str) -> float:
-    """argparse type: a finite number."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
-    return value
-
-
-def number_list(count: int | None = None, low: float = -math.inf, high: float = math.inf,
-                low_open: bool = False, what: str = "numbers") -> Any:
-    """argparse type: comma-separated finite numbers, ``count`` of them (None: one or
-    more), each in [low, high] (or (low, high] with ``low_open``).
-
-    Parameters
-    ----------
-    count : int or None
-    low, high : float
-    low_open : bool
-    what : str
-        How the error names the expected value, e.g. ``"THETA,PHI in degrees"``.
-
-    Returns
-    -------
-    callable
-        ``str -> list[float]``.
-    """
-
-    def parse(text: str) -> list[float]:
-        try:
-            values = [float(t) for t in text.split(",") if t.strip()]
-        except ValueError:
-            values = []
-        ok = bool(values) and (count is None or len(values) == count) and all(
-            math.isfinite(v) and (low < v if low_open else low <= v) and v <= high
-            for v in values)
-        if not ok:
-            raise argparse.ArgumentTypeError(f"{text!r} is not {what}")
-        return values
-
-    return parse
-
-
-LIST_SHOWN = 8
-"""Text output shows lists up to this long whole, longer ones by their ends and length."""
-
-
-def readable(value: Any, digits: int = 4) -> str:
-    """A value for text output: numbers to ``digits`` significant figures, lists and
-    dicts item by item (long lists by their ends and length). JSON keeps full precision.
-
-    Parameters
-    ----------
-    value : Any
-        A number, string, bool, None, or a list / tuple / dict of them.
-    digits : int
-        Significant figures of floats.
-
-    Returns
-    -------
-    str
-    """
-    if isinstance(value, float):
-        return f"{value:.{digits}g}"
-    if isinstance(value, list | tuple):
-        items = [readable(v, digits) for v in value]
-        if len(items) > LIST_SHOWN:
-            items = items[:3] + ["…"] + items[-1:]
-            return f"[{', '.join(items)}] ({len(value)} values)"
-        return f"[{', '.join(items)}]"
-    if isinstance(value, dict):
-        return ", ".join(f"{k} {readable(v, digits)}" for k, v in value.items())
-    return str(value)
-
-
-def with_error(value: float, error: float) -> str:
-    """``value ± error`` with the error to 2 significant figures and the value to the
-    same decimal place (the digits that mean something), e.g. ``0.2912 ± 0.0012``."""
-    if not (math.isfinite(value) and math.isfinite(error) and error > 0):
-        return f"{value:.5g} ± {error:.2g}"
-    places = 1 - math.floor(math.log10(error))
-    if places <= 0:
-        return f"{round(value, places):.0f} ± {round(error, places):.0f}"
-    return f"{value:.{places}f} ± {error:.{places}f}"
-
-
-def roughness_text(info: dict[str, Any]) -> str:
-    """``alpha realised R (target T)`` of a tile's facts, without a target where the
-    surface has none (an imported mesh); pooled over several realisations,
-    ``alpha realised R ± E over K tiles (...)``; ``""`` when no roughness is reported."""
-    if info.get("alpha_realised") is None:
-        return ""
-    target = info.get("alpha_target")
-    pooled = "" if info.get("alpha_realised_stderr") is None else (
-        f" ± {readable(info['alpha_realised_stderr'])} over {info['realisations']} tiles")
-    text = f"alpha realised {readable(info['alpha_realised'])}{pooled} (from facet slopes"
-    return text + ("" if target is None else f"; target {readable(target)}") + ")"
-
-
-def print_json(data: Any) -> None:
-    """Print ``data`` as JSON (NaN becomes null, so the output is strict JSON)."""
-
-    def clean(x: Any) -> Any:
-        if isinstance(x, float) and not math.isfinite(x):
-            return None
-        if isinstance(x, dict):
-            return {k: clean(v) for k, v in x.items()}
-        if isinstance(x, list | tuple):
-            return [clean(v) for v in x]
-        if hasattr(x, "tolist"):
-            return clean(x.tolist())
-        return x
-
-    print(json.dumps(clean(data), indent=2))
+COMMANDS = {module.__name__.rsplit(".", 1)[1]: module
+            for module in (check, models, generate, measure, view, simulate, compare, fit, sh,
+                           export, render, bench, batch, demo)}
+"""The command modules by name, in the order ``--help`` lists them."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -285,8 +51,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"microsim {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
-    for name in COMMANDS:
-        importlib.import_module(f"microsim.commands.{name}").register(sub)
+    for command in COMMANDS.values():
+        command.register(sub)
     return parser
 
 

@@ -18,6 +18,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from microsim.geometry import direction
+from microsim.materials import material_from_json
 from microsim.tables.table import LOBE_FRACTION
 
 
@@ -243,19 +244,6 @@ def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
     }
 
 
-def fresnel_of(material: Mapping[str, Any]) -> tuple | None:
-    """The ``TorranceSparrow`` Fresnel argument for a resolved facet material: None for a
-    mirror (F = 1), ``("conductor", eta, k)`` or ``("dielectric", eta)``."""
-    kind = material["kind"]
-    if kind == "mirror":
-        return None
-    if kind == "conductor":
-        return ("conductor", np.asarray(material["eta"]), np.asarray(material["k"]))
-    if kind == "dielectric":
-        return ("dielectric", float(material["eta"]))
-    raise ValueError(f"a {kind} facet has no microfacet model")
-
-
 def microfacet_model(meta: Mapping[str, Any]) -> Model:
     """Torrance-Sparrow with a Beckmann NDF at the surface's realised roughness and
     height-correlated Smith masking: the model a Gaussian surface's single scattering is
@@ -273,8 +261,8 @@ def microfacet_model(meta: Mapping[str, Any]) -> Model:
     alpha = meta["surface"]["alpha_realised"]
     ndf = (Beckmann(alpha_x=alpha[0], alpha_y=alpha[1]) if isinstance(alpha, list)
            else Beckmann(alpha))
-    material = meta["recipe"]["material"]["base"]
-    return TorranceSparrow(ndf, fresnel=fresnel_of(material), shadowing="smith-correlated")
+    material = material_from_json(meta["recipe"]["material"]["base"])
+    return TorranceSparrow(ndf, fresnel=material.fresnel(), shadowing="smith-correlated")
 
 
 FIBRE_PARTS = ("cylinder", "fibre")
@@ -289,7 +277,7 @@ def model_defaults(meta: Mapping[str, Any]) -> dict[str, Any]:
     - ``alpha`` (or ``alpha_x``/``alpha_y``): the realised roughness.
     - Fresnel (``eta``, ``k``) or Lambertian ``albedo``: the material every part shares;
       on a fibre surface (a part ``cylinder`` or ``fibre``), that part's, with its
-      ``kind``, and a Lambertian base's albedo as ``base_albedo``.
+      ``kind``, and a diffuse (Lambertian or black) base's albedo as ``base_albedo``.
     - On cylinders, velvet and weaves, the recipe's ``[surface]`` keys (``radius``,
       ``spacing``, ``sink``, ``fibre_radius``, ``density``, …) for models of that
       geometry.
@@ -309,26 +297,29 @@ def model_defaults(meta: Mapping[str, Any]) -> dict[str, Any]:
         out.update(alpha_x=alpha[0], alpha_y=alpha[1])
     elif alpha is not None:
         out["alpha"] = alpha
-    materials = recipe.get("material", {})
+    materials = {part: material_from_json(m) for part, m in recipe.get("material", {}).items()}
     listed = list(materials.values())
     if listed and all(m == listed[0] for m in listed):
-        out.update({k: listed[0][k] for k in ("eta", "k", "albedo") if k in listed[0]})
+        out.update(listed[0].model_defaults())
     fibre = next((materials[p] for p in FIBRE_PARTS if p in materials), None)
     if fibre is not None:
-        out.update({k: fibre[k] for k in ("kind", "eta", "k", "albedo") if k in fibre})
-        base = materials.get("base", {})
-        if base.get("kind") == "lambertian":
-            out["base_albedo"] = base["albedo"]
-        if fibre["kind"] == "lambertian":
-            out["kd"] = float(np.mean(fibre["albedo"])) / np.pi**2
+        out.update(kind=fibre.kind, **fibre.model_defaults())
+        base = materials.get("base")
+        base_albedo = None if base is None else base.diffuse_albedo()
+        if base_albedo is not None:
+            out["base_albedo"] = list(base_albedo)
+        fibre_albedo = fibre.diffuse_albedo()
+        if fibre_albedo is not None:
+            out["kd"] = float(np.mean(fibre_albedo)) / np.pi**2
     info = meta.get("surface", {})
     if info.get("kind") == "weave" and "spacing" in out:
         # the yarns' tangent curves (microsim.analytic.cloth.tangents)
         out["slope"] = np.pi * info["crimp_amplitude"] / out["spacing"]
         out["flat"] = 1.0 - 2.0 / info["repeat"]
         for part in ("warp", "weft"):
-            if materials.get(part, {}).get("kind") == "lambertian":
-                out[f"albedo_{part}"] = materials[part]["albedo"]
+            albedo = materials[part].diffuse_albedo() if part in materials else None
+            if albedo is not None:
+                out[f"albedo_{part}"] = list(albedo)
     axis = info.get("axis")
     if axis is not None:
         t = np.asarray(axis, float)

@@ -30,10 +30,11 @@ from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.tally import bin_escapes, in_blocks
 from microsim.materials import material_from_json
 from microsim.paths import Paths, trace_paths
+from microsim.recipe import DEFAULT_ORDERS
 from microsim.surfaces.tile import Tile
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.components import DEFAULT_ORDERS, components_for
+from microsim.tables.components import components_for
 from microsim.trace import PeriodicScene
 
 BATCH = 65536

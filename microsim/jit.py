@@ -18,9 +18,9 @@ from pathlib import Path
 import numba
 
 PACKAGE = Path(__file__).parent
-COMPILED = ("kernel", "materials", "analytic/velvet.py")
+COMPILED = ("jit.py", "kernel", "materials", "analytic/velvet.py")
 """The folders (every ``.py`` file in them) and files of ``microsim`` that hold compiled
-code or kernel language (``microsim.materials.base.kernel``)."""
+code or kernel language (``microsim.materials.base.kernel``), and this file (the options)."""
 JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 """Compilation options of every kernel function: cached on disk, without the GIL, IEEE
 floating-point semantics (a division by zero gives inf, not an exception)."""

@@ -29,7 +29,6 @@ from microsim.errors import InputError
 from microsim.materials import MATERIALS, material_from_json, parse_material
 from microsim.schema import REQUIRED, Key, check_section, parse_value, suggest, unknown_key
 from microsim.surfaces.params import SURFACE_KINDS, check_span
-from microsim.tables.components import DEFAULT_ORDERS
 
 
 def _n(doc: str, default: Any = REQUIRED, **kw: Any) -> Key:
@@ -40,6 +39,10 @@ def _n(doc: str, default: Any = REQUIRED, **kw: Any) -> Key:
 # --- materials --------------------------------------------------------------------------
 MATERIAL_KINDS: dict[str, dict[str, Key]] = {kind: cls.keys() for kind, cls in MATERIALS.items()}
 """The keys of every material kind (``microsim.materials``), by kind."""
+
+DEFAULT_ORDERS = 3
+"""Order components a table holds by default (``table.orders``): orders 1, 2 and
+3-and-above."""
 
 # --- simulation and table ---------------------------------------------------------------
 SIMULATION: dict[str, Key] = {

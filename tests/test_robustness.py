@@ -472,7 +472,7 @@ def test_fit_reports_progress_and_rounds_to_its_uncertainty(small_table):
     """The fit calls back after every model evaluation (counting up); parameters print
     to the decimal place of their uncertainty's second significant figure."""
     import microsim
-    from microsim.cli import with_error
+    from microsim.commands.common import with_error
     from microsim.fit import fit_table
 
     seen = []

@@ -45,12 +45,13 @@ from numba import njit
 from scipy.special import ndtr
 
 from microsim.analytic.brdf import flat_pairs
+from microsim.jit import JIT
 
 MAX_TILT = 80.0
 """The generator's clip of the tilt, degrees (``microsim.surfaces.velvet.MAX_TILT``)."""
 
 
-@njit(cache=True, nogil=True)
+@njit(**JIT)
 def _fibre(w_i: np.ndarray, w_o: np.ndarray, k: int, u: np.ndarray, v: np.ndarray,
            t: np.ndarray, tip_n: np.ndarray, tip_len: np.ndarray, m: int, r: float,
            length: float) -> float:
@@ -96,7 +97,7 @@ def _fibre(w_i: np.ndarray, w_o: np.ndarray, k: int, u: np.ndarray, v: np.ndarra
     return r * side + r * r * tip
 
 
-@njit(cache=True, nogil=True)
+@njit(**JIT)
 def _fibre_average(wi: np.ndarray, wo: np.ndarray, u: np.ndarray, v: np.ndarray,
                    t: np.ndarray, tip_n: np.ndarray, tip_len: np.ndarray,
                    weights: np.ndarray, r: float, length: float) -> np.ndarray:

@@ -11,7 +11,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from microsim.cli import add_json_arg, add_memory_arg, positive_int, print_json
+from microsim.commands.common import add_json_arg, add_memory_arg, positive_int, print_json
 from microsim.errors import InputError
 from microsim.files import writable_folder
 

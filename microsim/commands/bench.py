@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from microsim.cli import add_json_arg, add_seed_arg, print_json
+from microsim.commands.common import add_json_arg, add_seed_arg, print_json
 from microsim.files import writable_folder
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from microsim import recipe
-from microsim.cli import add_json_arg, add_recipe_args, print_json
+from microsim.commands.common import add_json_arg, add_recipe_args, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:

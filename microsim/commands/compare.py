@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from microsim.cli import (
+from microsim.commands.common import (
     add_component_arg,
     add_json_arg,
     error_model_note,

@@ -9,7 +9,7 @@ from typing import Any
 
 import microsim
 from microsim import recipe
-from microsim.cli import (
+from microsim.commands.common import (
     add_json_arg,
     add_seed_arg,
     add_threads_arg,

@@ -5,7 +5,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from microsim.cli import add_component_arg, add_memory_arg, positive_int, table_component
+from microsim.commands.common import (
+    add_component_arg,
+    add_memory_arg,
+    positive_int,
+    table_component,
+)
 from microsim.errors import InputError
 from microsim.files import writable_file
 from microsim.memory import check_memory

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from microsim import recipe
-from microsim.cli import (
+from microsim.commands.common import (
     add_json_arg,
     add_memory_arg,
     add_recipe_args,

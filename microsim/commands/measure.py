@@ -8,7 +8,7 @@ import sys
 from typing import Any
 
 from microsim import recipe
-from microsim.cli import (
+from microsim.commands.common import (
     Parser,
     add_json_arg,
     add_memory_arg,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from microsim.cli import Parser, add_json_arg, number_list, print_json, readable
+from microsim.commands.common import Parser, add_json_arg, number_list, print_json, readable
 from microsim.errors import InputError
 
 angle_pair = number_list(2, what="THETA,PHI in degrees")

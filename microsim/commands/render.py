@@ -7,7 +7,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from microsim.cli import (
+from microsim.commands.common import (
     add_component_arg,
     add_json_arg,
     finite_float,
@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
     """Render every table (and model), write the grid, report times and differences."""
     import microsim
     from microsim.analytic.registry import parse_model_spec
-    from microsim.cli import print_json
+    from microsim.commands.common import print_json
     from microsim.compare import model_defaults
     from microsim.render import backend, bsdfs, figure, objects, scene
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from microsim.cli import add_component_arg, add_json_arg, print_json, table_component
+from microsim.commands.common import add_component_arg, add_json_arg, print_json, table_component
 from microsim.errors import InputError
 from microsim.files import PLOT_SUFFIXES, writable_file
 

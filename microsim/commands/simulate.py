@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from microsim import recipe
-from microsim.cli import (
+from microsim.commands.common import (
     add_json_arg,
     add_memory_arg,
     add_realisations_arg,
@@ -23,7 +23,7 @@ from microsim.cli import (
 )
 from microsim.files import writable_file
 from microsim.memory import check_memory
-from microsim.tables.components import DEFAULT_ORDERS
+from microsim.recipe import DEFAULT_ORDERS
 from microsim.tables.exr import write_table
 
 TABLE_BYTES_PER_BIN = 450

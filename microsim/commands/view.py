@@ -8,7 +8,13 @@ import sys
 from pathlib import Path
 
 from microsim import recipe
-from microsim.cli import add_memory_arg, add_seed_arg, number_list, positive_int, seed_override
+from microsim.commands.common import (
+    add_memory_arg,
+    add_seed_arg,
+    number_list,
+    positive_int,
+    seed_override,
+)
 from microsim.errors import InputError
 from microsim.files import SCREENSHOT_SUFFIXES, writable_file
 from microsim.memory import check_memory

@@ -1,19 +1,23 @@
 """Surface generators: each turns a resolved ``[surface]`` section into one periodic tile.
 
-Importing this package is light; ``build_tile`` imports the generator it needs.
+Importing this package loads numpy and the generators (an imported mesh loads trimesh when
+it is read); their recipe keys are ``microsim.surfaces.params``.
 """
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from microsim.memory import check_memory
+from microsim.surfaces import cylinders, flat, gaussian, mesh, paint, velvet, vgroove, weave
 from microsim.surfaces.params import SURFACE_KINDS
+from microsim.surfaces.tile import Tile
 
-if TYPE_CHECKING:
-    from microsim.surfaces.tile import Tile
+GENERATORS = {"flat": flat.build, "gaussian": gaussian.build, "vgroove": vgroove.build,
+              "cylinders": cylinders.build, "velvet": velvet.build, "weave": weave.build,
+              "paint": paint.build, "mesh": mesh.build}
+"""The generator of every surface kind (``SURFACE_KINDS``)."""
 
 
 BYTES_PER_TRIANGLE = 300
@@ -54,5 +58,4 @@ def build_tile(surface: Mapping[str, Any], memory_limit_gib: float | None = None
     Tile
     """
     check_tile_memory(surface, memory_limit_gib)
-    module = importlib.import_module(f"microsim.surfaces.{surface['kind']}")
-    return module.build(surface)
+    return GENERATORS[surface["kind"]](surface)

@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import re
 
-DEFAULT_ORDERS = 3
-"""Order components a table holds by default: orders 1, 2 and 3-and-above."""
 ALIASES = {"single": "order1"}
 """Other names of components."""
 _ORDER = re.compile(r"order([1-9][0-9]*)(\+?)")
