@@ -9,12 +9,11 @@ shares; docs/ensembles.md describes the rule and its measured constants.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import Any
 
 import numpy as np
 
 from microsim.goniometer import BATCH
+from microsim.settings import Simulation
 from microsim.tables.table import BRDFTable
 
 MAX_RAYS_FACTOR = 100
@@ -61,7 +60,7 @@ def direction_errors(table: BRDFTable, component: str = "total"
 
 
 def next_plan(realisations: int, rays: int, rel: float, share: float,
-               simulation: Mapping[str, Any], tile_cost: float) -> tuple[int, int] | str:
+               simulation: Simulation, tile_cost: float) -> tuple[int, int] | str:
     """The next (realisations, rays per realisation) of a direction that missed its target,
     or why it stops (``"max_rays"``, ``"max_realisations"``).
 
@@ -72,11 +71,11 @@ def next_plan(realisations: int, rays: int, rel: float, share: float,
     until (R/n + T)/K reaches target². Both grow by at most ``GROWTH`` per round; the
     caps ``max_rays`` (K n) and ``max_realisations`` bound them.
     """
-    target = float(simulation["target_error"])
-    most_rays = int(simulation.get("max_rays") or MAX_RAYS_FACTOR * int(simulation["rays"]))
-    most_real = int(simulation.get("max_realisations")
-                    or min(MAX_REALISATIONS_FACTOR * int(simulation["realisations"]), 65536))
-    if int(simulation["realisations"]) == 1:
+    target = float(simulation.target_error)
+    most_rays = int(simulation.max_rays or MAX_RAYS_FACTOR * int(simulation.rays))
+    most_real = int(simulation.max_realisations
+                    or min(MAX_REALISATIONS_FACTOR * simulation.realisations_or_one, 65536))
+    if simulation.realisations_or_one == 1:
         most_real = 1
     k, n = realisations, rays
     v, goal = rel**2, target**2

@@ -26,7 +26,7 @@ import json
 import os
 import threading
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -34,15 +34,18 @@ from typing import TYPE_CHECKING, Any
 import microsim
 from microsim.errors import InputError
 from microsim.files import atomic_path, remove_stale_temporaries
+from microsim.goniometer import Measurement, measure_directions
+from microsim.settings import Recipe
+from microsim.simulation import Tiles, assemble_table, measure_ensemble
+from microsim.surfaces import build_tile
+from microsim.surfaces.realisations import realisation as realisation_of
+from microsim.surfaces.tile import Tile
 from microsim.sweep import Point, Sweep, canonical
 from microsim.tables.exr import write_table
+from microsim.trace import PeriodicScene
 
 if TYPE_CHECKING:
     from distributed import Client
-
-    from microsim.goniometer import Measurement
-    from microsim.surfaces.tile import Tile
-    from microsim.trace import PeriodicScene
 
 MANIFEST = "manifest.json"
 LOCK = ".batch.lock"
@@ -59,16 +62,12 @@ _scenes = threading.local()
 @functools.lru_cache(maxsize=TILES_KEPT)
 def _tile(surface: str) -> Tile:
     """The tile of a surface section (canonical JSON), built once per worker process."""
-    from microsim.surfaces import build_tile
-
     return build_tile(json.loads(surface))
 
 
 def _scene(surface: str, threads: int) -> tuple[Tile, PeriodicScene]:
     """The tile of a surface section and an open Embree scene of it, kept per worker
     thread (a scene is used by one job at a time) until another surface needs one."""
-    from microsim.trace import PeriodicScene
-
     kept = getattr(_scenes, "kept", None)
     if kept is not None and kept[0] == (surface, threads):
         return kept[1], kept[2]
@@ -80,16 +79,16 @@ def _scene(surface: str, threads: int) -> tuple[Tile, PeriodicScene]:
     return _scenes.kept[1], _scenes.kept[2]
 
 
-def run_job(recipe: Mapping[str, Any], thetas: tuple[int, ...], threads: int = 1,
+def run_job(recipe: Recipe, thetas: tuple[int, ...], threads: int = 1,
             realisation: int | None = 0) -> tuple[Measurement, list[str], float]:
     """Trace some incident polar angles of a resolved recipe (runs on a worker).
 
     Parameters
     ----------
-    recipe : mapping
+    recipe : Recipe
         A resolved recipe.
     thetas : tuple of int
-        Indices into ``recipe["simulation"]["theta_i"]``.
+        Indices into ``recipe.simulation.theta_i``.
     threads : int
         Tracing threads.
     realisation : int or None
@@ -104,18 +103,14 @@ def run_job(recipe: Mapping[str, Any], thetas: tuple[int, ...], threads: int = 1
     seconds : float
         Wall-clock time of the job on the worker, building the tiles included.
     """
-    from microsim.goniometer import measure_directions
-    from microsim.simulation import Tiles, measure_ensemble
-    from microsim.surfaces.realisations import realisation as realisation_of
-
     start = time.perf_counter()
-    sim = recipe["simulation"]
+    sim = recipe.simulation
     if realisation is None:
-        measured = measure_ensemble(Tiles(recipe["surface"]), recipe["material"], sim,
-                                    recipe["table"], thetas, threads=threads)
+        measured = measure_ensemble(Tiles(recipe.surface), recipe.material, sim,
+                                    recipe.table, thetas, threads=threads)
         return measured, measured.warnings, time.perf_counter() - start
-    tile, scene = _scene(canonical(realisation_of(recipe["surface"], realisation)), threads)
-    measured = measure_directions(tile, recipe["material"], sim, recipe["table"], thetas,
+    tile, scene = _scene(canonical(realisation_of(recipe.surface, realisation)), threads)
+    measured = measure_directions(tile, recipe.material, sim, recipe.table, thetas,
                                   realisation=realisation, scene=scene)
     return measured, list(tile.warnings), time.perf_counter() - start
 
@@ -133,12 +128,12 @@ class Job:
 def jobs_of(point: Point, thetas_per_job: int) -> list[Job]:
     """A point's jobs: its incident polar angles in chunks of ``thetas_per_job``, for each
     realisation (one job per chunk for all of them with an adaptive stop)."""
-    sim = point.recipe["simulation"]
-    n = len(sim["theta_i"])
+    sim = point.recipe.simulation
+    n = len(sim.theta_i)
     chunks = [tuple(range(i, min(i + thetas_per_job, n))) for i in range(0, n, thetas_per_job)]
-    if sim.get("target_error") is not None:
+    if sim.target_error is not None:
         return [Job(point.name, chunk, None) for chunk in chunks]
-    return [Job(point.name, chunk, r) for r in range(int(sim["realisations"]))
+    return [Job(point.name, chunk, r) for r in range(sim.realisations_or_one)
             for chunk in chunks]
 
 
@@ -262,7 +257,7 @@ def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool 
         manifest = Manifest(folder, sweep, {
             p.name: keep.get(p.name) or {
                 "file": f"{p.name}.exr", "status": "pending", "recipe_hash": p.hash,
-                "seed": p.recipe["simulation"]["seed"], "point": p.values}
+                "seed": p.recipe.simulation.seed, "point": p.values}
             for p in sweep.points})
         manifest.write()
         points = {p.name: p for p in todo}
@@ -301,7 +296,7 @@ def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool 
                 warnings[job.table] = list(dict.fromkeys(warnings[job.table]
                                                          + tile_warnings))
                 job_time[job.table] += seconds
-                rays += sum(run.sums.rays for run in measured.runs.values())
+                rays += measured.rays
                 if len(parts[job.table]) == len(jobs[job.table]):
                     computed.append(job.table)
                     _finish(folder, manifest, points[job.table], parts.pop(job.table),
@@ -321,18 +316,16 @@ def _finish(folder: Path, manifest: Manifest, point: Point, parts: list[Measurem
             warnings: list[str], seconds: float) -> None:
     """Merge a table's jobs, write the table, then record it as done (``seconds``: the
     jobs' summed wall-clock time on the workers)."""
-    from microsim.simulation import assemble_table
-
     recipe = point.recipe
-    table = assemble_table(parts, recipe["material"], recipe["simulation"], recipe["table"],
-                     recipe=recipe)
+    table = assemble_table(parts, recipe.material, recipe.simulation, recipe.table,
+                           recipe=recipe)
     write_table(table, folder / f"{point.name}.exr")
     manifest.update(
         point.name, status="done", error=None, rays=int(table.rays.sum()),
-        segments=int(table.meta["segments"]), jobs=len(parts), wall_s=seconds,
+        segments=int(table.meta.segments), jobs=len(parts), wall_s=seconds,
         trace_s=sum(p.trace_time for p in parts),
         median_rel_stderr=_finite(table.median_rel_stderr("total")),
         error_model=table.error_model, realisations=int(table.realisations.max()),
         albedo=table.albedo.reshape(-1, 3).mean(axis=1).tolist(),
         albedo_err=table.albedo_err.reshape(-1, 3).mean(axis=1).tolist(),
-        warnings=[*warnings, *table.meta["warnings"]])
+        warnings=[*warnings, *table.meta.warnings])

@@ -123,15 +123,15 @@ def run_tables(case: str, surface: dict[str, Any], material: str, theta: list[fl
                                 "seed": seed},
                  # the bins only: the harmonics' cost is measured by scripts/sh_cost.py
                  "table": {"theta_bins": bins, "phi_bins": 2 * bins, "sh_order": 0}})
-    tile = build_tile(r["surface"])
+    tile = build_tile(r.surface)
     start = time.perf_counter()
-    table = simulate(tile, r["material"], r["simulation"], r["table"], recipe=r)
+    table = simulate(tile, r.material, r.simulation, r.table, recipe=r)
     wall = time.perf_counter() - start
     error, stderr = score(table)
     return {"case": case, "rays": rays * len(theta), "wall_s": wall,
             "tile_resolution": surface.get("resolution", 0),
-            "segments": table.meta["segments"], "table_bins": bins,
-            "segments_per_s": table.meta["segments_per_second"], "error": error,
+            "segments": table.meta.segments, "table_bins": bins,
+            "segments_per_s": table.meta.timing.segments_per_second, "error": error,
             "stderr": stderr, "tile": tile}
 
 
@@ -202,16 +202,16 @@ def sweep(quick: bool, seed: int = 1, threads: int = 2,
                 rows.append(run_tables("ts", gaussian(0.3, res, seed), "mirror",
                                        [0.0, 45.0, 75.0], n, bins, 16, seed, score_ts))
         g1_theta = [60.0, 80.0, 88.0]
-        tile = build_tile(resolve({"surface": gaussian(0.5, res, seed)})["surface"])
+        tile = build_tile(resolve({"surface": gaussian(0.5, res, seed)}).surface)
         w = direction(np.radians(g1_theta), 0.0)
-        smith = Beckmann(tile.info["alpha_realised"]).G1(w)
+        smith = Beckmann(tile.facts.alpha_realised.alpha).G1(w)
         rows += [g1_rows("g1", tile, res, g1_theta, n, smith, seed) for n in rays]
         rows.append(run_tables("furnace", gaussian(0.5, res, seed), "mirror",
                                [0.0, 60.0, 85.0], rays[2], table_bins[0], 64, seed,
                                score_furnace))
         log(f"resolution {res} done")
     vg = build_tile(resolve({"surface": {"kind": "vgroove", "slope": 45.0,
-                                         "grooves": 16}})["surface"])
+                                         "grooves": 16}}).surface)
     vg_theta = [30.0, 60.0, 80.0]
     reference = vcavity_reference(math.radians(45.0), np.radians(vg_theta))
     rows += [g1_rows("vgroove", vg, 0, vg_theta, n, reference, seed) for n in rays]

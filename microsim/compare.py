@@ -12,14 +12,17 @@ where f_r grows as 1/cos θo towards the horizon, as fibre layers seen edge-on d
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any, Protocol
 
 import numpy as np
 
+from microsim.analytic.brdf import TorranceSparrow, as_rgb
+from microsim.analytic.ndf import Beckmann
 from microsim.geometry import direction
-from microsim.materials import material_from_json
-from microsim.tables.table import LOBE_FRACTION
+from microsim.surfaces.facts import CylinderFacts, SurfaceFacts, TileFacts, WeaveFacts
+from microsim.tables.components import order_range
+from microsim.tables.meta import TableMeta
+from microsim.tables.table import LOBE_FRACTION, BRDFTable
 
 
 class Model(Protocol):
@@ -42,14 +45,6 @@ class StochasticModel(Model, Protocol):
     def random_bin_average(self, wi: np.ndarray, theta_edges: np.ndarray,
                            phi_edges: np.ndarray, phi_i: float = 0.0
                            ) -> tuple[np.ndarray, np.ndarray]: ...
-
-
-def as_rgb(values: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """Broadcast a model's scalar or RGB output to ``shape + (3,)``."""
-    values = np.asarray(values, float)
-    if values.shape == shape:
-        values = values[..., None]
-    return np.broadcast_to(values, shape + (3,))
 
 
 def bin_average(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
@@ -244,24 +239,19 @@ def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
     }
 
 
-def microfacet_model(meta: Mapping[str, Any]) -> Model:
+def microfacet_model(meta: TableMeta) -> Model:
     """Torrance-Sparrow with a Beckmann NDF at the surface's realised roughness and
     height-correlated Smith masking: the model a Gaussian surface's single scattering is
     meant to follow (Walter et al. 2007, eq. 20; Heitz 2014, eq. 99).
 
     Parameters
     ----------
-    meta : mapping
-        A table's metadata: ``surface.alpha_realised`` (a number, or [αx, αy]) and the
-        recipe's material of the part ``base``.
+    meta : TableMeta
+        A table's metadata: its surface's realised roughness and the recipe's material
+        of the part ``base``.
     """
-    from microsim.analytic.brdf import TorranceSparrow
-    from microsim.analytic.ndf import Beckmann
-
-    alpha = meta["surface"]["alpha_realised"]
-    ndf = (Beckmann(alpha_x=alpha[0], alpha_y=alpha[1]) if isinstance(alpha, list)
-           else Beckmann(alpha))
-    material = material_from_json(meta["recipe"]["material"]["base"])
+    ndf = Beckmann(**meta.surface.alpha_realised.params())
+    material = meta.recipe.material["base"]
     return TorranceSparrow(ndf, fresnel=material.fresnel(), shadowing="smith-correlated")
 
 
@@ -271,7 +261,7 @@ FIBRE_SURFACES = ("cylinders", "velvet", "weave")
 """Surfaces whose ``[surface]`` keys models of their geometry take as defaults."""
 
 
-def model_defaults(meta: Mapping[str, Any]) -> dict[str, Any]:
+def model_defaults(meta: TableMeta) -> dict[str, Any]:
     """Model parameters a table's metadata implies. A spec's own values override these.
 
     - ``alpha`` (or ``alpha_x``/``alpha_y``): the realised roughness.
@@ -288,16 +278,13 @@ def model_defaults(meta: Mapping[str, Any]) -> dict[str, Any]:
       = 1 − 2 / repeat) and Lambertian yarns' ``albedo_warp``, ``albedo_weft``.
     """
     out: dict[str, Any] = {}
-    recipe = meta.get("recipe", {})
-    surface = recipe.get("surface", {})
-    if surface.get("kind") in FIBRE_SURFACES:
+    recipe, facts = meta.recipe, meta.surface
+    surface = None if recipe is None else recipe.surface
+    if surface is not None and surface.kind in FIBRE_SURFACES:
         out.update({k: v for k, v in surface.items() if k not in ("kind", "seed", "size")})
-    alpha = meta.get("surface", {}).get("alpha_realised")
-    if isinstance(alpha, list):
-        out.update(alpha_x=alpha[0], alpha_y=alpha[1])
-    elif alpha is not None:
-        out["alpha"] = alpha
-    materials = {part: material_from_json(m) for part, m in recipe.get("material", {}).items()}
+    if facts is not None and facts.alpha_realised is not None:
+        out.update(facts.alpha_realised.params())
+    materials = {} if recipe is None else dict(recipe.material)
     listed = list(materials.values())
     if listed and all(m == listed[0] for m in listed):
         out.update(listed[0].model_defaults())
@@ -311,18 +298,17 @@ def model_defaults(meta: Mapping[str, Any]) -> dict[str, Any]:
         fibre_albedo = fibre.diffuse_albedo()
         if fibre_albedo is not None:
             out["kd"] = float(np.mean(fibre_albedo)) / np.pi**2
-    info = meta.get("surface", {})
-    if info.get("kind") == "weave" and "spacing" in out:
+    tile = None if facts is None else facts.tile
+    if isinstance(tile, WeaveFacts) and "spacing" in out:
         # the yarns' tangent curves (microsim.analytic.cloth.tangents)
-        out["slope"] = np.pi * info["crimp_amplitude"] / out["spacing"]
-        out["flat"] = 1.0 - 2.0 / info["repeat"]
+        out["slope"] = np.pi * tile.crimp_amplitude / out["spacing"]
+        out["flat"] = 1.0 - 2.0 / tile.repeat
         for part in ("warp", "weft"):
             albedo = materials[part].diffuse_albedo() if part in materials else None
             if albedo is not None:
                 out[f"albedo_{part}"] = list(albedo)
-    axis = info.get("axis")
-    if axis is not None:
-        t = np.asarray(axis, float)
+    if isinstance(tile, CylinderFacts) and tile.axis is not None:
+        t = np.asarray(tile.axis, float)
         out["tangent_theta"] = float(np.degrees(np.arccos(np.clip(t[2], -1.0, 1.0))))
         out["tangent_phi"] = float(np.degrees(np.arctan2(t[1], t[0])))
         if "radius" in out and "spacing" in out:
@@ -332,7 +318,7 @@ def model_defaults(meta: Mapping[str, Any]) -> dict[str, Any]:
 
 def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float = 0.0,
                 rng: np.random.Generator | None = None,
-                meta: Mapping[str, Any] | None = None,
+                meta: TableMeta | None = None,
                 phi_i: np.ndarray | None = None) -> Any:
     """A table whose bins hold an analytic model's bin averages: a noiseless reference,
     or one with Gaussian noise of known relative standard deviation.
@@ -351,7 +337,7 @@ def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float =
         floor of 1e-12 so no error is zero).
     rng : numpy.random.Generator or None
         Source of the noise (required when ``sigma_rel`` > 0).
-    meta : mapping or None
+    meta : TableMeta or None
         The table's metadata (default: a surface of kind ``"analytic"``).
     phi_i : (b,) float or None
         None: an isotropic table (incidences at φi = 0, outgoing azimuths relative to it).
@@ -364,8 +350,6 @@ def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float =
         Components ``total`` and ``single`` alike; albedo = Σ f_r Ω_proj over the bins of
         the (noisy) values, with zero error; no lost energy.
     """
-    from microsim.tables.table import BRDFTable
-
     theta_i = np.asarray(theta_i, float)
     azimuths = np.zeros(1) if phi_i is None else np.asarray(phi_i, float)
     avg = np.stack([np.stack([bin_average(model, direction(t, p), bins.theta_edges,
@@ -379,14 +363,12 @@ def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float =
     return BRDFTable(bins, theta_i, azimuths, phi_i is None, {c: values for c in both},
                      {c: err for c in both}, np.full(avg.shape[:2], 10**6),
                      {c: albedo for c in both}, {c: zeros for c in both},
-                     zeros, dict(meta or {"surface": {"kind": "analytic"}}))
+                     zeros, meta or TableMeta(surface=SurfaceFacts(TileFacts(kind="analytic"))))
 
 
 def model_for(model: Model, component: str) -> Model:
     """The model to compare with a table's ``component``: a model that holds chosen
     scattering orders (``with_orders``) restricted to the component's; any other as is."""
-    from microsim.tables.components import order_range
-
     return model.with_orders(*order_range(component)) if hasattr(model, "with_orders") \
         else model
 

@@ -11,13 +11,14 @@ realisations, moderated across the θh bins. docs/ensembles.md has the derivatio
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
+from microsim.settings import Recipe
 from microsim.surfaces import build_tile
-from microsim.surfaces.realisations import pool_info, realisation, realisation_seed
+from microsim.surfaces.facts import SurfaceFacts
+from microsim.surfaces.realisations import realisation, realisation_seed
 from microsim.tables.estimator import ENSEMBLE, combine
 
 SUB_TILES = 4
@@ -26,13 +27,41 @@ SUB_TILES_MODEL = "sub-tiles"
 """Error model of one realisation's histogram: the scatter of its sub-tiles."""
 
 
-def measure_ndf_recipe(recipe: Mapping[str, Any], bins: int,
-                       memory_limit_gib: float | None = None) -> dict[str, Any]:
+@dataclass(frozen=True)
+class NdfMeasurement:
+    """The facet-normal distribution of a recipe's surface.
+
+    Attributes
+    ----------
+    edges : (bins + 1,) float
+        θh bin edges, radians.
+    D, stderr : (bins,) float
+        The NDF per bin, 1/sr, and its standard error (NaN where no facet fell).
+    dof : float
+        Degrees of freedom of the variance estimate.
+    error_model : str
+        ``sub-tiles`` for one realisation, ``ensemble`` for more.
+    realisations : int
+    surface : SurfaceFacts
+        The tiles' facts, pooled.
+    """
+
+    edges: np.ndarray
+    D: np.ndarray
+    stderr: np.ndarray
+    dof: float
+    error_model: str
+    realisations: int
+    surface: SurfaceFacts
+
+
+def measure_ndf_recipe(recipe: Recipe, bins: int, memory_limit_gib: float | None = None
+                       ) -> NdfMeasurement:
     """The NDF histogram of a recipe's surface over ``simulation.realisations`` tiles.
 
     Parameters
     ----------
-    recipe : mapping
+    recipe : Recipe
         A resolved recipe.
     bins : int
         θh bins, uniform over [0, θmax]: θmax = atan(3.5 α) for the isotropic realised
@@ -42,27 +71,23 @@ def measure_ndf_recipe(recipe: Mapping[str, Any], bins: int,
 
     Returns
     -------
-    dict
-        ``edges`` (bins + 1,) radians, ``D``, ``stderr`` (bins,) 1/sr (NaN error where no
-        facet fell), ``dof`` (of the variance estimate), ``error_model`` (``sub-tiles``
-        for one realisation, ``ensemble`` for more), ``realisations``, ``surface`` (the
-        pooled info).
+    NdfMeasurement
     """
-    k = int(recipe["simulation"].get("realisations", 1))
-    histograms, infos, theta_max = [], [], None
+    k = recipe.simulation.realisations_or_one
+    histograms, facts, theta_max = [], [], None
     for r in range(k):
-        tile = build_tile(realisation(recipe["surface"], r), memory_limit_gib)
+        tile = build_tile(realisation(recipe.surface, r), memory_limit_gib)
         if theta_max is None:
-            alpha = tile.info.get("alpha_realised")
-            theta_max = math.atan(3.5 * alpha) if isinstance(alpha, float) else math.radians(
-                89.0)
+            alpha = tile.facts.alpha_realised
+            theta_max = math.atan(3.5 * alpha.alpha) if alpha is not None and \
+                alpha.isotropic else math.radians(89.0)
         histograms.append(tile.ndf_histogram(bins, theta_max, SUB_TILES))
-        infos.append(dict(tile.info))
+        facts.append(tile.facts)
         del tile
     d = np.array([h["D"] for h in histograms])[..., None]                # (K, bins, 1)
     v = np.array([h["stderr"] for h in histograms])[..., None] ** 2
     e = combine(d, v, SUB_TILES**2 - 1.0, np.isfinite(v).all(axis=0) if k > 1 else None)
-    seeds = [realisation_seed(recipe["surface"].get("seed", 0), r) for r in range(k)]
-    return {"edges": histograms[0]["edges"], "D": e.mean[:, 0], "stderr": e.stderr[:, 0],
-            "dof": float(e.dof[0]), "error_model": ENSEMBLE if k > 1 else SUB_TILES_MODEL,
-            "realisations": k, "surface": pool_info(infos, seeds)}
+    seeds = [realisation_seed(recipe.surface.get("seed", 0), r) for r in range(k)]
+    return NdfMeasurement(histograms[0]["edges"], e.mean[:, 0], e.stderr[:, 0],
+                          float(e.dof[0]), ENSEMBLE if k > 1 else SUB_TILES_MODEL, k,
+                          SurfaceFacts.pool(facts, seeds))

@@ -222,9 +222,10 @@ def fit_table(table: Any, spec: str, component: str = "total",
     sigma = np.sqrt((err[keep] / (sim[keep] + eps)) ** 2 + REL_FLOOR**2)
     target = np.log(sim[keep] + eps)
     x0 = np.array(start if start is not None else fam.start, float)
-    alpha = table.meta.get("surface", {}).get("alpha_realised")
-    if start is None and fam.names[0] == "alpha" and isinstance(alpha, float):
-        x0[0] = alpha
+    surface = table.meta.surface
+    alpha = None if surface is None else surface.alpha_realised
+    if start is None and fam.names[0] == "alpha" and alpha is not None and alpha.isotropic:
+        x0[0] = alpha.alpha
 
     dof = max(int(keep.sum()) - len(x0), 1)
     evaluations = 0

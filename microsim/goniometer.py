@@ -21,20 +21,22 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import NamedTuple
 
 import numpy as np
 
 from microsim.geometry import direction
 from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.tally import bin_escapes, in_blocks
-from microsim.materials import material_from_json
+from microsim.materials import Material
 from microsim.paths import Paths, trace_paths
-from microsim.recipe import DEFAULT_ORDERS
+from microsim.settings import DEFAULT_ORDERS, Simulation, TableSettings
+from microsim.surfaces.facts import TileFacts
 from microsim.surfaces.tile import Tile
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import components_for
+from microsim.tables.meta import DirectionRecord, TableInput
 from microsim.trace import PeriodicScene
 
 BATCH = 65536
@@ -46,7 +48,7 @@ with enough bounces loses none (the shipped recipes lose under 0.1%, except the 
 weave, whose gaps let about 5% through)."""
 
 
-class _Sums:
+class Sums:
     """Running per-bin sums of one incident direction, per component.
 
     Row 0 of every array holds every escaping ray (``"total"``); row k, 1 ≤ k < N, the rays
@@ -151,8 +153,8 @@ class _Sums:
 
 
 def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: HemisphereBins,
-                       simulation: Mapping[str, Any], theta: float, phi: float,
-                       isotropic: bool, streams: tuple[int, ...], acc: _Sums, rays: int,
+                       simulation: Simulation, theta: float, phi: float,
+                       isotropic: bool, streams: tuple[int, ...], acc: Sums, rays: int,
                        first: int, progress: Callable[[int], None] | None = None) -> int:
     """Trace ``rays`` more rays of one incident direction (degrees) of one tile into ``acc``.
 
@@ -168,11 +170,11 @@ def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: Hemis
     batch = first
     while acc.rays < planned:
         n = min(BATCH, planned - acc.rays)
-        seed = np.random.SeedSequence(int(simulation["seed"]), spawn_key=(*streams, batch))
+        seed = np.random.SeedSequence(int(simulation.seed), spawn_key=(*streams, batch))
         xy = np.random.default_rng(seed).random((n, 2)) * scene.period
         origins = np.column_stack([xy, np.full(n, scene.z_top)])
         paths = trace_paths(scene, facets, origins, np.broadcast_to(-wi, (n, 3)),
-                            int(simulation["bounces"]), seed)
+                            int(simulation.bounces), seed)
         acc.add(paths, bins, phi_ref, scene.map)
         batch += 1
         if progress is not None:
@@ -184,8 +186,34 @@ def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: Hemis
 class Run:
     """One incident direction of one realisation: its sums and the batches they took."""
 
-    sums: _Sums
+    sums: Sums
     batches: int = 0
+
+
+Direction = tuple[int, int]
+"""An incident direction (l, k): polar angle index l, azimuth index k."""
+
+
+class RunKey(NamedTuple):
+    """The run of incident direction (``theta``, ``phi``) of realisation ``realisation``
+    (indices into the simulation's angles and the realisations)."""
+
+    theta: int
+    phi: int
+    realisation: int
+
+
+@dataclass(frozen=True)
+class Progress:
+    """Where a measurement is, reported after every batch: the direction (degrees), the
+    realisation, the realisations planned so far and the rays traced of this direction
+    and realisation."""
+
+    theta_i: float
+    phi_i: float
+    realisation: int
+    realisations: int
+    rays: int
 
 
 @dataclass
@@ -195,12 +223,12 @@ class Measurement:
 
     Attributes
     ----------
-    runs : dict of (int, int, int) to Run
-        Per traced (l, k, r): incident polar angle index l into ``simulation["theta_i"]``,
+    runs : dict of RunKey to Run
+        Per traced (l, k, r): incident polar angle index l into ``simulation.theta_i``,
         azimuth index k, realisation r.
-    surfaces : dict of int to dict
-        The ``info`` of each realisation's tile, with its surface ``seed``.
-    inputs : list of dict
+    surfaces : dict of int to TileFacts
+        The facts of each realisation's tile.
+    inputs : list of TableInput
         Provenance of the tables its facet materials read (``FacetMaterials.inputs``).
     isotropic : bool
         Whether one incident azimuth (0) was measured.
@@ -217,35 +245,34 @@ class Measurement:
         The tiles' warnings, each once.
     """
 
-    runs: dict[tuple[int, int, int], Run]
-    surfaces: dict[int, dict[str, Any]]
-    inputs: list[dict[str, Any]]
+    runs: dict[RunKey, Run]
+    surfaces: dict[int, TileFacts]
+    inputs: list[TableInput]
     isotropic: bool
     segments: int = 0
     offset: float = math.nan
     scene_time: float = 0.0
     trace_time: float = 0.0
-    stops: dict[tuple[int, int], str] = field(default_factory=dict)
+    stops: dict[Direction, str] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
 
+    @property
+    def rays(self) -> int:
+        """Rays traced over every run."""
+        return sum(run.sums.rays for run in self.runs.values())
 
-def incident_azimuths(isotropic: bool, simulation: Mapping[str, Any]) -> list[float]:
+
+def incident_azimuths(isotropic: bool, simulation: Simulation) -> list[float]:
     """Incident azimuths (degrees) a table measures: ``[0]`` when isotropic."""
-    return [0.0] if isotropic else [float(p) for p in simulation["phi_i"]]
+    return [0.0] if isotropic else [float(p) for p in simulation.phi_i]
 
 
-def rays_per_realisation(simulation: Mapping[str, Any]) -> int:
-    """``simulation.rays`` split over ``simulation.realisations``, rounded up."""
-    return -(-int(simulation["rays"]) // int(simulation.get("realisations", 1)))
-
-
-def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
-                       simulation: Mapping[str, Any], table: Mapping[str, Any],
-                       thetas: Sequence[int] | None = None, *,
-                       rays: int | Mapping[tuple[int, int], int] | None = None,
-                       realisation: int = 0, runs: dict[tuple[int, int, int], Run] | None
-                       = None, threads: int | None = None,
-                       progress: Callable[[dict[str, Any]], None] | None = None,
+def measure_directions(tile: Tile, materials: Mapping[str, Material], simulation: Simulation,
+                       table: TableSettings, thetas: Sequence[int] | None = None, *,
+                       rays: int | Mapping[Direction, int] | None = None,
+                       realisation: int = 0, runs: dict[RunKey, Run] | None = None,
+                       threads: int | None = None,
+                       progress: Callable[[Progress], None] | None = None,
                        scene: PeriodicScene | None = None) -> Measurement:
     """Trace incident directions of one realisation's tile.
 
@@ -253,13 +280,15 @@ def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
     ----------
     tile : Tile
         Realisation ``realisation`` of the recipe's surface.
-    materials, simulation, table
-        Resolved recipe sections (``microsim.simulation.simulate``).
+    materials : mapping of str to Material
+        The material of every part of the tile.
+    simulation, table : Simulation, TableSettings
+        The recipe's sections (``microsim.settings``).
     thetas : sequence of int or None
-        Indices into ``simulation["theta_i"]`` to trace, every incident azimuth of each
+        Indices into ``simulation.theta_i`` to trace, every incident azimuth of each
         (default: all).
     rays : int, mapping or None
-        Rays to add per direction (default: ``rays_per_realisation(simulation)``); a
+        Rays to add per direction (default: ``simulation.rays_per_realisation``); a
         mapping of directions (l, k) (l as in ``thetas``, k indexing the incident
         azimuths) to rays traces exactly those directions, ``thetas`` unused.
     realisation : int
@@ -280,19 +309,17 @@ def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
         With the runs of this realisation that were traced (continued ones included).
     """
     start = time.perf_counter()
-    isotropic = bool(tile.info.get("isotropic", False))
-    theta_deg = [float(t) for t in simulation["theta_i"]]
+    isotropic = bool(tile.facts.isotropic)
+    theta_deg = [float(t) for t in simulation.theta_i]
     phi_deg = incident_azimuths(isotropic, simulation)
     if isinstance(rays, Mapping):
         work = dict(rays)
     else:
-        n = rays_per_realisation(simulation) if rays is None else int(rays)
+        n = simulation.rays_per_realisation if rays is None else int(rays)
         work = {(l, k): n for l in (range(len(theta_deg)) if thetas is None else thetas)
                 for k in range(len(phi_deg))}
-    bins = HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
-    facets = FacetMaterials(tile.material, tile.parts,
-                            {p: material_from_json(m) for p, m in materials.items()},
-                            tile.tangents,
+    bins = HemisphereBins(table.theta_bins, table.phi_bins)
+    facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
                             tile.curved)
     runs = {} if runs is None else runs
     traced = {}
@@ -301,9 +328,8 @@ def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
             scene = stack.enter_context(PeriodicScene(tile, threads))
         built, before = time.perf_counter(), scene.segments
         for (l, k), rays in work.items():
-            key = (l, k, realisation)
-            run = runs.get(key) or Run(_Sums(bins.size, int(table.get("sh_order", 0)),
-                                             int(table.get("orders", DEFAULT_ORDERS))))
+            key = RunKey(l, k, realisation)
+            run = runs.get(key) or Run(Sums(bins.size, table.sh_order, table.orders))
             report = None if progress is None else _reporter(
                 progress, theta_deg[l], phi_deg[k], realisation, run.sums)
             run.batches = _measure_direction(scene, facets, bins, simulation, theta_deg[l],
@@ -311,39 +337,38 @@ def measure_directions(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
                                              run.batches, report)
             traced[key] = runs[key] = run
         segments, eps = scene.segments - before, scene.eps
-    return Measurement(traced, {realisation: dict(tile.info)}, facets.inputs, isotropic,
+    return Measurement(traced, {realisation: tile.facts}, facets.inputs, isotropic,
                        segments, eps, built - start, time.perf_counter() - built,
                        warnings=list(dict.fromkeys(tile.warnings)))
 
 
-def _reporter(progress: Callable[[dict[str, Any]], None], theta: float, phi: float,
-              realisation: int, acc: _Sums) -> Callable[[int], None]:
+def _reporter(progress: Callable[[Progress], None], theta: float, phi: float,
+              realisation: int, acc: Sums) -> Callable[[int], None]:
     """The per-batch callback of one direction: ``progress`` with its state."""
-    return lambda _: progress({"theta_i": theta, "phi_i": phi, "realisation": realisation,
-                               "rays": acc.rays})
+    return lambda _: progress(Progress(theta, phi, realisation, realisation + 1, acc.rays))
 
-def lost_energy_warnings(directions: Sequence[Mapping[str, Any]]) -> list[str]:
+
+def lost_energy_warnings(directions: Sequence[DirectionRecord]) -> list[str]:
     """The warning a table carries when an incidence lost more than ``LOST_WARNING`` of
     its energy: the worst incidence, and how its rays ended.
 
     Parameters
     ----------
-    directions : sequence of dict
-        ``meta["directions"]`` of a table: ``theta_i``, ``phi_i``, ``rays``, ``lost``
-        (per channel, per unit incident energy) and ``fates`` (paths per ending).
+    directions : sequence of DirectionRecord
+        A table's directions (``meta.directions``).
 
     Returns
     -------
     list of str
         Empty, or one sentence.
     """
-    over = [d for d in directions if max(d["lost"]) > LOST_WARNING]
+    over = [d for d in directions if max(d.lost) > LOST_WARNING]
     if not over:
         return []
-    worst = max(over, key=lambda d: max(d["lost"]))
-    share = {k: worst["fates"].get(k, 0) / worst["rays"] for k in ("leaked", "bounces")}
-    return [f"lost energy: {100 * max(worst['lost']):.3g}% of the incident energy at "
-            f"theta_i {worst['theta_i']:g}, phi_i {worst['phi_i']:g} deg "
+    worst = max(over, key=lambda d: max(d.lost))
+    share = {k: worst.fates.get(k, 0) / worst.rays for k in ("leaked", "bounces")}
+    return [f"lost energy: {100 * max(worst.lost):.3g}% of the incident energy at "
+            f"theta_i {worst.theta_i:g}, phi_i {worst.phi_i:g} deg "
             f"({len(over)} of {len(directions)} incidences over {100 * LOST_WARNING:g}%): "
             f"{100 * share['leaked']:.3g}% of the rays left through the tile's underside "
             f"(gaps, or holes in a mesh), {100 * share['bounces']:.3g}% reached the bounce "

@@ -11,13 +11,18 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping, Sequence
-from typing import Any
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
 from microsim.geometry import direction
+from microsim.settings import Recipe
+from microsim.surfaces import build_tile
+from microsim.surfaces.facts import SurfaceFacts
+from microsim.surfaces.realisations import realisation, realisation_seed
 from microsim.surfaces.tile import Tile
+from microsim.tables.estimator import ENSEMBLE, RAYS, estimate
 from microsim.trace import ESCAPED, PeriodicScene
 
 G1_BYTES_PER_RAY = 200
@@ -98,9 +103,46 @@ def measure_g1(scene: PeriodicScene, theta: Sequence[float] | np.ndarray, phi: f
     return g1, np.sqrt(g1 * (1.0 - g1) / rays)
 
 
-def measure_g1_recipe(recipe: Mapping[str, Any], thetas_deg: Sequence[float], rays: int,
+@dataclass(frozen=True)
+class G1Measurement:
+    """Masking G1 of a recipe's surface at some angles, with what a report needs.
+
+    Attributes
+    ----------
+    theta_deg : list of float
+    phi_deg : float
+    g1, stderr, ray_stderr : list of float
+        G1 per angle, its standard error and the binomial part of it.
+    dof : float
+        Degrees of freedom of the error.
+    error_model : str
+        ``ensemble`` over several realisations, ``rays`` for one.
+    realisations, rays, seed : int
+        Rays per angle over all realisations.
+    surface : SurfaceFacts
+        The tiles' facts, pooled.
+    segments : int
+    wall_time : float
+    """
+
+    theta_deg: list[float]
+    phi_deg: float
+    g1: list[float]
+    stderr: list[float]
+    ray_stderr: list[float]
+    dof: float
+    error_model: str
+    realisations: int
+    rays: int
+    seed: int
+    surface: SurfaceFacts
+    segments: int
+    wall_time: float
+
+
+def measure_g1_recipe(recipe: Recipe, thetas_deg: Sequence[float], rays: int,
                       phi_deg: float = 0.0, threads: int | None = None,
-                      memory_limit_gib: float | None = None) -> dict[str, Any]:
+                      memory_limit_gib: float | None = None) -> G1Measurement:
     """G1 of a recipe's surface over its realisations, with the numbers a report needs.
 
     Each of the ``simulation.realisations`` tiles (built one at a time,
@@ -112,7 +154,7 @@ def measure_g1_recipe(recipe: Mapping[str, Any], thetas_deg: Sequence[float], ra
 
     Parameters
     ----------
-    recipe : mapping
+    recipe : Recipe
         A resolved recipe (``microsim.recipe.resolve``); ``simulation.seed`` seeds the
         sampling.
     thetas_deg : (k,) float
@@ -129,38 +171,28 @@ def measure_g1_recipe(recipe: Mapping[str, Any], thetas_deg: Sequence[float], ra
 
     Returns
     -------
-    dict
-        ``theta_deg``, ``phi_deg``, ``g1``, ``stderr``, ``ray_stderr`` (the binomial part)
-        (lists), ``dof``, ``error_model``, ``realisations``, ``rays`` (per angle, all
-        realisations), ``seed``, ``surface`` (the tiles' pooled info,
-        ``microsim.surfaces.realisations.pool_info``), ``segments``, ``wall_time``.
+    G1Measurement
     """
-    from microsim.surfaces import build_tile
-    from microsim.surfaces.realisations import pool_info, realisation, realisation_seed
-    from microsim.tables.estimator import ENSEMBLE, RAYS, estimate
-
     start = time.perf_counter()
-    k = int(recipe["simulation"].get("realisations", 1))
+    k = recipe.simulation.realisations_or_one
     n = -(-int(rays) // k)
-    seed = recipe["simulation"]["seed"]
-    hits, infos, segments = [], [], 0
+    seed = recipe.simulation.seed
+    hits, facts, segments = [], [], 0
     for r in range(k):
-        tile = build_tile(realisation(recipe["surface"], r), memory_limit_gib)
+        tile = build_tile(realisation(recipe.surface, r), memory_limit_gib)
         with PeriodicScene(tile, threads) as scene:
             g1, _ = measure_g1(scene, np.radians(thetas_deg), math.radians(phi_deg), n,
                                np.random.default_rng(np.random.SeedSequence(
                                    seed, spawn_key=(r,))))
             segments += scene.segments
         hits.append(np.round(g1 * n)[:, None])
-        infos.append(dict(tile.info))
+        facts.append(tile.facts)
         del tile
     s1 = np.array(hits)                                  # (K, angles, 1); x² = x
     e = estimate(s1, s1, np.full(k, n))
-    return {"theta_deg": list(map(float, thetas_deg)), "phi_deg": float(phi_deg),
-            "g1": e.mean[:, 0].tolist(), "stderr": e.stderr[:, 0].tolist(),
-            "ray_stderr": e.ray_stderr[:, 0].tolist(), "dof": float(e.dof[0]),
-            "error_model": ENSEMBLE if k > 1 else RAYS, "realisations": k,
-            "rays": n * k, "seed": seed,
-            "surface": pool_info(infos, [realisation_seed(recipe["surface"].get("seed", 0),
-                                                          r) for r in range(k)]),
-            "segments": segments, "wall_time": time.perf_counter() - start}
+    seeds = [realisation_seed(recipe.surface.get("seed", 0), r) for r in range(k)]
+    return G1Measurement(list(map(float, thetas_deg)), float(phi_deg), e.mean[:, 0].tolist(),
+                         e.stderr[:, 0].tolist(), e.ray_stderr[:, 0].tolist(),
+                         float(e.dof[0]), ENSEMBLE if k > 1 else RAYS, k, n * k, seed,
+                         SurfaceFacts.pool(facts, seeds), segments,
+                         time.perf_counter() - start)

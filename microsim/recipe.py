@@ -22,68 +22,27 @@ from __future__ import annotations
 import copy
 import tomllib
 from collections.abc import Iterable, Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from microsim.errors import InputError
-from microsim.materials import MATERIALS, material_from_json, parse_material
+from microsim.materials import MATERIALS, Material, parse_material
 from microsim.schema import REQUIRED, Key, check_section, parse_value, suggest, unknown_key
+from microsim.settings import (
+    SIMULATION,
+    TABLE,
+    Recipe,
+    Simulation,
+    SurfaceSection,
+    TableSettings,
+)
 from microsim.surfaces.params import SURFACE_KINDS, check_span
-
-
-def _n(doc: str, default: Any = REQUIRED, **kw: Any) -> Key:
-    """A float key."""
-    return Key("float", default, doc, **kw)
-
 
 # --- materials --------------------------------------------------------------------------
 MATERIAL_KINDS: dict[str, dict[str, Key]] = {kind: cls.keys() for kind, cls in MATERIALS.items()}
 """The keys of every material kind (``microsim.materials``), by kind."""
 
-DEFAULT_ORDERS = 3
-"""Order components a table holds by default (``table.orders``): orders 1, 2 and
-3-and-above."""
-
-# --- simulation and table ---------------------------------------------------------------
-SIMULATION: dict[str, Key] = {
-    "theta_i": Key("floats", [0.0, 30.0, 60.0, 80.0], "Incident polar angles.", unit="deg",
-                   low=0.0, high=90.0, high_open=True),
-    "phi_i": Key("floats", [0.0], "Incident azimuths (used for anisotropic surfaces).",
-                 unit="deg", low=0.0, high=360.0, high_open=True),
-    "rays": Key("int", 200_000, "Rays launched per incident direction, over all "
-                "realisations (each traces rays / realisations, rounded up).", low=1,
-                high=10**10),
-    "realisations": Key("int", None, "Independent realisations of a surface with random "
-                        "geometry (tiles from seeds derived from surface.seed) the table "
-                        "averages; its errors then include their spread. Default: the "
-                        "generator's (docs/ensembles.md); 1 for deterministic geometry, "
-                        "which allows no more.", low=1, high=4096),
-    "bounces": Key("int", 16, "Maximum scattering order; paths alive after it are "
-                   "reported as lost energy.", low=1, high=10_000),
-    "seed": Key("int", 0, "Seed of the tracer's random numbers.", low=0, high=2**63 - 1),
-    "target_error": _n("Adaptive stop: add rays and realisations until the median "
-                       "relative standard error over lobe bins is at most this.", None,
-                       low=0.0, low_open=True, high=1.0),
-    "max_rays": Key("int", None, "Adaptive stop: upper limit of rays per incident "
-                    "direction (over all realisations).", low=1, high=10**11),
-    "max_realisations": Key("int", None, "Adaptive stop: upper limit of realisations per "
-                            "incident direction (default: 16 x realisations).", low=1,
-                            high=65536),
-}
-TABLE: dict[str, Key] = {
-    "theta_bins": Key("int", 32, "Bins in theta_o, equal in projected solid angle "
-                      "(uniform in cos^2 theta_o).", low=1, high=2048),
-    "phi_bins": Key("int", 64, "Bins in phi_o - phi_i over [0, 360) degrees.", low=1,
-                    high=4096),
-    "sh_order": Key("int", 32, "Order L of the real spherical harmonics projected from the "
-                    "escaping rays ((L+1)^2 coefficients of f_r cos theta_o per incidence, "
-                    "with standard errors; docs/table-format.md); 0: none.", low=0,
-                    high=64),
-    "orders": Key("int", DEFAULT_ORDERS, "Scattering orders kept apart: N gives the components "
-                  "order1, ..., order<N-1> and order<N>+ (N or more scattering events) "
-                  "besides total, which they add up to (docs/table-format.md).", low=2,
-                  high=32),
-}
 SECTIONS = ("surface", "material", "simulation", "table")
 TOP_KEYS = ("description",) + SECTIONS
 
@@ -94,19 +53,14 @@ def _table(raw: Any, name: str) -> Mapping[str, Any]:
     return raw
 
 
-def _material(raw: Mapping[str, Any], where: str) -> dict:
-    """One ``[material]`` section resolved (``microsim.materials``), as the recipe holds it."""
-    return parse_material(raw, where).to_json()
-
-
-def _materials(raw: Any, parts: tuple[str, ...]) -> dict:
+def _materials(raw: Any, parts: tuple[str, ...]) -> dict[str, Material]:
     """Resolve ``[material]``: one material for every part, or one sub-table per part."""
     raw = _table(raw, "material")
     if not raw:
-        return {part: {"kind": "mirror"} for part in parts}
+        return {part: MATERIALS["mirror"]() for part in parts}
     if "kind" in raw or not all(isinstance(v, Mapping) for v in raw.values()):
-        one = _material(raw, "material.")
-        return {part: copy.deepcopy(one) for part in parts}
+        one = parse_material(raw, "material.")
+        return dict.fromkeys(parts, one)
     for name in raw:
         if name not in parts:
             raise InputError(f"material.{name}: not a part of this surface"
@@ -116,11 +70,11 @@ def _materials(raw: Any, parts: tuple[str, ...]) -> dict:
         raise InputError(f"material.{missing[0]}: missing; give [material.{missing[0]}] "
                          f"(parts of this surface: {', '.join(parts)}) or one [material] "
                          "for all parts")
-    return {p: _material(_table(raw[p], f"material.{p}"), f"material.{p}.") for p in parts}
+    return {p: parse_material(_table(raw[p], f"material.{p}"), f"material.{p}.")
+            for p in parts}
 
 
-def _check_media(surface: Mapping[str, Any], materials: Mapping[str, Mapping[str, Any]]
-                 ) -> None:
+def _check_media(surface: Mapping[str, Any], materials: Mapping[str, Material]) -> None:
     """A refracting part encloses a medium with air on its faces' front side: nested media
     (a refracting part inside another's medium) are not modelled. In paint only the
     binder may refract, and a dielectric binder must (else no light reaches the
@@ -128,16 +82,16 @@ def _check_media(surface: Mapping[str, Any], materials: Mapping[str, Mapping[str
     if surface["kind"] != "paint":
         return
     for part in ("pigment", "substrate"):
-        if material_from_json(materials[part]).medium() is not None:
+        if materials[part].medium() is not None:
             raise InputError(f"material.{part}.refract = true: only the binder of a paint "
                              "may refract (nested media are not modelled)")
     binder = materials["binder"]
-    if binder["kind"] == "dielectric" and not binder["refract"]:
+    if binder.kind == "dielectric" and binder.medium() is None:
         raise InputError("material.binder.refract = false: a paint's dielectric binder "
                          "must refract (set refract = true), else no light enters it")
 
 
-def resolve(raw: Mapping[str, Any]) -> dict:
+def resolve(raw: Mapping[str, Any]) -> Recipe:
     """Validate a whole recipe and fill in every default.
 
     Parameters
@@ -147,8 +101,8 @@ def resolve(raw: Mapping[str, Any]) -> dict:
 
     Returns
     -------
-    dict
-        The resolved recipe (see the module docstring for its form).
+    Recipe
+        The resolved recipe (``microsim.settings``).
 
     Raises
     ------
@@ -181,16 +135,12 @@ def resolve(raw: Mapping[str, Any]) -> dict:
     check_span(surf, spec.keys)
     materials = _materials(raw.get("material", {}), spec.parts)
     _check_media(surf, materials)
-    return {
-        "description": description,
-        "surface": surf,
-        "material": materials,
-        "simulation": _simulation(raw.get("simulation", {}), surf),
-        "table": check_section(_table(raw.get("table", {}), "table"), TABLE, "table."),
-    }
+    table = check_section(_table(raw.get("table", {}), "table"), TABLE, "table.")
+    return Recipe(description, SurfaceSection.of(surf), materials,
+                  _simulation(raw.get("simulation", {}), surf), TableSettings(**table))
 
 
-def _simulation(raw: Any, surface: Mapping[str, Any]) -> dict:
+def _simulation(raw: Any, surface: Mapping[str, Any]) -> Simulation:
     """Resolve ``[simulation]``; ``realisations`` defaults to the generator's choice for
     random geometry and must be 1 for deterministic geometry (every realisation would be
     the same tile: more rays, not more tiles, lower its error)."""
@@ -211,7 +161,7 @@ def _simulation(raw: Any, surface: Mapping[str, Any]) -> dict:
         raise InputError(f"simulation.max_realisations = {sim['max_realisations']!r}: must "
                          f"be 1 for this {surface['kind']} surface, whose geometry has "
                          "nothing random")
-    return sim
+    return Simulation(**{k: tuple(v) if isinstance(v, list) else v for k, v in sim.items()})
 
 
 # --- loading and overrides --------------------------------------------------------------
@@ -291,7 +241,7 @@ def read_toml(path: str | Path) -> dict:
         raise InputError(f"{path}: not valid TOML: {exc}") from None
 
 
-def load(path: str | Path, overrides: Iterable[str] = ()) -> dict:
+def load(path: str | Path, overrides: Iterable[str] = ()) -> Recipe:
     """Read, override and resolve a recipe file.
 
     Parameters
@@ -303,7 +253,7 @@ def load(path: str | Path, overrides: Iterable[str] = ()) -> dict:
 
     Returns
     -------
-    dict
+    Recipe
         The resolved recipe. Relative ``path`` keys (``surface.path`` of a ``mesh``
         surface, ``material.<part>.path`` of a ``table`` material) are made absolute
         against the recipe's folder.
@@ -318,7 +268,7 @@ def load(path: str | Path, overrides: Iterable[str] = ()) -> dict:
 
 
 def resolve_in(raw: Mapping[str, Any], folder: str | Path, overrides: Iterable[str] = ()
-               ) -> dict:
+               ) -> Recipe:
     """Override and resolve a parsed recipe whose relative paths start at ``folder``.
 
     Parameters
@@ -332,7 +282,7 @@ def resolve_in(raw: Mapping[str, Any], folder: str | Path, overrides: Iterable[s
 
     Returns
     -------
-    dict
+    Recipe
         The resolved recipe, ``path`` keys absolute.
 
     Raises
@@ -343,33 +293,43 @@ def resolve_in(raw: Mapping[str, Any], folder: str | Path, overrides: Iterable[s
     raw = apply_overrides(dict(raw), overrides)
     recipe = resolve(raw)
     one = "kind" in raw.get("material", {})  # one [material] for every part
-    for section, name, where in path_keys(recipe):
-        given = section[name]
-        section[name] = str((Path(folder) / given).resolve())
-        if where.startswith("material") and not Path(section[name]).is_file():
-            where = "material." if one else where
-            raise InputError(f"{where}{name} = {given!r}: no such file ({section[name]})")
-    return recipe
+
+    def absolute(given: str, where: str, name: str) -> str:
+        path = str((Path(folder) / given).resolve())
+        if where.startswith("material") and not Path(path).is_file():
+            raise InputError(f"{'material.' if one else where}{name} = {given!r}: no such "
+                             f"file ({path})")
+        return path
+
+    surface = SurfaceSection.of({k: absolute(v, "surface.", k) if _is_path(
+        SURFACE_KINDS[recipe.surface.kind].keys, k) else v for k, v in recipe.surface.items()})
+    materials = {part: replace(m, **{k: absolute(getattr(m, k), f"material.{part}.", k)
+                                     for k in m.keys() if _is_path(m.keys(), k)})
+                 for part, m in recipe.material.items()}
+    return replace(recipe, surface=surface, material=materials)
 
 
-def path_keys(recipe: Mapping[str, Any]) -> list[tuple[dict, str, str]]:
-    """The keys of a resolved recipe that name files (a mesh, a table material's table).
+def _is_path(keys: Mapping[str, Key], name: str) -> bool:
+    """Whether key ``name`` of a section names a file."""
+    return name in keys and keys[name].kind == "path"
+
+
+def path_keys(recipe: Recipe) -> list[tuple[str, str]]:
+    """The files a resolved recipe names (a mesh, a table material's table).
 
     Returns
     -------
-    list of (section, name, where)
-        The section dict holding the key, the key's name, and its dotted prefix
-        (``"surface."`` or ``"material.<part>."``).
+    list of (where, path)
+        The key's dotted name (``"surface.path"``, ``"material.<part>.path"``) and the file.
     """
-    sections = [(recipe["surface"], SURFACE_KINDS[recipe["surface"]["kind"]].keys,
-                 "surface.")]
-    sections += [(mat, MATERIAL_KINDS[mat["kind"]], f"material.{part}.")
-                 for part, mat in recipe["material"].items()]
-    return [(section, name, where) for section, keys, where in sections
-            for name, key in keys.items() if key.kind == "path" and name in section]
+    out = [(f"surface.{k}", v) for k, v in recipe.surface.items()
+           if _is_path(SURFACE_KINDS[recipe.surface.kind].keys, k)]
+    out += [(f"material.{part}.{k}", getattr(m, k)) for part, m in recipe.material.items()
+            for k in m.keys() if _is_path(m.keys(), k)]
+    return out
 
 
-def to_toml(recipe: Mapping[str, Any]) -> str:
+def to_toml(recipe: Recipe) -> str:
     """Write a resolved recipe back as TOML (the output of ``microsim check``)."""
 
     def value(v: Any) -> str:
@@ -381,11 +341,12 @@ def to_toml(recipe: Mapping[str, Any]) -> str:
             return "[" + ", ".join(value(x) for x in v) + "]"
         return repr(v)
 
+    data = recipe.to_json()
     lines = []
-    if recipe.get("description"):
-        lines.append(f"description = {value(recipe['description'])}")
+    if data["description"]:
+        lines.append(f"description = {value(data['description'])}")
     for section in SECTIONS:
-        body = recipe[section]
+        body = data[section]
         if section == "material":
             for part, mat in body.items():
                 lines.append(f"\n[material.{part}]")

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -21,16 +22,24 @@ import microsim
 from microsim.adaptive import TILE_COST, direction_errors, next_plan
 from microsim.goniometer import (
     BATCH,
+    Direction,
     Measurement,
+    Progress,
     Run,
+    RunKey,
+    Sums,
     incident_azimuths,
     lost_energy_warnings,
     measure_directions,
-    rays_per_realisation,
 )
-from microsim.surfaces.realisations import pool_info, realisation, realisation_seed
+from microsim.materials import Material
+from microsim.settings import Recipe, Simulation, SurfaceSection, TableSettings
+from microsim.surfaces import build_tile
+from microsim.surfaces.facts import SurfaceFacts
+from microsim.surfaces.realisations import realisation, realisation_seed
 from microsim.surfaces.tile import Tile
 from microsim.tables.binning import HemisphereBins
+from microsim.tables.meta import DirectionRecord, TableMeta, Timing
 from microsim.tables.table import BRDFTable
 from microsim.trace import PeriodicScene
 
@@ -40,7 +49,7 @@ class Tiles:
 
     Parameters
     ----------
-    surface : mapping or None
+    surface : SurfaceSection or None
         A resolved ``[surface]`` section: realisation r is built from
         ``microsim.surfaces.realisations.realisation(surface, r)``.
     tile : Tile or None
@@ -49,7 +58,7 @@ class Tiles:
         The memory guard's budget for each tile (``microsim.memory``).
     """
 
-    def __init__(self, surface: Mapping[str, Any] | None = None, tile: Tile | None = None,
+    def __init__(self, surface: SurfaceSection | None = None, tile: Tile | None = None,
                  memory_limit_gib: float | None = None) -> None:
         self.surface, self.tile, self.memory_limit_gib = surface, tile, memory_limit_gib
 
@@ -60,16 +69,13 @@ class Tiles:
                 raise ValueError("a given tile is one realisation; build the others from "
                                  "the surface section (simulate_surface)")
             return self.tile
-        from microsim.surfaces import build_tile
-
         return build_tile(realisation(self.surface, r), self.memory_limit_gib)
 
 
-def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mapping[str, Any]],
-                     simulation: Mapping[str, Any], table: Mapping[str, Any],
+def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Material],
+                     simulation: Simulation, table: TableSettings,
                      thetas: Sequence[int] | None = None, *, threads: int | None = None,
-                     progress: Callable[[dict[str, Any]], None] | None = None
-                     ) -> Measurement:
+                     progress: Callable[[Progress], None] | None = None) -> Measurement:
     """Trace the incident directions of some polar angles over the surface's realisations,
     one tile at a time, until each direction's plan (and adaptive stop) is done.
 
@@ -80,7 +86,7 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mappi
     materials, simulation, table, threads, progress
         As for ``simulate``.
     thetas : sequence of int or None
-        Indices into ``simulation["theta_i"]`` (default: all), each with every incident
+        Indices into ``simulation.theta_i`` (default: all), each with every incident
         azimuth. Directions are measured independently (their own plans and random
         streams), so measurements of disjoint index sets assemble into the table of one
         measurement of all.
@@ -89,16 +95,16 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mappi
     -------
     Measurement
         Every realisation of every direction, and the directions' stop reasons when
-        ``simulation["target_error"]`` is set.
+        ``simulation.target_error`` is set.
     """
-    chosen = list(range(len(simulation["theta_i"])) if thetas is None else thetas)
-    k0, n0 = int(simulation["realisations"]), rays_per_realisation(simulation)
-    target = simulation.get("target_error")
-    runs: dict[tuple[int, int, int], Run] = {}
+    chosen = list(range(len(simulation.theta_i)) if thetas is None else thetas)
+    k0, n0 = simulation.realisations_or_one, simulation.rays_per_realisation
+    target = simulation.target_error
+    runs: dict[RunKey, Run] = {}
     done = Measurement(runs, {}, [], False)
     held: tuple[int, Tile, PeriodicScene] | None = None
-    plan: dict[tuple[int, int], tuple[int, int]] = {}
-    bins = HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
+    plan: dict[Direction, tuple[int, int]] = {}
+    bins = HemisphereBins(table.theta_bins, table.phi_bins)
     try:
         while True:
             if held is None:
@@ -107,10 +113,11 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mappi
                 azimuths = incident_azimuths(done.isotropic, simulation)
                 plan = {(l, k): (k0, n0) for l in chosen for k in range(len(azimuths))}
                 cost = TILE_COST * len(held[1].faces) / len(plan)
-            work: dict[int, dict[tuple[int, int], int]] = {}
+            work: dict[int, dict[Direction, int]] = {}
             for d, (k, n) in plan.items():
                 for r in range(k):
-                    have = runs[(*d, r)].sums.rays if (*d, r) in runs else 0
+                    key = RunKey(*d, r)
+                    have = runs[key].sums.rays if key in runs else 0
                     if d not in done.stops and n > have:
                         work.setdefault(r, {})[d] = n - have
             # serpentine order: the tile held from the last round is traced first
@@ -154,24 +161,24 @@ def _open(tiles: Callable[[int], Tile], r: int, threads: int | None, done: Measu
     tile = tiles(r)
     scene = PeriodicScene(tile, threads)
     done.scene_time += time.perf_counter() - start
-    done.surfaces.setdefault(r, dict(tile.info))
-    done.isotropic = bool(tile.info.get("isotropic", False))
+    done.surfaces.setdefault(r, tile.facts)
+    done.isotropic = bool(tile.facts.isotropic)
     done.warnings += [w for w in tile.warnings if w not in done.warnings]
     if r == 0:
         done.offset = scene.eps
     return r, tile, scene
 
 
-def _trace(held: tuple[int, Tile, PeriodicScene], materials: Mapping[str, Any],
-           simulation: Mapping[str, Any], table: Mapping[str, Any],
-           work: dict[tuple[int, int], int], runs: dict[tuple[int, int, int], Run],
-           done: Measurement, plan: Mapping[tuple[int, int], tuple[int, int]],
-           progress: Callable[[dict[str, Any]], None] | None) -> None:
+def _trace(held: tuple[int, Tile, PeriodicScene], materials: Mapping[str, Material],
+           simulation: Simulation, table: TableSettings, work: dict[Direction, int],
+           runs: dict[RunKey, Run], done: Measurement,
+           plan: Mapping[Direction, tuple[int, int]],
+           progress: Callable[[Progress], None] | None) -> None:
     """Trace one realisation's share of a round in its open scene."""
     r, tile, scene = held
 
-    def report(state: dict[str, Any]) -> None:
-        progress({**state, "realisations": max(k for k, _ in plan.values())})
+    def report(state: Progress) -> None:
+        progress(replace(state, realisations=max(k for k, _ in plan.values())))
 
     part = measure_directions(tile, materials, simulation, table, rays=work, realisation=r,
                               runs=runs, scene=scene,
@@ -181,9 +188,9 @@ def _trace(held: tuple[int, Tile, PeriodicScene], materials: Mapping[str, Any],
     done.inputs = part.inputs
 
 
-def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Mapping[str, Any]],
-                   simulation: Mapping[str, Any], table: Mapping[str, Any], *,
-                   recipe: Mapping[str, Any] | None = None, wall_time: float | None = None,
+def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Material],
+                   simulation: Simulation, table: TableSettings, *,
+                   recipe: Recipe | None = None, wall_time: float | None = None,
                    thetas: Sequence[int] | None = None, bins: HemisphereBins | None = None
                    ) -> BRDFTable:
     """The table of measurements that together trace every direction's realisations once.
@@ -216,7 +223,7 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Mapping
         If a run appears twice, a polar angle is missing, or a direction's realisations
         are not 0, 1, ..., K − 1.
     """
-    runs: dict[tuple[int, int, int], Run] = {}
+    runs: dict[RunKey, Run] = {}
     for part in parts:
         for key, run in part.runs.items():
             if key in runs:
@@ -224,80 +231,75 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Mapping
                                  "twice")
             runs[key] = run
     first = parts[0]
-    surfaces = {r: info for part in parts for r, info in part.surfaces.items()}
+    surfaces = {r: facts for part in parts for r, facts in part.surfaces.items()}
     stops = {d: stop for part in parts for d, stop in part.stops.items()}
-    theta_all = [float(t) for t in simulation["theta_i"]]
+    theta_all = [float(t) for t in simulation.theta_i]
     chosen = list(range(len(theta_all)) if thetas is None else thetas)
     phi_deg = incident_azimuths(first.isotropic, simulation)
     directions = [(l, k) for l in chosen for k in range(len(phi_deg))]
     count = {d: sum(1 for key in runs if key[:2] == d) for d in directions}
-    if any(count[d] < 1 or any((*d, r) not in runs for r in range(count[d]))
+    if any(count[d] < 1 or any(RunKey(*d, r) not in runs for r in range(count[d]))
            for d in directions) or len(runs) != sum(count.values()):
         raise ValueError("the measurements do not trace every incident polar angle once "
                          "with realisations 0 .. K-1")
-    bins = bins or HemisphereBins(int(table["theta_bins"]), int(table["phi_bins"]))
+    bins = bins or HemisphereBins(table.theta_bins, table.phi_bins)
     result = _table(bins, [theta_all[l] for l in chosen], phi_deg, first.isotropic, runs,
-                    directions, max(count.values()), meta={})
-    surface = (recipe or {}).get("surface")
+                    directions, max(count.values()))
+    surface = None if recipe is None else recipe.surface
     seeds = [None if surface is None else realisation_seed(surface.get("seed", 0), r)
              for r in sorted(surfaces)]
     rel, share = direction_errors(result)
     rays = int(result.rays.sum())
     segments = sum(part.segments for part in parts)
-    meta = {
-        "recipe": dict(recipe) if recipe is not None else
-        {"material": dict(materials), "simulation": dict(simulation), "table": dict(table)},
-        "microsim_version": microsim.__version__,
-        "surface": pool_info([surfaces[r] for r in sorted(surfaces)], seeds),
-        "inputs": first.inputs,
-        "seed": int(simulation["seed"]),
-        "isotropic": first.isotropic,
-        "error_model": result.error_model,
-        "realisations": int(result.realisations.max()),
-        "directions": [_direction_meta(runs, d, theta_all[d[0]], phi_deg[d[1]], count[d],
-                                       stops.get(d, "rays"), rel[i, d[1]], share[i, d[1]],
-                                       result.albedo[i, d[1]])
-                       for i, l in enumerate(chosen) for d in directions if d[0] == l],
-        "stop": sorted({stops.get(d, "rays") for d in directions}),
-        "segments": segments,
-        "batch": BATCH,
-        "offset": next((p.offset for p in parts if 0 in p.surfaces), first.offset),
-    }
-    meta["tile_warnings"] = list(dict.fromkeys(w for part in parts for w in part.warnings))
-    meta["warnings"] = lost_energy_warnings(meta["directions"])
+    records = tuple(_direction_record(runs, d, theta_all[d[0]], phi_deg[d[1]], count[d],
+                                      stops.get(d, "rays"), rel[i, d[1]], share[i, d[1]],
+                                      result.albedo[i, d[1]])
+                    for i, l in enumerate(chosen) for d in directions if d[0] == l)
+    timing = None
     if wall_time is not None:
         traced = sum(part.trace_time for part in parts)
-        meta.update(wall_time=wall_time, scene_time=sum(part.scene_time for part in parts),
-                    rays_per_second=rays / traced, segments_per_second=segments / traced)
-    result.meta = meta
+        timing = Timing(wall_time, sum(part.scene_time for part in parts), rays / traced,
+                        segments / traced)
+    result.meta = TableMeta(
+        recipe=recipe if recipe is not None else Recipe("", None, dict(materials),
+                                                        simulation, table),
+        microsim_version=microsim.__version__,
+        surface=SurfaceFacts.pool([surfaces[r] for r in sorted(surfaces)], seeds),
+        inputs=tuple(first.inputs), seed=int(simulation.seed), isotropic=first.isotropic,
+        error_model=result.error_model, realisations=int(result.realisations.max()),
+        directions=records, stop=tuple(sorted({stops.get(d, "rays") for d in directions})),
+        segments=segments, batch=BATCH,
+        offset=next((p.offset for p in parts if 0 in p.surfaces), first.offset),
+        tile_warnings=tuple(dict.fromkeys(w for part in parts for w in part.warnings)),
+        warnings=tuple(lost_energy_warnings(records)), timing=timing)
     return result
 
 
-def _direction_meta(runs: Mapping[tuple[int, int, int], Run], d: tuple[int, int],
-                    theta: float, phi: float, k: int, stop: str, rel: float, share: float,
-                    albedo: np.ndarray) -> dict[str, Any]:
-    """One direction's entry of ``meta["directions"]``; energies are the mean over its
-    realisations of each one's fraction per ray."""
-    sums = [runs[(*d, r)].sums for r in range(k)]
+def _direction_record(runs: Mapping[RunKey, Run], d: Direction, theta: float, phi: float,
+                      k: int, stop: str, rel: float, share: float, albedo: np.ndarray
+                      ) -> DirectionRecord:
+    """One direction's record; energies are the mean over its realisations of each one's
+    fraction per ray."""
+    sums = [runs[RunKey(*d, r)].sums for r in range(k)]
 
-    def mean(get: Callable[[Any], np.ndarray]) -> list[float]:
-        return (sum(get(acc) / acc.rays for acc in sums) / k).tolist()
+    def mean(get: Callable[[Sums], np.ndarray]) -> tuple[float, float, float]:
+        r, g, b = (sum(get(acc) / acc.rays for acc in sums) / k).tolist()
+        return r, g, b
 
     fates: dict[str, int] = {}
     for acc in sums:
         for name, n in acc.fates.items():
             fates[name] = fates.get(name, 0) + n
-    return {"theta_i": theta, "phi_i": phi, "rays": sum(acc.rays for acc in sums),
-            "realisations": k, "rays_per_realisation": [acc.rays for acc in sums],
-            "lost": mean(lambda a: a.lost), "transmitted": mean(lambda a: a.transmitted),
-            "absorbed": mean(lambda a: a.absorbed), "fates": fates, "stop": stop,
-            "rel_stderr": rel, "ray_share": share, "albedo": albedo.tolist()}
+    r, g, b = albedo.tolist()
+    return DirectionRecord(theta, phi, sum(acc.rays for acc in sums), k,
+                           tuple(acc.rays for acc in sums), mean(lambda a: a.lost),
+                           mean(lambda a: a.transmitted), mean(lambda a: a.absorbed), fates,
+                           stop, float(rel), float(share), (r, g, b))
 
 
 def _table(bins: HemisphereBins, theta_deg: Sequence[float], phi_deg: Sequence[float],
-           isotropic: bool, runs: Mapping[tuple[int, int, int], Run],
-           directions: Sequence[tuple[int, int]], k: int, meta: Mapping[str, Any]
-           ) -> BRDFTable:
+           isotropic: bool, runs: Mapping[RunKey, Run], directions: Sequence[Direction],
+           k: int) -> BRDFTable:
     """The table of the runs (absent realisations count zero rays)."""
     a, b = len(theta_deg), len(phi_deg)
     rows = {l: i for i, l in enumerate(dict.fromkeys(d[0] for d in directions))}
@@ -322,21 +324,21 @@ def _table(bins: HemisphereBins, theta_deg: Sequence[float], phi_deg: Sequence[f
     sh_sums_sq = by_component(lambda acc: acc.sh_sums_sq) if harmonics else None
     return BRDFTable.from_realisations(
         bins, np.radians(theta_deg), np.radians(phi_deg), isotropic, rays, sums, sums_sq,
-        stacked(lambda acc: acc.lost_energy, some.lost_energy), meta, sh_sums=sh_sums,
+        stacked(lambda acc: acc.lost_energy, some.lost_energy), TableMeta(), sh_sums=sh_sums,
         sh_sums_sq=sh_sums_sq)
 
 
-def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
-             simulation: Mapping[str, Any], table: Mapping[str, Any], *,
-             recipe: Mapping[str, Any] | None = None, threads: int | None = None,
-             progress: Callable[[dict[str, Any]], None] | None = None) -> BRDFTable:
+def simulate(tile: Tile, materials: Mapping[str, Material], simulation: Simulation,
+             table: TableSettings, *, recipe: Recipe | None = None,
+             threads: int | None = None, progress: Callable[[Progress], None] | None = None
+             ) -> BRDFTable:
     """Measure one tile's BRDF table with the virtual goniophotometer.
 
     Parameters
     ----------
     tile : Tile
-        The surface. ``tile.info["isotropic"]`` (default False) says whether one incident
-        azimuth (0) suffices; otherwise every ``simulation["phi_i"]`` is measured.
+        The surface. ``tile.facts.isotropic`` says whether one incident azimuth (0)
+        suffices; otherwise every ``simulation.phi_i`` is measured.
     materials : mapping
         Resolved ``[material]``: one section per part of the tile.
     simulation : mapping
@@ -364,19 +366,18 @@ def simulate(tile: Tile, materials: Mapping[str, Mapping[str, Any]],
         scattering), error model ``rays``, with metadata (see docs/goniometer.md; the
         stored recipe says ``realisations = 1``).
     """
-    one = {**simulation, "realisations": 1}
-    one.pop("max_realisations", None)
+    one = replace(simulation, realisations=1, max_realisations=None)
     if recipe is not None:
-        recipe = {**recipe, "simulation": one}
+        recipe = replace(recipe, simulation=one)
     return _simulate(Tiles(tile=tile), materials, one, table, recipe, threads, progress)
 
 
-def simulate_surface(surface: Mapping[str, Any], materials: Mapping[str, Mapping[str, Any]],
-                     simulation: Mapping[str, Any], table: Mapping[str, Any], *,
-                     recipe: Mapping[str, Any] | None = None, threads: int | None = None,
-                     progress: Callable[[dict[str, Any]], None] | None = None,
+def simulate_surface(surface: SurfaceSection, materials: Mapping[str, Material],
+                     simulation: Simulation, table: TableSettings, *,
+                     recipe: Recipe | None = None, threads: int | None = None,
+                     progress: Callable[[Progress], None] | None = None,
                      memory_limit_gib: float | None = None) -> BRDFTable:
-    """The table of a surface: the mean over ``simulation["realisations"]`` tiles.
+    """The table of a surface: the mean over ``simulation.realisations`` tiles.
 
     As ``simulate``, with ``surface`` a resolved ``[surface]`` section whose realisations
     are built one at a time (each under the memory guard's ``memory_limit_gib``).
@@ -388,16 +389,14 @@ def simulate_surface(surface: Mapping[str, Any], materials: Mapping[str, Mapping
     (``measure_ensemble``; the metadata says which).
     """
     if recipe is None:
-        recipe = {"surface": dict(surface), "material": dict(materials),
-                  "simulation": dict(simulation), "table": dict(table)}
+        recipe = Recipe("", surface, dict(materials), simulation, table)
     return _simulate(Tiles(surface, memory_limit_gib=memory_limit_gib), materials, simulation,
                      table, recipe, threads, progress)
 
 
-def _simulate(tiles: Tiles, materials: Mapping[str, Any], simulation: Mapping[str, Any],
-              table: Mapping[str, Any], recipe: Mapping[str, Any] | None,
-              threads: int | None, progress: Callable[[dict[str, Any]], None] | None
-              ) -> BRDFTable:
+def _simulate(tiles: Tiles, materials: Mapping[str, Material], simulation: Simulation,
+              table: TableSettings, recipe: Recipe | None, threads: int | None,
+              progress: Callable[[Progress], None] | None) -> BRDFTable:
     """Measure every realisation ``tiles`` builds and assemble the table, timed."""
     start = time.perf_counter()
     measured = measure_ensemble(tiles, materials, simulation, table, threads=threads,
@@ -406,11 +405,11 @@ def _simulate(tiles: Tiles, materials: Mapping[str, Any], simulation: Mapping[st
                           wall_time=time.perf_counter() - start)
 
 
-def simulate_recipe(recipe: Mapping[str, Any], progress: Callable[[dict[str, Any]], None]
-                    | None = None, threads: int | None = None,
+def simulate_recipe(recipe: Recipe, progress: Callable[[Progress], None] | None = None,
+                    threads: int | None = None,
                     memory_limit_gib: float | None = None) -> BRDFTable:
     """Measure a resolved recipe's surface (all its realisations; see
     ``simulate_surface``)."""
-    return simulate_surface(recipe["surface"], recipe["material"], recipe["simulation"],
-                            recipe["table"], recipe=recipe, threads=threads,
+    return simulate_surface(recipe.surface, recipe.material, recipe.simulation,
+                            recipe.table, recipe=recipe, threads=threads,
                             progress=progress, memory_limit_gib=memory_limit_gib)

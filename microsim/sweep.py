@@ -22,7 +22,7 @@ import itertools
 import json
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +33,7 @@ from microsim.errors import InputError
 from microsim.files import file_digest
 from microsim.recipe import SECTIONS, path_keys, read_toml, resolve_in
 from microsim.schema import Key, check_section, unknown_key
+from microsim.settings import Recipe
 
 OPTIONS: dict[str, Key] = {
     "description": Key("str", None, "What the sweep is for."),
@@ -53,17 +54,16 @@ def canonical(obj: Any) -> str:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), ensure_ascii=True)
 
 
-def recipe_hash(recipe: Mapping[str, Any]) -> str:
+def recipe_hash(recipe: Recipe) -> str:
     """SHA-256 (hex) of what a table is made from.
 
     The canonical JSON of the resolved recipe, of the contents (SHA-256) of every file it
     names (a mesh, a table material's table; None for a file that is missing now), and of
     the microsim version: a table is recomputed when any of them changes.
     """
-    inputs = {f"{where}{name}": file_digest(section[name])
-              if Path(section[name]).is_file() else None
-              for section, name, where in path_keys(recipe)}
-    made_of = {"recipe": recipe, "inputs": inputs, "microsim_version": __version__}
+    inputs = {where: file_digest(path) if Path(path).is_file() else None
+              for where, path in path_keys(recipe)}
+    made_of = {"recipe": recipe.to_json(), "inputs": inputs, "microsim_version": __version__}
     return hashlib.sha256(canonical(made_of).encode()).hexdigest()
 
 
@@ -100,7 +100,7 @@ class Point:
         The file stem, readable: ``alpha=0.1_kind=mirror``.
     values : dict of str to Any
         Axis key to value.
-    recipe : dict
+    recipe : Recipe
         The resolved recipe, ``simulation.seed`` set to the point's seed.
     hash : str
         ``recipe_hash(recipe)``: a table whose recipe changed is recomputed.
@@ -108,7 +108,7 @@ class Point:
 
     name: str
     values: dict[str, Any]
-    recipe: dict[str, Any]
+    recipe: Recipe
     hash: str
 
 
@@ -243,8 +243,9 @@ def load_sweep(path: str | Path) -> Sweep:
         except InputError as exc:
             raise InputError(f"{where}point {name}: {exc}") from None
         if "simulation.seed" not in values:
-            sweep_seed = options.get("seed", recipe["simulation"]["seed"])
-            recipe["simulation"]["seed"] = point_seed(sweep_seed, values)
+            sweep_seed = options.get("seed", recipe.simulation.seed)
+            recipe = replace(recipe, simulation=replace(
+                recipe.simulation, seed=point_seed(sweep_seed, values)))
         points.append(Point(name, values, recipe, recipe_hash(recipe)))
     return Sweep(path, points, options.get("seed"), options["thetas_per_job"],
                  options.get("description", ""))

@@ -280,8 +280,8 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
     Parameters
     ----------
     tile : Tile
-    materials : mapping
-        Resolved ``[material]`` (one section per part).
+    materials : mapping of str to Material
+        The material of every part.
     theta_i : float
         Incident polar angle, radians.
     rays, bounces, seed : int
@@ -298,13 +298,10 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
     from microsim.geometry import direction
     from microsim.kernel.packing import FacetMaterials
     from microsim.kernel.transport import ESCAPED, O_FATE, O_ORDER, S_DX
-    from microsim.materials import material_from_json
     from microsim.trace import PeriodicScene
 
     rng = np.random.default_rng(seed)
-    facets = FacetMaterials(tile.material, tile.parts,
-                            {p: material_from_json(m) for p, m in materials.items()},
-                            tile.tangents,
+    facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
                             tile.curved)
     lx, ly = tile.period
     d = np.broadcast_to(-direction(theta_i, phi_i), (rays, 3))

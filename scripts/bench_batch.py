@@ -84,7 +84,7 @@ def main() -> None:
     sweep = load_sweep(args.sweep)
     points = sweep.points[:args.tables]
     for p in points:
-        p.recipe["simulation"].update(rays=args.rays, realisations=args.realisations)
+        p.recipe.simulation.update(rays=args.rays, realisations=args.realisations)
     sweep = dataclasses.replace(sweep, points=points)
     load_before = os.getloadavg()
     times: dict[int, list[float]] = {1: [], 2: []}

@@ -16,7 +16,7 @@ CHILD = """
 import json, resource, time
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
-surface = resolve({{"surface": {surface}}})["surface"]
+surface = resolve({{"surface": {surface}}}).surface
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 start = time.perf_counter()
 tile = build_tile(surface, memory_limit_gib=64)
@@ -59,8 +59,8 @@ def gaussian_resolution() -> list[str]:
         for seed in range(3):
             surface = resolve({"surface": {"kind": "gaussian", "alpha": 0.3, "seed": seed,
                                            "resolution": res,
-                                           "correlation_length": cells / res}})["surface"]
-            ratios.append(build_tile(surface).info["alpha_realised"] / 0.3)
+                                           "correlation_length": cells / res}}).surface
+            ratios.append(build_tile(surface).facts.alpha_realised.alpha / 0.3)
         rows.append(f"| {cells} | {res} | {', '.join(f'{r:.3f}' for r in ratios)} | "
                     f"{discretised_alpha_ratio(cells):.3f} |")
     return rows

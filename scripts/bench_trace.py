@@ -25,6 +25,7 @@ import os
 import platform
 import statistics
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +35,7 @@ import numpy as np
 from microsim.bench import bare_rays_per_second, bare_scene, gaussian, surface_rays
 from microsim.files import replace_marked
 from microsim.recipe import load, resolve
+from microsim.settings import Recipe
 from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.trace import CHUNK, PeriodicScene
@@ -45,32 +47,32 @@ GOLD = {"kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]}
 BARE_RAYS = 400_000
 
 
-def cases() -> list[tuple[str, dict[str, Any]]]:
+def cases() -> list[tuple[str, Recipe]]:
     """(name, resolved recipe) of each speed case."""
     base = load(ROOT / "surfaces" / "gaussian-0.3.toml")
     out = [("mirror", base)]
     for name, material in (("conductor", GOLD),
                            ("lambertian", {"kind": "lambertian", "albedo": 0.8})):
-        out.append((name, resolve({**base, "material": material})))
+        out.append((name, resolve({**base.to_json(), "material": material})))
     out.append(("paint (refracting)", load(ROOT / "surfaces" / "paint.toml")))
     return out
 
 
-def measure(recipe: dict[str, Any], rays: int, repeats: int, threads: int) -> dict[str, Any]:
+def measure(recipe: Recipe, rays: int, repeats: int, threads: int) -> dict[str, Any]:
     """Alternate ``simulate`` and bare Embree on the recipe's tile ``repeats`` times."""
-    tile = build_tile(recipe["surface"])
-    sim = {**recipe["simulation"], "theta_i": THETA, "rays": rays, "target_error": None}
-    table = {**recipe["table"], "sh_order": 0}
+    tile = build_tile(recipe.surface)
+    sim = replace(recipe.simulation, theta_i=tuple(THETA), rays=rays, target_error=None)
+    table = replace(recipe.table, sh_order=0)
     with PeriodicScene(tile, threads=1) as scene:
         o, d = surface_rays(scene, BARE_RAYS, 0)
     bare = bare_scene(tile.vertices, tile.faces)
     ours, raw = [], []
     for _ in range(repeats):
-        result = simulate(tile, recipe["material"], sim, table, threads=threads)
-        ours.append(result.meta["segments_per_second"])
+        result = simulate(tile, recipe.material, sim, table, threads=threads)
+        ours.append(result.meta.timing.segments_per_second)
         raw.append(bare_rays_per_second(bare, o, d, threads))
     return {"faces": len(tile.faces), "ours": ours, "bare": raw,
-            "segments_per_ray": result.meta["segments"] / (rays * len(THETA)),
+            "segments_per_ray": result.meta.segments / (rays * len(THETA)),
             "ratio": statistics.median(a / b for a, b in zip(ours, raw, strict=True))}
 
 
@@ -156,15 +158,15 @@ def target_section(args: argparse.Namespace) -> str:
     """Time to a median relative standard error of ``args.target`` on the lobe bins."""
     head = machine()
     recipe = load(ROOT / "surfaces" / "gaussian-0.3.toml")
-    tile = build_tile(recipe["surface"])
+    tile = build_tile(recipe.surface)
     # one tile, starting from 200 000 rays per direction as this measurement always has
-    sim = {**recipe["simulation"], "theta_i": THETA, "rays": 200_000,
-           "target_error": args.target}
+    sim = replace(recipe.simulation, theta_i=tuple(THETA), rays=200_000,
+                  target_error=args.target)
     start = time.perf_counter()
-    table = simulate(tile, recipe["material"], sim, {**recipe["table"], "sh_order": 0},
+    table = simulate(tile, recipe.material, sim, replace(recipe.table, sh_order=0),
                      threads=args.threads)
     wall = time.perf_counter() - start
-    rays = [d["rays"] for d in table.meta["directions"]]
+    rays = [d.rays for d in table.meta.directions]
     return "\n".join([
         "## Time to a target error", "",
         f"Measured with `python scripts/bench_trace.py --target {args.target} --write` on "
@@ -174,8 +176,8 @@ def target_section(args: argparse.Namespace) -> str:
         "harmonics off.", "",
         f"**{wall:.1f} s** wall ({sum(rays) / 1e6:.1f} M rays; per incidence "
         f"{', '.join(f'{r / 1e6:.1f}' for r in rays)} M; stop: "
-        f"{', '.join(table.meta['stop'])}; "
-        f"{table.meta['segments_per_second'] / 1e6:.2f} × 10⁶ segments/s)."])
+        f"{', '.join(table.meta.stop)}; "
+        f"{table.meta.timing.segments_per_second / 1e6:.2f} × 10⁶ segments/s)."])
 
 
 def main() -> None:

@@ -129,8 +129,8 @@ def targets(most: int, rays: int) -> str:
     before = load_average()
     recipe = recipe_for(most, rays)
     start = time.perf_counter()
-    measured = measure_ensemble(Tiles(recipe["surface"]), recipe["material"],
-                                recipe["simulation"], recipe["table"])
+    measured = measure_ensemble(Tiles(recipe.surface), recipe.material,
+                                recipe.simulation, recipe.table)
     seconds = time.perf_counter() - start
     counts = sorted({k for k in (4, 8, 16, 24, 32, 48, 64, 96, 128, 192, 256) if k <= most}
                     | {most})
@@ -140,11 +140,11 @@ def targets(most: int, rays: int) -> str:
                               {r: i for r, i in measured.surfaces.items() if r < k},
                               measured.inputs, measured.isotropic)
         sub = recipe_for(k, rays)
-        table = assemble_table([part], sub["material"], sub["simulation"], sub["table"],
+        table = assemble_table([part], sub.material, sub.simulation, sub.table,
                                recipe=sub)
         errs = errors_of(table)
         worst = max(e["median"] for e in errs)
-        rows.append((k, errs, table.meta["surface"]["alpha_realised"]))
+        rows.append((k, errs, table.meta.surface.alpha_realised.alpha))
         for target in TARGETS:
             if worst <= target and target not in reached:
                 reached[target] = k
@@ -201,17 +201,17 @@ def smith(k: int, rays: int) -> str:
         recipe = load(RECIPE, [f"surface.alpha={alpha}", f"simulation.theta_i={thetas}",
                                f"simulation.realisations={k}", f"simulation.rays={k * rays}",
                                "table.sh_order=0"])
-        measured = measure_ensemble(Tiles(recipe["surface"]), recipe["material"],
-                                    recipe["simulation"], recipe["table"])
-        table = assemble_table([measured], recipe["material"], recipe["simulation"],
-                               recipe["table"], recipe=recipe)
+        measured = measure_ensemble(Tiles(recipe.surface), recipe.material,
+                                    recipe.simulation, recipe.table)
+        table = assemble_table([measured], recipe.material, recipe.simulation,
+                               recipe.table, recipe=recipe)
         result = compare_table(table, microfacet_model(table.meta), "single")
         cells = []
         for i, r in enumerate(result["per_theta_i"]):
             sim, model = r["albedo_sim"][0], r["albedo_model"][0]
             err = float(table.albedo_err_of["single"][i, 0, 0])
             cells.append(f"{100 * (sim / model - 1):+.2f} ± {100 * err / model:.2g}%")
-        realised = table.meta["surface"]["alpha_realised"]
+        realised = table.meta.surface.alpha_realised.alpha
         lines.append(f"| {alpha} (realised {realised:.3f}) | " + " | ".join(cells) + " |")
         print(lines[-1], flush=True)
     return "\n".join(lines)

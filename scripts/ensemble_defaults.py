@@ -55,11 +55,11 @@ def probe(path: Path, k: int) -> dict:
                     for x in inflation.reshape(-1, 3)])
     one = 1 + k * (rho - 1)
     need = float(np.nanmax(one - 1))
-    spec = SURFACE_KINDS[recipe["surface"]["kind"]]
-    default = spec.realisations(recipe["surface"]) if spec.realisations else None
-    return {"recipe": path.name, "rays": int(recipe["simulation"]["rays"]),
+    spec = SURFACE_KINDS[recipe.surface["kind"]]
+    default = spec.realisations(recipe.surface) if spec.realisations else None
+    return {"recipe": path.name, "rays": int(recipe.simulation.rays),
             "directions": [f"{d['theta_i']:g}/{d['phi_i']:g}" for d in
-                           table.meta["directions"]],
+                           table.meta.directions],
             "rho": rho, "rho_one": one, "need": need,
             "suggested": max(MIN_REALISATIONS, 2 ** math.ceil(math.log2(max(need, 1.0)))),
             "default": default, "seconds": seconds}

@@ -12,6 +12,7 @@ import json
 import os
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -19,8 +20,10 @@ import numpy as np
 from microsim.analytic.registry import parse_model_spec
 from microsim.compare import compare_table, model_defaults
 from microsim.fit import fit_table
+from microsim.materials import Lambertian, Mirror
 from microsim.plots import incidence_plane
 from microsim.recipe import load, resolve
+from microsim.settings import Recipe
 from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.tile import Tile
@@ -31,14 +34,13 @@ BLACK = {"kind": "lambertian", "albedo": 0.0}
 GOLD = {"kind": "conductor"}
 
 
-def run(recipe: dict, rays: int | None = None) -> tuple[Tile, object]:
+def run(recipe: Recipe, rays: int | None = None) -> tuple[Tile, object]:
     """Simulate a resolved recipe (optionally with another ray count)."""
-    sim = dict(recipe["simulation"])
     if rays is not None:
-        sim["rays"] = rays
-    recipe = {**recipe, "simulation": sim}
-    tile = build_tile(recipe["surface"])
-    return tile, simulate(tile, recipe["material"], sim, recipe["table"], recipe=recipe)
+        recipe = replace(recipe, simulation=replace(recipe.simulation, rays=rays))
+    tile = build_tile(recipe.surface)
+    return tile, simulate(tile, recipe.material, recipe.simulation, recipe.table,
+                          recipe=recipe)
 
 
 def report(name: str, table: object, spec: str, component: str, figure: str) -> dict:
@@ -181,16 +183,16 @@ def furnace() -> None:
                     {"kind": "weave", "pattern": "twill"},
                     {"kind": "weave", "pattern": "plain", "sides": 12}):
         for smooth in (True, False):
-            tile = build_tile(resolve({"surface": {**surface, "smooth_normals": smooth}})[
-                "surface"])
-            materials = {p: {"kind": "mirror"} for p in tile.parts}
+            tile = build_tile(resolve({"surface": {**surface, "smooth_normals": smooth}}
+                                      ).surface)
+            materials = {p: Mirror() for p in tile.parts}
             if surface["kind"] == "weave":
                 tile = with_floor(tile)
-                materials["floor"] = {"kind": "lambertian", "albedo": [1.0] * 3}
+                materials["floor"] = Lambertian(albedo=(1.0, 1.0, 1.0))
             r = resolve({"surface": {"kind": "flat"}, "simulation": {
                 "theta_i": [0.0, 45.0, 80.0], "phi_i": [0.0, 45.0], "rays": 40_000,
                 "bounces": 400}, "table": {"theta_bins": 2, "phi_bins": 2}})
-            table = simulate(tile, materials, r["simulation"], r["table"])
+            table = simulate(tile, materials, r.simulation, r.table)
             lost = table.lost_energy[..., 0]
             print(f"| {json.dumps(surface)} | {smooth} | {100 * lost.mean():.3f}% | "
                   f"{100 * lost.max():.3f}% |")

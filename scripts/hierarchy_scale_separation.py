@@ -22,7 +22,9 @@ import math
 import tempfile
 from pathlib import Path
 
+from microsim.materials import Table, material_from_json
 from microsim.recipe import resolve
+from microsim.settings import Simulation, TableSettings
 from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.vgroove import face_roughness_tile
@@ -48,28 +50,28 @@ def main() -> None:
     surface = resolve({"surface": {
         "kind": "vgroove", "slope": args.slope, "grooves": args.grooves,
         "micro_alpha": args.alpha, "micro_resolution": n,
-        "micro_correlation": args.cells / n / math.cos(s), "seed": args.seed}})["surface"]
+        "micro_correlation": args.cells / n / math.cos(s), "seed": args.seed}}).surface
     direct_tile = build_tile(surface)
-    low = simulate(face_roughness_tile(surface), {"base": GOLD},
-                   {"theta_i": list(range(0, 90, 5)), "phi_i": [0],
-                    "rays": int(args.rays / 1.5), "bounces": 16, "seed": args.seed + 1},
-                   {"theta_bins": 16, "phi_bins": 32})
-    sim = {"theta_i": [0, 30, 60], "phi_i": [0], "rays": args.rays, "bounces": 16,
-           "seed": args.seed + 2}
-    grid = {"theta_bins": 8, "phi_bins": 16}
-    direct = simulate(direct_tile, {"base": GOLD}, sim, grid)
+    gold = {"base": material_from_json(GOLD)}
+    low = simulate(face_roughness_tile(surface), gold,
+                   Simulation(theta_i=tuple(range(0, 90, 5)), phi_i=(0.0,),
+                              rays=int(args.rays / 1.5), bounces=16, seed=args.seed + 1),
+                   TableSettings(theta_bins=16, phi_bins=32, sh_order=0))
+    sim = Simulation(theta_i=(0.0, 30.0, 60.0), phi_i=(0.0,), rays=args.rays, bounces=16,
+                     seed=args.seed + 2)
+    grid = TableSettings(theta_bins=8, phi_bins=16, sh_order=0)
+    direct = simulate(direct_tile, gold, sim, grid)
     plain = resolve({"surface": {"kind": "vgroove", "slope": args.slope,
-                                 "grooves": args.grooves}})["surface"]
+                                 "grooves": args.grooves}}).surface
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "faces.exr"
         write_table(low, path)
-        hier = simulate(build_tile(plain), {"base": {"kind": "table", "path": str(path),
-                                                     "component": "total"}}, sim, grid)
+        hier = simulate(build_tile(plain), {"base": Table(path=str(path))}, sim, grid)
     rows = table_difference(hier, direct)
     if args.json:
         print(json.dumps(rows, indent=2))
         return
-    print(f"micro alpha realised (face frame): {direct_tile.info['micro_alpha_realised']}")
+    print(f"micro alpha realised (face frame): {direct_tile.facts.micro_alpha_realised.axes}")
     print(f"{'theta_i':>7} {'max |albedo diff|':>18} {'L1':>7} {'noise L1':>9} {'z rms':>6}")
     for r in rows:
         worst = max(abs(d) for d in r["albedo_difference"])

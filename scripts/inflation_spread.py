@@ -52,11 +52,11 @@ def main() -> None:
     recipe = load(ROOT / "surfaces" / "gaussian-0.3.toml",
                   [f"simulation.theta_i={list(THETAS)}", f"simulation.realisations={k}",
                    f"simulation.rays={args.rays}", "table.sh_order=16"])
-    measured = measure_ensemble(Tiles(recipe["surface"]), recipe["material"],
-                                recipe["simulation"], recipe["table"])
-    bins = HemisphereBins(int(recipe["table"]["theta_bins"]), int(recipe["table"]["phi_bins"]))
+    measured = measure_ensemble(Tiles(recipe.surface), recipe.material,
+                                recipe.simulation, recipe.table)
+    bins = HemisphereBins(int(recipe.table.theta_bins), int(recipe.table.phi_bins))
     table = table_of(bins, THETAS, [0.0], True, measured.runs,
-                     [(l, 0) for l in range(len(THETAS))], k, {})
+                     [(l, 0) for l in range(len(THETAS))], k)
     rays = table.realisation_rays
     m, v = realisation_moments(table.sums["single"], table.sums_sq["single"], rays)
     sm, sv = realisation_moments(table.sh_sums["single"],

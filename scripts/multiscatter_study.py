@@ -115,7 +115,7 @@ def study(table: Any, label: str, samples: int, walks: int, seed: int, replicate
             for (a, b), _ in np.ndenumerate(median):
                 row = rows.setdefault((a, b, component), {
                     "table": label,
-                    "alpha_realised": table.meta.get("surface", {}).get("alpha_realised"),
+                    "alpha_realised": table.meta.surface.alpha_realised.to_json(),
                     "theta_i": float(np.degrees(table.theta_i[a])),
                     "phi_i": float(np.degrees(table.phi_i[b])), "component": component,
                     "albedo_sim": float(table.albedo_of[component][a, b].mean()),

@@ -35,9 +35,9 @@ def residuals(alpha: float, thetas: list[float], seed: int, resolution: int, ray
                     "seed": seed},
         "simulation": {"theta_i": thetas, "rays": rays, "seed": seed},
         "table": {"theta_bins": 8, "phi_bins": 16, "sh_order": 0, "orders": orders}})
-    tile = build_tile(recipe["surface"])
-    table = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"])
-    realised = tile.info["alpha_realised"]
+    tile = build_tile(recipe.surface)
+    table = simulate(tile, recipe.material, recipe.simulation, recipe.table)
+    realised = tile.facts.alpha_realised.alpha
     reference = SmithMultipleScattering(Beckmann(realised), seed=seed)
     rows = []
     for k, theta in enumerate(thetas):

@@ -5,7 +5,7 @@ Usage::
     python scripts/sh_cost.py [RECIPE] [--repeats 7] [--write-docs]
 
 Traces one batch (``microsim.goniometer.BATCH`` rays) of the recipe's tile (default
-surfaces/gaussian-0.3.toml) at θi = 30°, then times ``_Sums.add`` on it without harmonics
+surfaces/gaussian-0.3.toml) at θi = 30°, then times ``Sums.add`` on it without harmonics
 and with orders 8, 16, 32, 64 (median of the repeats), for the recipe's grey mirror
 facets (RGB weights equal: per scattering order of the table's default three, 1 + 1
 transforms over that order's rays) and for a gold conductor (RGB weights differ: 3 + 3
@@ -30,10 +30,10 @@ import numpy as np
 
 from microsim.files import replace_marked
 from microsim.geometry import direction
-from microsim.goniometer import BATCH, _Sums
-from microsim.materials import FacetMaterials
+from microsim.goniometer import BATCH, Sums
+from microsim.materials import Conductor, FacetMaterials, Mirror
 from microsim.paths import trace_paths
-from microsim.recipe import MATERIAL_KINDS, load
+from microsim.recipe import load
 from microsim.surfaces import build_tile
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
@@ -61,13 +61,13 @@ def main() -> None:
     args = parser.parse_args()
     loadavg = os.getloadavg()[0]
     recipe = load(args.recipe)
-    tile = build_tile(recipe["surface"])
-    bins = HemisphereBins(recipe["table"]["theta_bins"], recipe["table"]["phi_bins"])
+    tile = build_tile(recipe.surface)
+    bins = HemisphereBins(recipe.table.theta_bins, recipe.table.phi_bins)
     wi = direction(math.radians(30.0), 0.0)
-    gold = {"kind": "conductor", **{k: v.default for k, v in MATERIAL_KINDS["conductor"].items()}}
+    gold = Conductor()
     rows = []
     with PeriodicScene(tile, None) as scene:
-        for name, material in (("mirror", {"kind": "mirror"}), ("gold conductor", gold)):
+        for name, material in (("mirror", Mirror()), ("gold conductor", gold)):
             facets = FacetMaterials(tile.material, tile.parts,
                                     {p: material for p in tile.parts})
             seed = np.random.SeedSequence(1)
@@ -83,7 +83,7 @@ def main() -> None:
             index = np.where(paths.order > 0, bins.index(paths.direction), -1)
             for order in ORDERS:
                 def accumulate(order=order, paths=paths):
-                    _Sums(bins.size, order).add(paths, bins, 0.0, scene.map)
+                    Sums(bins.size, order).add(paths, bins, 0.0, scene.map)
 
                 t = median_time(accumulate, args.repeats)
                 rows.append((name, order, t, t_trace))

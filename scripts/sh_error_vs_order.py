@@ -80,14 +80,14 @@ def main() -> None:
                           "simulation": {"theta_i": THETA_I, "rays": args.rays, "seed": 1},
                           "table": {"theta_bins": 32, "phi_bins": 64, "sh_order": 32}})
         start = time.perf_counter()
-        table = simulate(build_tile(recipe["surface"]), recipe["material"],
-                         recipe["simulation"], recipe["table"], recipe=recipe)
+        table = simulate(build_tile(recipe.surface), recipe.material,
+                         recipe.simulation, recipe.table, recipe=recipe)
         wall = time.perf_counter() - start
         rows = order_errors(table, ORDERS)
         lanczos = order_errors(table, ORDERS, "lanczos")
         per = [needed(order_errors(incidence(table, l), ORDERS), "rel_l2_error")
                for l in range(len(THETA_I))]
-        realised = table.meta["surface"].get("alpha_realised")
+        realised = table.meta.surface.alpha_realised.to_json()
         lines += [f"**α = {alpha:g}** (realised {realised:.3f}; simulated in {wall:.0f} s; "
                   f"table noise {100 * rows[0]['table_noise']:.2f}%): 5% over the "
                   f"hemisphere at order **{needed(rows, 'rel_l2_error')}** "

@@ -39,9 +39,9 @@ def main() -> None:
                       "material": {"kind": "lambertian", "albedo": 0.8},
                       "simulation": {"theta_i": theta, "rays": args.rays, "seed": 1},
                       "table": {"theta_bins": 8, "phi_bins": 16}})
-    tile = build_tile(recipe["surface"])
-    sigma = math.radians(tile.info["slopes_deg"]["rms"])
-    table = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"])
+    tile = build_tile(recipe.surface)
+    sigma = math.radians(tile.facts.slopes_deg["rms"])
+    table = simulate(tile, recipe.material, recipe.simulation, recipe.table)
     model = OrenNayar(sigma, 0.8, "full")
     rows = []
     for l, t in enumerate(theta):

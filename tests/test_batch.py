@@ -116,13 +116,13 @@ def test_points_names_and_seeds(tmp_path: Path) -> None:
     digest = hashlib.sha256(b'{"material.kind":"mirror","surface.alpha":0.2}').digest()
     key = [int.from_bytes(digest[4 * i:4 * i + 4], "little") for i in range(4)]
     word = np.random.SeedSequence(3, spawn_key=key).generate_state(1, np.uint64)[0]
-    assert sweep.points[0].recipe["simulation"]["seed"] == int(word) >> 1
+    assert sweep.points[0].recipe.simulation.seed == int(word) >> 1
     assert point_seed(3, dict(reversed(values.items()))) == int(word) >> 1
-    assert len({p.recipe["simulation"]["seed"] for p in sweep.points}) == 4
+    assert len({p.recipe.simulation.seed for p in sweep.points}) == 4
     zipped = load_sweep(write_sweep(tmp_path, 'mode = "zip"', '[sweep]\n'
                                     '"simulation.seed" = [11, 12]\n"surface.alpha" = [0.2, 0.3]\n'))
     assert [p.name for p in zipped.points] == ["seed=11_alpha=0.2", "seed=12_alpha=0.3"]
-    assert [p.recipe["simulation"]["seed"] for p in zipped.points] == [11, 12]
+    assert [p.recipe.simulation.seed for p in zipped.points] == [11, 12]
 
 
 # --- exactness -------------------------------------------------------------------------
@@ -150,7 +150,7 @@ def test_one_worker_gives_the_same_bytes_as_two(tmp_path: Path, cli: Callable,
         assert np.array_equal(merged.values[c], alone.values[c].astype(np.float32))
         assert np.array_equal(merged.errors[c], alone.errors[c].astype(np.float32),
                               equal_nan=True)
-    assert merged.meta["recipe"] == point.recipe and "wall_time" not in merged.meta
+    assert merged.meta.recipe == point.recipe and merged.meta.timing is None
 
 
 def test_resume_skips_done_tables_and_redoes_changed_ones(tmp_path: Path, cli: Callable
@@ -302,8 +302,8 @@ def test_a_real_cluster_gives_the_same_bytes(tmp_path: Path, cli: Callable,
 def test_the_shipped_example_sweep_loads() -> None:
     sweep = load_sweep(Path(__file__).parents[1] / "scripts" / "sweep-roughness.toml")
     assert len(sweep.points) == 12 and sweep.points[0].name == "alpha=0.1_kind=mirror"
-    last = sweep.points[-1].recipe["material"]["base"]
-    assert (last["kind"], last["eta"]) == ("dielectric", 1.5)
+    last = sweep.points[-1].recipe.material["base"]
+    assert (last.kind, last.eta) == ("dielectric", 1.5)
 
 
 def test_progress_reports_every_job(tmp_path: Path) -> None:
@@ -330,7 +330,7 @@ def dying_job(recipe: dict, thetas: tuple[int, ...], threads: int = 1,
     workers by name)."""
     from microsim.batch import run_job
 
-    if recipe["surface"]["alpha"] == 0.5:
+    if recipe.surface["alpha"] == 0.5:
         os._exit(1)
     return run_job(recipe, thetas, threads, realisation)
 
@@ -367,7 +367,7 @@ def test_a_raising_job_is_retried_once(tmp_path: Path, monkeypatch: pytest.Monke
 
     def flaky(recipe: dict, thetas: tuple[int, ...], threads: int = 1,
               realisation: int | None = 0) -> object:
-        alpha = recipe["surface"]["alpha"]
+        alpha = recipe.surface["alpha"]
         if realisation == 0:
             with open(log, "a", encoding="utf-8") as f:
                 f.write(f"{alpha}\n")
@@ -393,7 +393,7 @@ def test_measurements_of_disjoint_angles_merge_into_simulate() -> None:
     recipe = resolve({"surface": {"kind": "flat"}, "material": {"kind": "lambertian"},
                       "simulation": {"theta_i": [0, 30, 60], "rays": 700, "seed": 9},
                       "table": {"theta_bins": 4, "phi_bins": 8}})
-    sections = recipe["material"], recipe["simulation"], recipe["table"]
+    sections = recipe.material, recipe.simulation, recipe.table
     whole = simulate(tile, *sections, threads=1)
     with PeriodicScene(tile, 1) as scene:
         last = measure_directions(tile, *sections, [2], scene=scene)
@@ -402,9 +402,9 @@ def test_measurements_of_disjoint_angles_merge_into_simulate() -> None:
     for c in ("total", "single"):
         assert merged.sums[c].tobytes() == whole.sums[c].tobytes()
         assert merged.sums_sq[c].tobytes() == whole.sums_sq[c].tobytes()
-    assert merged.meta["segments"] == whole.meta["segments"]
-    assert merged.meta["directions"] == whole.meta["directions"]
-    assert "wall_time" in whole.meta and "wall_time" not in merged.meta
+    assert merged.meta.segments == whole.meta.segments
+    assert merged.meta.directions == whole.meta.directions
+    assert whole.meta.timing is not None and merged.meta.timing is None
     with pytest.raises(ValueError, match="every incident polar angle once"):
         assemble_table([first], *sections)
     with pytest.raises(ValueError, match="traced twice"):

@@ -12,6 +12,7 @@ from microsim.compare import compare_table, model_defaults
 from microsim.compare import model_table as analytic_table
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import write_table
+from microsim.tables.meta import TableMeta
 
 THETA_I = np.radians([0.0, 40.0, 70.0])
 
@@ -21,7 +22,7 @@ def model_table(spec, sigma_rel=0.0, seed=0, meta=None):
     known relative standard deviation reported as the bins' standard error."""
     _, _, model = parse_model_spec(spec)
     return analytic_table(model, THETA_I, HemisphereBins(12, 24), sigma_rel,
-                          np.random.default_rng(seed), meta or {"surface": {"kind": "test"}})
+                          np.random.default_rng(seed), TableMeta.from_json(meta or {"surface": {"kind": "test"}}))
 
 
 def test_same_model_gives_zero_error():
@@ -58,11 +59,11 @@ def test_defaults_come_from_the_table():
     meta = {"surface": {"alpha_realised": 0.27},
             "recipe": {"material": {"base": {"kind": "conductor", "eta": [0.2, 0.9, 1.1],
                                              "k": [3.9, 2.4, 2.1]}}}}
-    d = model_defaults(meta)
+    d = model_defaults(TableMeta.from_json(meta))
     assert d == {"alpha": 0.27, "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1]}
     _, params, model = parse_model_spec("beckmann", d)
     assert params["alpha"] == 0.27 and model.fresnel[0] == "conductor"
-    assert model_defaults({"surface": {"alpha_realised": [0.1, 0.2]}}) == {
+    assert model_defaults(TableMeta.from_json({"surface": {"alpha_realised": [0.1, 0.2]}})) == {
         "alpha_x": 0.1, "alpha_y": 0.2}
 
 
@@ -144,7 +145,7 @@ def test_ray_paths_escape_with_their_order():
     from microsim.surfaces import build_tile
     from microsim.view import ray_paths
     r = resolve({"surface": {"kind": "flat"}})
-    paths = ray_paths(build_tile(r["surface"]), r["material"], 0.5, 10, 4, 0)
+    paths = ray_paths(build_tile(r.surface), r.material, 0.5, 10, 4, 0)
     for points, order in paths:
         assert order == 1 and len(points) == 4
         incoming, outgoing = points[2] - points[1], points[3] - points[2]

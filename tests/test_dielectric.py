@@ -15,6 +15,7 @@ from microsim.kernel.packing import FacetMaterials
 from microsim.materials import material_from_json
 from microsim.materials.optics import reflect, refract
 from microsim.paths import trace_paths
+from microsim.surfaces.facts import TileFacts
 from microsim.surfaces.tile import Tile
 from microsim.trace import PeriodicScene
 
@@ -124,7 +125,7 @@ def layer_tile(thickness: float, size: float = 1.0, bottom: str = "substrate") -
     low = up + 4 if bottom == "substrate" else up[:, ::-1] + 4
     material = [0, 0, 1, 1] if bottom == "substrate" else [0, 0, 0, 0]
     return Tile(vertices, np.concatenate([up, low]), np.array(material),
-                ("binder", "substrate"), (size, size), info={"isotropic": True})
+                ("binder", "substrate"), (size, size), facts=TileFacts(isotropic=True))
 
 
 def layer_paths(tile: Tile, materials: dict, theta_deg: float, rays: int, bounces: int,

@@ -13,8 +13,9 @@ from scipy.special import polygamma
 from microsim.goniometer import measure_directions
 from microsim.recipe import resolve
 from microsim.simulation import Tiles, assemble_table, simulate_recipe
+from microsim.surfaces.facts import PaintFacts, Roughness, SurfaceFacts
 from microsim.surfaces.params import ENSEMBLE_AREAS
-from microsim.surfaces.realisations import pool_info, realisation, realisation_seed
+from microsim.surfaces.realisations import realisation, realisation_seed
 from microsim.tables.estimator import combine, inverse_trigamma, moderation_prior
 from microsim.tables.exr import write_table
 
@@ -178,7 +179,7 @@ def test_realisation_seeds_and_tiles() -> None:
     recipe seeds, distinct, the same every time) and different heights."""
     from microsim.surfaces import build_tile
 
-    surface = small_gaussian(3, 100)["surface"]
+    surface = small_gaussian(3, 100).surface
     seeds = [realisation_seed(surface["seed"], r) for r in range(4)]
     assert seeds[0] == surface["seed"] and len(set(seeds)) == 4
     assert all(0 <= s < 2**63 for s in seeds)
@@ -189,15 +190,18 @@ def test_realisation_seeds_and_tiles() -> None:
 
 
 def test_pooled_facts_are_rms_roughness_and_means() -> None:
-    infos = [{"kind": "gaussian", "alpha_target": 0.3, "alpha_realised": a, "particles": p}
+    facts = [PaintFacts(alpha_target=Roughness(0.3), alpha_realised=Roughness(a), particles=p)
              for a, p in ((0.28, 10), (0.31, 12), (0.30, 11))]
-    pooled = pool_info(infos, [1, 2, 3])
-    assert pooled["alpha_target"] == 0.3 and pooled["realisations"] == 3
-    assert np.isclose(pooled["alpha_realised"], np.sqrt(np.mean([0.28**2, 0.31**2, 0.3**2])))
-    assert np.isclose(pooled["particles"], 11.0)
-    assert [p["seed"] for p in pooled["per_realisation"]] == [1, 2, 3]
-    assert [p["alpha_realised"] for p in pooled["per_realisation"]] == [0.28, 0.31, 0.30]
-    assert pool_info(infos[:1], [1]) == {**infos[0], "realisations": 1}
+    pooled = SurfaceFacts.pool(facts, [1, 2, 3])
+    assert pooled.tile.alpha_target == Roughness(0.3) and pooled.realisations == 3
+    assert np.isclose(pooled.alpha_realised.alpha,
+                      np.sqrt(np.mean([0.28**2, 0.31**2, 0.3**2])))
+    assert np.isclose(pooled.tile.particles, 11.0)
+    assert [p["seed"] for p in pooled.per_realisation] == [1, 2, 3]
+    assert [p["alpha_realised"] for p in pooled.per_realisation] == [0.28, 0.31, 0.30]
+    assert SurfaceFacts.pool(facts[:1], [1]) == SurfaceFacts(facts[0])
+    # the JSON form a table file holds reads back as it was written
+    assert SurfaceFacts.from_json(pooled.to_json()) == pooled
 
 
 def test_default_realisations_per_generator_and_deterministic_geometry_refused() -> None:
@@ -208,7 +212,7 @@ def test_default_realisations_per_generator_and_deterministic_geometry_refused()
 
     def k(surface: dict, **simulation) -> int:
         return resolve({"surface": surface, "simulation": simulation}
-                       )["simulation"]["realisations"]
+                       ).simulation.realisations
 
     assert k({"kind": "gaussian", "alpha": 0.3}) == ENSEMBLE_AREAS // 32**2
     assert k({"kind": "gaussian", "alpha": 0.3, "resolution": 1024}) == 2
@@ -240,8 +244,8 @@ def test_tiles_are_built_one_at_a_time() -> None:
     from microsim.simulation import measure_ensemble
 
     recipe = small_gaussian(4, 2000)
-    measured = measure_ensemble(Counting(recipe["surface"]), recipe["material"],
-                                recipe["simulation"], recipe["table"], threads=1)
+    measured = measure_ensemble(Counting(recipe.surface), recipe.material,
+                                recipe.simulation, recipe.table, threads=1)
     assert len(alive) == 4 and sorted(measured.surfaces) == [0, 1, 2, 3]
 
 
@@ -251,9 +255,9 @@ def test_split_realisations_merge_bit_for_bit_whatever_the_threads() -> None:
     from microsim.surfaces import build_tile
 
     recipe = small_gaussian(3, 3000)
-    sections = recipe["material"], recipe["simulation"], recipe["table"]
+    sections = recipe.material, recipe.simulation, recipe.table
     whole = simulate_recipe(recipe, threads=1)
-    parts = [measure_directions(build_tile(realisation(recipe["surface"], r)), *sections,
+    parts = [measure_directions(build_tile(realisation(recipe.surface, r)), *sections,
                                 realisation=r, threads=1 + r % 2) for r in (2, 0, 1)]
     merged = assemble_table(parts, *sections, recipe=recipe)
     two = simulate_recipe(recipe, threads=2)
@@ -262,8 +266,8 @@ def test_split_realisations_merge_bit_for_bit_whatever_the_threads() -> None:
             assert other.values[c].tobytes() == whole.values[c].tobytes()
             assert other.errors[c].tobytes() == whole.errors[c].tobytes()
             assert other.sh_err[c].tobytes() == whole.sh_err[c].tobytes()
-    assert merged.meta["surface"] == whole.meta["surface"]
-    assert merged.meta["directions"] == whole.meta["directions"]
+    assert merged.meta.surface == whole.meta.surface
+    assert merged.meta.directions == whole.meta.directions
     with pytest.raises(ValueError, match="realisations 0 .. K-1"):
         assemble_table(parts[:1] + parts[2:], *sections, recipe=recipe)
 
@@ -275,18 +279,18 @@ def test_adaptive_stop_adds_realisations_and_says_what_limited() -> None:
     table's own figure; capped, it says which cap stopped it."""
     recipe = small_gaussian(3, 6000, theta_i=(30.0,), target_error=0.08)
     table = simulate_recipe(recipe, threads=2)
-    done = table.meta["directions"][0]
-    assert done["stop"] == "target_error" and done["realisations"] > 3
-    assert done["rel_stderr"] <= 0.08 and done["rel_stderr"] == table.median_rel_stderr()
+    done = table.meta.directions[0]
+    assert done.stop == "target_error" and done.realisations > 3
+    assert done.rel_stderr <= 0.08 and done.rel_stderr == table.median_rel_stderr()
     capped = simulate_recipe(small_gaussian(3, 6000, theta_i=(30.0,), target_error=0.01,
                                             max_realisations=5, max_rays=10**6), threads=2)
-    done = capped.meta["directions"][0]
-    assert done["stop"] == "max_realisations" and done["realisations"] == 5
-    assert done["rel_stderr"] > 0.01
+    done = capped.meta.directions[0]
+    assert done.stop == "max_realisations" and done.realisations == 5
+    assert done.rel_stderr > 0.01
     few = simulate_recipe(small_gaussian(3, 6000, theta_i=(30.0,), target_error=0.01,
                                          max_rays=9000), threads=2)
-    done = few.meta["directions"][0]
-    assert done["stop"] == "max_rays" and done["rays"] <= 9000
+    done = few.meta.directions[0]
+    assert done.stop == "max_rays" and done.rays <= 9000
 
 
 # --- files and commands -----------------------------------------------------------------------
@@ -301,8 +305,8 @@ def test_exr_round_trip_keeps_the_error_model(tmp_path) -> None:
     for c in ("total", "single"):
         assert np.array_equal(back.dof[c], table.dof[c])
         assert np.array_equal(back.inflation[c], table.inflation[c], equal_nan=True)
-    assert back.meta["surface"]["realisations"] == 3
-    assert len(back.meta["surface"]["per_realisation"]) == 3
+    assert back.meta.surface.realisations == 3
+    assert len(back.meta.surface.per_realisation) == 3
 
 
 def test_cli_reports_the_error_model(tmp_path, cli) -> None:

@@ -16,6 +16,7 @@ from microsim.compare import model_table
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.export import rgl_through_mitsuba
 from microsim.tables.exr import write_table
+from microsim.tables.meta import TableMeta
 
 THETA_I = np.radians([0.0, 20.0, 40.0, 60.0, 75.0])
 
@@ -25,7 +26,7 @@ def table_path(tmp_path_factory):
     """A smooth table: a conductor Beckmann α = 0.45 lobe averaged over 32 × 64 bins."""
     model = TorranceSparrow(Beckmann(0.45), fresnel=("conductor", np.array([0.2, 0.9, 1.1]),
                                                      np.array([3.9, 2.4, 2.1])))
-    table = model_table(model, THETA_I, HemisphereBins(32, 64), meta={"surface": {"kind": "test"}})
+    table = model_table(model, THETA_I, HemisphereBins(32, 64), meta=TableMeta.from_json({"surface": {"kind": "test"}}))
     path = tmp_path_factory.mktemp("export") / "t.exr"
     write_table(table, path)
     return path

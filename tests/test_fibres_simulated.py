@@ -25,8 +25,8 @@ def table_of(surface, materials, theta, phi, rays, bins=(16, 32)):
                  "simulation": {"theta_i": theta, "phi_i": phi, "rays": rays,
                                 "bounces": 4},
                  "table": {"theta_bins": bins[0], "phi_bins": bins[1]}})
-    tile = build_tile(r["surface"])
-    return tile, simulate(tile, r["material"], r["simulation"], r["table"], threads=2)
+    tile = build_tile(r.surface)
+    return tile, simulate(tile, r.material, r.simulation, r.table, threads=2)
 
 
 def chi2_p(table, avg, component="single", floor=0.05):
@@ -105,7 +105,7 @@ def test_sparse_velvet_follows_the_quadrature_model():
     tile, table = table_of(surface, {"base": BLACK, "fibre": fibre}, [0.0, 30.0], [0.0],
                            500_000, bins=(4, 8))
     axes = np.unique(tile.tangents[tile.material == 1], axis=0)
-    model = SparseVelvet(0.002, 0.15, tile.info["fibres"] / 25, 0, 0, 0, 0, 0.8,
+    model = SparseVelvet(0.002, 0.15, tile.facts.fibres / 25, 0, 0, 0, 0, 0.8,
                          axes=axes, sides=24)
     result = compare_table(table, model, "single")
     p, bins = chi2_p(table, result["model"])

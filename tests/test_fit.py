@@ -89,7 +89,7 @@ def test_simulated_gaussian_fits_beckmann_at_its_realised_alpha(cli, tmp_path):
     assert code == 0, err
     r = json.loads(out)
     from microsim import read_table
-    realised = read_table(exr).meta["surface"]["alpha_realised"]
+    realised = read_table(exr).meta.surface.alpha_realised.alpha
     assert r["params"]["alpha"] == pytest.approx(realised, rel=0.015)
     assert (tmp_path / "fit.png").stat().st_size > 20_000
 

@@ -21,7 +21,7 @@ def template(surface: dict, materials: dict, phi: list) -> object:
                  "simulation": {"theta_i": [20.0, 50.0], "phi_i": phi, "rays": 2000,
                                 "bounces": 2},
                  "table": {"theta_bins": 4, "phi_bins": 8}})
-    return simulate(build_tile(r["surface"]), r["material"], r["simulation"], r["table"],
+    return simulate(build_tile(r.surface), r.material, r.simulation, r.table,
                     threads=1, recipe=r)
 
 

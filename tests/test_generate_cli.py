@@ -30,7 +30,7 @@ def test_generate_ply_round_trips_through_the_mesh_importer(cli, tmp_path):
     assert len(ply.faces) == facts["triangles"]
     assert ply.metadata["_ply_raw"]["face"]["data"]["material"].max() == 0
     tile = build_tile(resolve({"surface": {"kind": "mesh", "path": str(out),
-                                           "period": [1.0, 1.0]}})["surface"])
+                                           "period": [1.0, 1.0]}}).surface)
     # PLY stores float32: the imported slopes equal the generated ones to float32 precision
     rx, ry = tile.realised_alpha()
     assert np.sqrt((rx**2 + ry**2) / 2) == pytest.approx(facts["alpha_realised"], rel=1e-3)
@@ -57,7 +57,7 @@ def test_mesh_drops_zero_area_faces_with_a_warning(tmp_path):
     v = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 0]]
     f = [[0, 1, 2], [0, 2, 3], [0, 4, 2]]  # the last one is degenerate (collinear)
     from microsim.recipe import load
-    tile = build_tile(load(mesh_recipe(tmp_path, v, f))["surface"])
+    tile = build_tile(load(mesh_recipe(tmp_path, v, f)).surface)
     assert len(tile.faces) == 2 and "zero-area" in tile.warnings[0]
 
 

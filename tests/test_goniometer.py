@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from tilefixtures import beckmann_vgroove_tile, flat_tile, random_tile, vgroove_tile
@@ -98,7 +100,7 @@ def recipe_sections(theta_i, rays: int, seed: int = 1, bounces: int = 16,
                           "bounces": bounces, **simulation},
            "table": {"theta_bins": theta_bins, "phi_bins": phi_bins}}
     recipe = resolve(raw)
-    return recipe["material"], recipe["simulation"], recipe["table"]
+    return recipe.material, recipe.simulation, recipe.table
 
 
 def test_flat_mirror_table_holds_everything_in_the_mirror_bin() -> None:
@@ -108,8 +110,8 @@ def test_flat_mirror_table_holds_everything_in_the_mirror_bin() -> None:
     sums = result.sums["total"][0, 0, 0]
     assert np.all(sums[bin_] == 3000) and np.count_nonzero(sums) == 3
     assert np.all(result.albedo == 1.0) and np.all(result.lost_energy == 0.0)
-    assert result.meta["directions"][0]["stop"] == "rays"
-    assert result.meta["segments"] >= 2 * 3000  # in, then out: at least two queries a ray
+    assert result.meta.directions[0].stop == "rays"
+    assert result.meta.segments >= 2 * 3000  # in, then out: at least two queries a ray
 
 
 def test_reciprocity_bin_to_bin() -> None:
@@ -170,7 +172,7 @@ def test_other_seed_other_numbers_within_noise() -> None:
     material, simulation, table = recipe_sections([45.0], 50_000, theta_bins=8,
                                                   phi_bins=16)
     a = simulate(tile, material, simulation, table)
-    b = simulate(tile, material, {**simulation, "seed": 2}, table)
+    b = simulate(tile, material, replace(simulation, seed=2), table)
     assert not np.array_equal(a.values["total"], b.values["total"])
     lobe = a.lobe_mask() & b.lobe_mask()
     z = ((a.values["total"] - b.values["total"])
@@ -187,16 +189,16 @@ def test_adaptive_stop_reaches_the_target_or_the_limit() -> None:
     material, simulation, table = recipe_sections([30.0], 20_000, theta_bins=8,
                                                   phi_bins=16, target_error=0.03)
     result = simulate(tile, material, simulation, table)
-    done = result.meta["directions"][0]
-    assert done["stop"] == "target_error" and done["rays"] > 20_000
-    assert done["rel_stderr"] <= 0.03
-    assert done["rel_stderr"] == result.median_rel_stderr()
-    assert (done["rays"] - 20_000) % 65_536 == 0  # whole batches after the first rays
-    capped = simulate(tile, material, {**simulation, "target_error": 1e-4,
-                                       "max_rays": 30_000}, table)
-    done = capped.meta["directions"][0]
-    assert done["stop"] == "max_rays" and done["rays"] == 30_000
-    assert capped.meta["stop"] == ["max_rays"]
+    done = result.meta.directions[0]
+    assert done.stop == "target_error" and done.rays > 20_000
+    assert done.rel_stderr <= 0.03
+    assert done.rel_stderr == result.median_rel_stderr()
+    assert (done.rays - 20_000) % 65_536 == 0  # whole batches after the first rays
+    capped = simulate(tile, material, replace(simulation, target_error=1e-4,
+                                              max_rays=30_000), table)
+    done = capped.meta.directions[0]
+    assert done.stop == "max_rays" and done.rays == 30_000
+    assert capped.meta.stop == ("max_rays",)
 
 
 def test_lambertian_vgrooves_retroreflect() -> None:
@@ -258,7 +260,7 @@ def test_flat_dielectric_reflects_fresnel_and_reports_the_rest_as_lost() -> None
     fresnel = fresnel_dielectric(np.cos(np.radians([0.0, 60.0])), 1.5)
     assert np.allclose(result.albedo[:, 0], fresnel[:, None], rtol=1e-12)
     assert np.allclose(result.lost_energy[:, 0], 1 - fresnel[:, None], rtol=1e-12)
-    assert result.meta["directions"][1]["lost"] == [0.0, 0.0, 0.0]  # nothing else lost
+    assert result.meta.directions[1].lost == (0.0, 0.0, 0.0)  # nothing else lost
 
 
 @pytest.mark.parametrize("alpha", [0.2, 0.5, 1.0])
@@ -282,13 +284,13 @@ def test_gaussian_g1_matches_smith_at_the_realised_alpha(alpha: float) -> None:
                       "simulation": {"seed": 10, "realisations": 8}})
     theta = [30.0, 60.0, 75.0, 85.0, 89.0]
     report = measure_g1_recipe(recipe, theta, 160_000)
-    assert report["error_model"] == "ensemble" and report["dof"] == 7
-    g1, err = np.array(report["g1"]), np.array(report["stderr"])
-    smith = Beckmann(report["surface"]["alpha_realised"]).G1(direction(np.radians(theta),
+    assert report.error_model == "ensemble" and report.dof == 7
+    g1, err = np.array(report.g1), np.array(report.stderr)
+    smith = Beckmann(report.surface.alpha_realised.alpha).G1(direction(np.radians(theta),
                                                                          0.0))
     noisy = err > 0
     assert np.all(g1[~noisy] == 1.0) and np.all(smith[~noisy] > 1 - 1e-4)
-    z = normal_z((g1 - smith)[noisy] / err[noisy], report["dof"])
+    z = normal_z((g1 - smith)[noisy] / err[noisy], report.dof)
     assert np.all(np.abs(z) < Z_MAX), z.tolist()
     assert np.all(np.abs(g1 - smith) < 0.005), (g1 - smith).tolist()
 
@@ -336,9 +338,9 @@ def test_recipe_entry_points() -> None:
                       "simulation": {"theta_i": [10.0], "rays": 500, "seed": 3},
                       "table": {"theta_bins": 4, "phi_bins": 8}})
     table = simulate_recipe(recipe)
-    assert table.meta["recipe"] == recipe and table.meta["seed"] == 3
-    assert table.meta["microsim_version"] == microsim.__version__
+    assert table.meta.recipe == recipe and table.meta.seed == 3
+    assert table.meta.microsim_version == microsim.__version__
     assert np.all(table.albedo == 1.0)
     report = measure_g1_recipe(recipe, [0.0, 60.0], 300)
-    assert report["g1"] == [1.0, 1.0] and report["theta_deg"] == [0.0, 60.0]
-    assert report["segments"] >= 600
+    assert report.g1 == [1.0, 1.0] and report.theta_deg == [0.0, 60.0]
+    assert report.segments >= 600

@@ -42,13 +42,13 @@ def assert_furnace_closes(table):
     """Bookkeeping (escaped + lost = 1 to round-off) and the lost energy itself."""
     np.testing.assert_allclose(table.albedo + table.lost_energy, 1.0, atol=1e-12)
     assert table.lost_energy.max() <= LOST_MAX
-    for d in table.meta["directions"]:
-        assert d["fates"]["leaked"] == d["fates"]["backface"] == d["fates"]["trapped"] == 0
+    for d in table.meta.directions:
+        assert d.fates["leaked"] == d.fates["backface"] == d.fates["trapped"] == 0
 
 
 def run(r, tile=None):
-    tile = tile or build_tile(r["surface"])
-    return tile, simulate(tile, r["material"], r["simulation"], r["table"], threads=1)
+    tile = tile or build_tile(r.surface)
+    return tile, simulate(tile, r.material, r.simulation, r.table, threads=1)
 
 
 def test_grazing_incidence_crosses_many_tiles_and_conserves_energy():
@@ -59,7 +59,7 @@ def test_grazing_incidence_crosses_many_tiles_and_conserves_energy():
                           theta=(89.0, 89.9)))
     assert_furnace_closes(table)
     assert np.isfinite(table.values["total"]).all()
-    assert table.meta["segments"] > 2 * table.rays.sum()  # many periodic crossings
+    assert table.meta.segments > 2 * table.rays.sum()  # many periodic crossings
 
 
 def test_g1_at_grazing_and_exactly_90_degrees():
@@ -69,13 +69,13 @@ def test_g1_at_grazing_and_exactly_90_degrees():
     residual on this tile or a tracer fault). At exactly 90° rays run level: none can
     escape the slab, G1 = 0 = Smith's limit."""
     tile = build_tile(resolve({"surface": {"kind": "gaussian", "alpha": 0.5,
-                                           "seed": 2}})["surface"])
+                                           "seed": 2}}).surface)
     theta = np.radians([89.9, 90.0])
     with PeriodicScene(tile) as scene:
         g1, err = measure_g1(scene, theta[:1], 0.0, 40_000, np.random.default_rng(1))
         # level rays use up their query budget before giving up: few of them
         level, _ = measure_g1(scene, theta[1:], 0.0, 500, np.random.default_rng(1))
-    smith = Beckmann(tile.info["alpha_realised"]).G1(direction(theta, 0.0))
+    smith = Beckmann(tile.facts.alpha_realised.alpha).G1(direction(theta, 0.0))
     assert err[0] > 0 and abs(g1[0] - smith[0]) < 4 * err[0]
     assert level[0] == 0.0 and smith[1] < 1e-12
 
@@ -99,7 +99,7 @@ def test_very_smooth_surfaces_integrated_quantities(alpha):
     assert math.degrees(math.acos(min(1.0, mean @ mirror))) < 8.0
     with PeriodicScene(tile) as scene:
         g1, _ = measure_g1(scene, np.radians([80.0]), 0.0, 20_000, np.random.default_rng(2))
-    assert abs(g1[0] - float(Beckmann(tile.info["alpha_realised"]).G1(
+    assert abs(g1[0] - float(Beckmann(tile.facts.alpha_realised.alpha).G1(
         direction(math.radians(80.0), 0.0)))) < 0.005
 
 
@@ -116,7 +116,7 @@ def test_very_rough_surfaces(alpha):
     assert single < 0.8 * table.albedo.mean()
     with PeriodicScene(tile) as scene:
         g1, _ = measure_g1(scene, np.radians([60.0]), 0.0, 20_000, np.random.default_rng(4))
-    smith = Beckmann(tile.info["alpha_realised"]).G1(direction(math.radians(60.0), 0.0))
+    smith = Beckmann(tile.facts.alpha_realised.alpha).G1(direction(math.radians(60.0), 0.0))
     assert abs(g1[0] - float(smith)) < 0.03
 
 

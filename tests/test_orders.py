@@ -34,8 +34,8 @@ def rough_table(orders: int, sh_order: int = 0, seed: int = 2):
                       "simulation": {"theta_i": [0.0, 60.0], "rays": 8000, "seed": seed},
                       "table": {"theta_bins": 6, "phi_bins": 12, "sh_order": sh_order,
                                 "orders": orders}})
-    return simulate(build_tile(recipe["surface"]), recipe["material"],
-                    recipe["simulation"], recipe["table"], recipe=recipe)
+    return simulate(build_tile(recipe.surface), recipe.material,
+                    recipe.simulation, recipe.table, recipe=recipe)
 
 
 @pytest.fixture(scope="module")
@@ -113,8 +113,8 @@ def test_a_right_angled_vgroove_reflects_in_exactly_two_bounces() -> None:
     recipe = resolve({"surface": {"kind": "vgroove", "slope": 45.0, "grooves": 8},
                       "simulation": {"theta_i": [0.0], "rays": 4000, "seed": 1},
                       "table": {"theta_bins": 4, "phi_bins": 8, "sh_order": 0}})
-    table = simulate(build_tile(recipe["surface"]), recipe["material"],
-                     recipe["simulation"], recipe["table"])
+    table = simulate(build_tile(recipe.surface), recipe.material,
+                     recipe.simulation, recipe.table)
     assert table.albedo_of["order2"][0, 0] == pytest.approx([1.0] * 3, abs=1e-12)
     assert np.all(table.albedo_of["order1"] == 0) and np.all(table.albedo_of["order3+"] == 0)
 
@@ -193,9 +193,9 @@ def test_second_order_of_a_gaussian_tile_follows_the_reference() -> None:
                                   "seed": 40},
                       "simulation": {"theta_i": [0.0], "rays": 65536, "seed": 40},
                       "table": {"theta_bins": 8, "phi_bins": 16, "sh_order": 0}})
-    tile = build_tile(recipe["surface"])
-    table = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"])
-    reference = SmithMultipleScattering(Beckmann(tile.info["alpha_realised"]), seed=40)
+    tile = build_tile(recipe.surface)
+    table = simulate(tile, recipe.material, recipe.simulation, recipe.table)
+    reference = SmithMultipleScattering(Beckmann(tile.facts.alpha_realised.alpha), seed=40)
     albedo, err = reference.albedo(direction(0.0, 0.0), 100_000, [(1, 1), (2, 2)])
     tolerance = 3 * math.hypot(SECOND_ORDER_SPREAD, SECOND_ORDER_OFFSET_ERR)
     assert err[1, 0] < tolerance / 10

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy import stats
 from test_dielectric import ETA, Z_MAX, budget, fresnel_reference, layer_paths
 
 from microsim.errors import InputError
+from microsim.materials import material_from_json
 from microsim.materials.optics import refract
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile, estimate_bytes
@@ -18,7 +21,7 @@ BINDER = {"kind": "dielectric", "eta": ETA, "refract": True}
 
 
 def paint_surface(**keys) -> dict:
-    return resolve({"surface": {"kind": "paint", **keys}})["surface"]
+    return resolve({"surface": {"kind": "paint", **keys}}).surface
 
 
 def paint_tile(**keys) -> Tile:
@@ -59,7 +62,7 @@ def test_particles_stay_inside_the_binder_apart_and_periodic(shape: str, keys: d
         apart_z = np.abs(centres[:, None, 2] - centres[None, :, 2]) > half[:, None] + half
         assert np.all((dist > both) | apart_z)
     tile = build_tile(surface)
-    assert tile.info == build_tile(surface).info  # same seed, same tile
+    assert tile.facts == build_tile(surface).facts  # same seed, same tile
     v = tile.vertices
     assert v[:, 0].min() >= 0 and v[:, 0].max() <= 1 and v[:, 1].min() >= 0
     pig = np.unique(tile.faces[tile.material == 1])
@@ -68,15 +71,15 @@ def test_particles_stay_inside_the_binder_apart_and_periodic(shape: str, keys: d
     top_z = np.array([top.lowest(x, y, 0.0) for x, y in v[pig, :2]])
     assert np.all(v[pig, 2] < top_z)
     # the realised fraction: the target reached, overshooting by less than one particle
-    realised = tile.info["pigment_fraction_realised"]
+    realised = tile.facts.pigment_fraction_realised
     assert keys["pigment_fraction"] <= realised
-    assert realised - keys["pigment_fraction"] < radii.max() ** 2 * 4.2 / tile.info[
-        "binder_volume"]
+    assert realised - keys["pigment_fraction"] < (radii.max() ** 2 * 4.2
+                                                 / tile.facts.binder_volume)
     assert estimate_bytes(surface) >= 300 * len(tile.faces)  # the memory guard's bound
     if shape == "flake":  # placement retries a flake, so tilts are not biased flat
-        info = tile.info
-        assert abs(info["flake_tilt_rms_deg"] - info["flake_tilt_rms_target_deg"]) < (
-            Z_MAX * info["flake_tilt_rms_stderr_deg"])
+        facts = tile.facts
+        assert abs(facts.flake_tilt_rms_deg - facts.flake_tilt_rms_target_deg) < (
+            Z_MAX * facts.flake_tilt_rms_stderr_deg)
     # periodic: the pigment's cut faces on x = 0 and x = 1 match as sets of points
     on = [np.round(v[pig][np.isclose(v[pig, 0], x)][:, 1:], 9) for x in (0.0, 1.0)]
     assert {tuple(p) for p in on[0]} == {tuple(p) for p in on[1]}
@@ -216,7 +219,9 @@ def test_view_ray_paths_go_through_the_binder() -> None:
 
     tile = paint_tile(pigment_fraction=0.0)
     white = {"kind": "lambertian", "albedo": 1.0}
-    paths = ray_paths(tile, {"binder": BINDER, "pigment": white, "substrate": white},
+    paths = ray_paths(tile, {"binder": material_from_json(BINDER),
+                             "pigment": material_from_json(white),
+                             "substrate": material_from_json(white)},
                       np.radians(30.0), 40, 200, 0)
     orders = np.array([order for _, order in paths])
     assert np.all(orders > 0) and (orders >= 3).mean() > 0.8
@@ -270,9 +275,9 @@ def test_paint_tables_do_not_depend_on_threads_and_repeat_bit_for_bit() -> None:
                                    "substrate": {"kind": "lambertian", "albedo": 0.9}},
                       "simulation": {"theta_i": [40], "rays": 3000, "bounces": 32},
                       "table": {"theta_bins": 8, "phi_bins": 8}})
-    tile = build_tile(recipe["surface"])
-    runs = [simulate(tile, recipe["material"], {**recipe["simulation"], "seed": seed},
-                     recipe["table"], threads=threads)
+    tile = build_tile(recipe.surface)
+    runs = [simulate(tile, recipe.material, replace(recipe.simulation, seed=seed),
+                     recipe.table, threads=threads)
             for threads, seed in ((1, 0), (2, 0), (2, 0), (2, 1))]
     for run in runs[1:3]:
         assert np.array_equal(run.sums["total"], runs[0].sums["total"])

@@ -32,11 +32,11 @@ def error_of(raw: dict) -> str:
 
 def test_defaults_filled_in():
     r = recipe.resolve(BASE)
-    assert r["surface"]["resolution"] == SURFACE_KINDS["gaussian"].keys["resolution"].default
-    assert r["material"] == {"base": {"kind": "mirror"}}
-    assert set(r["simulation"]) >= {"theta_i", "phi_i", "rays", "bounces", "seed"}
-    assert "target_error" not in r["simulation"]  # optional without default stays absent
-    assert r["table"] == {"theta_bins": 32, "phi_bins": 64, "sh_order": 32, "orders": 3}
+    assert r.surface["resolution"] == SURFACE_KINDS["gaussian"].keys["resolution"].default
+    assert {p: m.to_json() for p, m in r.material.items()} == {"base": {"kind": "mirror"}}
+    assert set(r.simulation.to_json()) >= {"theta_i", "phi_i", "rays", "bounces", "seed"}
+    assert r.simulation.target_error is None  # optional without default stays unset
+    assert r.table.to_json() == {"theta_bins": 32, "phi_bins": 64, "sh_order": 32, "orders": 3}
 
 
 def test_every_shipped_recipe_is_valid():
@@ -44,7 +44,7 @@ def test_every_shipped_recipe_is_valid():
     assert recipes, "no shipped recipes"
     for path in recipes:
         resolved = recipe.load(path)
-        assert resolved["surface"]["kind"] in SURFACE_KINDS
+        assert resolved.surface["kind"] in SURFACE_KINDS
 
 
 def test_resolved_recipe_round_trips_through_toml(tmp_path):
@@ -94,31 +94,31 @@ def test_per_part_materials():
     r = recipe.resolve({"surface": {"kind": "velvet"},
                         "material": {"base": {"kind": "lambertian", "albedo": 0.5},
                                      "fibre": {"kind": "dielectric"}}})
-    assert r["material"]["base"] == {"kind": "lambertian", "albedo": [0.5, 0.5, 0.5]}
-    assert r["material"]["fibre"] == {"kind": "dielectric", "eta": 1.5, "refract": False,
+    assert r.material["base"].to_json() == {"kind": "lambertian", "albedo": [0.5, 0.5, 0.5]}
+    assert r.material["fibre"].to_json() == {"kind": "dielectric", "eta": 1.5, "refract": False,
                                      "absorption": [0.0, 0.0, 0.0]}
 
 
 def test_one_material_applies_to_every_part():
     r = recipe.resolve({"surface": {"kind": "velvet"}, "material": {"kind": "lambertian"}})
-    assert set(r["material"]) == set(SURFACE_KINDS["velvet"].parts)
-    assert all(m["kind"] == "lambertian" for m in r["material"].values())
+    assert set(r.material) == set(SURFACE_KINDS["velvet"].parts)
+    assert all(m.kind == "lambertian" for m in r.material.values())
 
 
 def test_overrides_parse_toml_values_and_bare_words():
     raw = recipe.apply_overrides(BASE, ["surface.alpha=0.5", "simulation.theta_i=[0, 45]",
                                         "material.kind=lambertian", "material.albedo=0.2"])
     r = recipe.resolve(raw)
-    assert r["surface"]["alpha"] == 0.5
-    assert r["simulation"]["theta_i"] == [0.0, 45.0]
-    assert r["material"]["base"] == {"kind": "lambertian", "albedo": [0.2] * 3}
+    assert r.surface["alpha"] == 0.5
+    assert r.simulation.theta_i == (0.0, 45.0)
+    assert r.material["base"].to_json() == {"kind": "lambertian", "albedo": [0.2] * 3}
     assert BASE == {"surface": {"kind": "gaussian", "alpha": 0.3}}  # input untouched
 
 
 def test_override_of_material_kind_drops_old_parameters():
     raw = {"surface": {"kind": "flat"}, "material": {"kind": "conductor", "eta": 1.0, "k": 2.0}}
     r = recipe.resolve(recipe.apply_overrides(raw, ["material.kind=mirror"]))
-    assert r["material"]["base"] == {"kind": "mirror"}
+    assert r.material["base"].to_json() == {"kind": "mirror"}
 
 
 @pytest.mark.parametrize("text", ["surface", "surface.alpha", "=3", ".alpha=3", "surface..a=1"])
@@ -145,7 +145,7 @@ def test_relative_mesh_path_resolves_against_recipe_folder(tmp_path):
     (tmp_path / "sub").mkdir()
     path = tmp_path / "sub" / "r.toml"
     path.write_text('[surface]\nkind = "mesh"\npath = "tile.ply"\nperiod = [1, 2]\n')
-    assert recipe.load(path)["surface"]["path"] == str((tmp_path / "sub" / "tile.ply").resolve())
+    assert recipe.load(path).surface["path"] == str((tmp_path / "sub" / "tile.ply").resolve())
 
 
 def test_recipe_docs_are_up_to_date():

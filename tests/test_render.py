@@ -23,6 +23,7 @@ from microsim.geometry import direction
 from microsim.render import bsdfs, figure, objects, scene
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import write_table
+from microsim.tables.meta import TableMeta
 
 ETA, K = np.array([0.2, 0.9, 1.1]), np.array([3.9, 2.4, 2.1])  # gold-like, R G B
 SUN = [("sun", {"elevation": 50.0, "azimuth": -40.0, "irradiance": 3.0})]
@@ -284,7 +285,8 @@ def test_rotated_anisotropic_table_renders_as_the_rotated_model(mi, sphere, tmp_
 def table_file(tmp_path_factory):
     model = TorranceSparrow(Beckmann(0.3), fresnel=("conductor", ETA, K))
     table = model_table(model, np.radians([0, 30, 60, 80]), HemisphereBins(16, 32),
-                        meta={"surface": {"kind": "analytic", "alpha_realised": 0.3}})
+                        meta=TableMeta.from_json({"surface": {"kind": "analytic",
+                                                               "alpha_realised": 0.3}}))
     path = tmp_path_factory.mktemp("render") / "gold.exr"
     write_table(table, path)
     return path

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import mpmath
 import numpy as np
@@ -14,7 +15,7 @@ from scipy.special import sph_harm_y
 import microsim
 from microsim.commands.sh import MATRIX_MAX_ORDER as CLI_MATRIX_MAX_ORDER
 from microsim.commands.sh import WINDOWS as CLI_WINDOWS
-from microsim.goniometer import Run, _Sums
+from microsim.goniometer import Run, RunKey, Sums
 from microsim.paths import Paths
 from microsim.recipe import resolve
 from microsim.simulation import _table, simulate
@@ -22,6 +23,7 @@ from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import components_for
 from microsim.tables.exr import write_table
+from microsim.tables.meta import TableMeta
 from microsim.tables.sh_error import bin_integrals, order_errors
 from microsim.tables.sh_matrix import MAX_ORDER, brdf_matrix, matrix_eval
 from microsim.tables.table import BRDFTable
@@ -75,7 +77,7 @@ def harmonics_table(theta_i: np.ndarray, coefficients: np.ndarray) -> BRDFTable:
     flat = {c: np.zeros((a, 1, 3)) for c in components_for(3)}
     grey = np.repeat(coefficients[:, None, :, None], 3, axis=-1)
     return BRDFTable(HemisphereBins(2, 2), theta_i, np.zeros(1), True, zeros, zeros,
-                     np.ones((a, 1), np.int64), flat, flat, np.zeros((a, 1, 3)), {},
+                     np.ones((a, 1), np.int64), flat, flat, np.zeros((a, 1, 3)), TableMeta(),
                      sh={c: grey for c in components_for(3)},
                      sh_err={c: np.zeros_like(grey) for c in components_for(3)})
 
@@ -152,7 +154,7 @@ def test_projection_of_rays_is_unbiased_with_honest_errors() -> None:
     wi = np.array([np.sin(np.radians(40)), 0.0, np.cos(np.radians(40))])
     rng = np.random.default_rng(11)
     bins = HemisphereBins(4, 8)
-    acc = _Sums(bins.size, order)
+    acc = Sums(bins.size, order)
     for _ in range(4):
         u, phi = rng.random(n), rng.uniform(0, 2 * np.pi, n)
         wo = np.stack([np.sqrt(u) * np.cos(phi), np.sqrt(u) * np.sin(phi), np.sqrt(1 - u)],
@@ -161,7 +163,7 @@ def test_projection_of_rays_is_unbiased_with_honest_errors() -> None:
         orders = np.where(rng.random(n) < 1 / 3, 2, 1)
         paths = Paths(wo, weight, orders, np.zeros(3), np.zeros(3), np.zeros(3), {})
         acc.add(paths, bins)
-    table = _table(bins, [40.0], [0.0], True, {(0, 0, 0): Run(acc)}, [(0, 0)], 1, {})
+    table = _table(bins, [40.0], [0.0], True, {RunKey(0, 0, 0): Run(acc)}, [(0, 0)], 1)
     exact = lobe_coefficients(phong, np.radians([40.0]), order)[0]
     for comp, share in (("total", 1.0), ("order1", 2 / 3), ("order2", 1 / 3)):
         z = (table.sh[comp][0, 0] - share * exact[:, None] * [1.0, 0.5, 0.25]) / table.sh_err[
@@ -185,8 +187,8 @@ def rough() -> BRDFTable:
                                   "seed": 3},
                       "simulation": {"theta_i": [0.0, 45.0], "rays": 131_072, "seed": 4},
                       "table": {"theta_bins": 16, "phi_bins": 32, "sh_order": 16}})
-    return simulate(build_tile(recipe["surface"]), recipe["material"], recipe["simulation"],
-                    recipe["table"], recipe=recipe)
+    return simulate(build_tile(recipe.surface), recipe.material, recipe.simulation,
+                    recipe.table, recipe=recipe)
 
 
 def test_rough_gaussian_error_falls_with_order(rough: BRDFTable) -> None:
@@ -230,7 +232,7 @@ def test_sh_eval_is_the_series_over_cos_theta(rough: BRDFTable) -> None:
 
 
 def test_sums_pickle_and_same_seed_gives_same_harmonics_whatever_the_threads() -> None:
-    """Batch runners ship ``_Sums`` between processes; the harmonics travel with them."""
+    """Batch runners ship ``Sums`` between processes; the harmonics travel with them."""
     import pickle
 
     from tilefixtures import random_tile
@@ -239,12 +241,12 @@ def test_sums_pickle_and_same_seed_gives_same_harmonics_whatever_the_threads() -
                       "simulation": {"theta_i": [30.0], "rays": 2000, "seed": 1},
                       "table": {"theta_bins": 4, "phi_bins": 8, "sh_order": 6}})
     tile = random_tile()
-    one = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"], threads=1)
-    two = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"], threads=2)
+    one = simulate(tile, recipe.material, recipe.simulation, recipe.table, threads=1)
+    two = simulate(tile, recipe.material, recipe.simulation, recipe.table, threads=2)
     for c in one.components:
         assert np.array_equal(one.sh[c], two.sh[c]) and np.array_equal(one.sh_err[c],
                                                                        two.sh_err[c])
-    acc = _Sums(8, 6)
+    acc = Sums(8, 6)
     acc.add(Paths(np.array([[0.0, 0.6, 0.8]]), np.ones((1, 3)),
                                          np.ones(1, np.int64), np.zeros(3), np.zeros(3),
                                          np.zeros(3), {}), HemisphereBins(2, 4))
@@ -262,9 +264,8 @@ def test_merged_tables_merge_their_harmonics() -> None:
                       "simulation": {"theta_i": [30.0], "rays": 3000, "seed": 1},
                       "table": {"theta_bins": 4, "phi_bins": 8, "sh_order": 4}})
     tile = random_tile()
-    a = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"])
-    b = simulate(tile, recipe["material"], {**recipe["simulation"], "seed": 2,
-                                            "rays": 5000}, recipe["table"])
+    a = simulate(tile, recipe.material, recipe.simulation, recipe.table)
+    b = simulate(tile, recipe.material, replace(recipe.simulation, seed=2, rays=5000), recipe.table)
     merged = a + b
     assert np.allclose(merged.sh["total"], (3 * a.sh["total"] + 5 * b.sh["total"]) / 8)
     assert np.all(merged.sh_err["total"] < np.maximum(a.sh_err["total"], b.sh_err["total"]))
@@ -401,8 +402,8 @@ def test_cli_table_without_harmonics(tmp_path, cli) -> None:
                       "table": {"theta_bins": 4, "phi_bins": 8, "sh_order": 0}})
     from tilefixtures import flat_tile
 
-    write_table(simulate(flat_tile(), recipe["material"], recipe["simulation"],
-                         recipe["table"]), tmp_path / "p.exr")
+    write_table(simulate(flat_tile(), recipe.material, recipe.simulation,
+                         recipe.table), tmp_path / "p.exr")
     code, _, err = cli("sh", str(tmp_path / "p.exr"))
     assert code == 2 and "no spherical harmonics" in err and "sh_order" in err
     code, _, err = cli("sh", str(tmp_path / "missing.exr"))
@@ -445,7 +446,7 @@ def test_anisotropic_table_evaluates_a_lambertian_floor() -> None:
                                      "rays": 20_000, "seed": 5},
                       "table": {"theta_bins": 4, "phi_bins": 8, "sh_order": 8}})
     tile = height_field_tile(np.zeros((4, 4)))              # says nothing: anisotropic
-    table = simulate(tile, recipe["material"], recipe["simulation"], recipe["table"])
+    table = simulate(tile, recipe.material, recipe.simulation, recipe.table)
     assert not table.isotropic and table.sh["total"].shape == (2, 2, 81, 3)
     exact = lobe_coefficients(lambda wi, wo: np.full(len(wo), 0.6 / np.pi), np.zeros(1), 8)[0]
     rng = np.random.default_rng(1)
@@ -470,8 +471,8 @@ def test_black_table_reports_nan_not_a_traceback(tmp_path, cli) -> None:
                       "material": {"kind": "lambertian", "albedo": 0.0},
                       "simulation": {"theta_i": [10.0], "rays": 500},
                       "table": {"theta_bins": 4, "phi_bins": 8, "sh_order": 4}})
-    write_table(simulate(flat_tile(), recipe["material"], recipe["simulation"],
-                         recipe["table"]), tmp_path / "black.exr")
+    write_table(simulate(flat_tile(), recipe.material, recipe.simulation,
+                         recipe.table), tmp_path / "black.exr")
     code, out, err = cli("sh", str(tmp_path / "black.exr"), "--orders", "2,4", "--json")
     assert code == 0, err
     row = json.loads(out)[0]

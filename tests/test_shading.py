@@ -8,6 +8,7 @@ import pytest
 from tilefixtures import with_floor
 
 from microsim.kernel.shading import CURVED, FALLBACK, FLAT, curved_table, shade
+from microsim.materials import material_from_json
 from microsim.recipe import resolve
 from microsim.simulation import simulate
 from microsim.surfaces import build_tile
@@ -16,7 +17,7 @@ from microsim.trace import HIT, PeriodicScene
 
 
 def tile_of(**surface):
-    return build_tile(resolve({"surface": surface})["surface"])
+    return build_tile(resolve({"surface": surface}).surface)
 
 
 def test_curved_faces_are_chords_of_their_tubes():
@@ -116,7 +117,8 @@ def furnace(tile: Tile, materials: dict, theta: list, phi: list, rays: int, boun
     r = resolve({"surface": {"kind": "flat"}, "simulation": {
         "theta_i": theta, "phi_i": phi, "rays": rays, "bounces": bounces},
         "table": {"theta_bins": 2, "phi_bins": 2}})
-    table = simulate(tile, materials, r["simulation"], r["table"], threads=1)
+    table = simulate(tile, {p: material_from_json(m) for p, m in materials.items()},
+                     r.simulation, r.table, threads=1)
     return table.lost_energy[..., 0]
 
 

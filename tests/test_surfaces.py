@@ -14,7 +14,7 @@ from microsim.surfaces import build_tile
 
 
 def tile_of(**surface):
-    return build_tile(resolve({"surface": surface})["surface"])
+    return build_tile(resolve({"surface": surface}).surface)
 
 
 @pytest.mark.parametrize("alpha", [0.1, 0.3, 1.0])
@@ -22,16 +22,16 @@ def test_gaussian_realised_alpha_within_ten_percent(alpha):
     """At the default resolution (256², τ = 8 cells) triangulation lowers the slopes by
     about 3% and a 32-correlation-length tile scatters by a few %: 10% bounds both."""
     t = tile_of(kind="gaussian", alpha=alpha, seed=3)
-    assert t.info["alpha_target"] == pytest.approx(alpha)
-    assert t.info["alpha_realised"] == pytest.approx(alpha, rel=0.1)
+    assert t.facts.alpha_target.alpha == pytest.approx(alpha)
+    assert t.facts.alpha_realised.alpha == pytest.approx(alpha, rel=0.1)
     assert not t.warnings
 
 
 def test_gaussian_anisotropic_ratio_within_ten_percent():
     t = tile_of(kind="gaussian", alpha_x=0.2, alpha_y=0.5, seed=4, resolution=384)
-    ax, ay = t.info["alpha_realised"]
+    ax, ay = t.facts.alpha_realised.axes
     assert (ax / ay) == pytest.approx(0.2 / 0.5, rel=0.1)
-    assert t.info["isotropic"] is False
+    assert t.facts.isotropic is False
 
 
 def test_rotated_anisotropy_follows_the_rotation():
@@ -45,7 +45,7 @@ def test_gaussian_ndf_matches_beckmann_at_realised_alpha():
     D > 1% of its peak, with the sub-tile (batch-means) standard errors that account for
     correlated facets: the p-value must exceed 0.001 (a 0.1% false-alarm rate)."""
     t = tile_of(kind="gaussian", alpha=0.3, seed=5, resolution=256)
-    alpha = t.info["alpha_realised"]
+    alpha = t.facts.alpha_realised.alpha
     m = t.ndf_histogram(16, math.atan(2.5 * alpha))
     model = ndf_bin_average(Beckmann(alpha), m["edges"])
     keep = model > 0.01 * model.max()
@@ -66,7 +66,7 @@ def test_gaussian_is_periodic_and_seeded():
 
 def test_gaussian_sigma_and_correlation_length():
     t = tile_of(kind="gaussian", sigma=0.01, correlation_length=0.05, resolution=128)
-    assert t.info["alpha_target"] == pytest.approx(2 * 0.01 / 0.05)
+    assert t.facts.alpha_target.alpha == pytest.approx(2 * 0.01 / 0.05)
 
 
 def test_gaussian_warns_about_coarse_and_small_tiles():
@@ -76,7 +76,7 @@ def test_gaussian_warns_about_coarse_and_small_tiles():
     coarse = tile_of(kind="gaussian", alpha=0.3, correlation_length=2 / 128, resolution=128)
     assert any("grid cells" in w and "6% below" in w for w in coarse.warnings)
     expected = 0.3 * math.sqrt(-math.expm1(-0.25) / 0.25)
-    assert coarse.info["alpha_realised"] == pytest.approx(expected, rel=0.03)
+    assert coarse.facts.alpha_realised.alpha == pytest.approx(expected, rel=0.03)
     small = tile_of(kind="gaussian", alpha=0.3, resolution=64)
     assert any("correlation lengths per side" in w for w in small.warnings)
 
@@ -99,15 +99,15 @@ def test_vgroove_periodic_and_inside_its_box():
     assert v[:, 1].min() == 0 and v[:, 1].max() == ly
     ends = v[v[:, 0] == 0, 2], v[np.isclose(v[:, 0], lx), 2]
     np.testing.assert_array_equal(*ends)  # both ends are peaks at z = 0
-    assert t.info["slopes_deg"]["count"] == 32
-    assert 0 < t.info["slopes_deg"]["min"] <= t.info["slopes_deg"]["max"] < 90
+    assert t.facts.slopes_deg["count"] == 32
+    assert 0 < t.facts.slopes_deg["min"] <= t.facts.slopes_deg["max"] < 90
 
 
 def test_vgroove_beckmann_slopes():
     """tan s = |N(0, α²/2)| per groove: the realised α across the grooves of 4000 grooves
     is within 5% of the target (the sample RMS of 4000 values scatters by ~1.1%)."""
     t = tile_of(kind="vgroove", alpha=0.5, grooves=4000, seed=1)
-    assert t.info["alpha_realised_x"] == pytest.approx(0.5, rel=0.05)
+    assert t.facts.alpha_realised_x == pytest.approx(0.5, rel=0.05)
 
 
 def test_flat_tile():
@@ -197,7 +197,7 @@ def test_velvet_tile_is_periodic_inside_its_box_and_closed():
     r = resolve({"surface": {"kind": "velvet"}, "material": {"kind": "mirror"},
                  "simulation": {"theta_i": [0.0, 70.0], "rays": 4000, "bounces": 200},
                  "table": {"theta_bins": 4, "phi_bins": 4}})
-    table = simulate(t, r["material"], r["simulation"], r["table"], threads=1)
+    table = simulate(t, r.material, r.simulation, r.table, threads=1)
     np.testing.assert_array_equal(table.albedo, 1.0)
     assert table.lost_energy.max() == 0
 
@@ -228,7 +228,7 @@ def test_weave_yarns_are_outward_tubes_that_do_not_intersect(pattern):
     centre = t.vertices[t.faces].mean(axis=1)
     w, th, k = 0.8, 0.3, 8
     section = k / 2 * (w / 2) * (th / 2) * np.sin(2 * np.pi / k)
-    repeat = t.info["repeat"]
+    repeat = t.facts.repeat
     per_yarn = len(t.faces) // (2 * repeat)
     for y in range(2 * repeat):
         sl = slice(y * per_yarn, (y + 1) * per_yarn)
@@ -237,7 +237,7 @@ def test_weave_yarns_are_outward_tubes_that_do_not_intersect(pattern):
         assert flux == pytest.approx(section * t.period[0], rel=1e-9)
     from microsim.surfaces.weave import over, path_heights
     top = over(repeat, 1 if pattern["pattern"] == "plain" else int(pattern["float"][0]))
-    amp = t.info["crimp_amplitude"]
+    amp = t.facts.crimp_amplitude
     i, j = np.argwhere(top)[0]
     rng = np.random.default_rng(0)
     a, b = rng.uniform(-0.85, 0.85, (2, 400))  # offsets across / along, in half-widths

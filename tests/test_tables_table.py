@@ -14,6 +14,7 @@ from microsim.geometry import direction
 from microsim.tables import exr
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import write_table
+from microsim.tables.meta import TableMeta
 from microsim.tables.table import BRDFTable
 
 LAMBERT = 1 / np.pi
@@ -40,7 +41,7 @@ def make_table(seed=1, n=100_000, bins=None, theta_i=(0.0,)):
     rays = np.full((len(theta_i), 1), n)
     return BRDFTable.from_sums(bins, np.array(theta_i), np.zeros(1), True, rays,
                                {"total": s1, "single": s1}, {"total": s2, "single": s2},
-                               np.zeros((len(theta_i), 1, 3)), {"seed": seed})
+                               np.zeros((len(theta_i), 1, 3)), TableMeta(seed=seed))
 
 
 def test_lambertian_estimate_is_unbiased_within_its_errors():
@@ -74,7 +75,7 @@ def test_empty_bins_have_undefined_error_and_eval_stays_finite():
     s2[0, 0, 5] = 10.0
     t = BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[100]]),
                             {"total": s1, "single": s1}, {"total": s2, "single": s2},
-                            np.zeros((1, 1, 3)), {})
+                            np.zeros((1, 1, 3)), TableMeta())
     err = t.errors["total"].reshape(-1, 3)
     assert np.isnan(err[0]).all() and np.isfinite(err[5]).all()
     wo = direction(np.linspace(0, np.pi / 2, 50), np.linspace(0, 6, 50))
@@ -120,7 +121,7 @@ def test_merge_equals_one_big_estimate():
         return BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[n]]),
                                    {"total": s1[None, None], "single": s1[None, None]},
                                    {"total": s2[None, None], "single": s2[None, None]},
-                                   np.zeros((1, 1, 3)), {})
+                                   np.zeros((1, 1, 3)), TableMeta())
 
     merged = table(*parts[0], 1000) + table(*parts[1], 1000)
     whole = table(parts[0][0] + parts[1][0], parts[0][1] + parts[1][1], 2000)
@@ -138,7 +139,7 @@ def test_exr_round_trip(tmp_path):
         np.testing.assert_array_equal(r.errors[c], t.errors[c].astype(np.float32))
     np.testing.assert_array_equal(r.albedo, t.albedo)  # exact, through JSON
     np.testing.assert_array_equal(r.theta_i, t.theta_i)
-    assert r.meta == {"seed": 1} and r.isotropic
+    assert r.meta == TableMeta(seed=1) and r.isotropic
     assert not list(tmp_path.glob(".*tmp"))
 
 
@@ -218,7 +219,7 @@ def test_stderr_is_nan_only_where_the_nearest_bin_is_empty():
     s2 = s1.copy()
     t = BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[100]]),
                             {"total": s1, "single": s1}, {"total": s2, "single": s2},
-                            np.zeros((1, 1, 3)), {})
+                            np.zeros((1, 1, 3)), TableMeta())
     wi = direction(0.0, 0.0)
     it, ip = divmod(5, 4)
     centre = direction(bins.theta_centers[it], bins.phi_centers[ip])
@@ -236,11 +237,11 @@ def test_from_sums_refuses_bad_input():
     with pytest.raises(ValueError, match="rays"):
         BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[0]]),
                             {"total": s, "single": s}, {"total": s, "single": s},
-                            np.zeros((1, 1, 3)), {})
+                            np.zeros((1, 1, 3)), TableMeta())
     with pytest.raises(ValueError, match="shape"):
         BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[5]]),
                             {"total": s[..., :2, :], "single": s},
-                            {"total": s, "single": s}, np.zeros((1, 1, 3)), {})
+                            {"total": s, "single": s}, np.zeros((1, 1, 3)), TableMeta())
 
 
 def test_attribute_that_is_not_json(tmp_path):

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from tilefixtures import flat_tile, height_field_tile, random_tile, vgroove_tile
+from tilefixtures import simulate_sections as simulate
 
 from microsim.errors import InputError
 from microsim.geometry import direction
@@ -24,12 +25,12 @@ from microsim.materials.table import facet_frame
 from microsim.paths import trace_paths
 from microsim.recipe import load as resolve_recipe
 from microsim.recipe import resolve
-from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.vgroove import face_roughness_tile
 from microsim.table_difference import table_difference
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import read_table, write_table
+from microsim.tables.meta import TableMeta
 from microsim.tables.table import BRDFTable
 from microsim.trace import PeriodicScene
 
@@ -127,7 +128,7 @@ def test_anisotropic_table_interpolates_in_phi_i_in_the_facet_frame(tmp_path: Pa
                    {"theta_bins": 8, "phi_bins": 16})
     path = tmp_path / "aniso.exr"
     write_table(low, path)
-    flat = height_field_tile(np.zeros((4, 4)), info={"isotropic": False})
+    flat = height_field_tile(np.zeros((4, 4)), isotropic=False)
     up = simulate(flat, {"base": table_material(path)},
                   {**sim, "phi_i": [0, 45, 90], "rays": 40_000, "seed": 5},
                   {"theta_bins": 8, "phi_bins": 16})
@@ -193,7 +194,7 @@ def lobe_table(values: np.ndarray, theta_i_deg: list[float], bins: HemisphereBin
                      {"total": values, "single": values},
                      {"total": np.ones_like(values), "single": np.ones_like(values)},
                      np.ones((a, 1), np.int64), {"total": albedo, "single": albedo},
-                     zeros, np.zeros((a, 1, 3)), {})
+                     zeros, np.zeros((a, 1, 3)), TableMeta())
 
 
 def shaped_values(bins: HemisphereBins, albedo: np.ndarray, power: float) -> np.ndarray:
@@ -263,10 +264,10 @@ def test_rough_vgroove_faces_have_the_micro_roughness_in_their_own_frame() -> No
     periodic, and the mean facet normal of each face is the face's normal."""
     surface = resolve({"surface": {"kind": "vgroove", "slope": 30, "grooves": 4,
                                    "micro_alpha": 0.3, "micro_resolution": 256,
-                                   "seed": 3}})["surface"]
+                                   "seed": 3}}).surface
     tile = build_tile(surface)
-    assert tile.info["micro_alpha_target"] == 0.3
-    assert np.allclose(tile.info["micro_alpha_realised"], 0.3, rtol=0.06)
+    assert tile.facts.micro_alpha_target == 0.3
+    assert np.allclose(tile.facts.micro_alpha_realised.axes, 0.3, rtol=0.06)
     v = tile.vertices.reshape(257, 257, 3)
     assert np.array_equal(v[0, :, 1:], v[-1, :, 1:]) and np.array_equal(v[:, 0, ::2],
                                                                         v[:, -1, ::2])
@@ -294,7 +295,7 @@ def test_velvet_faces_carry_their_fibres_axis_into_the_facet_frame() -> None:
     from microsim.surfaces import build_tile
 
     surface = resolve({"surface": {"kind": "velvet", "density": 300, "tilt": 30.0,
-                                   "seed": 5}})["surface"]
+                                   "seed": 5}}).surface
     tile = build_tile(surface)
     n, _ = tile.face_normals_areas()
     fibre = tile.material == 1
@@ -371,9 +372,10 @@ def test_recipe_path_is_relative_to_the_recipe_and_recorded_with_its_digest(
     out = tmp_path / "upper.exr"
     code, _, err = cli("simulate", str(recipe), "-o", str(out), "--rays", "2000")
     assert code == 0, err
-    inputs = read_table(out).meta["inputs"]
-    assert inputs == [{"part": "base", "path": str(low.resolve()), "component": "total",
-                       "sha256": hashlib.sha256(low.read_bytes()).hexdigest()}]
+    inputs = read_table(out).meta.inputs
+    assert [i.to_json() for i in inputs] == [
+        {"part": "base", "path": str(low.resolve()), "component": "total",
+         "sha256": hashlib.sha256(low.read_bytes()).hexdigest()}]
 
 
 @pytest.mark.parametrize(("material", "message"), [
@@ -419,12 +421,12 @@ def test_vgrooves_with_a_rough_surface_table_agree_with_the_rough_geometry(
     tau = 4 / n / math.cos(math.radians(slope))  # four grid steps along a face
     surface = resolve({"surface": {"kind": "vgroove", "slope": slope, "grooves": grooves,
                                    "micro_alpha": 0.3, "micro_resolution": n,
-                                   "micro_correlation": tau, "seed": 11}})["surface"]
+                                   "micro_correlation": tau, "seed": 11}}).surface
     direct_tile = build_tile(surface)
     low_tile = face_roughness_tile(surface)
     # the same facets: the faces' roughness in their own frame is the flat tile's
-    assert np.allclose(direct_tile.info["micro_alpha_realised"],
-                       low_tile.info["alpha_realised"], rtol=0.03)
+    assert np.allclose(direct_tile.facts.micro_alpha_realised.axes,
+                       low_tile.facts.alpha_realised.axes, rtol=0.03)
     nodes = list(range(0, 90, 5))
     low = simulate(low_tile, {"base": GOLD}, {"theta_i": nodes, "phi_i": [0],
                                               "rays": 40_000, "bounces": 16, "seed": 12},
@@ -454,12 +456,12 @@ def test_shipped_two_level_example_simulates_from_the_cli(tmp_path: Path, cli) -
     two-level recipe runs from the command line and records that table as its input."""
     facets = read_table(REFERENCE)
     lower = resolve_recipe(ROOT / "surfaces" / "gaussian-0.3-facets.toml")
-    assert facets.meta["recipe"]["surface"] == lower["surface"]
-    assert facets.meta["recipe"]["simulation"] == lower["simulation"]
+    assert facets.meta.recipe.surface == lower.surface
+    assert facets.meta.recipe.simulation == lower.simulation
     out = tmp_path / "two-level.exr"
     code, _, err = cli("simulate", str(ROOT / "surfaces" / "vgroove-rough-facets.toml"),
                        "-o", str(out), "--rays", "3000")
     assert code == 0, err
-    inputs = read_table(out).meta["inputs"]
-    assert inputs[0]["path"] == str(REFERENCE.resolve())
-    assert inputs[0]["sha256"] == hashlib.sha256(REFERENCE.read_bytes()).hexdigest()
+    inputs = read_table(out).meta.inputs
+    assert inputs[0].path == str(REFERENCE.resolve())
+    assert inputs[0].sha256 == hashlib.sha256(REFERENCE.read_bytes()).hexdigest()

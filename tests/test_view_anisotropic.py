@@ -24,7 +24,7 @@ def cylinders_table(tmp_path_factory):
                                 "bounces": 4},
                  "table": {"theta_bins": 8, "phi_bins": 16}})
     path = tmp_path_factory.mktemp("aniso") / "cyl.exr"
-    write_table(simulate(build_tile(r["surface"]), r["material"], r["simulation"], r["table"],
+    write_table(simulate(build_tile(r.surface), r.material, r.simulation, r.table,
                          threads=1, recipe=r), path)
     return path
 

@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from microsim.materials import Material, material_from_json
+from microsim.settings import Simulation, TableSettings
+from microsim.simulation import simulate
+from microsim.surfaces.facts import TileFacts
 from microsim.surfaces.tile import Tile
+from microsim.tables.table import BRDFTable
 
 
-def height_field_tile(h: np.ndarray, size: float = 1.0, info: dict | None = None) -> Tile:
+def height_field_tile(h: np.ndarray, size: float = 1.0, isotropic: bool = False) -> Tile:
     """A periodic tile from heights on an nx x ny grid (the last row and column wrap).
 
     Parameters
@@ -33,12 +40,12 @@ def height_field_tile(h: np.ndarray, size: float = 1.0, info: dict | None = None
     b, c, d = a + (ny + 1), a + 1, a + ny + 2
     faces = np.concatenate([np.stack([a, b, d], 1), np.stack([a, d, c], 1)])
     return Tile(vertices, faces, np.zeros(len(faces), np.int64), ("base",), (size, size),
-                info=info or {})
+                facts=TileFacts(isotropic=isotropic))
 
 
 def flat_tile(n: int = 4) -> Tile:
     """A flat tile at z = 0 on an n x n grid."""
-    return height_field_tile(np.zeros((n, n)), info={"isotropic": True})
+    return height_field_tile(np.zeros((n, n)), isotropic=True)
 
 
 def random_tile(n: int = 64, rms_slope: float = 0.35, cells: float = 4.0,
@@ -63,7 +70,7 @@ def random_tile(n: int = 64, rms_slope: float = 0.35, cells: float = 4.0,
     h = np.fft.ifft2(np.fft.fft2(rng.standard_normal((n, n))) * spectrum).real
     slope = np.gradient(h, axis=0) * n
     h *= rms_slope / slope.std()
-    return height_field_tile(h, info={"isotropic": True})
+    return height_field_tile(h, isotropic=True)
 
 
 def bump_tile(height: float = 0.05, half: float = 0.1) -> Tile:
@@ -108,7 +115,7 @@ def vgroove_tile(slope_deg: float | np.ndarray, grooves: int = 8) -> Tile:
     depth = np.tan(np.radians(np.broadcast_to(slope_deg, (grooves,)))) / n
     h = np.zeros((n, 2))
     h[1::2] = -depth[:, None]
-    return height_field_tile(h, info={"isotropic": False})
+    return height_field_tile(h, isotropic=False)
 
 
 def beckmann_vgroove_tile(alpha: float, grooves: int = 256, seed: int = 0) -> Tile:
@@ -139,5 +146,19 @@ def with_floor(t: Tile) -> Tile:
     faces = np.concatenate([t.faces, [[k, k + 1, k + 2], [k, k + 2, k + 3]]])
     material = np.concatenate([t.material, [len(t.parts)] * 2])
     curved = None if t.curved is None else np.concatenate([t.curved, np.zeros((2, 3, 3))])
-    return Tile(verts, faces, material, (*t.parts, "floor"), t.period, info=t.info,
+    return Tile(verts, faces, material, (*t.parts, "floor"), t.period, facts=t.facts,
                 curved=curved)
+
+
+def sections(materials: dict, simulation: dict, table: dict
+             ) -> tuple[dict[str, Material], Simulation, TableSettings]:
+    """Sections written as a recipe's TOML holds them (dicts) as the records the engine
+    takes; a table without ``sh_order`` holds no harmonics."""
+    return ({p: material_from_json(m) for p, m in materials.items()},
+            Simulation.from_json(simulation), TableSettings(**{"sh_order": 0, **table}))
+
+
+def simulate_sections(tile: Tile, materials: dict, simulation: dict, table: dict,
+                      **kw: Any) -> BRDFTable:
+    """``microsim.simulation.simulate`` of sections written as dicts (``sections``)."""
+    return simulate(tile, *sections(materials, simulation, table), **kw)

@@ -28,6 +28,14 @@ def _arrays(wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return wi, wo
 
 
+def as_rgb(values: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """Broadcast a model's scalar or RGB output to ``shape + (3,)``."""
+    values = np.asarray(values, float)
+    if values.shape == shape:
+        values = values[..., None]
+    return np.broadcast_to(values, shape + (3,))
+
+
 def flat_pairs(wi: np.ndarray, wo: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
     """Direction pairs broadcast together and flattened: ((n, 3), (n, 3), the broadcast

@@ -154,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
 
     sweep = load_sweep(args.sweep)
     for point in sweep.points:  # before a cluster starts (isotropy unknown: every phi_i)
-        check_tile_memory(point.recipe["surface"], args.memory_limit, f"point {point.name}: ")
+        check_tile_memory(point.recipe.surface, args.memory_limit, f"point {point.name}: ")
         check_table_memory(point.recipe, False, args.memory_limit, f"point {point.name}: ")
     writable_folder(args.output, "--output")
     # the lock before the cluster: a second batch on the folder stops at once

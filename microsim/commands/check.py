@@ -26,7 +26,7 @@ def run(args: argparse.Namespace) -> int:
     """Print the resolved recipe as TOML (or JSON with ``--json``)."""
     resolved = recipe.load(args.recipe, args.overrides)
     if args.json:
-        print_json(resolved)
+        print_json(resolved.to_json())
     else:
         print(recipe.to_toml(resolved), end="")
     return 0

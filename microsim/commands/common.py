@@ -13,6 +13,7 @@ import math
 from typing import Any, NoReturn
 
 from microsim.errors import InputError
+from microsim.surfaces.facts import SurfaceFacts
 
 
 class Parser(argparse.ArgumentParser):
@@ -234,17 +235,18 @@ def with_error(value: float, error: float) -> str:
     return f"{value:.{places}f} ± {error:.{places}f}"
 
 
-def roughness_text(info: dict[str, Any]) -> str:
-    """``alpha realised R (target T)`` of a tile's facts, without a target where the
+def roughness_text(facts: SurfaceFacts) -> str:
+    """``alpha realised R (target T)`` of a surface's facts, without a target where the
     surface has none (an imported mesh); pooled over several realisations,
     ``alpha realised R ± E over K tiles (...)``; ``""`` when no roughness is reported."""
-    if info.get("alpha_realised") is None:
+    if facts.alpha_realised is None:
         return ""
-    target = info.get("alpha_target")
-    pooled = "" if info.get("alpha_realised_stderr") is None else (
-        f" ± {readable(info['alpha_realised_stderr'])} over {info['realisations']} tiles")
-    text = f"alpha realised {readable(info['alpha_realised'])}{pooled} (from facet slopes"
-    return text + ("" if target is None else f"; target {readable(target)}") + ")"
+    target = facts.tile.alpha_target
+    error = facts.alpha_realised_stderr
+    pooled = "" if error is None else (
+        f" ± {readable(error.to_json())} over {facts.realisations} tiles")
+    text = f"alpha realised {readable(facts.alpha_realised.to_json())}{pooled} (from facet slopes"
+    return text + ("" if target is None else f"; target {readable(target.to_json())}") + ")"
 
 
 def print_json(data: Any) -> None:

@@ -47,11 +47,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 def title_of(table: Any, name: str, component: str) -> str:
     """Surface, material, realised alpha and rays, for figure titles."""
     meta = table.meta
-    surface = meta.get("surface", {})
-    materials = {m["kind"] for m in meta.get("recipe", {}).get("material", {}).values()}
-    alpha = surface.get("alpha_realised")
-    alpha_text = "" if alpha is None else f", α realised {readable(alpha, 3)}"
-    return (f"{surface.get('kind', 'surface')}, {'/'.join(sorted(materials))} facets"
+    materials = set() if meta.recipe is None else {m.kind for m in meta.recipe.material.values()}
+    alpha = None if meta.surface is None else meta.surface.alpha_realised
+    kind = meta.surface.tile.kind if meta.surface is not None and meta.surface.tile.kind \
+        else "surface"
+    alpha_text = "" if alpha is None else f", α realised {readable(alpha.to_json(), 3)}"
+    return (f"{kind}, {'/'.join(sorted(materials))} facets"
             f"{alpha_text}, {int(table.rays.max()):,} rays per direction; {component} "
             f"vs {name}")
 
@@ -104,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     from microsim.plots import albedo_plot, half_difference_slices, incidence_plane, z_maps
 
     table = microsim.read_table(args.table)
-    for warning in table.meta.get("warnings", []):
+    for warning in table.meta.warnings:
         print(f"warning: {args.table}: {warning}", file=sys.stderr)
     args.component = table_component(table, args.component, args.table)
     name, params, model = parse_model_spec(args.model, model_defaults(table.meta))

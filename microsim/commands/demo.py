@@ -18,6 +18,7 @@ from microsim.commands.common import (
     print_json,
     seed_override,
 )
+from microsim.commands.measure import roughness_json
 from microsim.files import PLOT_SUFFIXES, writable_file
 from microsim.tables.exr import write_table
 
@@ -62,9 +63,7 @@ def comparison(table: Any) -> dict[str, Any]:
 
     result = compare_table(table, microfacet_model(table.meta), "single")
     return {"model": "torrance-sparrow:ndf=beckmann,shadowing=smith-correlated",
-            "alpha_realised": table.meta["surface"]["alpha_realised"],
-            "alpha_realised_stderr": table.meta["surface"].get("alpha_realised_stderr"),
-            "alpha_target": table.meta["surface"]["alpha_target"], **result,
+            **roughness_json(table.meta.surface), **result,
             "agreement": agreement(result)}
 
 
@@ -75,7 +74,7 @@ def total_comparison(table: Any) -> dict[str, Any]:
     from microsim.analytic.registry import parse_model_spec
     from microsim.compare import compare_table, model_defaults
 
-    spec = f"beckmann-ms:samples={MS_SAMPLES},seed={table.meta['seed']}"
+    spec = f"beckmann-ms:samples={MS_SAMPLES},seed={table.meta.seed}"
     _, params, model = parse_model_spec(spec, model_defaults(table.meta))
     result = compare_table(table, model, "total")
     for bins in ("model", "model_err"):

@@ -73,7 +73,9 @@ def run(args: argparse.Namespace) -> int:
         print(file=sys.stderr)
     result.update(error_model=table.error_model,
                   realisations=int(table.realisations.max()),
-                  alpha_realised=table.meta.get("surface", {}).get("alpha_realised"))
+                  alpha_realised=None if table.meta.surface is None
+                  or table.meta.surface.alpha_realised is None
+                  else table.meta.surface.alpha_realised.to_json())
     result.pop("fitted")
     bins = result.pop("model_bins")
     if args.plot is not None:

@@ -43,13 +43,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 def tile_facts(tile: Any) -> dict[str, Any]:
     """What ``generate`` reports about a tile."""
     z0, z1 = tile.z_range
-    facts = {"kind": tile.info.get("kind"), "triangles": len(tile.faces),
+    facts = {"kind": tile.facts.kind, "triangles": len(tile.faces),
              "vertices": len(tile.vertices), "period": list(tile.period),
              "height_range": [z0, z1], "parts": list(tile.parts),
              "memory_bytes": int(tile.vertices.nbytes + tile.faces.nbytes
                                  + tile.material.nbytes)}
     # everything else the generator reports (realised roughness, paint fractions, ...)
-    facts.update({k: v for k, v in tile.info.items() if k not in facts})
+    facts.update({k: v for k, v in tile.facts.to_json().items() if k not in facts})
     facts["warnings"] = list(tile.warnings)
     return facts
 
@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
 
     writable_file(args.output, "--output", FORMATS)
     resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "surface")])
-    tile = build_tile(resolved["surface"], args.memory_limit)
+    tile = build_tile(resolved.surface, args.memory_limit)
     for warning in tile.warnings:
         print(f"warning: {warning}", file=sys.stderr)
     write_mesh(tile, args.output)

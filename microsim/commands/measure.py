@@ -26,6 +26,7 @@ from microsim.commands.common import (
 )
 from microsim.errors import InputError
 from microsim.files import PLOT_SUFFIXES, writable_file
+from microsim.surfaces.facts import Roughness, SurfaceFacts
 
 degree_list = number_list(low=0.0, high=90.0,
                           what="a comma-separated list of angles in [0, 90] degrees")
@@ -77,16 +78,23 @@ def register(sub: argparse._SubParsersAction) -> None:
     n.set_defaults(func=run_ndf)
 
 
-def smith_model(info: dict[str, Any]) -> Any:
-    """Beckmann at the tile's realised roughness (None when the tile reports none)."""
+def smith_model(facts: SurfaceFacts) -> Any:
+    """Beckmann at the surface's realised roughness (None when it reports none)."""
     from microsim.analytic.ndf import Beckmann
 
-    alpha = info.get("alpha_realised")
-    if alpha is None:
-        return None
-    if isinstance(alpha, list):
-        return Beckmann(alpha_x=alpha[0], alpha_y=alpha[1])
-    return Beckmann(alpha)
+    alpha = facts.alpha_realised
+    return None if alpha is None else Beckmann(**alpha.params())
+
+
+def roughness_json(facts: SurfaceFacts) -> dict[str, Any]:
+    """The surface's realised roughness, its standard error and its target, as JSON."""
+
+    def json_of(value: Roughness | None) -> Any:
+        return None if value is None else value.to_json()
+
+    return {"alpha_realised": json_of(facts.alpha_realised),
+            "alpha_realised_stderr": json_of(facts.alpha_realised_stderr),
+            "alpha_target": json_of(facts.tile.alpha_target)}
 
 
 def run_g1(args: argparse.Namespace) -> int:
@@ -101,33 +109,30 @@ def run_g1(args: argparse.Namespace) -> int:
         raise InputError(f"--phi {args.phi}: must be a finite angle in degrees")
     resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "simulation"),
                                          *realisations_override(args)])
-    inside = [part for part, m in resolved["material"].items() if m.get("refract")]
+    inside = [part for part, m in resolved.material.items() if m.medium() is not None]
     if inside:
         print(f"warning: part {inside[0]!r} refracts: G1 samples every face, also those "
               "inside its medium (particles, substrate), so it is not the masking of the "
               "surface light meets first", file=sys.stderr)
-    realisations = int(resolved["simulation"]["realisations"])
+    realisations = resolved.simulation.realisations_or_one
     per_tile = -(-args.rays // realisations)
     check_memory(G1_BYTES_PER_RAY * per_tile * len(args.theta), f"--rays {args.rays} at "
                  f"{len(args.theta)} angles over {realisations} realisations",
                  "use fewer rays", args.memory_limit)
     result = measure_g1_recipe(resolved, args.theta, args.rays, args.phi, args.threads,
                                args.memory_limit)
-    info = result["surface"]
+    info = result.surface
     model = smith_model(info)
     smith = None
     if model is not None:
-        local_phi = math.radians(args.phi - info.get("rotation_deg", 0.0))
+        local_phi = math.radians(args.phi - (getattr(info.tile, "rotation_deg", None) or 0.0))
         smith = model.G1(direction(np.radians(args.theta), local_phi)).tolist()
-    out = {"theta": result["theta_deg"], "phi": result["phi_deg"], "g1": result["g1"],
-           "g1_stderr": result["stderr"], "g1_ray_stderr": result["ray_stderr"],
-           "dof": result["dof"], "error_model": result["error_model"],
-           "realisations": result["realisations"], "smith": smith,
-           "alpha_realised": info.get("alpha_realised"),
-           "alpha_realised_stderr": info.get("alpha_realised_stderr"),
-           "alpha_target": info.get("alpha_target"), "rays": result["rays"],
-           "seed": result["seed"], "segments": result["segments"],
-           "wall_s": result["wall_time"]}
+    out = {"theta": result.theta_deg, "phi": result.phi_deg, "g1": result.g1,
+           "g1_stderr": result.stderr, "g1_ray_stderr": result.ray_stderr,
+           "dof": result.dof, "error_model": result.error_model,
+           "realisations": result.realisations, "smith": smith, **roughness_json(info),
+           "rays": result.rays, "seed": result.seed, "segments": result.segments,
+           "wall_s": result.wall_time}
     if args.json:
         print_json(out)
         return 0
@@ -157,21 +162,19 @@ def run_ndf(args: argparse.Namespace) -> int:
     if args.plot:
         writable_file(args.plot, "--plot", PLOT_SUFFIXES)
     m = measure_ndf_recipe(resolved, args.bins, args.memory_limit)
-    info = m["surface"]
-    alpha = info.get("alpha_realised")
-    iso = alpha if isinstance(alpha, float) else None
-    model = None if iso is None else ndf_bin_average(Beckmann(iso), m["edges"])
-    centres = np.degrees(0.5 * (m["edges"][1:] + m["edges"][:-1]))
-    out = {"theta_h": centres, "D": m["D"], "stderr": m["stderr"], "dof": m["dof"],
-           "error_model": m["error_model"], "realisations": m["realisations"],
-           "beckmann": model, "alpha_realised": alpha,
-           "alpha_realised_stderr": info.get("alpha_realised_stderr"),
-           "alpha_target": info.get("alpha_target"), "bins": args.bins}
+    info = m.surface
+    alpha = info.alpha_realised
+    iso = alpha.alpha if alpha is not None and alpha.isotropic else None
+    model = None if iso is None else ndf_bin_average(Beckmann(iso), m.edges)
+    centres = np.degrees(0.5 * (m.edges[1:] + m.edges[:-1]))
+    out = {"theta_h": centres, "D": m.D, "stderr": m.stderr, "dof": m.dof,
+           "error_model": m.error_model, "realisations": m.realisations,
+           "beckmann": model, **roughness_json(info), "bins": args.bins}
     if args.plot:
         from microsim.plots import ndf_plot
 
-        ndf_plot(centres, m["D"], m["stderr"], model, args.plot,
-                 title=f"{resolved['surface']['kind']} surface, "
+        ndf_plot(centres, m.D, m.stderr, model, args.plot,
+                 title=f"{resolved.surface.kind} surface, "
                        f"{roughness_text(info) or 'no roughness reported'}")
         out["plot"] = args.plot
     if args.json:
@@ -180,11 +183,11 @@ def run_ndf(args: argparse.Namespace) -> int:
     print(f"{'theta_h':>8} {'D':>11} {'stderr':>10} {'Beckmann':>11} {'ratio':>7}")
     for k, c in enumerate(centres):
         b = "" if model is None else f"{model[k]:11.5g}"
-        r = "" if model is None or model[k] == 0 else f"{m['D'][k] / model[k]:7.3f}"
-        e = m["stderr"][k]
+        r = "" if model is None or model[k] == 0 else f"{m.D[k] / model[k]:7.3f}"
+        e = m.stderr[k]
         e_text = f"{e:10.3g}" if np.isfinite(e) else f"{'n/a':>10}"
-        print(f"{c:8.2f} {m['D'][k]:11.5g} {e_text} {b:>11} {r:>7}")
+        print(f"{c:8.2f} {m.D[k]:11.5g} {e_text} {b:>11} {r:>7}")
     print(roughness_text(info) or "no roughness reported: no Beckmann reference")
-    print("errors: from 4 x 4 sub-tiles of one tile" if m["error_model"] != "ensemble"
-          else error_model_note(m["error_model"], m["realisations"]))
+    print("errors: from 4 x 4 sub-tiles of one tile" if m.error_model != "ensemble"
+          else error_model_note(m.error_model, m.realisations))
     return 0

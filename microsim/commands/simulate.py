@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from microsim import recipe
 from microsim.commands.common import (
@@ -23,8 +24,13 @@ from microsim.commands.common import (
 )
 from microsim.files import writable_file
 from microsim.memory import check_memory
-from microsim.recipe import DEFAULT_ORDERS
+from microsim.settings import Recipe
+from microsim.surfaces.facts import SurfaceFacts
 from microsim.tables.exr import write_table
+
+if TYPE_CHECKING:
+    from microsim.goniometer import Progress
+    from microsim.tables.table import BRDFTable
 
 TABLE_BYTES_PER_BIN = 450
 """Memory per table bin and incident direction while a table is estimated and written:
@@ -34,19 +40,19 @@ REALISATION_BYTES_PER_BIN_ROW = 48
 per-realisation sums kept until the table is assembled (Σw and Σw², RGB float64)."""
 
 
-def check_table_memory(resolved: dict[str, Any], isotropic: bool,
-                       memory_limit_gib: float | None, where: str = "") -> None:
+def check_table_memory(resolved: Recipe, isotropic: bool, memory_limit_gib: float | None,
+                       where: str = "") -> None:
     """Refuse (``InputError``) a table whose bins would need more memory than the budget:
     ``theta_bins`` x ``phi_bins`` per incident direction (every ``phi_i`` unless the
     surface is isotropic)."""
-    table, simulation = resolved["table"], resolved["simulation"]
-    directions = len(simulation["theta_i"]) * (1 if isotropic else len(simulation["phi_i"]))
-    bins = table["theta_bins"] * table["phi_bins"]
-    rows = int(table.get("orders", DEFAULT_ORDERS)) + 1
-    kept = REALISATION_BYTES_PER_BIN_ROW * rows * int(simulation.get("realisations", 1))
+    table, simulation = resolved.table, resolved.simulation
+    directions = len(simulation.theta_i) * (1 if isotropic else len(simulation.phi_i))
+    bins = table.theta_bins * table.phi_bins
+    realisations = simulation.realisations_or_one
+    kept = REALISATION_BYTES_PER_BIN_ROW * (table.orders + 1) * realisations
     check_memory((TABLE_BYTES_PER_BIN + kept) * bins * directions,
                  f"{where}table: {bins:,} bins x {directions} incident directions x "
-                 f"{simulation.get('realisations', 1)} realisations",
+                 f"{realisations} realisations",
                  "use fewer bins, incidences or realisations", memory_limit_gib)
 
 
@@ -100,14 +106,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def progress_printer(enabled: bool):
+def progress_printer(enabled: bool) -> Callable[[Progress], None] | None:
     """A goniometer progress callback printing one line per batch to stderr, or None."""
     if not enabled:
         return None
 
-    def show(state: dict[str, Any]) -> None:
-        print(f"\rrealisation {state['realisation'] + 1:>3} of {state['realisations']}, "
-              f"theta_i {state['theta_i']:5.1f} deg: {state['rays']:>11,} rays",
+    def show(state: Progress) -> None:
+        print(f"\rrealisation {state.realisation + 1:>3} of {state.realisations}, "
+              f"theta_i {state.theta_i:5.1f} deg: {state.rays:>11,} rays",
               end="", file=sys.stderr, flush=True)
 
     return show
@@ -118,13 +124,13 @@ def summary(table: Any, output: Path | None) -> dict[str, Any]:
     meta = table.meta
     return {
         "output": None if output is None else str(output),
-        "theta_i": [d["theta_i"] for d in meta["directions"]],
-        "phi_i": [d["phi_i"] for d in meta["directions"]],
+        "theta_i": [d.theta_i for d in meta.directions],
+        "phi_i": [d.phi_i for d in meta.directions],
         "rays": int(table.rays.sum()),
-        "rays_per_direction": [d["rays"] for d in meta["directions"]],
-        "segments": meta["segments"],
-        "wall_s": meta["wall_time"],
-        "segments_per_s": meta["segments_per_second"],
+        "rays_per_direction": [d.rays for d in meta.directions],
+        "segments": meta.segments,
+        "wall_s": meta.timing.wall_time,
+        "segments_per_s": meta.timing.segments_per_second,
         "albedo": table.albedo.reshape(-1, 3),
         "albedo_err": table.albedo_err.reshape(-1, 3),
         "single_albedo": table.albedo_of["single"].reshape(-1, 3),
@@ -135,12 +141,12 @@ def summary(table: Any, output: Path | None) -> dict[str, Any]:
         "lost_energy": table.lost_energy.reshape(-1, 3),
         "median_rel_stderr": table.median_rel_stderr("total"),
         "sh_order": table.sh_order,
-        "stop": [d["stop"] for d in meta["directions"]],
-        "realisations_per_direction": [d["realisations"] for d in meta["directions"]],
-        "ray_share": [d["ray_share"] for d in meta["directions"]],
+        "stop": [d.stop for d in meta.directions],
+        "realisations_per_direction": [d.realisations for d in meta.directions],
+        "ray_share": [d.ray_share for d in meta.directions],
         "error_model": table.error_model,
         "realisations": int(table.realisations.max()),
-        "surface": meta["surface"],
+        "surface": meta.surface.to_json(),
     }
 
 
@@ -160,8 +166,9 @@ def print_summary(s: dict[str, Any]) -> None:
               f"{s['stop'][k]}")
     print("(tiles: surface realisations averaged; ray share: the rays' part of the "
           "variance of the lobe bins, the rest is the spread between tiles)")
-    if roughness_text(s["surface"]):
-        print(f"surface: {roughness_text(s['surface'])}")
+    roughness = roughness_text(SurfaceFacts.from_json(s["surface"]))
+    if roughness:
+        print(f"surface: {roughness}")
     print(error_model_note(s["error_model"], s["realisations"]))
     stderr = s["median_rel_stderr"]
     stderr_text = (f"{100 * stderr:.2f}%" if math.isfinite(stderr)
@@ -181,16 +188,16 @@ def _percent(x: float) -> str:
     return f"{100 * x:.0f}%" if math.isfinite(x) else "n/a"
 
 
-def simulate_resolved(resolved: dict[str, Any], threads: int | None, show_progress: bool,
-                      memory_limit_gib: float | None = None):
+def simulate_resolved(resolved: Recipe, threads: int | None, show_progress: bool,
+                      memory_limit_gib: float | None = None) -> BRDFTable:
     """Run the goniophotometer over the recipe's realisations, one tile at a time. The
     first tile is built beforehand for the memory guard and its warnings (to stderr); the
     others' warnings follow the run."""
     from microsim.simulation import simulate_recipe
     from microsim.surfaces import build_tile
 
-    tile = build_tile(resolved["surface"], memory_limit_gib)
-    check_table_memory(resolved, tile.info.get("isotropic", False), memory_limit_gib)
+    tile = build_tile(resolved.surface, memory_limit_gib)
+    check_table_memory(resolved, tile.facts.isotropic, memory_limit_gib)
     first = list(tile.warnings)
     for warning in first:
         print(f"warning: {warning}", file=sys.stderr)
@@ -199,8 +206,8 @@ def simulate_resolved(resolved: dict[str, Any], threads: int | None, show_progre
     table = simulate_recipe(resolved, progress, threads, memory_limit_gib)
     if progress is not None:
         print(file=sys.stderr)
-    later = [w for w in table.meta["tile_warnings"] if w not in first]
-    for warning in later + table.meta["warnings"]:  # recorded in the table too
+    later = [w for w in table.meta.tile_warnings if w not in first]
+    for warning in [*later, *table.meta.warnings]:  # recorded in the table too
         print(f"warning: {warning}", file=sys.stderr)
     return table
 

@@ -151,12 +151,12 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"--period: required for a mesh file ({source.name}); give "
                              "LX,LY")
         surface = recipe.resolve({"surface": {"kind": "mesh", "path": str(source.resolve()),
-                                              "period": args.period}})["surface"]
+                                              "period": args.period}}).surface
         title = source.name
         resolved = None
     elif suffix == ".toml":
         resolved = recipe.load(source, [*args.overrides, *seed_override(args, "surface")])
-        surface = resolved["surface"]
+        surface = resolved.surface
         title = f"{source.name}: {surface['kind']}"
     elif suffix == ".exr":
         return view_table(args, source)
@@ -172,16 +172,16 @@ def run(args: argparse.Namespace) -> int:
             raise InputError("--rays: needs a recipe (its materials scatter the rays)")
         check_memory(PATH_BYTES * args.rays, f"--rays {args.rays}: drawing the paths",
                      "draw fewer (a few hundred show the scattering)", args.memory_limit)
-        sim = resolved["simulation"]
-        theta = args.theta_i if args.theta_i is not None else sim["theta_i"][0]
+        sim = resolved.simulation
+        theta = args.theta_i if args.theta_i is not None else sim.theta_i[0]
         check_theta(theta)
         phi = args.phi_i if args.phi_i is not None else 0.0
         check_phi(phi)
-        paths = ray_paths(tile, resolved["material"], math.radians(theta), args.rays,
-                          sim["bounces"], sim["seed"], math.radians(phi))
+        paths = ray_paths(tile, resolved.material, math.radians(theta), args.rays,
+                          sim.bounces, sim.seed, math.radians(phi))
     # refracting parts enclose a medium: drawn see-through so their contents show
-    glass = tuple(part for part, m in (resolved or {}).get("material", {}).items()
-                  if m["kind"] == "dielectric" and m["refract"])
+    glass = () if resolved is None else tuple(
+        part for part, m in resolved.material.items() if m.medium() is not None)
     show_tile(tile, args.screenshot, args.tiles, args.color, title, paths, glass)
     if args.screenshot is not None:
         print(f"wrote {args.screenshot}")

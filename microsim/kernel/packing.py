@@ -19,6 +19,7 @@ from microsim.kernel.tabulated import TabulatedMaterial
 from microsim.materials import Material, code_of
 from microsim.materials.base import KIND_COLUMNS, P_ABSORPTION, P_MEDIUM, PARAMS
 from microsim.materials.table import TABLE_COLUMNS
+from microsim.tables.meta import TableInput
 
 
 class FacetMaterials:
@@ -42,8 +43,8 @@ class FacetMaterials:
     ----------
     tables : dict of int to TabulatedMaterial
         The loaded table of each part whose material samples one (by material id).
-    inputs : list of dict
-        Provenance of those tables: ``part``, ``path``, ``sha256``, ``component``.
+    inputs : list of TableInput
+        Provenance of those tables.
     kind : (p,) int
         Kernel code per part (``microsim.materials.code_of``).
     params : (p, PARAMS) float
@@ -77,7 +78,7 @@ class FacetMaterials:
             if table.uses_tangents and tangents is None:
                 raise InputError(f"material.{parts[m]}.axis = 'tangent': this surface gives "
                                  "its faces no tangents (velvet does); use 'x' or 'y'")
-        self.inputs = [{"part": parts[m], **t.source} for m, t in self.tables.items()]
+        self.inputs = [TableInput(parts[m], **t.source) for m, t in self.tables.items()]
         self.tangents = np.zeros((len(self.face_material), 3)) if tangents is None else \
             np.ascontiguousarray(tangents, float)
         self.kind = np.array([code_of(s) for s in specs], np.int64)

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from microsim.compare import as_rgb
+from microsim.analytic.brdf import as_rgb
 from microsim.tables.export import rgl_phi_i, rgl_tensor, write_tensor_file
 
 THETA_NODES = {True: 32, False: 16}

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from microsim.surfaces.facts import CylinderFacts
 from microsim.surfaces.tile import Tile, grid_faces
 
 
@@ -84,5 +85,4 @@ def build(surface: Mapping[str, Any]) -> Tile:
                          [0.0, 0.0, 1 / r]])
         curved = np.where((material == 1)[:, None, None], tube, 0.0)
     return Tile(vertices, faces, material, ("base", "cylinder"), (s, length),
-                info={"kind": "cylinders", "isotropic": False,
-                      "axis": [0.0, 1.0, 0.0]}, curved=curved)
+                facts=CylinderFacts(axis=(0.0, 1.0, 0.0)), curved=curved)

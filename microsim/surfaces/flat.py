@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from microsim.surfaces.facts import FlatFacts
 from microsim.surfaces.tile import Tile
 
 
@@ -27,4 +28,4 @@ def build(surface: Mapping[str, Any]) -> Tile:
     vertices = np.array([[0, 0, 0], [size, 0, 0], [size, size, 0], [0, size, 0]], float)
     faces = np.array([[0, 1, 2], [0, 2, 3]], np.int64)
     return Tile(vertices, faces, np.zeros(2, np.int32), ("base",), (size, size),
-                info={"kind": "flat", "isotropic": True})
+                facts=FlatFacts(isotropic=True))

@@ -16,10 +16,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
+from microsim.surfaces.facts import GaussianFacts, Roughness
 from microsim.surfaces.params import correlation_lengths
 from microsim.surfaces.tile import Tile, grid_faces
 
@@ -83,7 +85,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
     -------
     Tile
         (resolution + 1)² vertices (the last row and column repeat the first, so opposite
-        edges are equal bit for bit), 2·resolution² faces; ``info`` holds
+        edges are equal bit for bit), 2·resolution² faces; ``facts`` holds
         ``alpha_target``, ``alpha_realised`` (and per-axis values when anisotropic),
         ``sigma``, ``correlation_length_x/_y``, ``isotropic``.
     """
@@ -98,18 +100,18 @@ def build(surface: Mapping[str, Any]) -> Tile:
     faces = grid_faces(n + 1, n + 1)
     isotropic = math.isclose(tau_x, tau_y)
     tile = Tile(vertices, faces, np.zeros(len(faces), np.int32), ("base",), (size, size),
-                info={"kind": "gaussian", "isotropic": isotropic, "sigma": sigma,
-                      "correlation_length_x": tau_x, "correlation_length_y": tau_y,
-                      "rotation_deg": math.degrees(rotation)})
+                facts=GaussianFacts(isotropic=isotropic, sigma=sigma,
+                                    correlation_length_x=tau_x, correlation_length_y=tau_y,
+                                    rotation_deg=math.degrees(rotation)))
     ax, ay = 2 * sigma / tau_x, 2 * sigma / tau_y
     rx, ry = tile.realised_alpha(rotation)
     if isotropic:
-        tile.info["alpha_target"] = ax
-        tile.info["alpha_realised"] = math.sqrt((rx**2 + ry**2) / 2)
+        tile.facts = replace(tile.facts, alpha_target=Roughness(ax),
+                             alpha_realised=Roughness(math.sqrt((rx**2 + ry**2) / 2)))
     else:
-        tile.info.update(alpha_target=[ax, ay], alpha_realised=[rx, ry],
-                         alpha_target_x=ax, alpha_target_y=ay,
-                         alpha_realised_x=rx, alpha_realised_y=ry)
+        tile.facts = replace(tile.facts, alpha_target=Roughness(ax, ay),
+                             alpha_realised=Roughness(rx, ry), alpha_target_x=ax,
+                             alpha_target_y=ay, alpha_realised_x=rx, alpha_realised_y=ry)
     cell = size / n
     if min(tau_x, tau_y) < MIN_CELLS * cell:
         cells = min(tau_x, tau_y) / cell

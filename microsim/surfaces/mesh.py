@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from microsim.errors import InputError
+from microsim.surfaces.facts import MeshFacts, Roughness
 from microsim.surfaces.tile import Tile
 
 TOLERANCE = 1e-6
@@ -31,7 +33,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
     Returns
     -------
     Tile
-        Part ``base``; ``info["isotropic"]`` False (unknown); ``info["alpha_realised"]``
+        Part ``base``; ``facts.isotropic`` False (unknown); ``facts.alpha_realised``
         from the facet slopes (``Tile.realised_alpha``), as for generated surfaces.
     """
     import trimesh
@@ -60,7 +62,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
                 f"outside [0, {length:g}]; a tile must lie within its period")
         vertices[:, axis] = np.clip(vertices[:, axis], 0.0, length)
     tile = Tile(vertices, faces, np.zeros(len(faces), np.int32), ("base",), (lx, ly),
-                info={"kind": "mesh", "isotropic": False, "source": str(path)})
+                facts=MeshFacts(isotropic=False, source=str(path)))
     _, areas = tile.face_normals_areas()
     if not areas.sum() > 0:
         raise InputError(f"surface.path = {str(path)!r}: the mesh has zero area")
@@ -70,6 +72,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
         tile.warnings.append(f"surface: dropped {int(degenerate.sum())} zero-area faces "
                              f"of {len(faces)}")
     rx, ry = tile.realised_alpha()
-    tile.info.update(alpha_realised=float(np.sqrt((rx**2 + ry**2) / 2)),
-                     alpha_realised_x=rx, alpha_realised_y=ry)
+    tile.facts = replace(tile.facts,
+                         alpha_realised=Roughness(float(np.sqrt((rx**2 + ry**2) / 2))),
+                         alpha_realised_x=rx, alpha_realised_y=ry)
     return tile

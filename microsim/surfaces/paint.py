@@ -25,12 +25,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from microsim.errors import InputError
 from microsim.geometry import orthonormal_basis
+from microsim.surfaces.facts import PaintFacts
 from microsim.surfaces.gaussian import MIN_LENGTHS, heights
 from microsim.surfaces.params import DEFAULT_CELLS
 from microsim.surfaces.periodic import wrap_into_box
@@ -258,7 +260,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
     Returns
     -------
     Tile
-        Parts ``binder`` (the top), ``pigment``, ``substrate``; ``info`` holds the top's
+        Parts ``binder`` (the top), ``pigment``, ``substrate``; ``facts`` hold the top's
         roughness (target and realised), the particle count, the target and realised
         pigment volume fractions, the mean radius, and for flakes the realised RMS tilt
         with its standard error as an estimate of the tilt distribution's.
@@ -297,23 +299,21 @@ def build(surface: Mapping[str, Any]) -> Tile:
                              1 + np.repeat(np.arange(n_part), len(unit_f))])
     vertices, faces, material = wrap_into_box(vertices, faces, material, (size, size), groups)
     binder_volume = size * size * float(top.h.mean())
-    info: dict[str, Any] = {
-        "kind": "paint", "isotropic": True,
-        "binder_thickness": float(surface["binder_thickness"]),
-        "binder_volume": binder_volume,
-        "particles": int(n_part), "pigment_shape": surface["pigment_shape"],
-        "pigment_fraction_target": float(surface["pigment_fraction"]),
-        "pigment_fraction_realised": pigment_volume / binder_volume,
-        "pigment_radius_mean": float(radii.mean()) if n_part else 0.0,
-    }
+    facts = PaintFacts(
+        isotropic=True, binder_thickness=float(surface["binder_thickness"]),
+        binder_volume=binder_volume, particles=int(n_part),
+        pigment_shape=surface["pigment_shape"],
+        pigment_fraction_target=float(surface["pigment_fraction"]),
+        pigment_fraction_realised=pigment_volume / binder_volume,
+        pigment_radius_mean=float(radii.mean()) if n_part else 0.0)
     if top.n > 1:
         top_tile = Tile(top_v, top_f, np.zeros(len(top_f), int), ("binder",), (size, size))
         ax, ay = top_tile.realised_alpha()
-        info.update(top_alpha_target=float(surface["top_alpha"]),
-                    top_alpha_realised=math.sqrt((ax**2 + ay**2) / 2),
-                    top_correlation_length=top.tau)
+        facts = replace(facts, top_alpha_target=float(surface["top_alpha"]),
+                        top_alpha_realised=math.sqrt((ax**2 + ay**2) / 2),
+                        top_correlation_length=top.tau)
     else:
-        info.update(top_alpha_target=0.0, top_alpha_realised=0.0)
+        facts = replace(facts, top_alpha_target=0.0, top_alpha_realised=0.0)
     warnings = []
     if top.n > 1 and size / top.tau < MIN_LENGTHS:
         warnings.append(
@@ -331,9 +331,9 @@ def build(surface: Mapping[str, Any]) -> Tile:
         n_eff = area.sum() ** 2 / np.sum(area**2)
         spread = float(np.sqrt(np.sum(area * (tilt**2 - mean_sq) ** 2) / area.sum()))
         se = spread / math.sqrt(n_eff) / (2 * rms) if rms > 0 else 0.0
-        info.update(flake_tilt_rms_target_deg=float(surface["flake_tilt_spread"]),
-                    flake_tilt_rms_deg=math.degrees(rms),
-                    flake_tilt_rms_stderr_deg=math.degrees(se))
+        facts = replace(facts, flake_tilt_rms_target_deg=float(surface["flake_tilt_spread"]),
+                        flake_tilt_rms_deg=math.degrees(rms),
+                        flake_tilt_rms_stderr_deg=math.degrees(se))
     if skipped:
         warnings.append(
             f"surface: {skipped} particles found no room in {PER_PARTICLE} tries each and "
@@ -347,4 +347,4 @@ def build(surface: Mapping[str, Any]) -> Tile:
             "jams near 38% for spheres, less in a thin layer: lower pigment_fraction or "
             "pigment_radius, or raise binder_thickness")
     return Tile(vertices, faces, material, ("binder", "pigment", "substrate"), (size, size),
-                info=info, warnings=warnings)
+                facts=facts, warnings=warnings)

@@ -9,9 +9,10 @@ replicates it; rays leaving a side re-enter at the other.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
+
+from microsim.surfaces.facts import TileFacts
 
 
 @dataclass
@@ -31,8 +32,9 @@ class Tile:
         Part names (``[material.<part>]`` in recipes).
     period : tuple of float
         (Lx, Ly).
-    info : dict
-        Facts the generator reports (``alpha_target``, ``alpha_realised``, ...), JSON-able.
+    facts : TileFacts
+        What the generator reports about the tile (its subclass of
+        ``microsim.surfaces.facts.TileFacts``: realised roughness, ...).
     warnings : list of str
         Things the user should know (e.g. a correlation length of too few grid cells).
     tangents : (m, 3) float or None
@@ -55,7 +57,7 @@ class Tile:
     material: np.ndarray
     parts: tuple[str, ...]
     period: tuple[float, float]
-    info: dict[str, Any] = field(default_factory=dict)
+    facts: TileFacts = field(default_factory=TileFacts)
     warnings: list[str] = field(default_factory=list)
     tangents: np.ndarray | None = None
     curved: np.ndarray | None = None

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from microsim.surfaces.facts import VelvetFacts
 from microsim.surfaces.periodic import wrap_into_box
 from microsim.surfaces.tile import Tile
 
@@ -143,7 +144,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
                               + 0.5 * length * axes[fibre], axes[fibre], radius, size)
     isotropic = surface["azimuth_spread"] >= 360.0 or surface["tilt"] == 0
     return Tile(vertices, faces, material, ("base", "fibre"), (size, size),
-                info={"kind": "velvet", "isotropic": bool(isotropic), "fibres": n},
+                facts=VelvetFacts(isotropic=bool(isotropic), fibres=n),
                 tangents=tangents, curved=curved)
 
 

@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
+from microsim.surfaces.facts import FaceRoughnessFacts, Roughness, VGrooveFacts
 from microsim.surfaces.gaussian import heights
 from microsim.surfaces.params import DEFAULT_CELLS, MICRO_RESOLUTION
 from microsim.surfaces.tile import Tile, grid_faces
@@ -40,7 +42,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
     Returns
     -------
     Tile
-        Anisotropic (``info["isotropic"] = False``); ``info["slopes_deg"]`` summarises
+        Anisotropic (``facts.isotropic`` False); ``facts.slopes_deg`` summarises
         the grooves' slopes (``slope_facts``).
     """
     size, grooves = float(surface["size"]), int(surface["grooves"])
@@ -62,11 +64,11 @@ def build(surface: Mapping[str, Any]) -> Tile:
                                 np.repeat(z, 2)])
     faces = grid_faces(len(x), 2)
     tile = Tile(vertices, faces, np.zeros(len(faces), np.int32), ("base",),
-                (size, size), info={"kind": "vgroove", "isotropic": False,
-                                    "slopes_deg": slope_facts(slopes)})
+                (size, size), facts=VGrooveFacts(slopes_deg=slope_facts(slopes)))
     if "alpha" in surface:
         rx, ry = tile.realised_alpha()
-        tile.info.update(alpha_target=surface["alpha"], alpha_realised_x=rx)
+        tile.facts = replace(tile.facts, alpha_target=Roughness(surface["alpha"]),
+                             alpha_realised_x=rx)
     return tile
 
 
@@ -117,7 +119,7 @@ def face_roughness_tile(surface: Mapping[str, Any]) -> Tile:
     Returns
     -------
     Tile
-        Period (size / cos s, size); isotropic; ``info["alpha_realised"]``.
+        Period (size / cos s, size); isotropic; ``facts.alpha_realised``.
     """
     size = float(surface["size"])
     n, s, tau, h = _face_field(surface)
@@ -127,9 +129,10 @@ def face_roughness_tile(surface: Mapping[str, Any]) -> Tile:
     faces = grid_faces(n + 1, n + 1)
     tile = Tile(np.column_stack([x.ravel(), y.ravel(), z.ravel()]), faces,
                 np.zeros(len(faces), np.int32), ("base",), (size / math.cos(s), size),
-                info={"kind": "vgroove-face-roughness", "isotropic": True,
-                      "alpha_target": surface["micro_alpha"], "correlation_length": tau})
-    tile.info["alpha_realised"] = list(tile.realised_alpha())
+                facts=FaceRoughnessFacts(isotropic=True,
+                                         alpha_target=Roughness(surface["micro_alpha"]),
+                                         correlation_length=tau))
+    tile.facts = replace(tile.facts, alpha_realised=Roughness(*tile.realised_alpha()))
     return tile
 
 
@@ -155,7 +158,7 @@ def rough_faces(surface: Mapping[str, Any]) -> Tile:
     Returns
     -------
     Tile
-        2 n² faces; ``info`` adds ``micro_alpha_target`` and ``micro_alpha_realised``
+        2 n² faces; ``facts`` add ``micro_alpha_target`` and ``micro_alpha_realised``
         (from the facet normals in their face's frame, x' and y; see
         ``Tile.realised_alpha``).
     """
@@ -177,10 +180,9 @@ def rough_faces(surface: Mapping[str, Any]) -> Tile:
     faces = grid_faces(n + 1, n + 1)
     tile = Tile(np.column_stack([x.ravel(), y.ravel(), z.ravel()]), faces,
                 np.zeros(len(faces), np.int32), ("base",), (size, size),
-                info={"kind": "vgroove", "isotropic": False,
-                      "slopes_deg": slope_facts(np.full(grooves, float(surface["slope"]))),
-                      "micro_alpha_target": surface["micro_alpha"],
-                      "micro_correlation_length": tau})
+                facts=VGrooveFacts(
+                    slopes_deg=slope_facts(np.full(grooves, float(surface["slope"]))),
+                    micro_alpha_target=surface["micro_alpha"], micro_correlation_length=tau))
     # facet normals in their face's frame (face of the grid column a facet starts in)
     normals, areas = tile.face_normals_areas()
     face_side = np.where(k < m, 1.0, -1.0)[faces[:, 0] // (n + 1)]
@@ -191,5 +193,5 @@ def rough_faces(surface: Mapping[str, Any]) -> Tile:
     weight = areas[up] * nz[up]
     ax, ay = (math.sqrt(2 * np.sum(weight * (c[up] / nz[up]) ** 2) / weight.sum())
               for c in (nx, normals[:, 1]))
-    tile.info.update(micro_alpha_realised=[ax, ay])
+    tile.facts = replace(tile.facts, micro_alpha_realised=Roughness(ax, ay))
     return tile

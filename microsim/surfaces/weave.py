@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from microsim.surfaces.facts import WeaveFacts
 from microsim.surfaces.tile import Tile
 
 
@@ -142,7 +143,6 @@ def build(surface: Mapping[str, Any]) -> Tile:
             count += len(v)
     return Tile(np.concatenate(verts), np.concatenate(faces).astype(np.int64),
                 np.concatenate(material), ("warp", "weft"), (n * s, n * s),
-                info={"kind": "weave", "isotropic": False, "repeat": n,
-                      "crimp_amplitude": amp},
+                facts=WeaveFacts(repeat=n, crimp_amplitude=amp),
                 curved=np.concatenate(curved) if surface.get("smooth_normals", True)
                 else None)

@@ -41,7 +41,7 @@ def write_npz(table: BRDFTable, path: str | Path) -> None:
               "components": np.array(table.components),
               "albedo": table.albedo, "albedo_err": table.albedo_err,
               "lost_energy": table.lost_energy, "isotropic": np.array(table.isotropic),
-              "meta": np.array(json.dumps(table.meta, default=str))}
+              "meta": np.array(json.dumps(table.meta.to_json(), default=str))}
     for c in table.components:
         arrays[c], arrays[f"{c}_err"] = table.values[c], table.errors[c]
         arrays[f"albedo_{c}"], arrays[f"albedo_{c}_err"] = (table.albedo_of[c],
@@ -210,9 +210,9 @@ def rgl_fields(table: BRDFTable, resolution: int = 32, component: str = "total",
 def write_rgl(table: BRDFTable, path: str | Path, resolution: int = 32,
               component: str = "total") -> None:
     """Write an RGL tensor file ``.bsdf`` (see ``rgl_fields``)."""
-    surface: dict[str, Any] = table.meta.get("surface", {})
+    kind = "" if table.meta.surface is None else table.meta.surface.tile.kind
     fields = rgl_fields(table, resolution, component,
-                        f"microsim {component} BRDF of a {surface.get('kind', '')} surface")
+                        f"microsim {component} BRDF of a {kind} surface")
     write_tensor_file(fields, path)
 
 

@@ -31,6 +31,7 @@ from microsim.errors import InputError, InputWarning
 from microsim.files import atomic_path
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.estimator import RAYS
+from microsim.tables.meta import TableMeta
 from microsim.tables.table import BRDFTable
 
 FORMAT_VERSION = 2
@@ -93,7 +94,7 @@ def header_json(table: BRDFTable) -> dict[str, Any]:
         "realisations": table.realisations,
         "dof": table.dof,
         "inflation": table.inflation,
-        "meta": table.meta,
+        "meta": table.meta.to_json(),
     })
 
 
@@ -276,7 +277,7 @@ def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
         {c: load(c) for c in stored}, {c: load(f"{c}_err") for c in stored},
         np.array(info["rays"], np.int64),
         {c: _array(albedo[c]) for c in stored}, {c: _array(albedo_err[c]) for c in stored},
-        _array(info["lost_energy"]), info["meta"], sh=sh, sh_err=sh_err,
+        _array(info["lost_energy"]), TableMeta.from_json(info["meta"]), sh=sh, sh_err=sh_err,
         # tables written before realisations existed carry ray errors
         error_model=info.get("error_model", RAYS), realisations=info.get("realisations"),
         dof=_components(info.get("dof")), inflation=_components(info.get("inflation")))

@@ -28,6 +28,7 @@ from microsim.tables.components import (
 )
 from microsim.tables.estimator import ENSEMBLE, RAYS, estimate
 from microsim.tables.interpolation import linear_weights
+from microsim.tables.meta import TableMeta
 
 CHUNK = 65536
 """Direction pairs interpolated at once by ``eval`` and ``stderr``."""
@@ -64,8 +65,9 @@ class BRDFTable:
     lost_energy : (a, b, 3) float
         The energy of paths still alive after the bounce limit or absorbed by
         transmission (per unit incident power).
-    meta : dict
-        Free-form JSON-able metadata (recipe, surface facts, seed, timings).
+    meta : TableMeta
+        How the table was made (``microsim.tables.meta``: recipe, surface facts,
+        directions, error model, timings).
     error_model : str
         ``"rays"``: the errors count the ray noise of one tile (one realisation, or
         deterministic geometry); ``"ensemble"``: they include the spread between the
@@ -110,7 +112,7 @@ class BRDFTable:
                  isotropic: bool, values: Mapping[str, np.ndarray],
                  errors: Mapping[str, np.ndarray], rays: np.ndarray,
                  albedo: Mapping[str, np.ndarray], albedo_err: Mapping[str, np.ndarray],
-                 lost_energy: np.ndarray, meta: Mapping[str, Any], *,
+                 lost_energy: np.ndarray, meta: TableMeta, *,
                  error_model: str = RAYS, realisations: np.ndarray | None = None,
                  dof: Mapping[str, np.ndarray] | None = None,
                  inflation: Mapping[str, np.ndarray] | None = None,
@@ -134,7 +136,7 @@ class BRDFTable:
         self.albedo_of = _by_component(albedo, self.components, float)
         self.albedo_err_of = _by_component(albedo_err, self.components, float)
         self.lost_energy = np.asarray(lost_energy, float)
-        self.meta = dict(meta)
+        self.meta = meta
         self.error_model = error_model
         self.realisations = (np.ones(self.rays.shape, np.int64) if realisations is None
                              else np.asarray(realisations, np.int64))
@@ -160,7 +162,7 @@ class BRDFTable:
     def from_sums(cls, bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
                   isotropic: bool, rays: np.ndarray, sums: Mapping[str, np.ndarray],
                   sums_sq: Mapping[str, np.ndarray], lost: np.ndarray,
-                  meta: Mapping[str, Any], *,
+                  meta: TableMeta, *,
                   sh_sums: Mapping[str, np.ndarray] | None = None,
                   sh_sums_sq: Mapping[str, np.ndarray] | None = None) -> BRDFTable:
         """The estimator of one realisation (one tile): ``from_realisations`` with K = 1,
@@ -179,7 +181,7 @@ class BRDFTable:
     def from_realisations(cls, bins: HemisphereBins, theta_i: np.ndarray,
                           phi_i: np.ndarray, isotropic: bool, rays: np.ndarray,
                           sums: Mapping[str, np.ndarray], sums_sq: Mapping[str, np.ndarray],
-                          lost: np.ndarray, meta: Mapping[str, Any], *,
+                          lost: np.ndarray, meta: TableMeta, *,
                           sh_sums: Mapping[str, np.ndarray] | None = None,
                           sh_sums_sq: Mapping[str, np.ndarray] | None = None) -> BRDFTable:
         """The goniophotometer's estimator from per-realisation sums of exit weights.
@@ -209,7 +211,7 @@ class BRDFTable:
             Σw and Σw² per bin for every component (``"total"`` and the orders).
         lost : (K, a, b, 3) float
             Summed weight of paths lost (bounce limit, transmission).
-        meta : dict
+        meta : TableMeta
         sh_sums : dict of str to (K, a, b, (L + 1)², 3) float, or None
             Σ w Y_k(ωo) of the escaping rays, per component.
         sh_sums_sq : dict of str to (K, a, b, (2L + 1)², 3) float, or None
