@@ -38,6 +38,7 @@ from microsim.surfaces import build_tile
 from microsim.surfaces.facts import SurfaceFacts
 from microsim.surfaces.realisations import realisation, realisation_seed
 from microsim.surfaces.tile import Tile
+from microsim.tables.assemble import from_realisations
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.meta import DirectionRecord, TableMeta, Timing
 from microsim.tables.table import BRDFTable
@@ -322,7 +323,7 @@ def _table(bins: HemisphereBins, theta_deg: Sequence[float], phi_deg: Sequence[f
     harmonics = some.sh_order > 0
     sh_sums = by_component(lambda acc: acc.sh_sums) if harmonics else None
     sh_sums_sq = by_component(lambda acc: acc.sh_sums_sq) if harmonics else None
-    return BRDFTable.from_realisations(
+    return from_realisations(
         bins, np.radians(theta_deg), np.radians(phi_deg), isotropic, rays, sums, sums_sq,
         stacked(lambda acc: acc.lost_energy, some.lost_energy), TableMeta(), sh_sums=sh_sums,
         sh_sums_sq=sh_sums_sq)

@@ -12,10 +12,10 @@ import microsim
 from microsim.errors import InputError
 from microsim.geometry import direction
 from microsim.tables import exr
+from microsim.tables.assemble import from_sums, merge
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import write_table
 from microsim.tables.meta import TableMeta
-from microsim.tables.table import BRDFTable
 
 LAMBERT = 1 / np.pi
 
@@ -39,7 +39,7 @@ def make_table(seed=1, n=100_000, bins=None, theta_i=(0.0,)):
     s1 = np.stack([a for a, _ in s])[:, None]
     s2 = np.stack([b for _, b in s])[:, None]
     rays = np.full((len(theta_i), 1), n)
-    return BRDFTable.from_sums(bins, np.array(theta_i), np.zeros(1), True, rays,
+    return from_sums(bins, np.array(theta_i), np.zeros(1), True, rays,
                                {"total": s1, "single": s1}, {"total": s2, "single": s2},
                                np.zeros((len(theta_i), 1, 3)), TableMeta(seed=seed))
 
@@ -73,7 +73,7 @@ def test_empty_bins_have_undefined_error_and_eval_stays_finite():
     s1[0, 0, 5] = 10.0
     s2 = np.zeros_like(s1)
     s2[0, 0, 5] = 10.0
-    t = BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[100]]),
+    t = from_sums(bins, [0.0], [0.0], True, np.array([[100]]),
                             {"total": s1, "single": s1}, {"total": s2, "single": s2},
                             np.zeros((1, 1, 3)), TableMeta())
     err = t.errors["total"].reshape(-1, 3)
@@ -118,12 +118,12 @@ def test_merge_equals_one_big_estimate():
     parts = [lambertian_sums(rng, bins, 1000) for _ in range(2)]
 
     def table(s1, s2, n):
-        return BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[n]]),
+        return from_sums(bins, [0.0], [0.0], True, np.array([[n]]),
                                    {"total": s1[None, None], "single": s1[None, None]},
                                    {"total": s2[None, None], "single": s2[None, None]},
                                    np.zeros((1, 1, 3)), TableMeta())
 
-    merged = table(*parts[0], 1000) + table(*parts[1], 1000)
+    merged = merge(table(*parts[0], 1000), table(*parts[1], 1000))
     whole = table(parts[0][0] + parts[1][0], parts[0][1] + parts[1][1], 2000)
     np.testing.assert_array_equal(merged.values["total"], whole.values["total"])
     np.testing.assert_array_equal(merged.errors["total"], whole.errors["total"])
@@ -217,7 +217,7 @@ def test_stderr_is_nan_only_where_the_nearest_bin_is_empty():
     s1 = np.zeros((1, 1, bins.size, 3))
     s1[0, 0, 5] = 10.0
     s2 = s1.copy()
-    t = BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[100]]),
+    t = from_sums(bins, [0.0], [0.0], True, np.array([[100]]),
                             {"total": s1, "single": s1}, {"total": s2, "single": s2},
                             np.zeros((1, 1, 3)), TableMeta())
     wi = direction(0.0, 0.0)
@@ -235,11 +235,11 @@ def test_from_sums_refuses_bad_input():
     bins = HemisphereBins(2, 2)
     s = np.zeros((1, 1, bins.size, 3))
     with pytest.raises(ValueError, match="rays"):
-        BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[0]]),
+        from_sums(bins, [0.0], [0.0], True, np.array([[0]]),
                             {"total": s, "single": s}, {"total": s, "single": s},
                             np.zeros((1, 1, 3)), TableMeta())
     with pytest.raises(ValueError, match="shape"):
-        BRDFTable.from_sums(bins, [0.0], [0.0], True, np.array([[5]]),
+        from_sums(bins, [0.0], [0.0], True, np.array([[5]]),
                             {"total": s[..., :2, :], "single": s},
                             {"total": s, "single": s}, np.zeros((1, 1, 3)), TableMeta())
 

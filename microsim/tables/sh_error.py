@@ -23,7 +23,8 @@ import numpy as np
 
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.table import SH_CHUNK, BRDFTable
+from microsim.tables.evaluate import SH_CHUNK
+from microsim.tables.table import BRDFTable
 
 NODES = 8
 """Gauss-Legendre nodes in cos θ per θo ring for the bin integrals."""

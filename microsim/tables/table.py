@@ -19,21 +19,17 @@ from typing import Any
 import numpy as np
 
 from microsim.tables import sh
-from microsim.tables.binning import TWO_PI, HemisphereBins
+from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import (
     ALIASES,
     canonical_component,
     order_components,
     order_range,
 )
-from microsim.tables.estimator import ENSEMBLE, RAYS, estimate
-from microsim.tables.interpolation import linear_weights
+from microsim.tables.estimator import RAYS
+from microsim.tables.evaluate import Axes, from_harmonics, interpolate, interpolate_error
 from microsim.tables.meta import TableMeta
 
-CHUNK = 65536
-"""Direction pairs interpolated at once by ``eval`` and ``stderr``."""
-SH_CHUNK = 1 << 22
-"""Basis values (pairs × (L + 1)²) evaluated at once from spherical harmonics (32 MB)."""
 REPRESENTATIONS = ("table", "sh")
 LOBE_FRACTION = 0.1
 """Lobe bins: where f_r (mean over RGB; a table's, or a model's bin average when a table is
@@ -90,7 +86,7 @@ class BRDFTable:
     sums, sums_sq : dict or None
         Raw per-bin sums Σw, Σw² of shape (K, a, b, nt·np, 3), per realisation, when the
         table was estimated here: tables of the same realisations and independent rays
-        merge exactly with ``+``.
+        merge exactly (``microsim.tables.assemble.merge``).
     lost : (K, a, b, 3) float or None
         Raw summed lost weight per realisation.
     sh, sh_err : dict of str to (a, b, (L + 1)², 3) float, or None
@@ -99,7 +95,7 @@ class BRDFTable:
         None when the table was simulated without them.
     sh_sums, sh_sums_sq : dict or None
         Raw sums Σ w Y_k (K, a, b, (L + 1)², 3) and Σ w² Y_K to order 2L
-        (K, a, b, (2L + 1)², 3) of fresh estimates, merged by ``+``.
+        (K, a, b, (2L + 1)², 3) of fresh estimates, merged alike.
 
     Attributes
     ----------
@@ -129,193 +125,34 @@ class BRDFTable:
         self.theta_i = np.asarray(theta_i, float)
         self.phi_i = np.asarray(phi_i, float)
         self.isotropic = bool(isotropic)
-        self.components = _components_of(values)
-        self.values = _by_component(values, self.components, float)
-        self.errors = _by_component(errors, self.components, float)
+        self.components = components_of(values)
+        self.values = by_component(values, self.components, float)
+        self.errors = by_component(errors, self.components, float)
         self.rays = np.asarray(rays, np.int64)
-        self.albedo_of = _by_component(albedo, self.components, float)
-        self.albedo_err_of = _by_component(albedo_err, self.components, float)
+        self.albedo_of = by_component(albedo, self.components, float)
+        self.albedo_err_of = by_component(albedo_err, self.components, float)
         self.lost_energy = np.asarray(lost_energy, float)
         self.meta = meta
         self.error_model = error_model
         self.realisations = (np.ones(self.rays.shape, np.int64) if realisations is None
                              else np.asarray(realisations, np.int64))
         fallback = np.broadcast_to((self.rays - 1.0)[..., None], self.rays.shape + (3,))
-        self.dof = _by_component(dof if dof is not None else dict.fromkeys(
+        self.dof = by_component(dof if dof is not None else dict.fromkeys(
             self.components, fallback), self.components, float)
-        self.inflation = None if inflation is None else _by_component(
+        self.inflation = None if inflation is None else by_component(
             inflation, self.components, float)
         self.realisation_rays = realisation_rays
-        self.ray_errors = None if ray_errors is None else _by_component(
+        self.ray_errors = None if ray_errors is None else by_component(
             ray_errors, self.components, float)
-        self.sums = None if sums is None else _by_component(sums, self.components)
-        self.sums_sq = None if sums_sq is None else _by_component(sums_sq, self.components)
+        self.sums = None if sums is None else by_component(sums, self.components)
+        self.sums_sq = None if sums_sq is None else by_component(sums_sq, self.components)
         self.lost = lost
-        self.sh = None if sh is None else _by_component(sh, self.components, float)
-        self.sh_err = None if sh_err is None else _by_component(sh_err, self.components,
+        self.sh = None if sh is None else by_component(sh, self.components, float)
+        self.sh_err = None if sh_err is None else by_component(sh_err, self.components,
                                                                 float)
-        self.sh_sums = None if sh_sums is None else _by_component(sh_sums, self.components)
-        self.sh_sums_sq = None if sh_sums_sq is None else _by_component(sh_sums_sq,
+        self.sh_sums = None if sh_sums is None else by_component(sh_sums, self.components)
+        self.sh_sums_sq = None if sh_sums_sq is None else by_component(sh_sums_sq,
                                                                         self.components)
-
-    @classmethod
-    def from_sums(cls, bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
-                  isotropic: bool, rays: np.ndarray, sums: Mapping[str, np.ndarray],
-                  sums_sq: Mapping[str, np.ndarray], lost: np.ndarray,
-                  meta: TableMeta, *,
-                  sh_sums: Mapping[str, np.ndarray] | None = None,
-                  sh_sums_sq: Mapping[str, np.ndarray] | None = None) -> BRDFTable:
-        """The estimator of one realisation (one tile): ``from_realisations`` with K = 1,
-        its arrays without the realisation axis (``rays`` (a, b), ``sums`` (a, b, m, 3),
-        ``lost`` (a, b, 3), ...)."""
-
-        def one(x: Mapping[str, np.ndarray] | None) -> dict[str, np.ndarray] | None:
-            return None if x is None else {c: np.asarray(v)[None] for c, v in x.items()}
-
-        return cls.from_realisations(bins, theta_i, phi_i, isotropic,
-                                     np.asarray(rays)[None], one(sums), one(sums_sq),
-                                     np.asarray(lost)[None], meta, sh_sums=one(sh_sums),
-                                     sh_sums_sq=one(sh_sums_sq))
-
-    @classmethod
-    def from_realisations(cls, bins: HemisphereBins, theta_i: np.ndarray,
-                          phi_i: np.ndarray, isotropic: bool, rays: np.ndarray,
-                          sums: Mapping[str, np.ndarray], sums_sq: Mapping[str, np.ndarray],
-                          lost: np.ndarray, meta: TableMeta, *,
-                          sh_sums: Mapping[str, np.ndarray] | None = None,
-                          sh_sums_sq: Mapping[str, np.ndarray] | None = None) -> BRDFTable:
-        """The goniophotometer's estimator from per-realisation sums of exit weights.
-
-        Each launched ray contributes its exit weight w to at most one bin, so per bin the
-        per-ray quantity X = w·1[bin] has mean Σw/N and f_r = (Σw/N) / Ω_proj (Nicodemus
-        et al. 1977, NBS Monograph 160, eq. 4: reflected over incident power per
-        projected solid angle). The albedo is the mean of the per-ray total exit weight
-        W = Σ_bins X, whose Σ W² equals Σ over bins of Σw², because a ray exits once.
-        Spherical-harmonic coefficients are the same sample mean of X = w Y_k(ωo), with
-        Σ X² from the order-2L sums (``microsim.tables.sh.second_moments``). Over
-        realisations every quantity is the mean of the realisations' estimates
-        (``microsim.tables.estimator``): the bins' errors are moderated over the lobe bins
-        of each incidence (bins of the mean f_r at least ``LOBE_FRACTION`` of its peak),
-        the albedo's and the harmonics' are batch means.
-
-        Parameters
-        ----------
-        bins : HemisphereBins
-        theta_i : (a,) float
-        phi_i : (b,) float
-        isotropic : bool
-        rays : (K, a, b) int
-            Rays per realisation and incident direction; 0 where a realisation did not
-            trace a direction (every direction needs at least one realisation).
-        sums, sums_sq : dict of str to (K, a, b, nt·np, 3) float
-            Σw and Σw² per bin for every component (``"total"`` and the orders).
-        lost : (K, a, b, 3) float
-            Summed weight of paths lost (bounce limit, transmission).
-        meta : TableMeta
-        sh_sums : dict of str to (K, a, b, (L + 1)², 3) float, or None
-            Σ w Y_k(ωo) of the escaping rays, per component.
-        sh_sums_sq : dict of str to (K, a, b, (2L + 1)², 3) float, or None
-            Σ w² Y_K(ωo) to order 2L.
-
-        Returns
-        -------
-        BRDFTable
-            Error model ``ensemble`` when some direction has two realisations or more,
-            ``rays`` otherwise.
-
-        Raises
-        ------
-        ValueError
-            If an incidence launched no ray or an array has the wrong shape.
-        """
-        rays = np.asarray(rays, np.int64)
-        a, b = len(theta_i), len(phi_i)
-        if rays.ndim != 3 or rays.shape[1:] != (a, b) or np.any(rays < 0) or np.any(
-                rays.sum(axis=0) < 1):
-            raise ValueError(f"rays must be (K, n_theta_i, n_phi_i) = (K, {a}, {b}) counts "
-                             f">= 0, each direction traced, got shape {rays.shape}")
-        components = _components_of(sums)
-        sums, sums_sq = _by_component(sums, components), _by_component(sums_sq, components)
-        expected = rays.shape + (bins.size, 3)
-        for c in components:
-            if not np.shape(sums[c]) == np.shape(sums_sq[c]) == expected:
-                raise ValueError(f"sums[{c!r}] and sums_sq[{c!r}] must have shape {expected}")
-        omega = bins.projected_solid_angle.reshape(1, 1, -1, 1)
-        shape = (a, b) + bins.shape + (3,)
-        values, errors, ray_errors, albedo, albedo_err = {}, {}, {}, {}, {}
-        dof, inflation = {}, {}
-        for c in components:
-            s1, s2 = np.asarray(sums[c], float), np.asarray(sums_sq[c], float)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                mean = np.nansum(s1 / np.where(rays > 0, rays, np.nan)[..., None, None],
-                                 axis=0)
-            f = mean.mean(axis=-1)
-            lobe = (f >= LOBE_FRACTION * f.max(axis=-1, keepdims=True)) & (f > 0)
-            e = estimate(s1, s2, rays, np.broadcast_to(lobe[..., None], mean.shape))
-            values[c], errors[c] = (e.mean / omega).reshape(shape), (e.stderr / omega
-                                                                      ).reshape(shape)
-            ray_errors[c] = (e.ray_stderr / omega).reshape(shape)
-            dof[c], inflation[c] = e.dof, e.inflation
-            w = estimate(s1.sum(axis=3, keepdims=True), s2.sum(axis=3, keepdims=True), rays)
-            albedo[c], albedo_err[c] = w.mean[:, :, 0], w.stderr[:, :, 0]
-        sh_values = sh_errors = None
-        if sh_sums is not None and sh_sums_sq is not None:
-            sh_values, sh_errors = {}, {}
-            sh_sums = _by_component(sh_sums, components)
-            sh_sums_sq = _by_component(sh_sums_sq, components)
-            for c in components:
-                s1 = np.asarray(sh_sums[c], float)
-                order = sh.order_of(s1.shape[-2])
-                if s1.shape != rays.shape + (sh.size(order), 3) or np.shape(
-                        sh_sums_sq[c]) != rays.shape + (sh.size(2 * order), 3):
-                    raise ValueError(f"sh_sums[{c!r}] and sh_sums_sq[{c!r}] must have shapes "
-                                     f"(K, a, b, (L+1)^2, 3) and (K, a, b, (2L+1)^2, 3)")
-                e = estimate(s1, sh.second_moments(sh_sums_sq[c], order), rays)
-                sh_values[c], sh_errors[c] = e.mean, e.stderr
-        lost = np.asarray(lost, float)
-        realisations = (rays > 0).sum(axis=0)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            lost_energy = np.nansum(lost / np.where(rays > 0, rays, np.nan)[..., None],
-                                    axis=0) / realisations[..., None]
-        return cls(bins, theta_i, phi_i, isotropic, values, errors, rays.sum(axis=0), albedo,
-                   albedo_err, lost_energy, meta,
-                   error_model=ENSEMBLE if realisations.max() > 1 else RAYS,
-                   realisations=realisations, dof=dof, inflation=inflation,
-                   realisation_rays=rays, ray_errors=ray_errors,
-                   sums={c: np.asarray(sums[c], float) for c in components},
-                   sums_sq={c: np.asarray(sums_sq[c], float) for c in components},
-                   lost=lost, sh=sh_values, sh_err=sh_errors,
-                   sh_sums=sh_sums, sh_sums_sq=sh_sums_sq)
-
-    def __add__(self, other: BRDFTable) -> BRDFTable:
-        """Merge two estimates of the same set-up and realisations made with independent
-        rays: realisation by realisation, the rays pool."""
-        if self.sums is None or other.sums is None:
-            raise ValueError("only tables holding raw sums (fresh estimates) merge")
-        same = (self.bins.shape == other.bins.shape and self.isotropic == other.isotropic
-                and np.array_equal(self.theta_i, other.theta_i)
-                and np.array_equal(self.phi_i, other.phi_i)
-                and self.realisation_rays.shape == other.realisation_rays.shape)
-        if not same:
-            raise ValueError("tables with different axes or realisations do not merge")
-        if self.components != other.components:
-            raise ValueError(f"tables with different components do not merge: "
-                             f"{self.components} and {other.components}")
-        components = self.components
-        harmonics = (self.sh_sums is not None and other.sh_sums is not None
-                     and self.sh_order == other.sh_order)
-
-        def merged(a: Mapping[str, np.ndarray] | None, b: Mapping[str, np.ndarray] | None
-                   ) -> dict[str, np.ndarray] | None:
-            return {c: a[c] + b[c] for c in components} if harmonics else None
-
-        return BRDFTable.from_realisations(
-            self.bins, self.theta_i, self.phi_i, self.isotropic,
-            self.realisation_rays + other.realisation_rays,
-            {c: self.sums[c] + other.sums[c] for c in components},
-            {c: self.sums_sq[c] + other.sums_sq[c] for c in components},
-            self.lost + other.lost, self.meta, sh_sums=merged(self.sh_sums, other.sh_sums),
-            sh_sums_sq=merged(self.sh_sums_sq, other.sh_sums_sq))
 
     # --- derived quantities ------------------------------------------------------------
     @property
@@ -385,69 +222,11 @@ class BRDFTable:
         rel = np.where(np.isfinite(e), e, np.inf)[lobe] / f[lobe]
         return float(np.median(rel)) if rel.size else float("nan")
 
-    # --- evaluation --------------------------------------------------------------------
-    def _stencil(self, wi: np.ndarray, wo: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The 16 interpolation nodes of each direction pair: linear in θi and φi between
-        incidences, bilinear in (sin²θo, φo) between bin centres (clamped at the pole and
-        the horizon, periodic in φo).
-
-        Parameters
-        ----------
-        wi, wo : (n, 3) float
-            Unit directions, local frame.
-
-        Returns
-        -------
-        nodes : (n, 16) int
-            Flat indices into an (a·b·nt·np, 3) view of a table array.
-        weights : (n, 16) float
-            Interpolation weights, summing to 1; the node with the largest weight is the
-            nearest one (the nearest incidence and the bin holding ωo).
-        above : (n,) bool
-            Both directions strictly above the horizon.
-        """
-        theta_in = np.arccos(np.clip(wi[:, 2], -1.0, 1.0))
-        phi_in = np.arctan2(wi[:, 1], wi[:, 0])
-        phi_out = np.arctan2(wo[:, 1], wo[:, 0])
-        if self.isotropic:
-            phi_out = phi_out - phi_in
-        axes = (
-            linear_weights(theta_in, self.theta_i),
-            linear_weights(np.mod(phi_in, TWO_PI), self.phi_i, TWO_PI),
-            linear_weights(np.clip(wo[:, 0] ** 2 + wo[:, 1] ** 2, 0.0, 1.0),
-                           np.sin(self.bins.theta_centers) ** 2),
-            linear_weights(self.bins.relative_phi(phi_out), self.bins.phi_centers,
-                           self.bins.phi_period),
-        )
-        sizes = (len(self.theta_i), len(self.phi_i)) + self.bins.shape
-        nodes = np.zeros((len(wi),) + (1,) * 4, np.int64)
-        weights = np.ones((len(wi),) + (1,) * 4)
-        for k, ((i0, i1, w1), size) in enumerate(zip(axes, sizes, strict=True)):
-            at = (slice(None),) + (None,) * k + (slice(None),) + (None,) * (3 - k)
-            nodes = nodes * size + np.stack([i0, i1], -1)[at]
-            weights = weights * np.stack([1.0 - w1, w1], -1)[at]
-        above = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-        return nodes.reshape(len(wi), 16), weights.reshape(len(wi), 16), above
-
-    def _per_pair(self, kernel: Any, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-        """``kernel(nodes, weights)`` over the direction pairs in chunks of ``CHUNK`` (the
-        16-node gathers stay a few tens of MB however many pairs), 0 where either direction
-        is at or below the horizon.
-
-        Returns
-        -------
-        (..., 3) float
-        """
-        wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
-        shape = wi.shape[:-1]
-        wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
-        out = np.zeros((len(wi), 3))
-        for start in range(0, len(wi), CHUNK):
-            sl = slice(start, start + CHUNK)
-            nodes, weights, above = self._stencil(wi[sl], wo[sl])
-            out[sl] = np.where(above[:, None], kernel(nodes, weights), 0.0)
-        return out.reshape(shape + (3,))
+    # --- evaluation (microsim.tables.evaluate) --------------------------------------------
+    @property
+    def axes(self) -> Axes:
+        """The table's axes."""
+        return Axes(self.bins, self.theta_i, self.phi_i, self.isotropic)
 
     def eval(self, wi: np.ndarray, wo: np.ndarray, component: str = "total",
              representation: str = "table") -> np.ndarray:
@@ -481,43 +260,14 @@ class BRDFTable:
             For an unknown ``representation``, or ``"sh"`` on a table without harmonics.
         """
         if representation == "sh":
-            return self._eval_sh(wi, wo, self.component(component))
+            if self.sh is None:
+                raise ValueError("this table holds no spherical harmonics (simulate it with "
+                                 "[table] sh_order > 0)")
+            return from_harmonics(self.axes, self.sh[self.component(component)], wi, wo)
         if representation != "table":
             raise ValueError(f"representation must be one of {REPRESENTATIONS}, "
                              f"got {representation!r}")
-        data = self.values[self.component(component)].reshape(-1, 3)
-        return self._per_pair(lambda nodes, w: np.einsum("nk,nkc->nc", w, data[nodes]),
-                              wi, wo)
-
-    def _eval_sh(self, wi: np.ndarray, wo: np.ndarray, component: str) -> np.ndarray:
-        """f_r from the harmonics (see ``eval``), in chunks of ``SH_CHUNK`` basis values."""
-        if self.sh is None:
-            raise ValueError("this table holds no spherical harmonics (simulate it with "
-                             "[table] sh_order > 0)")
-        a, b, n, _ = self.sh[component].shape
-        coef = np.moveaxis(self.sh[component], 2, 0).reshape(n, a * b * 3)
-        wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
-        shape = wi.shape[:-1]
-        wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
-        out = np.zeros((len(wi), 3))
-        step = max(1, SH_CHUNK // n)
-        for start in range(0, len(wi), step):
-            i, o = wi[start:start + step], wo[start:start + step]
-            phi_in = np.arctan2(i[:, 1], i[:, 0])
-            t0, t1, wt = linear_weights(np.arccos(np.clip(i[:, 2], -1.0, 1.0)),
-                                        self.theta_i)
-            p0, p1, wp = linear_weights(np.mod(phi_in, TWO_PI), self.phi_i, TWO_PI)
-            phi_out = np.arctan2(o[:, 1], o[:, 0]) - (phi_in if self.isotropic else 0.0)
-            g = (sh.basis(sh.order_of(n), o[:, 2], phi_out) @ coef).reshape(len(i), a * b, 3)
-            rows = np.arange(len(i))
-            total = np.zeros((len(i), 3))
-            for t, w_t in ((t0, 1.0 - wt), (t1, wt)):
-                for p, w_p in ((p0, 1.0 - wp), (p1, wp)):
-                    total += (w_t * w_p)[:, None] * g[rows, t * b + p]
-            above = (i[:, 2] > 0) & (o[:, 2] > 0)
-            out[start:start + step] = np.where(
-                above[:, None], total / np.where(above, o[:, 2], 1.0)[:, None], 0.0)
-        return out.reshape(shape + (3,))
+        return interpolate(self.axes, self.values[self.component(component)], wi, wo)
 
     def stderr(self, wi: np.ndarray, wo: np.ndarray, component: str = "total") -> np.ndarray:
         """Interpolated standard error of f_r, with the nodes of ``eval``.
@@ -539,21 +289,10 @@ class BRDFTable:
         (..., 3) float
             Standard error of f_r in 1/sr per colour.
         """
-        err = self.errors[self.component(component)].reshape(-1, 3)
-
-        def kernel(nodes: np.ndarray, weights: np.ndarray) -> np.ndarray:
-            known = np.isfinite(err[nodes])                               # (n, 16, 3)
-            w = np.where(known, weights[..., None], 0.0)
-            nearest = np.argmax(weights, axis=1)
-            undefined = ~np.take_along_axis(known, nearest[:, None, None], axis=1)[:, 0]
-            out = (w * np.nan_to_num(err[nodes])).sum(axis=1) / np.where(
-                undefined, 1.0, w.sum(axis=1))
-            return np.where(undefined, np.nan, out)
-
-        return self._per_pair(kernel, wi, wo)
+        return interpolate_error(self.axes, self.errors[self.component(component)], wi, wo)
 
 
-def _components_of(data: Mapping[str, Any]) -> tuple[str, ...]:
+def components_of(data: Mapping[str, Any]) -> tuple[str, ...]:
     """The components of a per-component mapping, by stored name: ``"total"`` first, then
     the orders from the lowest (``"single"`` counts as ``"order1"``).
 
@@ -587,7 +326,7 @@ class ByComponent(dict):
         return self[key] if key in self else default
 
 
-def _by_component(data: Mapping[str, Any], components: tuple[str, ...],
+def by_component(data: Mapping[str, Any], components: tuple[str, ...],
                   dtype: type | None = None) -> ByComponent:
     """``data`` keyed by stored component names, in the order of ``components``."""
     named = {canonical_component(c): v for c, v in data.items()}

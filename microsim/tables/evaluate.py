@@ -1,0 +1,201 @@
+"""Reading a binned table between its nodes: f_r and its standard error interpolated at
+any direction pair, and f_r from a table's spherical harmonics.
+
+The table is a piecewise-linear function of its axes (``microsim.tables.interpolation``):
+linear in θi (and periodically in φi for anisotropic tables) between the incidences,
+clamped outside them; bilinear in (sin²θo, φo) between bin centres, periodic in φo and
+clamped at the pole and the horizon. ``BRDFTable.eval`` and ``BRDFTable.stderr`` are
+these functions of its arrays.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from microsim.tables import sh
+from microsim.tables.binning import TWO_PI, HemisphereBins
+from microsim.tables.interpolation import linear_weights
+
+CHUNK = 65536
+"""Direction pairs interpolated at once."""
+SH_CHUNK = 1 << 22
+"""Basis values (pairs × (L + 1)²) evaluated at once from spherical harmonics (32 MB)."""
+
+
+@dataclass(frozen=True)
+class Axes:
+    """A table's axes: outgoing bins, incident polar angles and azimuths (radians), and
+    whether outgoing azimuths are relative to the incident one."""
+
+    bins: HemisphereBins
+    theta_i: np.ndarray
+    phi_i: np.ndarray
+    isotropic: bool
+
+
+def stencil(axes: Axes, wi: np.ndarray, wo: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The 16 interpolation nodes of each direction pair: linear in θi and φi between
+    incidences, bilinear in (sin²θo, φo) between bin centres (clamped at the pole and
+    the horizon, periodic in φo).
+
+    Parameters
+    ----------
+    wi, wo : (n, 3) float
+        Unit directions, local frame.
+
+    Returns
+    -------
+    nodes : (n, 16) int
+        Flat indices into an (a·b·nt·np, 3) view of a table array.
+    weights : (n, 16) float
+        Interpolation weights, summing to 1; the node with the largest weight is the
+        nearest one (the nearest incidence and the bin holding ωo).
+    above : (n,) bool
+        Both directions strictly above the horizon.
+    """
+    theta_in = np.arccos(np.clip(wi[:, 2], -1.0, 1.0))
+    phi_in = np.arctan2(wi[:, 1], wi[:, 0])
+    phi_out = np.arctan2(wo[:, 1], wo[:, 0])
+    if axes.isotropic:
+        phi_out = phi_out - phi_in
+    per_axis = (
+        linear_weights(theta_in, axes.theta_i),
+        linear_weights(np.mod(phi_in, TWO_PI), axes.phi_i, TWO_PI),
+        linear_weights(np.clip(wo[:, 0] ** 2 + wo[:, 1] ** 2, 0.0, 1.0),
+                       np.sin(axes.bins.theta_centers) ** 2),
+        linear_weights(axes.bins.relative_phi(phi_out), axes.bins.phi_centers,
+                       axes.bins.phi_period),
+    )
+    sizes = (len(axes.theta_i), len(axes.phi_i)) + axes.bins.shape
+    nodes = np.zeros((len(wi),) + (1,) * 4, np.int64)
+    weights = np.ones((len(wi),) + (1,) * 4)
+    for k, ((i0, i1, w1), size) in enumerate(zip(per_axis, sizes, strict=True)):
+        at = (slice(None),) + (None,) * k + (slice(None),) + (None,) * (3 - k)
+        nodes = nodes * size + np.stack([i0, i1], -1)[at]
+        weights = weights * np.stack([1.0 - w1, w1], -1)[at]
+    above = (wi[:, 2] > 0) & (wo[:, 2] > 0)
+    return nodes.reshape(len(wi), 16), weights.reshape(len(wi), 16), above
+
+
+def per_pair(axes: Axes, kernel: Callable[[np.ndarray, np.ndarray], np.ndarray],
+             wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+    """``kernel(nodes, weights)`` over the direction pairs in chunks of ``CHUNK`` (the
+    16-node gathers stay a few tens of MB however many pairs), 0 where either direction
+    is at or below the horizon.
+
+    Returns
+    -------
+    (..., 3) float
+    """
+    wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
+    shape = wi.shape[:-1]
+    wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
+    out = np.zeros((len(wi), 3))
+    for start in range(0, len(wi), CHUNK):
+        sl = slice(start, start + CHUNK)
+        nodes, weights, above = stencil(axes, wi[sl], wo[sl])
+        out[sl] = np.where(above[:, None], kernel(nodes, weights), 0.0)
+    return out.reshape(shape + (3,))
+
+
+def interpolate(axes: Axes, values: np.ndarray, wi: np.ndarray, wo: np.ndarray
+                ) -> np.ndarray:
+    """Interpolated f_r (``BRDFTable.eval``); an empty bin's value is 0, so the result is
+    never NaN.
+
+    Parameters
+    ----------
+    axes : Axes
+    values : (a, b, nt, np, 3) float
+    wi, wo : (..., 3) float
+        Unit directions towards the light and the viewer, local frame.
+
+    Returns
+    -------
+    (..., 3) float
+        0 where either direction is at or below the horizon.
+    """
+    data = values.reshape(-1, 3)
+    return per_pair(axes, lambda nodes, w: np.einsum("nk,nkc->nc", w, data[nodes]), wi, wo)
+
+
+def from_harmonics(axes: Axes, coefficients: np.ndarray, wi: np.ndarray, wo: np.ndarray
+                   ) -> np.ndarray:
+    """f_r = Σ_k c_k Y_k(ωo) / cos θo from a table's coefficients of f_r cos θo
+    (``BRDFTable.eval`` with ``representation="sh"``), interpolated linearly in θi (and φi)
+    as the bins are, in chunks of ``SH_CHUNK`` basis values.
+
+    Parameters
+    ----------
+    axes : Axes
+    coefficients : (a, b, (L + 1)², 3) float
+    wi, wo : (..., 3) float
+
+    Returns
+    -------
+    (..., 3) float
+        0 where either direction is at or below the horizon.
+    """
+    a, b, n, _ = coefficients.shape
+    coef = np.moveaxis(coefficients, 2, 0).reshape(n, a * b * 3)
+    wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
+    shape = wi.shape[:-1]
+    wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
+    out = np.zeros((len(wi), 3))
+    step = max(1, SH_CHUNK // n)
+    for start in range(0, len(wi), step):
+        i, o = wi[start:start + step], wo[start:start + step]
+        phi_in = np.arctan2(i[:, 1], i[:, 0])
+        t0, t1, wt = linear_weights(np.arccos(np.clip(i[:, 2], -1.0, 1.0)),
+                                    axes.theta_i)
+        p0, p1, wp = linear_weights(np.mod(phi_in, TWO_PI), axes.phi_i, TWO_PI)
+        phi_out = np.arctan2(o[:, 1], o[:, 0]) - (phi_in if axes.isotropic else 0.0)
+        g = (sh.basis(sh.order_of(n), o[:, 2], phi_out) @ coef).reshape(len(i), a * b, 3)
+        rows = np.arange(len(i))
+        total = np.zeros((len(i), 3))
+        for t, w_t in ((t0, 1.0 - wt), (t1, wt)):
+            for p, w_p in ((p0, 1.0 - wp), (p1, wp)):
+                total += (w_t * w_p)[:, None] * g[rows, t * b + p]
+        above = (i[:, 2] > 0) & (o[:, 2] > 0)
+        out[start:start + step] = np.where(
+            above[:, None], total / np.where(above, o[:, 2], 1.0)[:, None], 0.0)
+    return out.reshape(shape + (3,))
+
+
+def interpolate_error(axes: Axes, errors: np.ndarray, wi: np.ndarray, wo: np.ndarray
+                      ) -> np.ndarray:
+    """Interpolated standard error of f_r, with the nodes of ``eval``.
+
+    Nodes whose error is undefined (empty bins) are left out and the other weights
+    renormalised; the result is NaN only where the nearest node (the nearest incidence
+    and the bin holding ωo) is itself undefined. 0 at or below the horizon, where f_r
+    is 0 by definition.
+
+    Parameters
+    ----------
+    errors : (a, b, nt, np, 3) float
+        The table's standard errors (NaN where undefined).
+    wi, wo : (..., 3) float
+        Unit directions, local frame.
+
+    Returns
+    -------
+    (..., 3) float
+        Standard error of f_r in 1/sr per colour.
+    """
+    err = errors.reshape(-1, 3)
+
+    def kernel(nodes: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        known = np.isfinite(err[nodes])                               # (n, 16, 3)
+        w = np.where(known, weights[..., None], 0.0)
+        nearest = np.argmax(weights, axis=1)
+        undefined = ~np.take_along_axis(known, nearest[:, None, None], axis=1)[:, 0]
+        out = (w * np.nan_to_num(err[nodes])).sum(axis=1) / np.where(
+            undefined, 1.0, w.sum(axis=1))
+        return np.where(undefined, np.nan, out)
+
+    return per_pair(axes, kernel, wi, wo)
