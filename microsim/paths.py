@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from microsim.kernel.slots import FATES
 from microsim.kernel.tally import in_blocks, summarise
-from microsim.kernel.transport import FATES
 from microsim.trace import PeriodicScene
 
 if TYPE_CHECKING:

@@ -27,10 +27,11 @@ from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
-from microsim.kernel import transport as kt
+from microsim.kernel import slots as ks
 from microsim.kernel.embree import Scene, rayhit_buffer
 from microsim.kernel.rng import key_of
 from microsim.kernel.shading import curved_table
+from microsim.kernel.transport import trace_chunk
 from microsim.surfaces.tile import Tile
 
 if TYPE_CHECKING:
@@ -51,7 +52,7 @@ can reach (the front; the back of a refracting face for a ray inside its medium)
 through the top, out through the bottom, out of side crossings, or a hit on the other side
 (numerical leakage)."""
 _STATUS = np.array([ESCAPED, HIT, LEAKED, LEAKED, TRAPPED, BACKFACE], np.int8)
-"""``closest_hit`` status of each kernel fate (``microsim.kernel.transport.FATES``)."""
+"""``closest_hit`` status of each kernel fate (``microsim.kernel.slots.FATES``)."""
 T = TypeVar("T")
 
 
@@ -81,7 +82,7 @@ class Outcomes:
     Attributes
     ----------
     floats : (n, O_FLOATS) float
-        Per ray at its end (``microsim.kernel.transport``'s ``S_*`` columns): position
+        Per ray at its end (``microsim.kernel.slots``' ``S_*`` columns): position
         (wrapped into the box), direction, weight, absorbed and transmitted weight (RGB).
     ints : (n, OUT_INTS) int
         Its fate (``FATES``), bounces, and the last face it hit (-1: none).
@@ -119,7 +120,7 @@ class PeriodicScene:
         Offset of secondary-ray origins off their face.
     box : (7,) float
         The periods, the bottom and top of the slab, ``eps`` and the inverse periods, for
-        the kernel (``microsim.kernel.transport.B_*``).
+        the kernel (``microsim.kernel.slots.B_*``).
     segments : int
         Rays sent to Embree so far (a ray crossing k sides counts k + 1).
     """
@@ -130,7 +131,7 @@ class PeriodicScene:
         self.normals, self.areas = tile.face_normals_areas()
         # plane of each face: n . x = c
         plane = np.einsum("ij,ij->i", self.normals, tile.vertices[tile.faces[:, 0]])
-        self._faces = kt.face_table(self.normals, plane, tile.material, tile.tangents)
+        self._faces = ks.face_table(self.normals, plane, tile.material, tile.tangents)
         z_min, z_max = tile.z_range
         extent = max(float(np.abs(tile.vertices).max()), *tile.period, z_max - z_min)
         self.eps = EPS_REL * extent
@@ -202,8 +203,8 @@ class PeriodicScene:
             if bounces:
                 raise ValueError("scattering needs materials")
             count = int(self.tile.material.max(initial=0)) + 1
-            kind, params = kt.empty_params(count)
-            tab_int, tab_f = kt.empty_tables(count)
+            kind, params = ks.empty_params(count)
+            tab_int, tab_f = ks.empty_tables(count)
             curved = curved_table(None, np.zeros(0, bool))
         else:
             kind, params, tab_int, tab_f, curved = (materials.kind, materials.params,
@@ -214,15 +215,15 @@ class PeriodicScene:
         dirs = np.ascontiguousarray(dirs, float)
         media = np.full(n, -1, np.int64) if media is None else np.ascontiguousarray(
             media, np.int64)
-        out_f = np.empty((n, kt.O_FLOATS))  # every ray ends once and fills its row
-        out_i = np.full((n, kt.OUT_INTS), kt.NO_FACE, np.int64)
+        out_f = np.empty((n, ks.O_FLOATS))  # every ray ends once and fills its row
+        out_i = np.full((n, ks.OUT_INTS), ks.NO_FACE, np.int64)
         path = np.full((n, vertices, 3), np.nan)
         c = self.chunk
 
         def chunk(a: int) -> int:
             b = min(a + c, n)
             rayhit, slots_f, slots_i, live, near, prim = self._buffers()
-            return kt.trace_chunk(a, origins[a:b], dirs[a:b], media[a:b],
+            return trace_chunk(a, origins[a:b], dirs[a:b], media[a:b],
                                   self._scene.handle, self._scene.intersect, rayhit, slots_f,
                                   slots_i, live, near, prim, self.box, self._faces, kind,
                                   params, tab_int, tab_f, bounces, key, out_f, out_i, path,
@@ -238,8 +239,8 @@ class PeriodicScene:
         work = getattr(self._local, "work", None)
         if work is None:
             c = self.chunk
-            work = (rayhit_buffer(), np.empty((c, kt.SLOT_FLOATS)),
-                    np.empty((c, kt.SLOT_INTS), np.int64), np.empty(c, np.int64),
+            work = (rayhit_buffer(), np.empty((c, ks.SLOT_FLOATS)),
+                    np.empty((c, ks.SLOT_INTS), np.int64), np.empty(c, np.int64),
                     np.empty((c, 5)), np.empty(c, np.int64))
             self._local.work = work
         return work
@@ -263,8 +264,8 @@ class PeriodicScene:
         Hits
         """
         out = self.run(origins, dirs, None, 0, media=inside)
-        return Hits(_STATUS[out.ints[:, kt.O_FATE]], out.ints[:, kt.O_FACE],
-                    out.floats[:, kt.S_PX:kt.S_PZ + 1])
+        return Hits(_STATUS[out.ints[:, ks.O_FATE]], out.ints[:, ks.O_FACE],
+                    out.floats[:, ks.S_PX:ks.S_PZ + 1])
 
     def offset(self, points: np.ndarray, n_f: np.ndarray, dirs: np.ndarray) -> np.ndarray:
         """Origins of secondary rays: ``eps`` off the face on the side ``dirs`` goes.

@@ -297,7 +297,7 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
     """
     from microsim.geometry import direction
     from microsim.kernel.packing import FacetMaterials
-    from microsim.kernel.transport import ESCAPED, O_FATE, O_ORDER, S_DX
+    from microsim.kernel.slots import ESCAPED, O_FATE, O_ORDER, S_DX
     from microsim.trace import PeriodicScene
 
     rng = np.random.default_rng(seed)

@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from microsim.jit import JIT
-from microsim.kernel.transport import (
+from microsim.kernel.slots import (
     ESCAPED,
     O_FATE,
     O_ORDER,

@@ -49,204 +49,61 @@ from microsim.jit import INLINE, JIT
 from microsim.kernel.embree import INVALID, R_DIR_X, R_GEOM, R_MASK, R_PRIM, R_TFAR, call3
 from microsim.kernel.events import scatter_event
 from microsim.kernel.shading import shade_one
-from microsim.materials.base import P_ABSORPTION, P_MEDIUM, PARAMS
-from microsim.materials.table import TABLE_COLUMNS
-
-ESCAPED, BOUNCES, TRANSMITTED, LEAKED, TRAPPED, BACKFACE = range(6)
-"""How a path ends: out through the top, alive after the bounce limit (for a query without
-bounces: a face hit), out through the bottom after a refraction, out through the bottom
-otherwise, out of side crossings, or a hit on the wrong side of a face."""
-FATES = ("escaped", "bounces", "transmitted", "leaked", "trapped", "backface")
-MAX_SEGMENTS = 10_000
-"""Upper bound of queries of one straight segment: a direction so nearly horizontal that it
-would need more side crossings to cross the slab is trapped."""
-(B_LX, B_LY, B_BOTTOM, B_TOP, B_EPS, B_IX, B_IY) = range(7)
-"""Entries of the ``box`` array: the periods, the bottom and top of the slab, the offset,
-the inverse periods."""
-NO_FACE = -1
-(F_NX, F_NY, F_NZ, F_C, F_PART, F_TX, F_TY, F_TZ) = range(8)
-"""Columns of the per-face table: unit normal, plane constant, part, tangent."""
-FACE_FLOATS = 8
-
-
-def face_table(normals: np.ndarray, plane: np.ndarray, part: np.ndarray,
-               tangents: np.ndarray | None) -> np.ndarray:
-    """The per-face table the kernel reads (``F_*`` columns; 64 bytes a face, so a hit
-    reads one cache line).
-
-    Parameters
-    ----------
-    normals : (f, 3) float
-    plane : (f,) float
-    part : (f,) int
-    tangents : (f, 3) float or None
-
-    Returns
-    -------
-    (f, FACE_FLOATS) float
-    """
-    out = np.zeros((len(normals), FACE_FLOATS))
-    out[:, F_NX:F_NZ + 1] = normals
-    out[:, F_C] = plane
-    out[:, F_PART] = part
-    if tangents is not None:
-        out[:, F_TX:F_TZ + 1] = tangents
-    return out
-
-
-@njit(**INLINE)
-def budget(dx: float, dy: float, dz: float, box: np.ndarray) -> int:
-    """Most queries a straight segment may need: across the slab (length at most
-    height / |d_z|) it crosses each pair of sides at most length |d_axis| / L + 1 times;
-    doubled for slack, capped at ``MAX_SEGMENTS``."""
-    reach = (abs(dx) * box[B_IX] + abs(dy) * box[B_IY]) * (box[B_TOP] - box[B_BOTTOM])
-    crossings = reach / max(abs(dz), 1e-300)
-    return int(min(2.0 * math.ceil(crossings) + 8.0, float(MAX_SEGMENTS)))
-
-
-@njit(**INLINE)
-def _target(d: float, low: float, high: float) -> tuple[float, float]:
-    """The side of [low, high] a ray of direction component d runs towards, and 1 / d, so
-    that its distance from o is (side − o) / d; for d = 0, (inf, 1): never reached."""
-    side = high if d > 0.0 else (low if d < 0.0 else math.inf)
-    return side, (1.0 / d if d != 0.0 else 1.0)
-
-
-@njit(**INLINE)
-def _aim(slots_f: np.ndarray, i: int, dx: float, dy: float, dz: float, box: np.ndarray
-         ) -> None:
-    """Set slot i's direction, and the box sides it runs towards with 1 / direction
-    (``box_exit`` then needs no branch and no division)."""
-    slots_f[i, S_DX], slots_f[i, S_DY], slots_f[i, S_DZ] = dx, dy, dz
-    slots_f[i, S_SX], slots_f[i, S_IX] = _target(dx, 0.0, box[B_LX])
-    slots_f[i, S_SY], slots_f[i, S_IY] = _target(dy, 0.0, box[B_LY])
-    slots_f[i, S_SZ], slots_f[i, S_IZ] = _target(dz, box[B_BOTTOM], box[B_TOP])
-
-
-@njit(**INLINE)
-def box_exit(slots_f: np.ndarray, i: int) -> tuple[float, int]:
-    """Distance to the first side of the tile's box along slot i's ray (from the sides
-    ``_aim`` chose), and its axis (0, 1: a side, 2: the top or bottom)."""
-    tx = max((slots_f[i, S_SX] - slots_f[i, S_PX]) * slots_f[i, S_IX], 0.0)
-    ty = max((slots_f[i, S_SY] - slots_f[i, S_PY]) * slots_f[i, S_IY], 0.0)
-    tz = max((slots_f[i, S_SZ] - slots_f[i, S_PZ]) * slots_f[i, S_IZ], 0.0)
-    t = min(tx, ty, tz)
-    return t, 0 if tx == t else (1 if ty == t else 2)
-
-
-@njit(**INLINE)
-def _wrap(x: float, period: float) -> float:
-    """x moved by whole periods into [0, period)."""
-    return x - math.floor(x / period) * period
-
-
-@njit(**INLINE)
-def _wrap_near(x: float, period: float) -> float:
-    """x, within one period of [0, period), moved into it (an offset hit point: one
-    comparison instead of ``_wrap``'s division)."""
-    if x < 0.0:
-        return x + period
-    if x >= period:
-        return x - period
-    return x
-
-
-@njit(**INLINE)
-def _queue(slots_f: np.ndarray, slots_i: np.ndarray, live: np.ndarray, q: int, i: int
-           ) -> None:
-    """Make slot i's next segment query q: its distance to the box's first side and that
-    side's axis."""
-    t, axis = box_exit(slots_f, i)
-    slots_f[i, S_EXIT] = t
-    slots_i[i, I_AXIS] = axis
-    live[q] = i
-
-
-# the slots: float64 state (columns S_*) and integer state (columns I_*) per live path
-(S_PX, S_PY, S_PZ, S_DX, S_DY, S_DZ, S_W0, S_W1, S_W2, S_A0, S_A1, S_A2, S_T0, S_T1, S_T2,
- S_Z0, S_EXIT, S_UX, S_UY, S_SX, S_SY, S_SZ, S_IX, S_IY, S_IZ) = range(25)
-"""Float state of a slot: position (wrapped into the box), direction, weight, absorbed and
-transmitted weight so far (RGB), z where the straight segment began, distance to the box's
-side, the whole periods the path has been shifted by (for unwrapped path vertices), and
-the box sides its direction runs towards with 1 / direction (``_aim``)."""
-SLOT_FLOATS = 25
-(I_RAY, I_MEDIUM, I_CROSSED, I_BOUNCE, I_SEG, I_BUDGET, I_AXIS) = range(7)
-"""Integer state of a slot: the ray's index, its medium (a refracting part; -1: air),
-whether it has refracted, its bounces, queries of its straight segment, their budget, and
-the box side ``S_EXIT`` leads to."""
-SLOT_INTS = 7
-
-
-@njit(**INLINE)
-def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
-          slots_f: np.ndarray, slots_i: np.ndarray, live: np.ndarray, box: np.ndarray) -> int:
-    """Load rays ``first``, ``first + 1``, … into the slots, one per row of ``origins``.
-
-    Parameters
-    ----------
-    first : int
-        Index of the first ray in the run.
-    origins, dirs : (k, 3) float
-        Start points within the slab (x, y wrapped here) and unit directions of travel.
-    media : (k,) int
-        Medium each ray starts in (-1: air).
-    slots_f, slots_i, live
-        The chunk's slots and the slot of each query (at least k rows).
-    box : (7,) float
-
-    Returns
-    -------
-    int
-        Slots filled (k).
-    """
-    k = len(origins)
-    for j in range(k):
-        px, py = _wrap(origins[j, 0], box[B_LX]), _wrap(origins[j, 1], box[B_LY])
-        slots_f[j, S_PX], slots_f[j, S_PY], slots_f[j, S_PZ] = px, py, origins[j, 2]
-        slots_f[j, S_UX], slots_f[j, S_UY] = origins[j, 0] - px, origins[j, 1] - py
-        dx, dy, dz = dirs[j, 0], dirs[j, 1], dirs[j, 2]
-        if j > 0 and dx == dirs[j - 1, 0] and dy == dirs[j - 1, 1] and dz == dirs[j - 1, 2]:
-            # a beam: the previous ray's sides, reciprocals and budget
-            for c in range(S_DX, S_DZ + 1):
-                slots_f[j, c] = slots_f[j - 1, c]
-            for c in range(S_SX, S_IZ + 1):
-                slots_f[j, c] = slots_f[j - 1, c]
-            slots_i[j, I_BUDGET] = slots_i[j - 1, I_BUDGET]
-        else:
-            _aim(slots_f, j, dx, dy, dz, box)
-            slots_i[j, I_BUDGET] = budget(dx, dy, dz, box)
-        for c in range(3):
-            slots_f[j, S_W0 + c] = 1.0
-            slots_f[j, S_A0 + c] = 0.0
-            slots_f[j, S_T0 + c] = 0.0
-        slots_f[j, S_Z0] = origins[j, 2]
-        slots_i[j, I_RAY] = first + j
-        slots_i[j, I_MEDIUM] = media[j]
-        slots_i[j, I_CROSSED] = 0
-        slots_i[j, I_BOUNCE] = 0
-        slots_i[j, I_SEG] = 0
-        _queue(slots_f, slots_i, live, j, j)
-    return k
-
-
-@njit(**INLINE)
-def _end(slots_f: np.ndarray, slots_i: np.ndarray, i: int, fate: int, out_f: np.ndarray,
-         out_i: np.ndarray) -> None:
-    """Record how slot i's path ended at its ray's row of the outcomes."""
-    r = slots_i[i, I_RAY]
-    for c in range(O_FLOATS):
-        out_f[r, c] = slots_f[i, c]
-    out_i[r, O_FATE] = fate
-    out_i[r, O_ORDER] = slots_i[i, I_BOUNCE]
-
-
-# the outcomes: per ray, the first O_FLOATS float columns of its slot at its end, and
-O_FLOATS = S_T2 + 1
-"""Float columns of an outcome: the slot's position, direction, weight, absorbed and
-transmitted weight (``S_PX`` … ``S_T2``) when the path ended."""
-(O_FATE, O_ORDER, O_FACE) = range(3)
-"""Integer columns of an outcome: its fate, its bounces, the last face it hit."""
-OUT_INTS = 3
+from microsim.kernel.slots import (
+    B_BOTTOM,
+    B_EPS,
+    B_LX,
+    B_LY,
+    B_TOP,
+    BACKFACE,
+    BOUNCES,
+    ESCAPED,
+    F_C,
+    F_NX,
+    F_NY,
+    F_NZ,
+    F_PART,
+    F_TX,
+    F_TY,
+    F_TZ,
+    I_AXIS,
+    I_BOUNCE,
+    I_BUDGET,
+    I_CROSSED,
+    I_MEDIUM,
+    I_RAY,
+    I_SEG,
+    LEAKED,
+    O_FACE,
+    S_A0,
+    S_A1,
+    S_A2,
+    S_DX,
+    S_DY,
+    S_DZ,
+    S_EXIT,
+    S_PX,
+    S_PY,
+    S_PZ,
+    S_T0,
+    S_T1,
+    S_T2,
+    S_UX,
+    S_UY,
+    S_W0,
+    S_W1,
+    S_W2,
+    S_Z0,
+    TRANSMITTED,
+    TRAPPED,
+    aim,
+    budget,
+    end,
+    queue,
+    start,
+    wrap_near,
+)
+from microsim.materials.base import P_ABSORPTION, P_MEDIUM
 
 
 @njit(**INLINE)
@@ -389,7 +246,7 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                             slots_i[i, I_CROSSED] = 1
                 if go_on:
                     dx, dy, dz = ox, oy, oz
-                    _aim(slots_f, i, dx, dy, dz, box)
+                    aim(slots_f, i, dx, dy, dz, box)
                     slots_i[i, I_BOUNCE] = bounce + 1
                     # 5. the offset off the face, on the side the new direction goes
                     s = eps if dx * nx + dy * ny + dz * nz >= 0.0 else -eps
@@ -399,7 +256,7 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                     slots_i[i, I_BUDGET] = budget(dx, dy, dz, box)
             if go_on:
                 # the next origin (a hit point offset by eps), wrapped into the box
-                wx, wy = _wrap_near(px, lx), _wrap_near(py, ly)
+                wx, wy = wrap_near(px, lx), wrap_near(py, ly)
                 slots_f[i, S_UX] += px - wx
                 slots_f[i, S_UY] += py - wy
                 px, py = wx, wy
@@ -432,10 +289,10 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
             fate = TRAPPED
         slots_f[i, S_PX], slots_f[i, S_PY], slots_f[i, S_PZ] = px, py, pz
         if not go_on:
-            _end(slots_f, slots_i, i, fate, out_f, out_i)
+            end(slots_f, slots_i, i, fate, out_f, out_i)
             continue
         # 7. compaction: the path's next query is number `alive` (never above q)
-        _queue(slots_f, slots_i, live, alive, i)
+        queue(slots_f, slots_i, live, alive, i)
         alive += 1
     return alive
 
@@ -545,14 +402,3 @@ def _absorb(slots_f: np.ndarray, i: int, params: np.ndarray, medium: int, z_end:
             after = before * math.exp(-sigma * length)
             slots_f[i, S_W0 + c] = after
             slots_f[i, S_A0 + c] += before - after
-
-
-def empty_tables(parts: int) -> tuple[np.ndarray, np.ndarray]:
-    """``tab_int`` and ``tab_f`` of ``parts`` materials without tables."""
-    return np.zeros((parts, TABLE_COLUMNS), np.int64), np.zeros(1)
-
-
-def empty_params(parts: int) -> tuple[np.ndarray, np.ndarray]:
-    """``kind`` and ``params`` of ``parts`` materials of kind code 0 that enclose no
-    medium (for queries without scattering)."""
-    return np.zeros(parts, np.int64), np.zeros((parts, PARAMS))

@@ -61,7 +61,7 @@ class DirectionRecord:
         Mean over the realisations of each one's fraction of the incident energy (RGB)
         lost (paths ended by the simulation), transmitted, absorbed.
     fates : mapping of str to int
-        Paths per ending (``microsim.kernel.transport.FATES``).
+        Paths per ending (``microsim.kernel.slots.FATES``).
     stop : str
         Why tracing stopped: ``"rays"`` (the planned count), ``"target_error"``,
         ``"max_rays"`` or ``"max_realisations"``.
