@@ -35,10 +35,11 @@ from typing import Any
 
 import numpy as np
 
-from microsim.compare import compare_table, microfacet_model
+from microsim.compare import compare_table
 from microsim.geometry import direction
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
+from microsim.table_models import microfacet_model
 from microsim.trace import PeriodicScene
 
 COLUMNS = ("case", "rays", "tile_resolution", "cells_per_correlation", "table_bins",

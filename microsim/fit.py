@@ -25,8 +25,9 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from microsim.compare import bin_average, compare_table, model_defaults
+from microsim.compare import bin_average, compare_table
 from microsim.geometry import direction
+from microsim.table_models import model_defaults
 
 EPS_FRACTION = 1e-3
 REL_FLOOR = 0.01

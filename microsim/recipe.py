@@ -37,7 +37,8 @@ from microsim.settings import (
     SurfaceSection,
     TableSettings,
 )
-from microsim.surfaces.params import SURFACE_KINDS, check_span
+from microsim.surfaces.params import SURFACE_KINDS
+from microsim.surfaces.rules import check_span
 
 # --- materials --------------------------------------------------------------------------
 MATERIAL_KINDS: dict[str, dict[str, Key]] = {kind: cls.keys() for kind, cls in MATERIALS.items()}

@@ -41,10 +41,11 @@ import tempfile
 import time
 from pathlib import Path
 
-from microsim.compare import compare_table, microfacet_model
+from microsim.compare import compare_table
 from microsim.files import replace_marked
 from microsim.recipe import load, to_toml
 from microsim.simulation import Tiles, assemble_table, measure_ensemble
+from microsim.table_models import microfacet_model
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs" / "performance.md"

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from microsim.analytic.registry import parse_model_spec
-from microsim.compare import compare_table, model_defaults
+from microsim.compare import compare_table
 from microsim.fit import fit_table
 from microsim.materials import Lambertian, Mirror
 from microsim.plots import incidence_plane
@@ -27,6 +27,7 @@ from microsim.settings import Recipe
 from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.tile import Tile
+from microsim.table_models import model_defaults
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "images" / "fibres"

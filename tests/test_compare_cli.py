@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from microsim.analytic.registry import parse_model_spec
-from microsim.compare import compare_table, model_defaults
+from microsim.compare import compare_table
 from microsim.compare import model_table as analytic_table
+from microsim.table_models import model_defaults
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import write_table
 from microsim.tables.meta import TableMeta

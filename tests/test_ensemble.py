@@ -14,8 +14,8 @@ from microsim.goniometer import measure_directions
 from microsim.recipe import resolve
 from microsim.simulation import Tiles, assemble_table, simulate_recipe
 from microsim.surfaces.facts import PaintFacts, Roughness, SurfaceFacts
-from microsim.surfaces.params import ENSEMBLE_AREAS
 from microsim.surfaces.realisations import realisation, realisation_seed
+from microsim.surfaces.rules import ENSEMBLE_AREAS
 from microsim.tables.estimator import combine, inverse_trigamma, moderation_prior
 from microsim.tables.exr import write_table
 

@@ -8,11 +8,11 @@ import copy
 import numpy as np
 import pytest
 
-from microsim.compare import model_defaults
 from microsim.fit import family, fit_table, model_bins
 from microsim.recipe import resolve
 from microsim.simulation import simulate
 from microsim.surfaces import build_tile
+from microsim.table_models import model_defaults
 
 
 def template(surface: dict, materials: dict, phi: list) -> object:

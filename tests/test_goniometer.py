@@ -10,7 +10,7 @@ from tilefixtures import beckmann_vgroove_tile, flat_tile, random_tile, vgroove_
 
 import microsim
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
-from microsim.compare import bin_average, metrics, microfacet_model
+from microsim.compare import bin_average, metrics
 from microsim.geometry import direction
 from microsim.kernel.packing import FacetMaterials
 from microsim.masking import measure_g1, measure_g1_recipe
@@ -18,6 +18,7 @@ from microsim.materials import Mirror, material_from_json
 from microsim.paths import trace_paths
 from microsim.recipe import resolve
 from microsim.simulation import simulate, simulate_recipe
+from microsim.table_models import microfacet_model
 from microsim.tables.binning import HemisphereBins
 from microsim.trace import PeriodicScene
 

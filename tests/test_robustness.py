@@ -628,8 +628,9 @@ def test_comparison_figures_keep_their_texts_apart(small_table, tmp_path, monkey
     import microsim
     from microsim.analytic.registry import parse_model_spec
     from microsim.commands.compare import title_of
-    from microsim.compare import compare_table, model_defaults
+    from microsim.compare import compare_table
     from microsim.plots import albedo_plot, half_difference_slices, incidence_plane, z_maps
+    from microsim.table_models import model_defaults
 
     faults, legends = {}, {}
     close = plt.close
@@ -662,8 +663,8 @@ def test_half_difference_ratio_covers_the_lobe_at_every_theta_d(small_table, tmp
 
     import microsim
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import model_defaults
     from microsim.plots import half_difference_slices
+    from microsim.table_models import model_defaults
 
     images = []
     close = plt.close

@@ -101,8 +101,9 @@ def run(args: argparse.Namespace) -> int:
     import microsim
     from microsim.agreement import agreement, verdict_text
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import compare_table, model_defaults, model_for
+    from microsim.compare import compare_table, model_for
     from microsim.plots import albedo_plot, half_difference_slices, incidence_plane, z_maps
+    from microsim.table_models import model_defaults
 
     table = microsim.read_table(args.table)
     for warning in table.meta.warnings:

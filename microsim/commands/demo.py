@@ -59,7 +59,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def comparison(table: Any) -> dict[str, Any]:
     """Simulated single scattering against the microfacet model at the realised alpha."""
     from microsim.agreement import agreement
-    from microsim.compare import compare_table, microfacet_model
+    from microsim.compare import compare_table
+    from microsim.table_models import microfacet_model
 
     result = compare_table(table, microfacet_model(table.meta), "single")
     return {"model": "torrance-sparrow:ndf=beckmann,shadowing=smith-correlated",
@@ -72,7 +73,8 @@ def total_comparison(table: Any) -> dict[str, Any]:
     realised alpha (``MS_SAMPLES`` walks per bin, seeded with the table's seed)."""
     from microsim.agreement import agreement
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import compare_table, model_defaults
+    from microsim.compare import compare_table
+    from microsim.table_models import model_defaults
 
     spec = f"beckmann-ms:samples={MS_SAMPLES},seed={table.meta.seed}"
     _, params, model = parse_model_spec(spec, model_defaults(table.meta))

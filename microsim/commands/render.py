@@ -91,8 +91,8 @@ def run(args: argparse.Namespace) -> int:
     import microsim
     from microsim.analytic.registry import parse_model_spec
     from microsim.commands.common import print_json
-    from microsim.compare import model_defaults
     from microsim.render import backend, bsdfs, figure, objects, scene
+    from microsim.table_models import model_defaults
 
     writable_file(args.output, "--output", (".png",))
     for path in args.tables:

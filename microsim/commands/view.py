@@ -121,8 +121,9 @@ def view_table(args: argparse.Namespace, source: Path) -> int:
         print(f"warning: --theta-i {theta:g}: {note}", file=sys.stderr)
     if args.model is not None:
         from microsim.analytic.registry import parse_model_spec
-        from microsim.compare import model_defaults, singular_albedo
+        from microsim.compare import singular_albedo
         from microsim.geometry import direction
+        from microsim.table_models import model_defaults
 
         name, _, model = parse_model_spec(args.model, model_defaults(table.meta))
         if singular_albedo(model, direction(*np.radians([theta, phi]))) > 0:

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from microsim.surfaces.facts import GaussianFacts, Roughness
-from microsim.surfaces.params import correlation_lengths
+from microsim.surfaces.rules import correlation_lengths
 from microsim.surfaces.tile import Tile, grid_faces
 
 MIN_CELLS = 4

@@ -34,8 +34,8 @@ from microsim.errors import InputError
 from microsim.geometry import orthonormal_basis
 from microsim.surfaces.facts import PaintFacts
 from microsim.surfaces.gaussian import MIN_LENGTHS, heights
-from microsim.surfaces.params import DEFAULT_CELLS
 from microsim.surfaces.periodic import wrap_into_box
+from microsim.surfaces.rules import DEFAULT_CELLS
 from microsim.surfaces.tile import Tile, grid_faces
 
 GAP = 0.01

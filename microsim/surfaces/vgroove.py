@@ -17,7 +17,7 @@ import numpy as np
 
 from microsim.surfaces.facts import FaceRoughnessFacts, Roughness, VGrooveFacts
 from microsim.surfaces.gaussian import heights
-from microsim.surfaces.params import DEFAULT_CELLS, MICRO_RESOLUTION
+from microsim.surfaces.rules import DEFAULT_CELLS, MICRO_RESOLUTION
 from microsim.surfaces.tile import Tile, grid_faces
 
 
