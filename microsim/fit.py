@@ -25,7 +25,11 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
+from microsim.analytic.brdf import KayKajiya, Lafortune, OrenNayar, Phong, TorranceSparrow
+from microsim.analytic.cloth import MicrocylinderCloth
+from microsim.analytic.ndf import GGX, Beckmann
 from microsim.compare import bin_average, compare_table
+from microsim.errors import InputError
 from microsim.geometry import direction
 from microsim.table_models import model_defaults
 
@@ -50,9 +54,6 @@ class Family:
 
 def _microfacet(ndf_name: str) -> Family:
     def build(p: np.ndarray) -> Any:
-        from microsim.analytic.brdf import TorranceSparrow
-        from microsim.analytic.ndf import GGX, Beckmann
-
         cls = Beckmann if ndf_name == "beckmann" else GGX
         return TorranceSparrow(cls(p[0]), fresnel=("schlick", p[1:4]))
 
@@ -62,8 +63,6 @@ def _microfacet(ndf_name: str) -> Family:
 
 def _oren_nayar() -> Family:
     def build(p: np.ndarray) -> Any:
-        from microsim.analytic.brdf import OrenNayar
-
         return OrenNayar(p[0], p[1:4], "full")
 
     return Family(("sigma", "albedo_R", "albedo_G", "albedo_B"), (0.3, 0.5, 0.5, 0.5),
@@ -72,8 +71,6 @@ def _oren_nayar() -> Family:
 
 def _phong() -> Family:
     def build(p: np.ndarray) -> Any:
-        from microsim.analytic.brdf import Phong
-
         class Scaled:
             def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
                 return Phong(p[0], normalized=True).eval(wi, wo)[..., None] * p[1:4]
@@ -88,8 +85,6 @@ def _lafortune(lobes: int) -> Family:
     """Isotropic lobes (Cx = Cy) of Lafortune et al. 1997, eq. 6: per lobe Cxy, Cz, n."""
 
     def build(p: np.ndarray) -> Any:
-        from microsim.analytic.brdf import Lafortune
-
         q = p.reshape(lobes, 3)
         return Lafortune([(c, c, z, n) for c, z, n in q])
 
@@ -106,8 +101,6 @@ def _kay_kajiya(defaults: Mapping[str, Any]) -> Family:
     axis, 2 radius / spacing), 1 and +y without them."""
 
     def build(p: np.ndarray) -> Any:
-        from microsim.analytic.brdf import KayKajiya
-
         theta = np.radians(defaults.get("tangent_theta", 90.0))
         phi = np.radians(defaults.get("tangent_phi", 90.0))
         t = [np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)]
@@ -133,7 +126,6 @@ def _microcylinder(defaults: Mapping[str, Any]) -> Family:
     ``flat``)."""
 
     def build(p: np.ndarray) -> Any:
-        from microsim.analytic.cloth import MicrocylinderCloth
 
         return MicrocylinderCloth(p[0:2], p[2], p[3], p[4], p[5], p[6:12].reshape(2, 3),
                                   defaults.get("slope", 0.0), defaults.get("flat", 0.0))
@@ -156,7 +148,6 @@ def family(spec: str, defaults: Mapping[str, Any] | None = None) -> tuple[str, F
     default 1), ``kay-kajiya`` or ``microcylinder``; ``defaults`` are the table's
     (``compare.model_defaults``: the fibre tangent and coverage, the weave's tangent
     curves)."""
-    from microsim.errors import InputError
 
     defaults = defaults or {}
     name, _, k = spec.partition(":")

@@ -12,16 +12,13 @@ kernel (``microsim.kernel``); docs/goniometer.md explains the energy accounting.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.slots import FATES
 from microsim.kernel.tally import in_blocks, summarise
 from microsim.trace import PeriodicScene
-
-if TYPE_CHECKING:
-    from microsim.kernel.packing import FacetMaterials
 
 
 @dataclass

@@ -9,7 +9,9 @@ from typing import Any
 import numpy as np
 
 from microsim.compare import Model
+from microsim.files import atomic_path
 from microsim.geometry import half_difference
+from microsim.tables import sh
 from microsim.tables.table import BRDFTable
 
 
@@ -259,8 +261,6 @@ def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path
     Right: f_r cos θo in the plane of incidence at the last (most grazing) incidence, the
     table's bins (±1 standard error) against the series at each order, with the window;
     green channel."""
-    from microsim.files import atomic_path
-    from microsim.tables import sh
 
     plt = _pyplot()
     order = [r["order"] for r in rows]

@@ -23,19 +23,17 @@ import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, TypeVar
+from typing import TypeVar
 
 import numpy as np
 
 from microsim.kernel import slots as ks
 from microsim.kernel.embree import Scene, rayhit_buffer
+from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.rng import key_of
 from microsim.kernel.shading import curved_table
 from microsim.kernel.transport import trace_chunk
 from microsim.surfaces.tile import Tile
-
-if TYPE_CHECKING:
-    from microsim.kernel.packing import FacetMaterials
 
 EPS_REL = 1e-6
 """Secondary-ray offset as a fraction of the scene's extent: 8 float32 ulps of the largest

@@ -10,7 +10,11 @@ from typing import Any
 import numpy as np
 
 from microsim.errors import InputError
+from microsim.geometry import direction
+from microsim.kernel.packing import FacetMaterials
+from microsim.kernel.slots import ESCAPED, O_FATE, O_ORDER, S_DX
 from microsim.surfaces.tile import Tile
+from microsim.trace import PeriodicScene
 
 WINDOW = (800, 600)
 GLASS = 0.3
@@ -189,8 +193,6 @@ def lobe_surface(pv: Any, f: np.ndarray, theta: np.ndarray, phi: np.ndarray,
     -------
     pyvista.StructuredGrid
     """
-    from microsim.geometry import direction
-
     t, p = np.meshgrid(theta, phi, indexing="ij")
     r = f * np.cos(t) if radius == "fr_cos" else f.copy()
     if log:
@@ -233,8 +235,6 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
     -------
     (h, w, 3) uint8 or None
     """
-    from microsim.geometry import direction
-
     off = screenshot is not None
     pv = import_pyvista(off)
     theta = np.radians(np.linspace(0.0, 89.5, n))
@@ -295,11 +295,6 @@ def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: in
         entry into the slab, the hit points, and 0.3 periods along the escaping ray) and
         its scattering order (0: it did not escape).
     """
-    from microsim.geometry import direction
-    from microsim.kernel.packing import FacetMaterials
-    from microsim.kernel.slots import ESCAPED, O_FATE, O_ORDER, S_DX
-    from microsim.trace import PeriodicScene
-
     rng = np.random.default_rng(seed)
     facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
                             tile.curved)

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from microsim.analytic.registry import split_spec
 from microsim.errors import InputError
 from microsim.geometry import direction
 from microsim.render.bsdfs import rgb_spectrum
@@ -90,8 +91,6 @@ def _towards(elevation: float, azimuth: float) -> np.ndarray:
 
 def parse_light(spec: str) -> tuple[str, dict[str, Any]]:
     """``KIND[:key=value,...]`` to a kind and its checked parameters (defaults filled)."""
-    from microsim.analytic.registry import split_spec
-
     kind, given = split_spec(spec, "--light")
     if kind not in LIGHTS:
         raise InputError(f"--light {kind!r}: unknown{suggest(kind, LIGHTS)}; lights: "

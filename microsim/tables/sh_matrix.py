@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from microsim.files import atomic_path
 from microsim.tables import sh
 from microsim.tables.interpolation import linear_weights
 from microsim.tables.table import BRDFTable
@@ -143,7 +144,6 @@ def write_matrix(path: str | Path, matrix: np.ndarray, asymmetry: np.ndarray) ->
     ``asymmetry`` (3,) before symmetrisation, and ``convention`` (a string: the function,
     the basis and the index).
     """
-    from microsim.files import atomic_path
 
     convention = ("f_r cos(theta_i) cos(theta_o) = sum_ij b_ij Y_i(wi) Y_j(wo); real "
                   "orthonormal spherical harmonics, Condon-Shortley phase, index l*l + l + m "
