@@ -127,31 +127,8 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
         The slot of each query, rewritten for the paths still alive.
     near : (w, 5) float
         Scratch: the first five ``faces`` columns of each query's face.
-    box : (7,) float
-        ``B_*`` entries.
-    faces : (f, FACE_FLOATS) float
-        Per face (one cache line): its unit normal (away from the material), c of its
-        plane n·x = c, its part, its unit tangent (zeros when the tile gives none).
-    kind : (p,) int
-        Material kind per part.
-    params : (p, PARAMS) float
-        Material parameters per part.
-    tab_int : (p, TABLE_COLUMNS) int
-        Table layout per part (table materials).
-    tab_f : (q,) float
-        Packed table data.
-    bounces : int
-        Scattering events before a path is ended.
-    key : (2,) uint64
-        The run's random key.
-    out_f : (n, O_FLOATS) float
-    out_i : (n, OUT_INTS) int
-        Outcomes per ray of the run.
-    vertices : (n, v, 3) float
-        Unwrapped hit points per ray and bounce (v = 0: not recorded).
-    curved : (f, 9) or (0, 9) float
-        The faces' tubes for shading normals (``shading.curved_table``; no rows: every
-        face flat).
+    box, faces, kind, params, tab_int, tab_f, bounces, key, out_f, out_i, vertices, curved
+        As for ``trace_chunk``.
 
     Returns
     -------

@@ -168,15 +168,12 @@ def from_harmonics(axes: Axes, coefficients: np.ndarray, wi: np.ndarray, wo: np.
 
 def interpolate_error(axes: Axes, errors: np.ndarray, wi: np.ndarray, wo: np.ndarray
                       ) -> np.ndarray:
-    """Interpolated standard error of f_r, with the nodes of ``eval``.
-
-    Nodes whose error is undefined (empty bins) are left out and the other weights
-    renormalised; the result is NaN only where the nearest node (the nearest incidence
-    and the bin holding ωo) is itself undefined. 0 at or below the horizon, where f_r
-    is 0 by definition.
+    """The interpolated standard error of ``BRDFTable.stderr`` (which says how undefined
+    errors are left out), with the nodes of ``interpolate``.
 
     Parameters
     ----------
+    axes : Axes
     errors : (a, b, nt, np, 3) float
         The table's standard errors (NaN where undefined).
     wi, wo : (..., 3) float
@@ -185,7 +182,6 @@ def interpolate_error(axes: Axes, errors: np.ndarray, wi: np.ndarray, wo: np.nda
     Returns
     -------
     (..., 3) float
-        Standard error of f_r in 1/sr per colour.
     """
     err = errors.reshape(-1, 3)
 
