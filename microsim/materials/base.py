@@ -16,7 +16,8 @@ type, default, range, meaning) and its class attributes say the rest:
 The kernel's per-part parameter row has ``PARAMS`` columns: the kind's own
 ``parameters`` in the first ``KIND_COLUMNS``, then the Beer-Lambert absorption of the
 medium a refracting part's faces enclose (``P_ABSORPTION``, RGB) and whether they enclose
-one (``P_MEDIUM``), which the transport reads. Kernel-language functions are marked with
+one (``P_MEDIUM``), and whether its event keeps the weight (``P_LOSSLESS``), which the
+transport reads. Kernel-language functions are marked with
 ``kernel``, so the kernel can compile every one of them (numba's ``register_jitable``)
 while this package imports nothing heavy: ``microsim check`` reads the recipe keys of
 every kind.
@@ -38,7 +39,9 @@ P_ABSORPTION = 9
 """Column of the absorption (RGB, per tile unit of path length) of a part's medium."""
 P_MEDIUM = 12
 """Column that is 1 where a part's faces enclose a medium (a refracting dielectric)."""
-PARAMS = 13
+P_LOSSLESS = 13
+"""Column that is 1 where a part's event never changes a path's weight (``lossless``)."""
+PARAMS = 14
 """Columns of the kernel's parameter row of a part."""
 
 KERNEL_FUNCTIONS: list[Callable[..., Any]] = []
@@ -76,6 +79,9 @@ class Material:
     multiplied by, and the fraction (RGB) transmitted into a non-refracting dielectric;
     the rest, 1 − factor − transmitted, is absorbed."""
     blocks: ClassVar[int] = 0
+    lossless: ClassVar[bool] = False
+    """The event's factor is always 1 and nothing is transmitted (a mirror): the transport
+    then skips the weight's bookkeeping, the commonest event's shortcut."""
 
     @classmethod
     def keys(cls) -> dict[str, Key]:
