@@ -93,3 +93,26 @@ def test_tables_do_not_depend_on_threads_or_chunks() -> None:
         assert np.array_equal(one.sh_sums[c], two.sh_sums[c])
     assert np.array_equal(one.lost_energy, two.lost_energy)
     assert one.meta.directions == two.meta.directions
+
+
+def test_kinds_the_transport_reflects_inline_are_perfect_mirrors() -> None:
+    """The transport reflects inline, keeping the weight, at a part whose kind says it is
+    a perfect mirror (``Material.mirror``): that kind's own event must agree exactly."""
+    from microsim.kernel.packing import FacetMaterials
+    from microsim.materials import KINDS
+
+    rng = np.random.default_rng(2)
+    n = rng.normal(size=(500, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    d = rng.normal(size=(500, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d *= -np.sign(np.einsum("ij,ij->i", d, n))[:, None]  # towards the front of the face
+    mirrors = [kind for kind in KINDS if kind.mirror]
+    assert [kind.kind for kind in mirrors] == ["mirror"]
+    for kind in mirrors:
+        facets = FacetMaterials(np.zeros(500, np.int64), ("base",), {"base": kind()})
+        out, factor, transmitted = facets.scatter(np.arange(500), d, n,
+                                                  np.random.SeedSequence(0))
+        np.testing.assert_array_equal(out, [optics.reflect(*a, *b) for a, b in zip(d, n,
+                                                                               strict=True)])
+        assert np.all(factor == 1.0) and not transmitted.any()

@@ -3,8 +3,9 @@
 Every kind of ``microsim.materials`` brings its event in kernel language
 (``Material.scatter``: scalar Python); this module compiles them with numba and chains
 them by kind code (the kind's index in ``microsim.materials.KINDS``) into
-``scatter_event``, which the transport kernel calls at every hit: an if-chain inlined
-into the caller, as fast as one written by hand. An event's random numbers come from
+``scatter_event``, which the transport kernel calls at every hit but a perfect mirror's
+(``Material.mirror``: reflected inline): one compiled function whose if-chain over the
+kinds is inlined, as fast as one written by hand. An event's random numbers come from
 ``rng.uniforms`` keyed by (ray, event), so they never depend on which thread traces the
 ray; each kind draws only the blocks of four it reads (``Material.blocks``).
 """
@@ -68,40 +69,49 @@ def _link(code: int, kind: type[Material], rest: Callable[..., Any]) -> Callable
     return link
 
 
-scatter_event = _no_kind
+_chain = _no_kind
 for _code in reversed(range(len(KINDS))):
-    scatter_event = _link(_code, KINDS[_code], scatter_event)
-scatter_event.__doc__ = """One scattering event at a facet of unit normal n (``d·n < 0``,
-except at a refracting facet, which is hit from either side).
+    _chain = _link(_code, KINDS[_code], _chain)
 
-Parameters
-----------
-kind : int
-    The material's kind code.
-params : (p, PARAMS) float
-    Every part's parameter row (``microsim.materials.base``).
-tab_int : (p, TABLE_COLUMNS) int
-    Every part's table layout (``table`` kinds).
-tab_f : (q,) float
-    Packed table data.
-part : int
-    The material's row.
-dx, dy, dz : float
-    Unit direction of travel.
-nx, ny, nz : float
-    Unit facet normal.
-ex, ey, ez : float
-    The face's tangent.
-key : (2,) uint64
-    The run's random key.
-ray, event : int
-    The ray's index in its run and the event's number (its bounce, from 1).
 
-Returns
--------
-tuple of 9 float
-    New unit direction (3), factor (RGB), transmitted fraction (RGB).
-"""
+@njit(**JIT)
+def scatter_event(kind: int, params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray,
+                  part: int, dx: float, dy: float, dz: float, nx: float, ny: float,
+                  nz: float, ex: float, ey: float, ez: float, key: np.ndarray, ray: int,
+                  event: int) -> tuple[float, ...]:
+    """One scattering event at a facet of unit normal n (``d·n < 0``, except at a
+    refracting facet, which is hit from either side): kind ``kind``'s event.
+
+    Parameters
+    ----------
+    kind : int
+        The material's kind code.
+    params : (p, PARAMS) float
+        Every part's parameter row (``microsim.materials.base``).
+    tab_int : (p, TABLE_COLUMNS) int
+        Every part's table layout (``table`` kinds).
+    tab_f : (q,) float
+        Packed table data.
+    part : int
+        The material's row.
+    dx, dy, dz : float
+        Unit direction of travel.
+    nx, ny, nz : float
+        Unit facet normal.
+    ex, ey, ez : float
+        The face's tangent.
+    key : (2,) uint64
+        The run's random key.
+    ray, event : int
+        The ray's index in its run and the event's number (its bounce, from 1).
+
+    Returns
+    -------
+    tuple of 9 float
+        New unit direction (3), factor (RGB), transmitted fraction (RGB).
+    """
+    return _chain(kind, params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz, ex, ey, ez,
+                  key, ray, event)
 
 
 @njit(**JIT)

@@ -17,7 +17,7 @@ from microsim.kernel.rng import key_of
 from microsim.kernel.shading import curved_table
 from microsim.kernel.tabulated import TabulatedMaterial
 from microsim.materials import Material, code_of
-from microsim.materials.base import KIND_COLUMNS, P_ABSORPTION, P_LOSSLESS, P_MEDIUM, PARAMS
+from microsim.materials.base import KIND_COLUMNS, P_ABSORPTION, P_MEDIUM, P_MIRROR, PARAMS
 from microsim.materials.table import TABLE_COLUMNS
 from microsim.tables.meta import TableInput
 
@@ -49,7 +49,7 @@ class FacetMaterials:
         Kernel code per part (``microsim.materials.code_of``).
     params : (p, PARAMS) float
         Per part: its kind's ``parameters``, the absorption inside the medium its faces
-        enclose, whether they enclose one and whether its event keeps the weight
+        enclose, whether they enclose one and whether its event is a perfect mirror's
         (``microsim.materials.base``).
     tab_int : (p, TABLE_COLUMNS) int
         Per table part, its layout in ``tab_f`` (zeros for the others).
@@ -90,7 +90,7 @@ class FacetMaterials:
                 raise ValueError(f"a {spec.kind} material has more than {KIND_COLUMNS} "
                                  "kernel parameters")
             self.params[m, :len(own)] = own
-            self.params[m, P_LOSSLESS] = 1.0 if spec.lossless else 0.0
+            self.params[m, P_MIRROR] = 1.0 if spec.mirror else 0.0
             medium = spec.medium()
             if medium is not None:
                 self.params[m, P_ABSORPTION:P_ABSORPTION + 3] = medium

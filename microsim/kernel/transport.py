@@ -103,7 +103,8 @@ from microsim.kernel.slots import (
     start,
     wrap_near,
 )
-from microsim.materials.base import P_ABSORPTION, P_LOSSLESS, P_MEDIUM
+from microsim.materials.base import P_ABSORPTION, P_MEDIUM, P_MIRROR
+from microsim.materials.optics import reflect
 
 
 @njit(**INLINE)
@@ -197,12 +198,9 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                     out_i[slots_i[i, I_RAY], O_FACE] = f
                     px, py, pz = hx, hy, hz
                     ox, oy, oz = dx, dy, dz
-                elif params[part, P_LOSSLESS] != 0.0:
-                    # 4. scattering that keeps the weight (a mirror, the commonest event)
-                    ox, oy, oz, _, _, _, _, _, _ = scatter_event(
-                        kind[part], params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz,
-                        faces[f, F_TX], faces[f, F_TY], faces[f, F_TZ], key,
-                        slots_i[i, I_RAY], bounce + 1)
+                elif params[part, P_MIRROR] != 0.0:
+                    # 4. scattering: a perfect mirror, the commonest event, keeps the weight
+                    ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
                 else:
                     # 4. scattering: the weight takes the factor, the rest is absorbed or
                     # transmitted

@@ -16,7 +16,7 @@ type, default, range, meaning) and its class attributes say the rest:
 The kernel's per-part parameter row has ``PARAMS`` columns: the kind's own
 ``parameters`` in the first ``KIND_COLUMNS``, then the Beer-Lambert absorption of the
 medium a refracting part's faces enclose (``P_ABSORPTION``, RGB) and whether they enclose
-one (``P_MEDIUM``), and whether its event keeps the weight (``P_LOSSLESS``), which the
+one (``P_MEDIUM``), and whether its event is a perfect mirror's (``P_MIRROR``), which the
 transport reads. Kernel-language functions are marked with
 ``kernel``, so the kernel can compile every one of them (numba's ``register_jitable``)
 while this package imports nothing heavy: ``microsim check`` reads the recipe keys of
@@ -39,8 +39,8 @@ P_ABSORPTION = 9
 """Column of the absorption (RGB, per tile unit of path length) of a part's medium."""
 P_MEDIUM = 12
 """Column that is 1 where a part's faces enclose a medium (a refracting dielectric)."""
-P_LOSSLESS = 13
-"""Column that is 1 where a part's event never changes a path's weight (``lossless``)."""
+P_MIRROR = 13
+"""Column that is 1 where a part's event is a perfect mirror's (``mirror``)."""
 PARAMS = 14
 """Columns of the kernel's parameter row of a part."""
 
@@ -79,9 +79,10 @@ class Material:
     multiplied by, and the fraction (RGB) transmitted into a non-refracting dielectric;
     the rest, 1 − factor − transmitted, is absorbed."""
     blocks: ClassVar[int] = 0
-    lossless: ClassVar[bool] = False
-    """The event's factor is always 1 and nothing is transmitted (a mirror): the transport
-    then skips the weight's bookkeeping, the commonest event's shortcut."""
+    mirror: ClassVar[bool] = False
+    """The event is a perfect mirror's: specular reflection, factor 1, nothing transmitted.
+    The transport then reflects inline and skips the weight's bookkeeping (the commonest
+    event's shortcut; ``tests/test_kernel.py`` checks that such a kind's own event agrees)."""
 
     @classmethod
     def keys(cls) -> dict[str, Key]:

@@ -27,7 +27,7 @@ class Mirror(Material):
     kind: ClassVar[str] = "mirror"
     doc: ClassVar[str] = "Perfect specular reflection, F = 1."
     scatter: ClassVar = scatter
-    lossless: ClassVar[bool] = True
+    mirror: ClassVar[bool] = True
 
     def fresnel(self) -> tuple | None:
         """F = 1: no Fresnel factor."""
