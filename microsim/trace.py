@@ -1,12 +1,12 @@
 """The periodic tile in Embree, and the driver of the compiled transport kernel.
 
 The tile is put into one Embree scene as it is (no replicated neighbours). Rays are traced
-in chunks on a thread pool; each chunk loads its rays into slots and alternates one Embree
-query of its live slots (``EmbreeScene.run``, which releases the GIL) with one compiled
-step of the transport kernel (``microsim.kernel.transport.advance``, ``nogil``), which
-moves every path on (hit point, materials, side wrap, escape) and compacts the live ones,
-until none is left. Each query is clipped at the first side of the tile's box the ray
-reaches; a ray that reaches a side without a hit re-enters at the opposite side. A path
+in chunks on a thread pool; each chunk is one call of the compiled transport kernel
+(``microsim.kernel.transport.trace_chunk``, ``nogil``), which follows every path of the
+chunk to its end, asking Embree for each segment's closest hit through Embree's C API
+(``microsim.kernel.embree``: the Embree 4 library ``embreex`` installs). Each query is
+clipped at the first side of the tile's box the ray reaches; a ray that reaches a side
+without a hit re-enters at the opposite side. A path
 ends when it escapes through the top of the slab, leaves through the bottom, exceeds the
 side crossings its direction allows within the slab (trapped), hits the wrong side of a
 face, or reaches the bounce limit; docs/goniometer.md explains it.
@@ -19,16 +19,16 @@ the side their direction goes, so a ray never re-hits the face it left through r
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
-from embreex.mesh_construction import TriangleMesh
-from embreex.rtcore_scene import EmbreeScene
 
 from microsim.kernel import transport as kt
+from microsim.kernel.embree import Scene, rayhit_buffer
 from microsim.kernel.rng import key_of
 from microsim.kernel.shading import curved_table
 from microsim.surfaces.tile import Tile
@@ -41,8 +41,9 @@ EPS_REL = 1e-6
 coordinate. Measured (docs/goniometer.md): no self-hit on rough tiles down to 1e-8; at a
 concave edge sharper than 90 deg an origin within about eps of the edge can lie behind the
 neighbouring face, so a larger offset loses more rays there (1e-5 lost ten times more)."""
-CHUNK = 32768
-"""Rays per worker task: a chunk is traced whole (wrap loop, bounces) on one thread
+CHUNK = 4096
+"""Rays per worker task: a chunk is traced whole (every query and bounce) on one thread;
+small enough that its slots stay in a core's cache and the threads share a batch evenly
 (chosen by measurement: docs/performance.md)."""
 HIT, ESCAPED, LEAKED, TRAPPED, BACKFACE = range(5)
 """Outcomes of a first-hit query (``closest_hit``): a hit on the side of a face the ray
@@ -138,21 +139,19 @@ class PeriodicScene:
         self.z_bottom = z_min - 4 * self.eps
         self.box = np.array([*self.period, self.z_bottom, self.z_top, self.eps,
                              *(1.0 / self.period)])
-        self._scene = EmbreeScene()
-        TriangleMesh(self._scene, np.ascontiguousarray(tile.vertices, np.float32),
-                     np.ascontiguousarray(tile.faces, np.int32))
-        # the first query builds the BVH: do it here, so scene set-up is timed as such
-        self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))
+        self._scene = Scene(tile.vertices, tile.faces)
         self.threads = threads or os.cpu_count() or 1
         self.chunk = chunk
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        self._local = threading.local()
         self.segments = 0
 
     def close(self) -> None:
-        """Stop the worker threads."""
+        """Stop the worker threads and release the Embree scene."""
         if self._pool is not None:
             self._pool.shutdown()
             self._pool = None
+        self._scene.close()
 
     def __enter__(self) -> PeriodicScene:
         return self
@@ -215,33 +214,35 @@ class PeriodicScene:
         dirs = np.ascontiguousarray(dirs, float)
         media = np.full(n, -1, np.int64) if media is None else np.ascontiguousarray(
             media, np.int64)
-        out_f = np.zeros((n, kt.O_FLOATS))
+        out_f = np.empty((n, kt.O_FLOATS))  # every ray ends once and fills its row
         out_i = np.full((n, kt.OUT_INTS), kt.NO_FACE, np.int64)
         path = np.full((n, vertices, 3), np.nan)
         c = self.chunk
 
         def chunk(a: int) -> int:
             b = min(a + c, n)
-            slots_f = np.empty((b - a, kt.SLOT_FLOATS))
-            slots_i = np.empty((b - a, kt.SLOT_INTS), np.int64)
-            live = np.empty(b - a, np.int64)
-            near = np.empty((b - a, 5))
-            o32, d32 = np.empty((b - a, 3), np.float32), np.empty((b - a, 3), np.float32)
-            t32 = np.empty(b - a, np.float32)
-            m = kt.start(a, origins[a:b], dirs[a:b], media[a:b], slots_f, slots_i, live, o32,
-                         d32, t32, self.box)
-            segments = 0
-            while m:
-                prim = self._scene.run(o32[:m], d32[:m], dists=t32[:m])
-                segments += m
-                m = kt.advance(prim, m, slots_f, slots_i, live, near, o32, d32, t32,
-                               self.box, self._faces, kind, params, tab_int, tab_f, bounces,
-                               key, out_f, out_i, path, curved)
-            return segments
+            rayhit, slots_f, slots_i, live, near, prim = self._buffers()
+            return kt.trace_chunk(a, origins[a:b], dirs[a:b], media[a:b],
+                                  self._scene.handle, self._scene.intersect, rayhit, slots_f,
+                                  slots_i, live, near, prim, self.box, self._faces, kind,
+                                  params, tab_int, tab_f, bounces, key, out_f, out_i, path,
+                                  curved)
 
         segments = sum(self.map(chunk, range(0, n, c)))
         self.segments += segments
         return Outcomes(out_f, out_i, path, segments)
+
+    def _buffers(self) -> tuple[np.ndarray, ...]:
+        """The calling thread's ``RTCRayHit`` record, path slots (``CHUNK`` rows), queries,
+        faces gathered and answers, made once per thread."""
+        work = getattr(self._local, "work", None)
+        if work is None:
+            c = self.chunk
+            work = (rayhit_buffer(), np.empty((c, kt.SLOT_FLOATS)),
+                    np.empty((c, kt.SLOT_INTS), np.int64), np.empty(c, np.int64),
+                    np.empty((c, 5)), np.empty(c, np.int64))
+            self._local.work = work
+        return work
 
     def closest_hit(self, origins: np.ndarray, dirs: np.ndarray,
                     inside: np.ndarray | None = None) -> Hits:

@@ -104,3 +104,23 @@ def test_threads_and_chunks_do_not_change_hits() -> None:
         a, b = one.closest_hit(start, d), two.closest_hit(start, d)
     assert np.array_equal(a.status, b.status) and np.array_equal(a.face, b.face)
     assert np.array_equal(a.point, b.point)
+
+
+def test_kernel_queries_find_what_bare_embreex_finds() -> None:
+    """The kernel's own Embree queries (``microsim.kernel.embree``) against
+    ``embreex``'s ``EmbreeScene.run`` on the same float32 rays: steep rays from the top of
+    a rough tile, aimed inside the box so no side is reached, hit the same faces."""
+    tile = random_tile(seed=5)
+    rng = np.random.default_rng(6)
+    n = 20_000
+    with PeriodicScene(tile) as scene:
+        assert scene._scene.version >= 40000  # Embree 4
+        start = np.c_[0.2 + 0.6 * rng.random((n, 2)), np.full(n, scene.z_top)]
+        d = -cosine_directions(np.tile([0.0, 0.0, 1.0], (n, 1)), 0.01 * rng.random((n, 2)))
+        # float32 rays, as Embree sees them in both
+        start, d = start.astype(np.float32).astype(float), d.astype(np.float32).astype(float)
+        hits = scene.closest_hit(start, d)
+    bare = bare_scene(tile.vertices, tile.faces).run(start.astype(np.float32),
+                                                     d.astype(np.float32))
+    assert np.all(hits.status == HIT)
+    assert np.array_equal(hits.face, bare)

@@ -27,7 +27,7 @@ from microsim.kernel.transport import (
     TRANSMITTED,
 )
 
-BLOCK = 8192
+BLOCK = 32768
 """Rays per block of the sums: a fixed partition of a run, independent of the tracer's
 chunks, so the blocks can be summed on any threads."""
 
@@ -105,17 +105,20 @@ def bin_of(x: float, y: float, z: float, phi_ref: float, theta_bins: int, phi_bi
            folded: bool) -> int:
     """Flat bin ``it · phi_bins + ip`` of a unit direction in bins uniform in u = sin²θ
     and φ − φ_ref (folded: φ reflected into [0, π]), or -1 on or below the horizon
-    (``microsim.tables.binning.HemisphereBins.index``)."""
+    (``microsim.tables.binning.HemisphereBins.index``; the azimuth is reduced modulo 2π
+    with a floor instead of numpy's ``mod``, which may differ in the last bit)."""
     if z <= 0.0:
         return -1
     u = min(max(x * x + y * y, 0.0), 1.0)
     it = min(int(u * theta_bins), theta_bins - 1)
-    phi = (math.atan2(y, x) - phi_ref) % TWO_PI
+    phi = math.atan2(y, x) - phi_ref
+    phi -= TWO_PI * math.floor(phi * (1.0 / TWO_PI))
     if folded:
         phi = min(phi, TWO_PI - phi)
-    period = math.pi if folded else TWO_PI
-    ip = min(int(phi * (phi_bins / period)), phi_bins - 1)
-    return it * phi_bins + ip
+        ip = int(phi * (phi_bins / math.pi))
+    else:
+        ip = int(phi * (phi_bins / TWO_PI))
+    return it * phi_bins + min(ip, phi_bins - 1)
 
 
 @njit(**JIT)

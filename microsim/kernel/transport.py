@@ -1,9 +1,15 @@
-"""One transport step of every live path, compiled: from one Embree query to the next.
+"""The transport kernel, compiled: every path of a chunk, from its start to its end.
 
-The paths of a chunk live in slots (``Slots``): origin, direction, weight, medium, counts.
-``start`` loads rays into the slots; after each Embree query of the first ``m`` slots,
-``advance`` takes every slot's answer (the face hit, or -1) and moves the path on:
+``trace_chunk`` loads a chunk's rays into slots (origin, direction, weight, medium,
+counts) and alternates two passes over the live paths until none is left: one Embree
+query per path (``embree``: Embree's C API called from compiled code, no Python between
+queries), then one step per path:
 
+0. **Query.** Each segment is clipped at the first side of the tile's box the ray reaches
+   (plus eps, so a face lying on the side is still found); Embree returns the face hit, if
+   any. The faces hit are then gathered for all paths at once: independent loads the
+   processor overlaps, where one path at a time would wait for each (the face table
+   rarely fits a core's cache; this halves the step's cost).
 1. **Hit point.** Embree's float32 distance is not used: the point is recomputed in float64
    on the plane of the face hit, n·x = c.
 2. **Which side.** A ray in air can hit the front of a face; a ray inside a refracting
@@ -21,17 +27,15 @@ The paths of a chunk live in slots (``Slots``): origin, direction, weight, mediu
    (``shading.shade_one``); the offset of step 5 follows that normal.
 5. **Offset.** The next segment starts ``eps`` off the face on the side its direction
    goes, so it never re-hits the face through round-off.
-6. **No hit: the box.** Each query is clipped at the first side of the tile's box the ray
-   reaches. Through the top the path escapes (its direction, weight and order are
-   recorded); through the bottom it is transmitted (after a refraction) or leaked; through a
-   side it re-enters at the opposite side, unless its straight segment has used up its
-   budget of side crossings (``TRAPPED``).
-7. **Compaction.** The queries of the paths still alive are written to the first ``m'``
-   rows of the float32 buffers (origins, directions, lengths), with their slots in
-   ``live``; a path's state stays in its slot.
+6. **No hit: the box.** Through the top the path escapes (its direction, weight and order
+   are recorded); through the bottom it is transmitted (after a refraction) or leaked;
+   through a side it re-enters at the opposite side, unless its straight segment has used
+   up its budget of side crossings (``TRAPPED``).
+7. **Compaction.** The paths still alive are listed first in ``live`` for the next pass;
+   a path's state stays in its slot.
 
-Every ended path writes its outcome at its ray index (``Outcomes``), so the results depend
-on neither the chunking nor the thread that traced it.
+Every ended path writes its outcome at its ray index (``O_*`` columns), so the results
+depend on neither the chunking nor the thread that traced it.
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ import math
 import numpy as np
 from numba import njit
 
+from microsim.kernel.embree import INVALID, R_DIR_X, R_GEOM, R_MASK, R_PRIM, R_TFAR, call3
 from microsim.kernel.scatter import (
     INLINE,
     JIT,
@@ -153,17 +158,14 @@ def _wrap_near(x: float, period: float) -> float:
 
 
 @njit(**INLINE)
-def _queue(slots_f: np.ndarray, slots_i: np.ndarray, live: np.ndarray, o32: np.ndarray,
-           d32: np.ndarray, t32: np.ndarray, q: int, i: int, box: np.ndarray) -> None:
-    """Make slot i's next segment query q: float32 origin and direction, and its length
-    (to the box's first side, plus eps so a face lying on the side is still found)."""
+def _queue(slots_f: np.ndarray, slots_i: np.ndarray, live: np.ndarray, q: int, i: int
+           ) -> None:
+    """Make slot i's next segment query q: its distance to the box's first side and that
+    side's axis."""
     t, axis = box_exit(slots_f, i)
     slots_f[i, S_EXIT] = t
     slots_i[i, I_AXIS] = axis
     live[q] = i
-    o32[q, 0], o32[q, 1], o32[q, 2] = slots_f[i, S_PX], slots_f[i, S_PY], slots_f[i, S_PZ]
-    d32[q, 0], d32[q, 1], d32[q, 2] = slots_f[i, S_DX], slots_f[i, S_DY], slots_f[i, S_DZ]
-    t32[q] = t + box[B_EPS]
 
 
 # the slots: float64 state (columns S_*) and integer state (columns I_*) per live path
@@ -181,10 +183,9 @@ the box side ``S_EXIT`` leads to."""
 SLOT_INTS = 7
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
-          slots_f: np.ndarray, slots_i: np.ndarray, live: np.ndarray, o32: np.ndarray,
-          d32: np.ndarray, t32: np.ndarray, box: np.ndarray) -> int:
+          slots_f: np.ndarray, slots_i: np.ndarray, live: np.ndarray, box: np.ndarray) -> int:
     """Load rays ``first``, ``first + 1``, … into the slots, one per row of ``origins``.
 
     Parameters
@@ -195,9 +196,8 @@ def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
         Start points within the slab (x, y wrapped here) and unit directions of travel.
     media : (k,) int
         Medium each ray starts in (-1: air).
-    slots_f, slots_i, live, o32, d32, t32
-        The chunk's slots, the slot of each query, and the query buffers (at least k
-        rows).
+    slots_f, slots_i, live
+        The chunk's slots and the slot of each query (at least k rows).
     box : (7,) float
 
     Returns
@@ -231,7 +231,7 @@ def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
         slots_i[j, I_CROSSED] = 0
         slots_i[j, I_BOUNCE] = 0
         slots_i[j, I_SEG] = 0
-        _queue(slots_f, slots_i, live, o32, d32, t32, j, j, box)
+        _queue(slots_f, slots_i, live, j, j)
     return k
 
 
@@ -255,18 +255,17 @@ transmitted weight (``S_PX`` … ``S_T2``) when the path ended."""
 OUT_INTS = 3
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
-            live: np.ndarray, near: np.ndarray, o32: np.ndarray, d32: np.ndarray,
-            t32: np.ndarray, box: np.ndarray, faces: np.ndarray, kind: np.ndarray,
-            params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, bounces: int,
-            key: np.ndarray, out_f: np.ndarray, out_i: np.ndarray, vertices: np.ndarray,
-            curved: np.ndarray) -> int:
+            live: np.ndarray, near: np.ndarray, box: np.ndarray, faces: np.ndarray,
+            kind: np.ndarray, params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray,
+            bounces: int, key: np.ndarray, out_f: np.ndarray, out_i: np.ndarray,
+            vertices: np.ndarray, curved: np.ndarray) -> int:
     """Move every live path on after one query; see the module's steps 1 to 7.
 
     Parameters
     ----------
-    prim : (m,) int32
+    prim : (m,) int
         The face each of the m queries hit (-1: none).
     m : int
         Queries (live paths).
@@ -277,9 +276,6 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
         The slot of each query, rewritten for the paths still alive.
     near : (w, 5) float
         Scratch: the first five ``faces`` columns of each query's face.
-    o32, d32 : (w, 3) float32
-    t32 : (w,) float32
-        Query buffers, rewritten for the paths still alive.
     box : (7,) float
         ``B_*`` entries.
     faces : (f, FACE_FLOATS) float
@@ -447,9 +443,100 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
             _end(slots_f, slots_i, i, fate, out_f, out_i)
             continue
         # 7. compaction: the path's next query is number `alive` (never above q)
-        _queue(slots_f, slots_i, live, o32, d32, t32, alive, i, box)
+        _queue(slots_f, slots_i, live, alive, i)
         alive += 1
     return alive
+
+
+@njit(**JIT)
+def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
+                scene: int, intersect: int, rayhit: np.ndarray, slots_f: np.ndarray,
+                slots_i: np.ndarray, live: np.ndarray, near: np.ndarray, prim: np.ndarray,
+                box: np.ndarray, faces: np.ndarray, kind: np.ndarray,
+                params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, bounces: int,
+                key: np.ndarray, out_f: np.ndarray, out_i: np.ndarray,
+                vertices: np.ndarray, curved: np.ndarray) -> int:
+    """Trace rays ``first``, ``first + 1``, … (one per row of ``origins``) to their ends.
+
+    Parameters
+    ----------
+    first : int
+        Index of the first ray in the run (its row of the outcomes, its random numbers).
+    origins, dirs : (k, 3) float
+        Start points within the slab (x, y wrapped here) and unit directions of travel.
+    media : (k,) int
+        Medium each ray starts in (-1: air).
+    scene, intersect : int
+        The ``RTCScene`` and the address of ``rtcIntersect1`` (``embree.Scene``).
+    rayhit : (RAYHIT_WORDS,) float32
+        A 16-byte-aligned ``RTCRayHit`` record of the calling thread (``embree``).
+    slots_f : (w, SLOT_FLOATS) float
+    slots_i : (w, SLOT_INTS) int
+    live, prim : (w,) int
+    near : (w, 5) float
+        The calling thread's path state, its queries and their answers, w ≥ k.
+    box : (7,) float
+        ``B_*`` entries.
+    faces : (f, FACE_FLOATS) float
+        Per face (one cache line): its unit normal (away from the material), c of its
+        plane n·x = c, its part, its unit tangent (zeros when the tile gives none).
+    kind : (p,) int
+        Material kind per part.
+    params : (p, 12) float
+        Material parameters per part.
+    tab_int : (p, TABLE_COLUMNS) int
+        Table layout per part (table materials).
+    tab_f : (q,) float
+        Packed table data.
+    bounces : int
+        Scattering events before a path is ended.
+    key : (2,) uint64
+        The run's random key.
+    out_f : (n, O_FLOATS) float
+    out_i : (n, OUT_INTS) int
+        Outcomes per ray of the run.
+    vertices : (n, v, 3) float
+        Unwrapped hit points per ray and bounce (v = 0: not recorded).
+    curved : (f, 9) or (0, 9) float
+        The faces' tubes for shading normals (``shading.curved_table``; no rows: every
+        face flat).
+
+    Returns
+    -------
+    int
+        Embree queries made.
+    """
+    segments = 0
+    m = start(first, origins, dirs, media, slots_f, slots_i, live, box)
+    while m:
+        _query(m, live, slots_f, rayhit, scene, intersect, prim, box[B_EPS])
+        segments += m
+        m = advance(prim, m, slots_f, slots_i, live, near, box, faces, kind, params,
+                    tab_int, tab_f, bounces, key, out_f, out_i, vertices, curved)
+    return segments
+
+
+@njit(**INLINE)
+def _query(m: int, live: np.ndarray, slots_f: np.ndarray, rayhit: np.ndarray, scene: int,
+           intersect: int, prim: np.ndarray, eps: float) -> None:
+    """Step 0: Embree's closest hit of every live path's segment (``rtcIntersect1``), its
+    face in ``prim`` (-1: none)."""
+    words = rayhit.view(np.uint32)
+    record = rayhit.ctypes.data
+    rayhit[3] = 0.0  # tnear
+    rayhit[7] = 0.0  # time
+    words[R_MASK + 1] = 0  # id
+    words[R_MASK + 2] = 0  # flags
+    for q in range(m):
+        i = live[q]
+        for c in range(3):
+            rayhit[c] = slots_f[i, S_PX + c]
+            rayhit[R_DIR_X + c] = slots_f[i, S_DX + c]
+        rayhit[R_TFAR] = slots_f[i, S_EXIT] + eps
+        words[R_MASK] = INVALID
+        words[R_GEOM] = INVALID
+        call3(intersect, scene, record, 0)
+        prim[q] = -1 if words[R_GEOM] == INVALID else int(words[R_PRIM])
 
 
 @njit(**INLINE)
