@@ -55,6 +55,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 import time
@@ -314,14 +315,17 @@ def alpha_text(row: dict[str, Any]) -> str:
     return f"{alpha:.3f}" + ("" if err is None else f" ± {err:.3f}")
 
 
-def _pm(row: dict[str, Any], key: str, digits: int = 4, scale: float = 1.0) -> str:
-    """``value ± error`` of a row's key, "—" where the row has none, "no lobe" where the
-    model had no lobe bins."""
+def _digits(error: float) -> int:
+    """Decimals that show an error to one significant figure (at least 4)."""
+    return max(4, -math.floor(math.log10(error))) if error > 0 else 4
+
+
+def _pm(row: dict[str, Any], key: str) -> str:
+    """``value ± error`` of a row's key, "—" where the row has none."""
     if key not in row:
         return "—"
-    if row[key] is None:
-        return "no lobe"
-    return f"{scale * row[key]:+.{digits}f} ± {scale * row[key + '_err']:.{digits}f}"
+    digits = _digits(row[key + "_err"])
+    return f"{row[key]:+.{digits}f} ± {row[key + '_err']:.{digits}f}"
 
 
 def _lobe(row: dict[str, Any], ref: str) -> str:
@@ -358,7 +362,8 @@ def markdown(rows: list[dict[str, Any]], header: str) -> str:
         for c in orders + ["total"]:
             r = by[key + (c,)]
             ref = "smith" if c == "order1" else "walk"
-            cells += [f"{r['albedo_sim']:.4f}", _pm(r, f"residual_{ref}")]
+            digits = _digits(r[f"residual_{ref}_err"])
+            cells += [f"{r['albedo_sim']:.{digits}f}", _pm(r, f"residual_{ref}")]
         lines.append(f"| {key[0]} ({alpha[key[0]]}) | {incidence(key)} | "
                      + " | ".join(cells) + " |")
     lines += ["", "**Median lobe error** (%) ± its replicate spread (noise floor: what "
