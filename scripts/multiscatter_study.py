@@ -46,9 +46,9 @@ For every table, incidence and component (``total`` and each order):
 Writes ``DIR/study.json`` (every row), ``DIR/study.md`` (the tables), ``DIR/albedo.png``
 (albedo residual of each order against θi), ``DIR/lobe.png`` (median lobe errors with
 their noise floors) and ``DIR/order2-LABEL.png`` (each table's order 2 against the walk's
-in the plane of incidence); ``--save-tables DIR2`` also writes the tables simulated here.
-``--write-docs`` puts the Markdown between the ``multiscatter-study`` markers of
-docs/compare.md.
+in the plane of incidence at ``PLANE_THETA``); ``--save-tables DIR2`` also writes the
+tables simulated here. ``--write-docs`` puts the Markdown between the
+``multiscatter-study`` markers of docs/compare.md.
 """
 
 from __future__ import annotations
@@ -86,6 +86,8 @@ HEADING = "## Smith and its multiple scattering against Gaussian surfaces, per o
 SLOPE_STEP = 0.05
 """Relative step in α of the central difference dA/dα of a reference's albedo: small
 against the curvature of A(α), large against the tiles' spread of α (2–3% here)."""
+PLANE_THETA = (0.0, 45.0, 70.0)
+"""Incidences (degrees; the table's nearest) of the plane-of-incidence figures."""
 
 
 class References(NamedTuple):
@@ -255,9 +257,12 @@ def study(table: Any, label: str, samples: int, walks: int, seed: int, replicate
     albedos = model_albedos(table, refs, bins, walks)
     per_realisation = realisation_albedos(table)
     if plane is not None:
+        degrees = np.degrees(table.theta_i)
+        chosen = sorted({int(np.argmin(np.abs(degrees - t))) for t in PLANE_THETA})
         incidence_plane(table, bins[("order2", "walk")][0], plane, "order2",
-                        f"{label}: order 2, simulated (±1 standard error) and Heitz et al. "
-                        f"2016's walk (line)", "walk")
+                        f"{label} (α {alpha_text(table.meta.get('surface', {}))}): "
+                        "order 2, simulated (±1 standard error) and Heitz et al. 2016's "
+                        "walk", "walk", chosen)
     rng = np.random.default_rng(seed)
     surface = table.meta.get("surface", {})
     material = table.meta.get("recipe", {}).get("material", {})
@@ -305,9 +310,10 @@ def study(table: Any, label: str, samples: int, walks: int, seed: int, replicate
     return list(rows.values())
 
 
-def alpha_text(row: dict[str, Any]) -> str:
-    """The realised roughness of a row's surface ± its error: αx, αy when anisotropic."""
-    alpha, err = row["alpha_realised"], row["alpha_realised_stderr"]
+def alpha_text(facts: dict[str, Any]) -> str:
+    """The realised roughness ± its error of a row or a table's ``meta["surface"]``
+    (the same keys): αx, αy when anisotropic."""
+    alpha, err = facts.get("alpha_realised"), facts.get("alpha_realised_stderr")
     if alpha is None:
         return "unknown"
     if isinstance(alpha, list):
