@@ -1,6 +1,7 @@
-"""scripts/multiscatter_study.py: the per-order comparison of Gaussian surfaces with Smith
-and Heitz et al. 2016's walk runs end to end, says "no lobe" where a model has none, and
-its α-adjusted albedo residual errors are calibrated over independent ensembles."""
+"""The per-order comparison of tables with Smith and Heitz et al. 2016's walk
+(``microsim.order_residuals``, run by scripts/multiscatter_study.py): it runs end to end,
+says "no lobe" where a model has none, refuses a table without orders, and its
+α-adjusted albedo residual errors are calibrated over independent ensembles."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from microsim.order_residuals import compare_orders, lobe_errors
 from microsim.recipe import resolve
 from microsim.simulation import simulate_recipe
 
@@ -90,15 +92,27 @@ def test_a_model_without_lobe_bins_gives_no_lobe(study) -> None:
     zero = np.zeros_like(table.values["order3+"])
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        result = study.lobe_errors(table, "order3+", zero, zero,
-                                   np.random.default_rng(0), 4)
+        result = lobe_errors(table, "order3+", zero, zero, np.random.default_rng(0), 4)
     assert all(np.isnan(v).all() for v in result.values())
     row = {"median_rel_walk": None, "residual_walk": 0.001, "residual_walk_err": 0.0005}
     assert study._lobe(row, "walk") == "no lobe"
     assert study._lobe(row, "smith") == "—"
 
 
-def test_alpha_adjusted_albedo_errors_are_calibrated(study) -> None:
+def test_a_table_without_orders_is_refused(study, tmp_path, capsys) -> None:
+    """A table simulated without an order split: exit status 2, one ``error:`` line."""
+    recipe = small_recipe(2, 1, [0.0], 3)
+    recipe["table"]["orders"] = 1
+    path = tmp_path / "one.exr"
+    simulate_recipe(recipe).write(path)
+    with pytest.raises(SystemExit) as exit_info:
+        study.main([str(path), "--out", str(tmp_path / "out")])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("error: one: the table holds no order split")
+
+
+def test_alpha_adjusted_albedo_errors_are_calibrated() -> None:
     """A reported standard error is a claim: over 48 independent ensembles (4 tiny tiles
     each, whose realised α spreads by ~10%), the empirical variance of the albedo residual
     (order 1 against Smith, orders 2+ against the walk, at θi = 0) over the mean reported
@@ -111,7 +125,7 @@ def test_alpha_adjusted_albedo_errors_are_calibrated(study) -> None:
     residuals: dict[str, list[tuple[float, float, float]]] = {"order1": [], "order2+": []}
     for seed in range(runs):
         table = simulate_recipe(small_recipe(seed, 4, [0.0], 2))
-        for row in study.study(table, "x", 2, 20_000, seed, 2):
+        for row in compare_orders(table, "x", 2, 20_000, seed, 2)[0]:
             if row["component"] in residuals:
                 ref = "smith" if row["component"] == "order1" else "walk"
                 assert row[f"residual_{ref}_error_model"] == "alpha-adjusted"
