@@ -12,6 +12,12 @@ Cases (each returns rows of a CSV):
 - ``furnace``: Gaussian α = 0.5, mirror facets, F = 1, 64 bounces; error = mean
   1 − albedo over θi: the energy that did not come back (leaks, the bounce limit), which
   a closed microsurface of lossless facets does not have.
+- ``ms``: Gaussian α = 0.6 (256², where a tenth of the light scatters twice), mirror
+  facets, 32 bounces; error = median relative error of all orders (``total``) against
+  Heitz et al. 2016's multiple-scattering Smith microsurface (``beckmann-ms``) at the
+  realised α over lobe bins; stderr = the median over the same bins of the relative
+  standard error of the difference (table and model, whose random walks are drawn once
+  per sweep, ``FrozenBins``, so every ray count is scored against the same estimate).
 
 Gaussian tiles keep 32 correlation lengths per side whatever their resolution, so the
 resolution sweep changes only how finely each correlation length is tessellated
@@ -35,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from microsim.compare import compare_table
+from microsim.compare import compare_table, lobe_residuals
 from microsim.geometry import direction
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
@@ -47,6 +53,11 @@ COLUMNS = ("case", "rays", "tile_resolution", "cells_per_correlation", "table_bi
            "stderr")
 LENGTHS = 32
 """Correlation lengths per tile side in every Gaussian case."""
+MS_RESOLUTION = 256
+"""Tile resolution of the ``ms`` case (8 cells per correlation length)."""
+MS_SAMPLES = {True: 4096, False: 16384}
+"""Random walks per bin of the ``ms`` case's model, quick and full: its relative error
+in a lobe bin stays below the table's at the sweep's most rays."""
 
 
 def bare_scene(vertices: np.ndarray, faces: np.ndarray) -> Any:
@@ -142,6 +153,50 @@ def score_ts(table: Any) -> tuple[float, float]:
     return result["median_rel_error"], table.median_rel_stderr("single")
 
 
+class FrozenBins:
+    """A Monte Carlo model whose bin averages, once drawn, are kept: every table of a
+    sweep is scored against the same estimate (``compare.bin_estimate`` takes it as it
+    takes the model).
+
+    Parameters
+    ----------
+    model : SmithMultipleScattering
+        Holding every order (its exact part is order 1).
+    """
+
+    def __init__(self, model: Any) -> None:
+        self.model, self.exact = model, model.exact
+        self.drawn: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+    def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """The model's f_r (fresh walks), 1/sr."""
+        return self.model.eval(wi, wo)
+
+    def random_bin_average(self, wi: np.ndarray, theta_edges: np.ndarray,
+                           phi_edges: np.ndarray, phi_i: float = 0.0
+                           ) -> tuple[np.ndarray, np.ndarray]:
+        """``SmithMultipleScattering.random_bin_average``, drawn at the first call with
+        these arguments and returned as drawn after."""
+        key = (tuple(np.asarray(wi, float)), tuple(theta_edges), tuple(phi_edges), phi_i)
+        if key not in self.drawn:
+            self.drawn[key] = self.model.random_bin_average(wi, theta_edges, phi_edges,
+                                                            phi_i)
+        return self.drawn[key]
+
+
+def score_ms(table: Any, model: FrozenBins) -> tuple[float, float]:
+    """Median relative lobe error of the total against the model; the median over the
+    same bins of √(σ_table² + σ_model²) / model."""
+    result = compare_table(table, model, "total")
+    noise = []
+    for (a, b), _ in np.ndenumerate(table.rays):
+        avg, avg_err = result["model"][a, b], result["model_err"][a, b]
+        err = np.nan_to_num(table.errors["total"][a, b], nan=np.inf)
+        _, _, lobe = lobe_residuals(table.values["total"][a, b], err, avg, avg_err)
+        noise.append(np.hypot(err, avg_err)[lobe] / avg[lobe])
+    return result["median_rel_error"], float(np.median(np.concatenate(noise)))
+
+
 def score_furnace(table: Any) -> tuple[float, float]:
     """Mean 1 − albedo over θi (the lost energy of a lossless furnace); mean albedo
     standard error."""
@@ -188,8 +243,10 @@ def sweep(quick: bool, seed: int = 1, threads: int = 2,
 
     Quick: rays 10³…10⁵ per direction (5 points), tile resolutions 64, 128, 256 (2, 4, 8
     cells per correlation length), tables of 8 and 16 θo bins. Full: rays 10⁴…10⁶, tile
-    resolutions 64…512, tables of 16 and 32 θo bins.
+    resolutions 64…512, tables of 16 and 32 θo bins. The ``ms`` case runs at
+    ``MS_RESOLUTION`` with the smaller tables only.
     """
+    from microsim.analytic.multiple_scattering import SmithMultipleScattering
     from microsim.analytic.ndf import Beckmann
 
     rays = np.geomspace(1e3, 1e5, 5) if quick else np.geomspace(1e4, 1e6, 5)
@@ -210,6 +267,14 @@ def sweep(quick: bool, seed: int = 1, threads: int = 2,
         rows.append(run_tables("furnace", gaussian(0.5, res, seed), "mirror",
                                [0.0, 60.0, 85.0], rays[2], table_bins[0], 64, seed,
                                score_furnace))
+        if res == MS_RESOLUTION:
+            surface = gaussian(0.6, res, seed)
+            alpha = build_tile(resolve({"surface": surface}).surface).facts.alpha_realised.alpha
+            model = FrozenBins(SmithMultipleScattering(Beckmann(alpha),
+                                                       samples=MS_SAMPLES[quick], seed=seed))
+            rows += [run_tables("ms", surface, "mirror", [0.0, 45.0, 75.0], n,
+                                table_bins[0], 32, seed, lambda t, m=model: score_ms(t, m))
+                     for n in rays]
         log(f"resolution {res} done")
     vg = build_tile(resolve({"surface": {"kind": "vgroove", "slope": 45.0,
                                          "grooves": 16}}).surface)
@@ -239,8 +304,8 @@ def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
 
 def plot(rows: list[dict[str, Any]], out: Path) -> list[Path]:
     """``error_vs_time.png`` (log-log, case ts, one line per tile resolution, with the
-    1/√t noise slope) and ``bias_floor.png`` (the error at the most rays against cells per
-    correlation length, for ts and g1)."""
+    1/√t noise slope, and case ms) and ``bias_floor.png`` (the error at the most rays
+    against cells per correlation length, for ts and g1)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -256,13 +321,19 @@ def plot(rows: list[dict[str, Any]], out: Path) -> list[Path]:
         ax.loglog(t, [r["error"] for r in sel], "o-",
                   label=f"{res}² ({res // LENGTHS} cells per τ)")
         ax.loglog(t, [r["stderr"] for r in sel], ":", color=ax.lines[-1].get_color())
+    ms = sorted((r for r in rows if r["case"] == "ms"), key=lambda r: r["wall_s"])
+    if ms:
+        t = np.array([r["wall_s"] for r in ms])
+        ax.loglog(t, [r["error"] for r in ms], "s-", color="k", ms=4,
+                  label=f"ms: α = 0.6, all orders vs beckmann-ms ({MS_RESOLUTION}²)")
+        ax.loglog(t, [r["stderr"] for r in ms], ":", color="k")
     t0 = min(r["wall_s"] for r in ts)
     e0 = max(r["stderr"] for r in ts)
     tt = np.array([t0, max(r["wall_s"] for r in ts)])
     ax.loglog(tt, e0 * np.sqrt(t0 / tt), "k--", lw=1, label="1/√t (noise)")
     ax.set_xlabel("wall time (s)")
     ax.set_ylabel("median relative error over lobe bins")
-    ax.set_title("Gaussian α = 0.3, single scattering vs Torrance-Sparrow + Smith\n"
+    ax.set_title("ts: Gaussian α = 0.3, single scattering vs Torrance-Sparrow + Smith\n"
                  "solid: against the model; dotted: relative standard error (reported)",
                  fontsize=9)
     ax.grid(alpha=0.3, which="both")

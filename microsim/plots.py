@@ -55,7 +55,8 @@ def _pyplot() -> Any:
 
 def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
                     component: str = "single", title: str = "",
-                    model_label: str = "model") -> None:
+                    model_label: str = "model", incidences: list[int] | None = None
+                    ) -> None:
     """Plot f_r cos θo in the plane of incidence, simulation against model: one panel per
     incidence (columns θi; rows φi for an anisotropic table).
 
@@ -78,17 +79,20 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
         Figure title.
     model_label : str
         Legend entry of the model's curve (e.g. the fitted model's name).
+    incidences : list of int or None
+        Indices of the polar angles to draw (default: all).
     """
     plt = _pyplot()
     theta = np.degrees(table.bins.theta_centers)
     cos_o = np.cos(table.bins.theta_centers)
-    n = len(table.theta_i)
+    chosen = list(range(len(table.theta_i))) if incidences is None else list(incidences)
+    n = len(chosen)
     rows = 1 if table.isotropic else len(table.phi_i)
     fig, axes = plt.subplots(rows, n, figsize=(3.6 * n, 3.4 * rows), squeeze=False)
     for j in range(rows):
         back, forward = incidence_plane_bins(table, 0.0 if table.isotropic
                                              else float(table.phi_i[j]))
-        for k, ax in enumerate(axes[j]):
+        for k, ax in zip(chosen, axes[j], strict=True):
             avg = model_bins[k, j]
             values = table.values[component][k, j]
             errors = np.nan_to_num(table.errors[component][k, j])

@@ -4,8 +4,8 @@ Usage: python scripts/bench_speed_error.py [--quick] [--out docs/bench]
 Runs ``microsim.bench.sweep`` (the same as ``microsim bench``), writes bench.csv and the
 plots into --out, and prints Markdown: per tile resolution, the rays and wall time the
 Torrance-Sparrow case needed to reach each median relative error, or the floor it stopped
-at; the G1, V-groove and furnace errors at the most rays; and the speed ratio to bare
-Embree.
+at; the G1, V-groove, furnace and multiple-scattering errors at the most rays; and the
+speed ratio to bare Embree.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ def main() -> None:
         print(f"| {res}² ({res // 32} cells/τ) | " + " | ".join(cells)
               + f" | {100 * last['error']:.1f}% ± {100 * last['stderr']:.1f}% |")
     print()
-    for case in ("g1", "vgroove", "furnace"):
+    for case in ("g1", "vgroove", "furnace", "ms"):
         sel = [r for r in rows if r["case"] == case]
         most = max(r["rays"] for r in sel)
         for r in sel:

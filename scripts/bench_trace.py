@@ -3,6 +3,7 @@
 Usage::
 
     python scripts/bench_trace.py [--repeats 5] [--rays 100000] [--write]
+    python scripts/bench_trace.py --cpu [--write]
     python scripts/bench_trace.py --scaling [--write]
     python scripts/bench_trace.py --target 0.01 [--write]
 
@@ -11,7 +12,10 @@ surfaces/gaussian-0.3.toml, and the refracting paint of surfaces/paint.toml) ``r
 times, alternating ``simulate`` (θi = 0, 10, …, 80°, 2 threads; segments per second of the
 tracing, scene build excluded) with bare ``EmbreeScene.run`` on incoherent rays from the
 same tile (``microsim.bench.surface_rays``; same threads and chunks), and reports the
-medians and the median of the per-repeat ratios. ``--scaling`` does the same for Gaussian
+medians and the median of the per-repeat ratios. ``--cpu`` measures the same cases on one
+thread in CPU time (``time.thread_time``: what the process itself spent, whatever else
+shares the machine): simulate's CPU time per segment against bare ``run``'s per ray, the
+least of the repeats. ``--scaling`` does the same for Gaussian
 tiles of 64² … 1024² (32 correlation lengths per side, mirror facets) with 1 and 2 threads
 and draws docs/bench/scaling.png. ``--target`` times ``simulate`` to that median relative
 standard error on the lobe bins for θi = 0, 10, …, 80°. ``--write`` puts the tables into
@@ -34,6 +38,7 @@ import numpy as np
 
 from microsim.bench import bare_rays_per_second, bare_scene, gaussian, surface_rays
 from microsim.files import replace_marked
+from microsim.goniometer import measure_directions
 from microsim.recipe import load, resolve
 from microsim.settings import Recipe
 from microsim.simulation import simulate
@@ -74,6 +79,44 @@ def measure(recipe: Recipe, rays: int, repeats: int, threads: int) -> dict[str, 
     return {"faces": len(tile.faces), "ours": ours, "bare": raw,
             "segments_per_ray": result.meta.segments / (rays * len(THETA)),
             "ratio": statistics.median(a / b for a, b in zip(ours, raw, strict=True))}
+
+
+def cpu_section(args: argparse.Namespace) -> str:
+    """CPU time per segment on one thread, against bare Embree's per ray."""
+    head = machine()
+    rows = []
+    for name, recipe in cases():
+        tile = build_tile(recipe.surface)
+        sim = replace(recipe.simulation, theta_i=tuple(THETA), rays=args.rays,
+                      target_error=None, realisations=1, max_realisations=None)
+        table = replace(recipe.table, sh_order=0)
+        with PeriodicScene(tile, threads=1) as scene:
+            o, d = surface_rays(scene, BARE_RAYS, 0)
+        o32, d32 = o.astype(np.float32), d.astype(np.float32)
+        bare = bare_scene(tile.vertices, tile.faces)
+        ours, raw = [], []
+        for _ in range(args.repeats):
+            with PeriodicScene(tile, threads=1) as scene:
+                start = time.thread_time()
+                traced = measure_directions(tile, recipe.material, sim, table, scene=scene)
+                ours.append((time.thread_time() - start) / traced.segments)
+            dists = np.full(len(o32), 1e30, np.float32)
+            start = time.thread_time()
+            bare.run(o32, d32, dists=dists)
+            raw.append((time.thread_time() - start) / len(o32))
+        rows.append(f"| {name} | {min(ours) * 1e9:.0f} | {min(raw) * 1e9:.0f} | "
+                    f"**{min(raw) / min(ours):.2f}** |")
+        print(rows[-1], flush=True)
+    return "\n".join([
+        "## Tracing cost in CPU time", "",
+        f"Measured with `python scripts/bench_trace.py --cpu --repeats {args.repeats} --rays "
+        f"{args.rays} --write` on {head}: the cases above on one thread, in the CPU time the "
+        "process spent (`time.thread_time`, so other work on the machine weighs little): "
+        "the tracing of every direction per segment (`measure_directions` in a built scene: "
+        "origins, kernel, binning) against bare `EmbreeScene.run` per incoherent ray, "
+        "least of the repeats.", "",
+        "| case | simulate, ns of CPU per segment | bare Embree, ns of CPU per ray | ratio |",
+        "| --- | --- | --- | --- |", *rows])
 
 
 def machine() -> str:
@@ -186,6 +229,8 @@ def main() -> None:
     parser.add_argument("--rays", type=int, default=100_000,
                         help="rays per incident direction in the speed runs")
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--cpu", action="store_true",
+                        help="CPU time per segment on one thread against bare Embree")
     parser.add_argument("--scaling", action="store_true",
                         help="tile sizes 64² … 1024², 1 and 2 threads")
     parser.add_argument("--target", type=float, default=None,
@@ -197,6 +242,8 @@ def main() -> None:
         name, text = "bench_trace-target", target_section(args)
     elif args.scaling:
         name, text = "bench_trace-scaling", scaling_section(args)
+    elif args.cpu:
+        name, text = "bench_trace-cpu", cpu_section(args)
     else:
         name, text = "bench_trace-speed", speed_section(args)
     print(text)

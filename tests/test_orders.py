@@ -13,8 +13,7 @@ import pytest
 import microsim
 from microsim.analytic.multiple_scattering import SmithMultipleScattering
 from microsim.analytic.ndf import Beckmann
-from microsim.compare import compare_table
-from microsim.geometry import direction
+from microsim.compare import compare_table, direction
 from microsim.recipe import resolve
 from microsim.simulation import simulate
 from microsim.surfaces import build_tile
@@ -229,42 +228,3 @@ def test_demo_compares_single_and_all_orders(cli, tmp_path) -> None:
         single["alpha_realised"]
     assert all(r["albedo_model_err"][1] > 0 for r in total["per_theta_i"])
     assert all(r["albedo_model_err"][1] == 0 for r in single["per_theta_i"])
-
-
-def test_study_script_on_a_tiny_case(tmp_path, capsys) -> None:
-    """scripts/multiscatter_study.py (the per-order comparison with Smith and Heitz et
-    al.'s walk) runs from a recipe and from a table file, and writes its JSON, Markdown
-    and figure: one row per incidence and component, with albedos and median lobe errors
-    carrying error bars; the walk's albedos of the orders add up to its total, which is 1
-    for mirror facets."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(
-        "multiscatter_study", ROOT / "scripts" / "multiscatter_study.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    recipe = tmp_path / "tiny.toml"
-    recipe.write_text('[surface]\nkind = "gaussian"\nalpha = 0.8\nresolution = 32\n'
-                      'seed = 3\n[simulation]\ntheta_i = [0, 50]\nrays = 2000\n'
-                      'realisations = 1\n'
-                      '[table]\ntheta_bins = 4\nphi_bins = 8\nsh_order = 0\n')
-    table = tmp_path / "t.exr"
-    write_table(rough_table(3), table)
-    module.main([str(recipe), str(table), "--out", str(tmp_path / "out"), "--samples", "4",
-                 "--walks", "2000", "--replicates", "4"])
-    rows = json.loads((tmp_path / "out" / "study.json").read_text())
-    assert len(rows) == 2 * 2 * 4 and {r["table"] for r in rows} == {"tiny", "t"}
-    for r in rows:
-        assert r["median_rel_multiple_err"] >= 0 and r["albedo_multiple_err"] >= 0
-        assert ("median_rel_smith" in r) == (r["component"] in ("total", "order1"))
-    for label in ("tiny", "t"):
-        for theta in (0.0, 50.0, 60.0):
-            mine = {r["component"]: r for r in rows
-                    if r["table"] == label and r["theta_i"] == theta}
-            if mine:
-                parts = sum(mine[c]["albedo_multiple"] for c in ("order1", "order2", "order3+"))
-                assert parts == pytest.approx(mine["total"]["albedo_multiple"], abs=1e-12)
-                assert mine["total"]["albedo_multiple"] == pytest.approx(1.0, abs=1e-12)
-    assert (tmp_path / "out" / "study.png").stat().st_size > 0
-    assert "multiscatter-study" in (tmp_path / "out" / "study.md").read_text()
-    capsys.readouterr()

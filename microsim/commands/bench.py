@@ -18,7 +18,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "bench", help="speed against error on reference cases; CSV and plots",
         description="Run the reference cases (Torrance-Sparrow single scattering, Smith G1, "
-                    "V-groove G1, white furnace) over ray counts, tile resolutions and table "
+                    "V-groove G1, white furnace, all orders against Heitz et al.'s multiple "
+                    "scattering) over ray counts, tile resolutions and table "
                     "resolutions; time bare Embree on the same tiles; write bench.csv, "
                     "error_vs_time.png and bias_floor.png into --out. --quick takes about a "
                     "minute; the full sweep is timed in docs/performance.md.")

@@ -11,7 +11,9 @@ bijection, 10 rounds, with their multipliers and Weyl key increments; the same g
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, uint64
+from llvmlite import ir
+from numba import njit, types, uint64
+from numba.extending import intrinsic
 
 from microsim.jit import INLINE, JIT
 
@@ -19,22 +21,22 @@ M0 = np.uint64(0xD2E7470EE14C6C93)
 M1 = np.uint64(0xCA5A826395121157)
 W0 = np.uint64(0x9E3779B97F4A7C15)
 W1 = np.uint64(0xBB67AE8584CAA73B)
-LOW = np.uint64(0xFFFFFFFF)
-S32 = np.uint64(32)
 S11 = np.uint64(11)
 TO_UNIT = 1.0 / 9007199254740992.0
 """2^-53: a 53-bit integer to a double in [0, 1)."""
 
 
-@njit(**INLINE)
-def _mulhilo(a: uint64, b: uint64) -> tuple[uint64, uint64]:
-    """High and low 64-bit words of the 128-bit product a·b, from 32-bit halves."""
-    a_lo, a_hi = a & LOW, a >> S32
-    b_lo, b_hi = b & LOW, b >> S32
-    t = a_hi * b_lo + ((a_lo * b_lo) >> S32)
-    w1 = (t & LOW) + a_lo * b_hi
-    hi = a_hi * b_hi + (t >> S32) + (w1 >> S32)
-    return hi, a * b
+@intrinsic
+def _mulhi(typingctx, a, b):  # noqa: ANN001, ANN201 (numba intrinsic signature)
+    """High 64-bit word of the 128-bit product a·b of two uint64 (one machine multiply)."""
+    sig = types.uint64(types.uint64, types.uint64)
+
+    def codegen(context, builder, signature, args):  # noqa: ANN001, ANN202
+        wide = ir.IntType(128)
+        product = builder.mul(builder.zext(args[0], wide), builder.zext(args[1], wide))
+        return builder.trunc(builder.lshr(product, ir.Constant(wide, 64)), ir.IntType(64))
+
+    return sig, codegen
 
 
 @njit(**JIT)
@@ -46,8 +48,8 @@ def philox(c0: uint64, c1: uint64, c2: uint64, c3: uint64, k0: uint64, k1: uint6
     c = (hi1 ^ c1 ^ k0, lo1, hi0 ^ c3 ^ k1, lo0), and the key moves by the Weyl constants.
     """
     for _ in range(10):
-        hi0, lo0 = _mulhilo(M0, c0)
-        hi1, lo1 = _mulhilo(M1, c2)
+        hi0, lo0 = _mulhi(M0, c0), M0 * c0
+        hi1, lo1 = _mulhi(M1, c2), M1 * c2
         c0, c1, c2, c3 = hi1 ^ c1 ^ k0, lo1, hi0 ^ c3 ^ k1, lo0
         k0 += W0
         k1 += W1
@@ -60,7 +62,7 @@ def unit(x: uint64) -> float:
     return float(x >> S11) * TO_UNIT
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def uniforms(key: np.ndarray, ray: int, event: int, block: int
              ) -> tuple[float, float, float, float]:
     """Four uniform numbers in [0, 1) for one ray and event.
