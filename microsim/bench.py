@@ -72,6 +72,17 @@ def bare_scene(vertices: np.ndarray, faces: np.ndarray) -> Any:
     return scene
 
 
+def median_time(fn: Callable[[], object], repeats: int) -> float:
+    """Median wall time in seconds of ``repeats`` calls of ``fn`` (the machine is shared:
+    the median, not the mean, resists the odd slow run)."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
 def bare_rays_per_second(scene: Any, origins: np.ndarray, dirs: np.ndarray,
                          threads: int) -> float:
     """Closest-hit queries per second of bare ``EmbreeScene.run`` on float32 rays: one call

@@ -17,9 +17,11 @@ projected solid angle: Nicodemus et al. 1977, NBS Monograph 160, eq. 4).
 from __future__ import annotations
 
 import contextlib
+import itertools
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections import deque
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -29,7 +31,7 @@ from microsim.geometry import direction
 from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.tally import bin_escapes, in_blocks
 from microsim.materials import Material
-from microsim.paths import Paths, trace_paths
+from microsim.paths import Paths, PendingPaths, start_paths
 from microsim.settings import DEFAULT_ORDERS, Simulation, TableSettings
 from microsim.surfaces.facts import TileFacts
 from microsim.surfaces.tile import Tile
@@ -41,6 +43,9 @@ from microsim.trace import PeriodicScene
 
 BATCH = 65536
 """Rays per batch: the unit of random streams, accumulation and the adaptive stop."""
+DEPTH = 2
+"""Batches queued on the worker threads ahead of the one being added: the next batch's
+chunks keep the workers busy while this one is summarised and binned."""
 LOST_WARNING = 0.01
 """Lost energy (paths cut at the bounce limit or leaving through the tile's underside) as
 a fraction of the incident energy above which a table carries a warning: a closed surface
@@ -152,34 +157,74 @@ class Sums:
         return self.lost + self.transmitted
 
 
-def _measure_direction(scene: PeriodicScene, facets: FacetMaterials, bins: HemisphereBins,
-                       simulation: Simulation, theta: float, phi: float,
-                       isotropic: bool, streams: tuple[int, ...], acc: Sums, rays: int,
-                       first: int, progress: Callable[[int], None] | None = None) -> int:
-    """Trace ``rays`` more rays of one incident direction (degrees) of one tile into ``acc``.
+class _Batch(NamedTuple):
+    """One batch of one direction's rays: what the pipeline needs to trace and add it."""
 
-    Outgoing azimuths are binned relative to ``phi`` for isotropic tables, absolute
-    otherwise (the table's convention). Batches of ``BATCH`` rays (the last one may be
-    shorter) are numbered from ``first``; batch b draws from
-    ``SeedSequence(seed, spawn_key=(*streams, b))``. ``progress`` is called with the rays
-    traced after every batch. Returns the number of the next batch.
+    run: Run
+    number: int
+    rays: int
+    wi: np.ndarray
+    phi_ref: float
+    seed: np.random.SeedSequence
+    report: Callable[[int], None] | None
+
+
+def _batches(work: Mapping[Direction, int], runs: dict[RunKey, Run], new_run: Callable[[], Run],
+             seed: int, theta_deg: Sequence[float], phi_deg: Sequence[float],
+             isotropic: bool, realisation: int,
+             progress: Callable[[Progress], None] | None) -> Iterator[_Batch]:
+    """The batches of every direction of ``work`` in order, each direction's continuing its
+    run in ``runs`` (``new_run()`` where there is none yet).
+
+    Batches of ``BATCH`` rays (the last one of a direction may be shorter) are numbered
+    from the run's ``batches``; batch b of direction (l, k) draws from
+    ``SeedSequence(seed, spawn_key=(l, k, realisation, b))``. Outgoing azimuths are binned
+    relative to the incident azimuth for isotropic tables, absolute otherwise (the
+    table's convention).
     """
-    phi_ref = math.radians(phi) if isotropic else 0.0
-    wi = direction(math.radians(theta), math.radians(phi))
-    planned = acc.rays + rays
-    batch = first
-    while acc.rays < planned:
-        n = min(BATCH, planned - acc.rays)
-        seed = np.random.SeedSequence(int(simulation.seed), spawn_key=(*streams, batch))
-        xy = np.random.default_rng(seed).random((n, 2)) * scene.period
-        origins = np.column_stack([xy, np.full(n, scene.z_top)])
-        paths = trace_paths(scene, facets, origins, np.broadcast_to(-wi, (n, 3)),
-                            int(simulation.bounces), seed)
-        acc.add(paths, bins, phi_ref, scene.map)
-        batch += 1
-        if progress is not None:
-            progress(n)
-    return batch
+    for (l, k), rays in work.items():
+        key = RunKey(l, k, realisation)
+        run = runs[key] = runs.get(key) or new_run()
+        phi_ref = math.radians(phi_deg[k]) if isotropic else 0.0
+        wi = direction(math.radians(theta_deg[l]), math.radians(phi_deg[k]))
+        report = None if progress is None else _reporter(
+            progress, theta_deg[l], phi_deg[k], realisation, run.sums)
+        first = run.batches  # grows as the batches are added, while later ones are made
+        for index, start in enumerate(range(0, rays, BATCH)):
+            number = first + index
+            stream = np.random.SeedSequence(seed, spawn_key=(*key, number))
+            yield _Batch(run, number, min(BATCH, rays - start), wi, phi_ref, stream,
+                              report)
+
+
+def _pipeline(scene: PeriodicScene, facets: FacetMaterials,
+              batches: Iterator[_Batch], bounces: int
+              ) -> Iterator[tuple[_Batch, Paths]]:
+    """The traced paths of each batch, in order, with ``DEPTH`` batches queued ahead.
+
+    A batch's origins are drawn uniformly over the tile's top (its own stream) and its
+    chunks queued on the worker threads; the next batch is queued before the caller adds
+    this one, so the workers never wait for the adding (or for the last chunk of a batch
+    on the other thread). What comes out is what tracing the batches one after the other
+    gives, bit for bit.
+    """
+    pending: deque[tuple[_Batch, PendingPaths]] = deque()
+
+    def queue_next() -> None:
+        for batch in itertools.islice(batches, 1):
+            xy = np.random.default_rng(batch.seed).random((batch.rays, 2)) * scene.period
+            origins = np.column_stack([xy, np.full(batch.rays, scene.z_top)])
+            pending.append((batch, start_paths(
+                scene, facets, origins, np.broadcast_to(-batch.wi, (batch.rays, 3)), bounces,
+                batch.seed)))
+
+    for _ in range(DEPTH):
+        queue_next()
+    while pending:
+        batch, paths = pending.popleft()
+        paths.wait()
+        queue_next()
+        yield batch, paths.result()
 
 
 @dataclass
@@ -322,21 +367,20 @@ def measure_directions(tile: Tile, materials: Mapping[str, Material], simulation
     facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
                             tile.curved)
     runs = {} if runs is None else runs
-    traced = {}
+    batches = _batches(work, runs, lambda: Run(Sums(bins.size, table.sh_order, table.orders)),
+                       int(simulation.seed), theta_deg, phi_deg, isotropic, realisation,
+                       progress)
     with contextlib.ExitStack() as stack:
         if scene is None:
             scene = stack.enter_context(PeriodicScene(tile, threads))
         built, before = time.perf_counter(), scene.segments
-        for (l, k), rays in work.items():
-            key = RunKey(l, k, realisation)
-            run = runs.get(key) or Run(Sums(bins.size, table.sh_order, table.orders))
-            report = None if progress is None else _reporter(
-                progress, theta_deg[l], phi_deg[k], realisation, run.sums)
-            run.batches = _measure_direction(scene, facets, bins, simulation, theta_deg[l],
-                                             phi_deg[k], isotropic, key, run.sums, rays,
-                                             run.batches, report)
-            traced[key] = runs[key] = run
+        for batch, paths in _pipeline(scene, facets, batches, int(simulation.bounces)):
+            batch.run.sums.add(paths, bins, batch.phi_ref, scene.map)
+            batch.run.batches = batch.number + 1
+            if batch.report is not None:
+                batch.report(batch.rays)
         segments, eps = scene.segments - before, scene.eps
+    traced = {key: runs[key] for key in (RunKey(l, k, realisation) for l, k in work)}
     return Measurement(traced, {realisation: tile.facts}, facets.inputs, isotropic,
                        segments, eps, built - start, time.perf_counter() - built,
                        warnings=list(dict.fromkeys(tile.warnings)))

@@ -18,7 +18,7 @@ import numpy as np
 from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.slots import FATES
 from microsim.kernel.tally import in_blocks, summarise
-from microsim.trace import PeriodicScene
+from microsim.trace import PeriodicScene, Tracing
 
 
 @dataclass
@@ -59,7 +59,15 @@ class Paths:
 
 def trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.ndarray,
                 dirs: np.ndarray, bounces: int, seed: np.random.SeedSequence) -> Paths:
-    """Trace rays with up to ``bounces`` scattering events each.
+    """Trace rays with up to ``bounces`` scattering events each and wait for them:
+    ``start_paths(...).result()``, with the same parameters."""
+    return start_paths(scene, materials, origins, dirs, bounces, seed).result()
+
+
+def start_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.ndarray,
+                dirs: np.ndarray, bounces: int, seed: np.random.SeedSequence) -> PendingPaths:
+    """Start tracing rays with up to ``bounces`` scattering events each on the scene's
+    worker threads; returns at once (``PendingPaths.result`` waits).
 
     Ray i draws its random numbers from the counter (i, event, ...) under the key of
     ``seed`` (``microsim.kernel.rng``): the result depends on neither the number of
@@ -81,19 +89,42 @@ def trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nda
 
     Returns
     -------
-    Paths
+    PendingPaths
     """
-    out = scene.run(origins, dirs, materials, bounces, seed)
-    n = len(origins)
-    direction, weight = np.empty((n, 3)), np.empty((n, 3))
-    order = np.empty(n, np.int64)
+    return PendingPaths(scene, scene.start(origins, dirs, materials, bounces, seed))
 
-    def block(a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
-        energy, counts = np.zeros((3, 3)), np.zeros(len(FATES), np.int64)
-        summarise(out.floats[a:b], out.ints[a:b], direction[a:b], weight[a:b], order[a:b],
-                  energy, counts)
-        return energy, counts
 
-    energy, counts = in_blocks(block, n, scene.map)
-    return Paths(direction, weight, order, energy[0], energy[1], energy[2],
-                 dict(zip(FATES, map(int, counts), strict=True)))
+class PendingPaths:
+    """Paths being traced (``start_paths``): ``wait`` for the tracing, ``result`` for the
+    paths, summarised on the scene's worker threads.
+
+    Parameters
+    ----------
+    scene : PeriodicScene
+    tracing : Tracing
+        The scene's handle of the chunks.
+    """
+
+    def __init__(self, scene: PeriodicScene, tracing: Tracing) -> None:
+        self._scene, self._tracing = scene, tracing
+
+    def wait(self) -> None:
+        """Return when every path has ended (the outcomes are not summarised yet)."""
+        self._tracing.result()
+
+    def result(self) -> Paths:
+        """The paths: exit directions, weights and orders, and the energy and fate sums."""
+        out = self._tracing.result()
+        n = len(out.floats)
+        direction, weight = np.empty((n, 3)), np.empty((n, 3))
+        order = np.empty(n, np.int64)
+
+        def block(a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
+            energy, counts = np.zeros((3, 3)), np.zeros(len(FATES), np.int64)
+            summarise(out.floats[a:b], out.ints[a:b], direction[a:b], weight[a:b],
+                      order[a:b], energy, counts)
+            return energy, counts
+
+        energy, counts = in_blocks(block, n, self._scene.map)
+        return Paths(direction, weight, order, energy[0], energy[1], energy[2],
+                     dict(zip(FATES, map(int, counts), strict=True)))

@@ -21,7 +21,7 @@ from __future__ import annotations
 import os
 import threading
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TypeVar
 
@@ -96,6 +96,41 @@ class Outcomes:
     segments: int
 
 
+class Tracing:
+    """Paths on their way through the worker threads (``PeriodicScene.start``).
+
+    Parameters
+    ----------
+    scene : PeriodicScene
+        The scene tracing them (its ``segments`` count grows when they are collected).
+    floats, ints, vertices : arrays
+        The outcome arrays the chunks fill (``Outcomes``).
+    chunks : list of Future of int
+        Each chunk's task; its result is the Embree queries it made.
+    """
+
+    def __init__(self, scene: PeriodicScene, floats: np.ndarray, ints: np.ndarray,
+                 vertices: np.ndarray, chunks: list[Future[int]]) -> None:
+        self._scene, self._chunks = scene, chunks
+        self._arrays = (floats, ints, vertices)
+        self._outcomes: Outcomes | None = None
+
+    def result(self) -> Outcomes:
+        """Wait for every chunk; the outcomes (the same object on later calls)."""
+        if self._outcomes is None:
+            segments = sum(chunk.result() for chunk in self._chunks)
+            self._scene.segments += segments
+            self._outcomes = Outcomes(*self._arrays, segments)
+        return self._outcomes
+
+
+def _done(value: T) -> Future[T]:
+    """A future that already holds ``value``."""
+    future: Future[T] = Future()
+    future.set_result(value)
+    return future
+
+
 class PeriodicScene:
     """One tile in Embree, traced with periodic wrap on a thread pool.
 
@@ -164,10 +199,26 @@ class PeriodicScene:
             return [fn(i) for i in starts]
         return list(self._pool.map(fn, starts))
 
+    def submit(self, fn: Callable[[int], T], starts: range) -> list[Future[T]]:
+        """``fn`` over chunk starts, queued on the worker threads (done at once, in this
+        thread, without them)."""
+        if self._pool is None:
+            return [_done(fn(i)) for i in starts]
+        return [self._pool.submit(fn, i) for i in starts]
+
     def run(self, origins: np.ndarray, dirs: np.ndarray, materials: FacetMaterials | None,
             bounces: int, seed: np.random.SeedSequence | None = None,
             media: np.ndarray | None = None, vertices: int = 0) -> Outcomes:
-        """Trace paths with up to ``bounces`` scattering events each.
+        """Trace paths with up to ``bounces`` scattering events each and wait for them:
+        ``start(...).result()``, with the same parameters."""
+        return self.start(origins, dirs, materials, bounces, seed, media, vertices).result()
+
+    def start(self, origins: np.ndarray, dirs: np.ndarray, materials: FacetMaterials | None,
+              bounces: int, seed: np.random.SeedSequence | None = None,
+              media: np.ndarray | None = None, vertices: int = 0) -> Tracing:
+        """Start tracing paths with up to ``bounces`` scattering events each: the chunks are
+        queued on the worker threads and this returns at once, so the caller can queue
+        more work (the next batch) before it waits for these (``Tracing.result``).
 
         Ray i draws its random numbers from the counter (i, event, ...) under the key of
         ``seed`` (``microsim.kernel.rng``), so the outcomes depend on neither the number of
@@ -194,7 +245,7 @@ class PeriodicScene:
 
         Returns
         -------
-        Outcomes
+        Tracing
         """
         n = len(origins)
         if materials is None:
@@ -227,9 +278,7 @@ class PeriodicScene:
                                   params, tab_int, tab_f, bounces, key, out_f, out_i, path,
                                   curved)
 
-        segments = sum(self.map(chunk, range(0, n, c)))
-        self.segments += segments
-        return Outcomes(out_f, out_i, path, segments)
+        return Tracing(self, out_f, out_i, path, self.submit(chunk, range(0, n, c)))
 
     def _buffers(self) -> tuple[np.ndarray, ...]:
         """The calling thread's ``RTCRayHit`` record, path slots (``CHUNK`` rows), queries,

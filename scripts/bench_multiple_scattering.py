@@ -18,7 +18,6 @@ import argparse
 import math
 import os
 import platform
-import statistics
 import time
 from pathlib import Path
 
@@ -26,6 +25,7 @@ import numpy as np
 
 from microsim.analytic.multiple_scattering import SmithMultipleScattering
 from microsim.analytic.ndf import GGX, Beckmann
+from microsim.bench import median_time
 from microsim.files import replace_marked
 from microsim.geometry import direction
 from microsim.tables.binning import HemisphereBins
@@ -33,15 +33,6 @@ from microsim.tables.binning import HemisphereBins
 ROOT = Path(__file__).resolve().parent.parent
 MARKERS = ("<!-- multiple-scattering-cost -->", "<!-- /multiple-scattering-cost -->")
 WALKS = 100_000
-
-
-def median_time(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def main() -> None:

@@ -22,12 +22,12 @@ import argparse
 import math
 import os
 import platform
-import statistics
 import time
 from pathlib import Path
 
 import numpy as np
 
+from microsim.bench import median_time
 from microsim.files import replace_marked
 from microsim.geometry import direction
 from microsim.goniometer import BATCH, Sums
@@ -42,15 +42,6 @@ from microsim.trace import PeriodicScene
 ROOT = Path(__file__).resolve().parent.parent
 MARKERS = ("<!-- sh-cost -->", "<!-- /sh-cost -->")
 ORDERS = (0, 8, 16, 32, 64)
-
-
-def median_time(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def main() -> None:

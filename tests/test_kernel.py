@@ -72,8 +72,9 @@ def test_kernel_bins_are_the_tables_bins(phi_period) -> None:
 
 def test_tables_do_not_depend_on_threads_or_chunks() -> None:
     """A rough tile of two materials (a random one, Lambertian, and a conductor), harmonics
-    on: one thread with the default chunk and two threads with chunks of 777 rays give the
-    same table, bit for bit."""
+    on: one thread with the default chunk (each batch traced, then added) and two threads
+    with chunks of 777 rays (the next batch traced while one is added,
+    ``goniometer.DEPTH``) give the same table, bit for bit."""
     tile = random_tile(32, 0.5, seed=2)
     tile.material = (np.arange(len(tile.faces)) % 3 == 0).astype(np.int64)
     tile.parts = ("a", "b")
