@@ -28,6 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 from microsim.geometry import direction
+from microsim.kernel.beam import CELLS, beam_origins
 from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.tally import bin_escapes, in_blocks
 from microsim.materials import Material
@@ -202,18 +203,18 @@ def _pipeline(scene: PeriodicScene, facets: FacetMaterials,
               ) -> Iterator[tuple[_Batch, Paths]]:
     """The traced paths of each batch, in order, with ``DEPTH`` batches queued ahead.
 
-    A batch's origins are drawn uniformly over the tile's top (its own stream) and its
-    chunks queued on the worker threads; the next batch is queued before the caller adds
-    this one, so the workers never wait for the adding (or for the last chunk of a batch
-    on the other thread). What comes out is what tracing the batches one after the other
-    gives, bit for bit.
+    A batch's origins are drawn uniformly over the tile's top (its own stream; traced in
+    cell order, ``microsim.kernel.beam``) and its chunks queued on the worker threads; the
+    next batch is queued before the caller adds this one, so the workers never wait for
+    the adding (or for the last chunk of a batch on the other thread). What comes out is
+    what tracing the batches one after the other gives, bit for bit.
     """
     pending: deque[tuple[_Batch, PendingPaths]] = deque()
 
     def queue_next() -> None:
         for batch in itertools.islice(batches, 1):
-            xy = np.random.default_rng(batch.seed).random((batch.rays, 2)) * scene.period
-            origins = np.column_stack([xy, np.full(batch.rays, scene.z_top)])
+            u = np.random.default_rng(batch.seed).random((batch.rays, 2))
+            origins = beam_origins(u, scene.period, scene.z_top, CELLS)
             pending.append((batch, start_paths(
                 scene, facets, origins, np.broadcast_to(-batch.wi, (batch.rays, 3)), bounces,
                 batch.seed)))

@@ -11,11 +11,12 @@ The first form runs each case (mirror, gold conductor and Lambertian facets on t
 surfaces/gaussian-0.3.toml, and the refracting paint of surfaces/paint.toml) ``repeats``
 times, alternating ``simulate`` (θi = 0, 10, …, 80°, 2 threads; segments per second of the
 tracing, scene build excluded) with bare ``EmbreeScene.run`` on incoherent rays from the
-same tile (``microsim.bench.surface_rays``; same threads and chunks), and reports the
-medians and the median of the per-repeat ratios. ``--cpu`` measures the same cases on one
+same tile (``microsim.bench.surface_rays``; same threads and chunks) timed right before
+and after each run over as many rays as it traced segments, and reports the medians and
+the median and range of the per-repeat ratios. ``--cpu`` measures the same cases on one
 thread in CPU time (``time.thread_time``: what the process itself spent, whatever else
-shares the machine): simulate's CPU time per segment against bare ``run``'s per ray, the
-least of the repeats. ``--scaling`` does the same for Gaussian
+shares the machine): simulate's CPU time per segment against bare ``run``'s per ray,
+timed the same way. ``--scaling`` does the same for Gaussian
 tiles of 64² … 1024² (32 correlation lengths per side, mirror facets) with 1 and 2 threads
 and draws docs/bench/scaling.png. ``--target`` times ``simulate`` to that median relative
 standard error on the lobe bins for θi = 0, 10, …, 80°. ``--write`` puts the tables into
@@ -71,14 +72,40 @@ def measure(recipe: Recipe, rays: int, repeats: int, threads: int) -> dict[str, 
     with PeriodicScene(tile, threads=1) as scene:
         o, d = surface_rays(scene, BARE_RAYS, 0)
     bare = bare_scene(tile.vertices, tile.faces)
+    # a first run, not counted, warms up and sizes bare Embree's share: as many rays as
+    # the tracing it is set against has segments
+    warm = simulate(tile, recipe.material, sim, table, threads=threads)
+    passes = max(1, round(warm.meta.segments / BARE_RAYS))
     ours, raw = [], []
     for _ in range(repeats):
+        before = bare_rate(bare, o, d, threads, passes)
         result = simulate(tile, recipe.material, sim, table, threads=threads)
+        after = bare_rate(bare, o, d, threads, passes)
         ours.append(result.meta.timing.segments_per_second)
-        raw.append(bare_rays_per_second(bare, o, d, threads))
+        raw.append(0.5 * (before + after))
+    ratios = [a / b for a, b in zip(ours, raw, strict=True)]
     return {"faces": len(tile.faces), "ours": ours, "bare": raw,
             "segments_per_ray": result.meta.segments / (rays * len(THETA)),
-            "ratio": statistics.median(a / b for a, b in zip(ours, raw, strict=True))}
+            "ratio": statistics.median(ratios), "range": (min(ratios), max(ratios))}
+
+
+def bare_rate(scene: Any, origins: np.ndarray, dirs: np.ndarray, threads: int,
+              passes: int) -> float:
+    """Bare Embree's rays per second over ``passes`` passes of the rays (total rays over
+    total time)."""
+    return passes / sum(1.0 / bare_rays_per_second(scene, origins, dirs, threads)
+                        for _ in range(passes))
+
+
+def bare_cpu(scene: Any, o32: np.ndarray, d32: np.ndarray, passes: int) -> float:
+    """Bare ``run``'s CPU time per ray on this thread over ``passes`` passes of the rays."""
+    spent = 0.0
+    for _ in range(passes):
+        dists = np.full(len(o32), 1e30, np.float32)
+        start = time.thread_time()
+        scene.run(o32, d32, dists=dists)
+        spent += time.thread_time() - start
+    return spent / (passes * len(o32))
 
 
 def cpu_section(args: argparse.Namespace) -> str:
@@ -92,31 +119,36 @@ def cpu_section(args: argparse.Namespace) -> str:
         table = replace(recipe.table, sh_order=0)
         with PeriodicScene(tile, threads=1) as scene:
             o, d = surface_rays(scene, BARE_RAYS, 0)
-        o32, d32 = o.astype(np.float32), d.astype(np.float32)
+            # a first run, not counted, warms up and sizes bare Embree's share
+            warm = measure_directions(tile, recipe.material, sim, table, scene=scene)
+        rays32 = (o.astype(np.float32), d.astype(np.float32))
         bare = bare_scene(tile.vertices, tile.faces)
+        passes = max(1, round(warm.segments / BARE_RAYS))
         ours, raw = [], []
         for _ in range(args.repeats):
+            before = bare_cpu(bare, *rays32, passes)
             with PeriodicScene(tile, threads=1) as scene:
                 start = time.thread_time()
                 traced = measure_directions(tile, recipe.material, sim, table, scene=scene)
                 ours.append((time.thread_time() - start) / traced.segments)
-            dists = np.full(len(o32), 1e30, np.float32)
-            start = time.thread_time()
-            bare.run(o32, d32, dists=dists)
-            raw.append((time.thread_time() - start) / len(o32))
-        rows.append(f"| {name} | {min(ours) * 1e9:.0f} | {min(raw) * 1e9:.0f} | "
-                    f"**{min(raw) / min(ours):.2f}** |")
+            raw.append(0.5 * (before + bare_cpu(bare, *rays32, passes)))
+        ratios = [b / a for a, b in zip(ours, raw, strict=True)]
+        rows.append(f"| {name} | {statistics.median(ours) * 1e9:.0f} | "
+                    f"{statistics.median(raw) * 1e9:.0f} | "
+                    f"**{statistics.median(ratios):.2f}** | "
+                    f"{min(ratios):.2f}–{max(ratios):.2f} |")
         print(rows[-1], flush=True)
     return "\n".join([
         "## Tracing cost in CPU time", "",
         f"Measured with `python scripts/bench_trace.py --cpu --repeats {args.repeats} --rays "
         f"{args.rays} --write` on {head}: the cases above on one thread, in the CPU time the "
-        "process spent (`time.thread_time`, so other work on the machine weighs little): "
+        "process spent (`time.thread_time`, so other work on the machine weighs less): "
         "the tracing of every direction per segment (`measure_directions` in a built scene: "
-        "origins, kernel, binning) against bare `EmbreeScene.run` per incoherent ray, "
-        "least of the repeats.", "",
-        "| case | simulate, ns of CPU per segment | bare Embree, ns of CPU per ray | ratio |",
-        "| --- | --- | --- | --- |", *rows])
+        "origins, kernel, binning) against bare `EmbreeScene.run` per incoherent ray, timed "
+        "right before and right after each run over as many rays as it traced segments; "
+        "medians over the repeats, the median of the per-repeat ratios and their range.", "",
+        "| case | simulate, ns of CPU per segment | bare Embree, ns of CPU per ray | ratio "
+        "| range |", "| --- | --- | --- | --- | --- |", *rows])
 
 
 def machine() -> str:
@@ -134,7 +166,8 @@ def speed_section(args: argparse.Namespace) -> str:
         m = measure(recipe, args.rays, args.repeats, args.threads)
         rows.append(f"| {name} | {m['faces']:,} | {m['segments_per_ray']:.2f} | "
                     f"{statistics.median(m['ours']) / 1e6:.2f} | "
-                    f"{statistics.median(m['bare']) / 1e6:.2f} | **{m['ratio']:.2f}** |")
+                    f"{statistics.median(m['bare']) / 1e6:.2f} | **{m['ratio']:.2f}** | "
+                    f"{m['range'][0]:.2f}–{m['range'][1]:.2f} |")
         print(rows[-1], flush=True)
     return "\n".join([
         "## Tracing speed against bare Embree", "",
@@ -142,12 +175,15 @@ def speed_section(args: argparse.Namespace) -> str:
         f"{args.rays} --write` on {head}. Each case alternates {args.repeats} runs of "
         f"`simulate` (θi = 0, 10, …, 80°, {args.rays:,} rays each, {args.threads} threads, "
         f"chunks of {CHUNK:,} rays; segments per second of the tracing, scene build "
-        f"excluded) with bare `EmbreeScene.run` on {BARE_RAYS:,} incoherent rays from the "
-        f"same tile (points uniform over the faces, cosine-distributed directions; the same "
-        f"threads, one call per thread: Embree's best case). Ratio: median over the repeats "
-        f"of simulate's segments per second over bare rays per second.", "",
+        f"excluded) with bare `EmbreeScene.run` on incoherent rays from the same tile "
+        f"(points uniform over the faces, cosine-distributed directions; the same threads, "
+        f"one call per thread on passes over {BARE_RAYS:,} rays: Embree's best case), "
+        "timed right before and right after each run of `simulate` over as many rays as "
+        "that run traced segments, so both see the same state of the shared machine. "
+        "Ratio: simulate's segments per second over the mean of the bare rays per second "
+        "before and after; the median over the repeats, and their range.", "",
         "| case | faces | segments per ray | simulate, 10⁶ segments/s | bare Embree, 10⁶ "
-        "rays/s | ratio |", "| --- | --- | --- | --- | --- | --- |", *rows])
+        "rays/s | ratio | range |", "| --- | --- | --- | --- | --- | --- | --- |", *rows])
 
 
 def scaling_section(args: argparse.Namespace) -> str:

@@ -31,6 +31,7 @@ from microsim.bench import median_time
 from microsim.files import replace_marked
 from microsim.geometry import direction
 from microsim.goniometer import BATCH, Sums
+from microsim.kernel.beam import CELLS, beam_origins
 from microsim.materials import Conductor, FacetMaterials, Mirror
 from microsim.paths import trace_paths
 from microsim.recipe import load
@@ -62,8 +63,8 @@ def main() -> None:
             facets = FacetMaterials(tile.material, tile.parts,
                                     {p: material for p in tile.parts})
             seed = np.random.SeedSequence(1)
-            xy = np.random.default_rng(seed).random((BATCH, 2)) * scene.period
-            origins = np.column_stack([xy, np.full(BATCH, scene.z_top)])
+            u = np.random.default_rng(seed).random((BATCH, 2))
+            origins = beam_origins(u, scene.period, scene.z_top, CELLS)
 
             def trace(facets=facets, origins=origins, seed=seed):
                 return trace_paths(scene, facets, origins, np.broadcast_to(-wi, (BATCH, 3)),

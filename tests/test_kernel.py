@@ -117,3 +117,19 @@ def test_kinds_the_transport_reflects_inline_are_perfect_mirrors() -> None:
         np.testing.assert_array_equal(out, [optics.reflect(*a, *b) for a, b in zip(d, n,
                                                                                strict=True)])
         assert np.all(factor == 1.0) and not transmitted.any()
+
+
+def test_the_beam_is_the_points_drawn_in_cell_order() -> None:
+    """``beam_origins`` only reorders: the points drawn, scaled to the tile and at the
+    height given, in the order numpy's stable sort gives by the place of their cell on the
+    path through the grid (rows rising, x forwards on even rows and backwards on odd)."""
+    from microsim.kernel.beam import beam_origins
+
+    u = np.random.default_rng(4).random((5000, 2))
+    period, cells = np.array([2.0, 3.0]), 8
+    cx, cy = (u * cells).astype(int).T
+    step = cy * cells + np.where(cy % 2 == 0, cx, cells - 1 - cx)
+    want = (u * period)[np.argsort(step, kind="stable")]
+    out = beam_origins(u, period, 0.25, cells)
+    assert np.array_equal(out[:, :2], want)
+    assert np.all(out[:, 2] == 0.25)
