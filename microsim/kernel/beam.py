@@ -23,12 +23,34 @@ batch)."""
 
 
 @njit(**JIT)
-def beam_origins(u: np.ndarray, period: np.ndarray, z: float, cells: int) -> np.ndarray:
-    """Origins at height ``z`` over the tile, from uniform points, in cell order.
+def cell_steps(u: np.ndarray, cells: int) -> np.ndarray:
+    """Place of each point's cell on the boustrophedon path through the ``cells`` ×
+    ``cells`` grid of the unit square (row y; x rising on even rows, falling on odd ones).
 
-    A stable counting sort of the points by their cell's place on the boustrophedon path
-    through the ``cells`` × ``cells`` grid (row y, x rising on even rows and falling on
-    odd ones).
+    Parameters
+    ----------
+    u : (n, 2) float
+        Points in [0, 1)².
+    cells : int
+        Cells per side of the grid.
+
+    Returns
+    -------
+    (n,) int
+        In [0, cells²).
+    """
+    step = np.empty(len(u), np.int64)
+    for i in range(len(u)):
+        cx = min(int(u[i, 0] * cells), cells - 1)
+        cy = min(int(u[i, 1] * cells), cells - 1)
+        step[i] = cy * cells + (cells - 1 - cx if cy % 2 == 1 else cx)
+    return step
+
+
+@njit(**JIT)
+def beam_origins(u: np.ndarray, period: np.ndarray, z: float, cells: int) -> np.ndarray:
+    """Origins at height ``z`` over the tile, from uniform points, in cell order: a
+    stable counting sort of the points by ``cell_steps``.
 
     Parameters
     ----------
@@ -46,22 +68,16 @@ def beam_origins(u: np.ndarray, period: np.ndarray, z: float, cells: int) -> np.
     (n, 3) float
         ``(u_x · period_x, u_y · period_y, z)``, reordered.
     """
-    n = len(u)
+    step = cell_steps(u, cells)
     start = np.zeros(cells * cells + 1, np.int64)
-    cell = np.empty(n, np.int64)
-    for i in range(n):
-        cx = min(int(u[i, 0] * cells), cells - 1)
-        cy = min(int(u[i, 1] * cells), cells - 1)
-        if cy % 2 == 1:
-            cx = cells - 1 - cx
-        cell[i] = cy * cells + cx
-        start[cell[i] + 1] += 1
+    for i in range(len(u)):
+        start[step[i] + 1] += 1
     for c in range(cells * cells):
         start[c + 1] += start[c]
-    out = np.empty((n, 3))
-    for i in range(n):
-        j = start[cell[i]]
-        start[cell[i]] += 1
+    out = np.empty((len(u), 3))
+    for i in range(len(u)):
+        j = start[step[i]]
+        start[step[i]] += 1
         out[j, 0] = u[i, 0] * period[0]
         out[j, 1] = u[i, 1] * period[1]
         out[j, 2] = z
