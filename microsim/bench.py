@@ -161,7 +161,7 @@ def run_tables(case: str, surface: dict[str, Any], material: str, theta: list[fl
 def score_ts(table: Any) -> tuple[float, float]:
     """Median relative lobe error against the microfacet model; median relative stderr."""
     result = compare_table(table, microfacet_model(table.meta), "single")
-    return result["median_rel_error"], table.median_rel_stderr("single")
+    return result.median_rel_error, table.median_rel_stderr("single")
 
 
 class FrozenBins:
@@ -201,11 +201,11 @@ def score_ms(table: Any, model: FrozenBins) -> tuple[float, float]:
     result = compare_table(table, model, "total")
     noise = []
     for (a, b), _ in np.ndenumerate(table.rays):
-        avg, avg_err = result["model"][a, b], result["model_err"][a, b]
+        avg, avg_err = result.model[a, b], result.model_err[a, b]
         err = np.nan_to_num(table.errors["total"][a, b], nan=np.inf)
         _, _, lobe = lobe_residuals(table.values["total"][a, b], err, avg, avg_err)
         noise.append(np.hypot(err, avg_err)[lobe] / avg[lobe])
-    return result["median_rel_error"], float(np.median(np.concatenate(noise)))
+    return result.median_rel_error, float(np.median(np.concatenate(noise)))
 
 
 def score_furnace(table: Any) -> tuple[float, float]:

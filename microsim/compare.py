@@ -12,24 +12,29 @@ where f_r grows as 1/cos θo towards the horizon, as fibre layers seen edge-on d
 
 from __future__ import annotations
 
-from typing import Any, Protocol
+from dataclasses import replace
+from typing import Protocol
 
 import numpy as np
 
 from microsim.analytic.brdf import as_rgb
+from microsim.comparison import Comparison, IncidenceMetrics
 from microsim.geometry import direction
 from microsim.surfaces.facts import SurfaceFacts, TileFacts
 from microsim.table_models import microfacet_model, model_defaults
+from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import order_range
 from microsim.tables.meta import TableMeta
 from microsim.tables.table import LOBE_FRACTION, BRDFTable
 
-__all__ = ["LOBE_FRACTION", "Model", "StochasticModel", "bin_average", "bin_estimate",
-           "compare_table", "direction", "lobe_residuals", "metrics", "microfacet_model",
-           "model_defaults", "model_for", "model_table", "normal_z", "singular_albedo"]
+__all__ = ["LOBE_FRACTION", "Comparison", "IncidenceMetrics", "Model", "StochasticModel",
+           "bin_average", "bin_estimate", "compare_table", "direction", "lobe_residuals",
+           "metrics", "microfacet_model", "model_defaults", "model_for", "model_table",
+           "normal_z", "pooled", "singular_albedo"]
 """``direction``, ``LOBE_FRACTION``, ``microfacet_model`` and ``model_defaults`` are
-``microsim.geometry``'s, ``microsim.tables.table``'s and ``microsim.table_models``'s, named
-here too for the scripts that compare tables with models."""
+``microsim.geometry``'s, ``microsim.tables.table``'s and ``microsim.table_models``'s, and
+``Comparison`` and ``IncidenceMetrics`` ``microsim.comparison``'s, named here too for the
+scripts that compare tables with models."""
 
 
 class Model(Protocol):
@@ -200,9 +205,30 @@ def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
     return rel, normal_z((sim - model)[ok] / err[ok], np.nan_to_num(nu[ok], nan=np.inf)), lobe
 
 
+def pooled(rel: np.ndarray, z: np.ndarray) -> tuple[float, float, float, float]:
+    """Median and 90th percentile of relative errors, mean and sample standard deviation
+    of z-scores, as ``lobe_residuals`` gives them; NaN where there are too few (none; one
+    for the standard deviation).
+
+    Parameters
+    ----------
+    rel : (k,) float
+    z : (j,) float
+
+    Returns
+    -------
+    median_rel_error, p90_rel_error, z_mean, z_std : float
+    """
+    nan = float("nan")
+    return (float(np.median(rel)) if rel.size else nan,
+            float(np.percentile(rel, 90)) if rel.size else nan,
+            float(z.mean()) if z.size else nan,
+            float(z.std(ddof=1)) if z.size > 1 else nan)
+
+
 def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
             proj: np.ndarray, model_err: np.ndarray | None = None,
-            dof: np.ndarray | float = np.inf) -> dict[str, Any]:
+            dof: np.ndarray | float = np.inf) -> IncidenceMetrics:
     """Error metrics of one incidence's simulated bins against the model's bin averages.
 
     Parameters
@@ -218,38 +244,28 @@ def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
 
     Returns
     -------
-    dict
-        ``median_rel_error`` and ``p90_rel_error`` over lobe bins (model ≥ 10% of its
-        peak), ``rms_error`` (1/sr, all bins), ``z_mean`` and ``z_std`` of
-        (sim − model)/√(stderr² + model_err²) over lobe bins with a defined, non-zero
-        error, ``lobe_bins``, ``albedo_sim`` and ``albedo_model`` per channel
-        (Σ f_r Ω_proj), their difference, and ``albedo_model_err`` (the model's standard
-        error of its albedo: √Σ (σ Ω_proj)², bins being independent estimates).
+    IncidenceMetrics
+        Relative errors over lobe bins (model ≥ 10% of its peak), the RMS error over all
+        bins, the z-scores' mean and spread, the albedos per channel (Σ f_r Ω_proj) and the
+        model's standard error of its albedo (√Σ (σ Ω_proj)², bins being independent
+        estimates); no incidence (``theta_i`` and the rest None).
     """
     rel, z, lobe = lobe_residuals(sim, err, model, model_err, dof)
+    median, p90, z_mean, z_std = pooled(rel, z)
     albedo_sim = (sim * proj[..., None]).sum(axis=(0, 1))
     albedo_model = (model * proj[..., None]).sum(axis=(0, 1))
     albedo_model_err = np.zeros(3) if model_err is None else np.sqrt(
         ((model_err * proj[..., None]) ** 2).sum(axis=(0, 1)))
-    nan = float("nan")
-    return {
-        "median_rel_error": float(np.median(rel)) if rel.size else nan,
-        "p90_rel_error": float(np.percentile(rel, 90)) if rel.size else nan,
-        "rms_error": float(np.sqrt(np.mean((sim - model) ** 2))),
-        "z_mean": float(z.mean()) if z.size else nan,
-        "z_std": float(z.std(ddof=1)) if z.size > 1 else nan,
-        "lobe_bins": int(lobe[..., 0].sum()),
-        "albedo_sim": albedo_sim.tolist(),
-        "albedo_model": albedo_model.tolist(),
-        "albedo_difference": (albedo_sim - albedo_model).tolist(),
-        "albedo_model_err": albedo_model_err.tolist(),
-    }
+    return IncidenceMetrics(
+        median_rel_error=median, p90_rel_error=p90,
+        rms_error=float(np.sqrt(np.mean((sim - model) ** 2))), z_mean=z_mean, z_std=z_std,
+        lobe_bins=int(lobe[..., 0].sum()), albedo_sim=albedo_sim, albedo_model=albedo_model,
+        albedo_difference=albedo_sim - albedo_model, albedo_model_err=albedo_model_err)
 
 
-def model_table(model: Model, theta_i: np.ndarray, bins: Any, sigma_rel: float = 0.0,
-                rng: np.random.Generator | None = None,
-                meta: TableMeta | None = None,
-                phi_i: np.ndarray | None = None) -> Any:
+def model_table(model: Model, theta_i: np.ndarray, bins: HemisphereBins,
+                sigma_rel: float = 0.0, rng: np.random.Generator | None = None,
+                meta: TableMeta | None = None, phi_i: np.ndarray | None = None) -> BRDFTable:
     """A table whose bins hold an analytic model's bin averages: a noiseless reference,
     or one with Gaussian noise of known relative standard deviation.
 
@@ -303,7 +319,7 @@ def model_for(model: Model, component: str) -> Model:
         else model
 
 
-def compare_table(table: Any, model: Model, component: str = "total") -> dict[str, Any]:
+def compare_table(table: BRDFTable, model: Model, component: str = "total") -> Comparison:
     """Every incidence of a table against a model: per-incidence and pooled metrics.
 
     Parameters
@@ -317,16 +333,12 @@ def compare_table(table: Any, model: Model, component: str = "total") -> dict[st
 
     Returns
     -------
-    dict
-        ``median_rel_error``, ``p90_rel_error``, ``z_mean``, ``z_std`` pooled over every
-        incidence's lobe bins (z against both errors, ``lobe_residuals``);
-        ``error_model``, ``realisations`` (the most of any incidence) and ``dof`` (the
-        fewest degrees of freedom of a bin's error) of the table; ``per_theta_i``: one row
-        per incident direction with ``theta_i``, ``phi_i`` (degrees), the ``metrics`` keys
-        and ``multiple_scattering_share`` (the share of the escaping energy scattered more
-        than once: what a single-scattering model leaves out); ``model`` and
-        ``model_err`` (per-bin bin averages and their standard errors, (a, b, nt, np, 3))
-        for plots.
+    Comparison
+        The metrics pooled over every incidence's lobe bins (z against both errors,
+        ``lobe_residuals``); the table's error model, realisations (the most of any
+        incidence) and degrees of freedom (the fewest of a bin's error); per incidence
+        ``metrics`` with θi, φi (degrees) and the multiple-scattering share of the
+        simulation; the model's bin averages and their standard errors, (a, b, nt, np, 3).
     """
     component = table.component(component)
     model = model_for(model, component)
@@ -349,21 +361,13 @@ def compare_table(table: Any, model: Model, component: str = "total") -> dict[st
             m = metrics(sim, err, avg, table.bins.projected_solid_angle, avg_err, dof)
             total = table.albedo_of["total"][a, b].mean()
             single = table.albedo_of["single"][a, b].mean()
-            m.update(theta_i=float(np.degrees(theta)), phi_i=float(np.degrees(phi)),
-                     multiple_scattering_share=float((total - single) / total)
-                     if total > 0 else float("nan"))
-            rows.append(m)
-    rel, z = np.concatenate(rels), np.concatenate(zs)
-    nan = float("nan")
-    return {
-        "median_rel_error": float(np.median(rel)) if rel.size else nan,
-        "p90_rel_error": float(np.percentile(rel, 90)) if rel.size else nan,
-        "z_mean": float(z.mean()) if z.size else nan,
-        "z_std": float(z.std(ddof=1)) if z.size > 1 else nan,
-        "error_model": table.error_model,
-        "realisations": int(table.realisations.max()),
-        "dof": float(table.dof[component].min()),
-        "per_theta_i": rows,
-        "model": averages,
-        "model_err": errors,
-    }
+            rows.append(replace(m, theta_i=float(np.degrees(theta)),
+                                phi_i=float(np.degrees(phi)),
+                                multiple_scattering_share=float((total - single) / total)
+                                if total > 0 else float("nan")))
+    median, p90, z_mean, z_std = pooled(np.concatenate(rels), np.concatenate(zs))
+    return Comparison(
+        median_rel_error=median, p90_rel_error=p90, z_mean=z_mean, z_std=z_std,
+        error_model=table.error_model, realisations=int(table.realisations.max()),
+        dof=float(table.dof[component].min()), per_theta_i=tuple(rows), model=averages,
+        model_err=errors)

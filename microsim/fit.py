@@ -241,7 +241,7 @@ def fit_table(table: Any, spec: str, component: str = "total",
     fitted = fam.build(result.x)
     compared = compare_table(table, fitted, component)
     proj = table.bins.projected_solid_angle[None, None, :, :, None]
-    albedo_fit = (compared["model"] * proj).sum(axis=(2, 3))
+    albedo_fit = (compared.model * proj).sum(axis=(2, 3))
     rows = [{"theta_i": float(np.degrees(t)), "phi_i": float(np.degrees(p)),
              "albedo_fit": albedo_fit[k, j].tolist(),
              "albedo_table": table.albedo_of[component][k, j].tolist()}
@@ -249,6 +249,6 @@ def fit_table(table: Any, spec: str, component: str = "total",
     return {"model": spec if name != "lafortune" else f"lafortune:{len(x0) // 3}",
             "params": dict(zip(fam.names, result.x.tolist(), strict=True)),
             "uncertainty": dict(zip(fam.names, unc.tolist(), strict=True)),
-            "chi2_dof": chi2 / dof, "median_rel_error": compared["median_rel_error"],
+            "chi2_dof": chi2 / dof, "median_rel_error": compared.median_rel_error,
             "per_theta_i": rows, "nfev": int(result.nfev), "fitted": fitted,
-            "model_bins": compared["model"]}
+            "model_bins": compared.model}

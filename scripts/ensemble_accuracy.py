@@ -122,8 +122,7 @@ def recipe_for(k: int, rays: int) -> dict:
 def errors_of(table) -> list[dict]:
     """Per incidence: median relative lobe error and z spread against the model."""
     result = compare_table(table, microfacet_model(table.meta), "single")
-    return [{"median": r["median_rel_error"], "z_std": r["z_std"]}
-            for r in result["per_theta_i"]]
+    return [{"median": r.median_rel_error, "z_std": r.z_std} for r in result.per_theta_i]
 
 
 def targets(most: int, rays: int) -> str:
@@ -208,8 +207,8 @@ def smith(k: int, rays: int) -> str:
                                recipe.table, recipe=recipe)
         result = compare_table(table, microfacet_model(table.meta), "single")
         cells = []
-        for i, r in enumerate(result["per_theta_i"]):
-            sim, model = r["albedo_sim"][0], r["albedo_model"][0]
+        for i, r in enumerate(result.per_theta_i):
+            sim, model = r.albedo_sim[0], r.albedo_model[0]
             err = float(table.albedo_err_of["single"][i, 0, 0])
             cells.append(f"{100 * (sim / model - 1):+.2f} ± {100 * err / model:.2g}%")
         realised = table.meta.surface.alpha_realised.alpha

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from microsim.analytic.registry import parse_model_spec
-from microsim.compare import compare_table
+from microsim.compare import Comparison, compare_table
 from microsim.fit import fit_table
 from microsim.materials import Lambertian, Mirror
 from microsim.plots import incidence_plane
@@ -28,6 +28,7 @@ from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.tile import Tile
 from microsim.table_models import model_defaults
+from microsim.tables.table import BRDFTable
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "images" / "fibres"
@@ -35,7 +36,7 @@ BLACK = {"kind": "lambertian", "albedo": 0.0}
 GOLD = {"kind": "conductor"}
 
 
-def run(recipe: Recipe, rays: int | None = None) -> tuple[Tile, object]:
+def run(recipe: Recipe, rays: int | None = None) -> tuple[Tile, BRDFTable]:
     """Simulate a resolved recipe (optionally with another ray count)."""
     if rays is not None:
         recipe = replace(recipe, simulation=replace(recipe.simulation, rays=rays))
@@ -44,15 +45,16 @@ def run(recipe: Recipe, rays: int | None = None) -> tuple[Tile, object]:
                           recipe=recipe)
 
 
-def report(name: str, table: object, spec: str, component: str, figure: str) -> dict:
+def report(name: str, table: BRDFTable, spec: str, component: str, figure: str
+           ) -> Comparison:
     """Compare, draw the plane of incidence, print one markdown row."""
     _, params, model = parse_model_spec(spec, model_defaults(table.meta))
     result = compare_table(table, model, component)
-    incidence_plane(table, result["model"], OUT / figure, component,
+    incidence_plane(table, result.model, OUT / figure, component,
                     f"{name}: {component} vs {spec}")
     rays = int(table.rays.max())
-    print(f"| {name} | `{spec}` | {component} | {100 * result['median_rel_error']:.1f}% | "
-          f"{result['z_mean']:.2f} ± {result['z_std']:.2f} | {rays:,} | {figure} |")
+    print(f"| {name} | `{spec}` | {component} | {100 * result.median_rel_error:.1f}% | "
+          f"{result.z_mean:.2f} ± {result.z_std:.2f} | {rays:,} | {figure} |")
     return result
 
 
@@ -110,10 +112,9 @@ def velvet() -> None:
         else:
             _, _, model = parse_model_spec(spec, model_defaults(t.meta))
             result = compare_table(t, model, "single")
-        ratio = [row["albedo_sim"][1] / row["albedo_model"][1] for row in
-                 result["per_theta_i"]]
+        ratio = [row.albedo_sim[1] / row.albedo_model[1] for row in result.per_theta_i]
         err = t.albedo_err_of["single"][:, 0, 1] / np.array(
-            [row["albedo_model"][1] for row in result["per_theta_i"]])
+            [row.albedo_model[1] for row in result.per_theta_i])
         rows.append((density, ratio, err))
         print(f"| {density:g} | " + " | ".join(f"{q:.3f} ± {e:.3f}" for q, e in
                                                 zip(ratio, err, strict=True)) + " |")
@@ -141,10 +142,10 @@ def velvet() -> None:
     report("velvet.toml fibres on a black base", t, "velvet-sparse", "single",
            "velvet-dense.png")
     for k, row in enumerate(compare_table(t, parse_model_spec(
-            "velvet-sparse", model_defaults(t.meta))[2], "single")["per_theta_i"]):
-        print(f"  θi {row['theta_i']:.0f}: albedo sim {row['albedo_sim'][0]:.4f} ± "
+            "velvet-sparse", model_defaults(t.meta))[2], "single").per_theta_i):
+        print(f"  θi {row.theta_i:.0f}: albedo sim {row.albedo_sim[0]:.4f} ± "
               f"{t.albedo_err_of['single'][k, 0, 0]:.4f}, sparse model "
-              f"{row['albedo_model'][0]:.4f}, total {t.albedo_of['total'][k, 0, 0]:.4f}")
+              f"{row.albedo_model[0]:.4f}, total {t.albedo_of['total'][k, 0, 0]:.4f}")
 
 
 def weaves() -> None:

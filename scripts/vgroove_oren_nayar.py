@@ -51,8 +51,8 @@ def main() -> None:
         m = metrics(sim, table.errors["total"][l, 0], expected,
                     table.bins.projected_solid_angle)
         it = min(int(np.sin(np.radians(max(t, 30.0))) ** 2 * 8), 7)
-        rows.append({"theta_i": t, "median_rel_dev": m["median_rel_error"],
-                     "albedo_sim": m["albedo_sim"][0], "albedo_model": m["albedo_model"][0],
+        rows.append({"theta_i": t, "median_rel_dev": m.median_rel_error,
+                     "albedo_sim": m.albedo_sim[0], "albedo_model": m.albedo_model[0],
                      "back_over_forward_sim": sim[it, [0, 15], 0].mean()
                      / sim[it, [7, 8], 0].mean(),
                      "back_over_forward_model": expected[it, [0, 15], 0].mean()

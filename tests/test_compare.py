@@ -71,13 +71,13 @@ def test_metrics_of_a_perfect_match_and_of_a_known_bias():
     m = metrics(sim, sigma, model, proj)
     # z of pure Gaussian noise of known sigma: mean 0 ± 1/sqrt(N), std 1 ± 1/sqrt(2N);
     # 4-sigma bounds over N = 3 x lobe bins samples
-    n = 3 * m["lobe_bins"]
-    assert abs(m["z_mean"]) < 4 / np.sqrt(n)
-    assert abs(m["z_std"] - 1) < 4 / np.sqrt(2 * n)
+    n = 3 * m.lobe_bins
+    assert abs(m.z_mean) < 4 / np.sqrt(n)
+    assert abs(m.z_std - 1) < 4 / np.sqrt(2 * n)
     biased = metrics(1.05 * model, sigma, model, proj)
-    assert biased["median_rel_error"] == pytest.approx(0.05, rel=1e-12)
-    np.testing.assert_allclose(biased["albedo_difference"],
-                               0.05 * np.array(biased["albedo_model"]), rtol=1e-12)
+    assert biased.median_rel_error == pytest.approx(0.05, rel=1e-12)
+    np.testing.assert_allclose(biased.albedo_difference,
+                               0.05 * np.array(biased.albedo_model), rtol=1e-12)
 
 
 def test_metrics_skip_undefined_errors():
@@ -86,4 +86,4 @@ def test_metrics_skip_undefined_errors():
     model = np.ones((4, 4, 3))
     err = np.full_like(model, np.nan)
     m = metrics(model, err, model, proj)
-    assert np.isnan(m["z_mean"]) and m["median_rel_error"] == 0.0
+    assert np.isnan(m.z_mean) and m.median_rel_error == 0.0

@@ -29,9 +29,9 @@ def model_table(spec, sigma_rel=0.0, seed=0, meta=None):
 def test_same_model_gives_zero_error():
     _, _, model = parse_model_spec("ggx:alpha=0.4")
     r = compare_table(model_table("ggx:alpha=0.4"), model)
-    assert r["median_rel_error"] < 1e-12 and abs(r["z_mean"]) < 1e-6
-    for row in r["per_theta_i"]:
-        np.testing.assert_allclose(row["albedo_difference"], 0.0, atol=1e-12)
+    assert r.median_rel_error < 1e-12 and abs(r.z_mean) < 1e-6
+    for row in r.per_theta_i:
+        np.testing.assert_allclose(row.albedo_difference, 0.0, atol=1e-12)
 
 
 def test_known_noise_gives_unit_z_spread():
@@ -40,10 +40,10 @@ def test_known_noise_gives_unit_z_spread():
     4/√N of 0 and its spread within 4/√(2N) of 1."""
     _, _, model = parse_model_spec("beckmann:alpha=0.3")
     r = compare_table(model_table("beckmann:alpha=0.3", 0.02, seed=3), model)
-    n = 3 * sum(row["lobe_bins"] for row in r["per_theta_i"])
+    n = 3 * sum(row.lobe_bins for row in r.per_theta_i)
     assert n > 200
-    assert abs(r["z_mean"]) < 4 / np.sqrt(n) and abs(r["z_std"] - 1) < 4 / np.sqrt(2 * n)
-    assert 0.01 < r["median_rel_error"] < 0.02  # median |N(0, 0.02)| = 0.0135
+    assert abs(r.z_mean) < 4 / np.sqrt(n) and abs(r.z_std - 1) < 4 / np.sqrt(2 * n)
+    assert 0.01 < r.median_rel_error < 0.02  # median |N(0, 0.02)| = 0.0135
 
 
 def test_different_model_reports_the_known_difference():
@@ -51,9 +51,9 @@ def test_different_model_reports_the_known_difference():
     albedo by 0.2."""
     _, _, model = parse_model_spec("lambertian:albedo=0.6")
     r = compare_table(model_table("lambertian:albedo=0.8"), model)
-    assert r["median_rel_error"] == pytest.approx(1 / 3, rel=1e-9)
-    for row in r["per_theta_i"]:
-        np.testing.assert_allclose(row["albedo_difference"], 0.2, rtol=1e-6)
+    assert r.median_rel_error == pytest.approx(1 / 3, rel=1e-9)
+    for row in r.per_theta_i:
+        np.testing.assert_allclose(row.albedo_difference, 0.2, rtol=1e-6)
 
 
 def test_defaults_come_from_the_table():

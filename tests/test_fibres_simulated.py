@@ -56,7 +56,7 @@ def test_specular_cylinders_follow_the_exact_cone_and_facets_do_not():
     materials = {"base": BLACK, "cylinder": GOLD}
     model = CylinderArray(0.1, 1.0, 0.0, GOLD)
     _, smooth = table_of(CYLINDERS, materials, [30.0, 60.0], [0.0, 60.0], 50000)
-    avg = compare_table(smooth, model, "single")["model"]
+    avg = compare_table(smooth, model, "single").model
     p, bins = chi2_p(smooth, avg)
     assert p > P_MIN and bins > 100
     _, faceted = table_of({**CYLINDERS, "smooth_normals": False}, materials, [30.0, 60.0],
@@ -77,16 +77,16 @@ def test_lambertian_cylinders_follow_the_exact_arcs_not_kay_kajiyas_uniform_radi
     _, table = table_of(CYLINDERS, {"base": BLACK, "cylinder": fibre}, [30.0, 60.0],
                         [0.0, 60.0], 100000, bins=(8, 16))
     exact = compare_table(table, CylinderArray(0.1, 1.0, 0.0, fibre), "single")
-    p, bins = chi2_p(table, exact["model"])
+    p, bins = chi2_p(table, exact.model)
     assert p > P_MIN and bins > 300
     errors = table.albedo_err_of["single"][..., 1].ravel()
-    for row, err in zip(exact["per_theta_i"], errors, strict=True):
-        assert abs(row["albedo_sim"][1] - row["albedo_model"][1]) < 3.5 * err
+    for row, err in zip(exact.per_theta_i, errors, strict=True):
+        assert abs(row.albedo_sim[1] - row.albedo_model[1]) < 3.5 * err
     kk = compare_table(table, KayKajiya([0.0, 1.0, 0.0], 0.8 / np.pi**2, 0.0, 1.0,
                                         coverage=0.2), "single")
-    assert chi2_p(table, kk["model"])[0] < 1e-6
-    for row in kk["per_theta_i"]:
-        assert row["albedo_model"][1] < 0.8 * row["albedo_sim"][1]
+    assert chi2_p(table, kk.model)[0] < 1e-6
+    for row in kk.per_theta_i:
+        assert row.albedo_model[1] < 0.8 * row.albedo_sim[1]
 
 
 def test_sparse_velvet_follows_the_quadrature_model():
@@ -108,8 +108,8 @@ def test_sparse_velvet_follows_the_quadrature_model():
     model = SparseVelvet(0.002, 0.15, tile.facts.fibres / 25, 0, 0, 0, 0, 0.8,
                          axes=axes, sides=24)
     result = compare_table(table, model, "single")
-    p, bins = chi2_p(table, result["model"])
+    p, bins = chi2_p(table, result.model)
     assert p > P_MIN and bins > 40
-    for k, row in enumerate(result["per_theta_i"]):
+    for k, row in enumerate(result.per_theta_i):
         err = table.albedo_err_of["single"][k, 0, 1]
-        assert abs(row["albedo_sim"][1] - row["albedo_model"][1]) < 3.5 * err
+        assert abs(row.albedo_sim[1] - row.albedo_model[1]) < 3.5 * err

@@ -327,10 +327,10 @@ def test_gaussian_single_scattering_follows_torrance_sparrow() -> None:
                                result.bins.theta_edges, result.bins.phi_edges)
         m = metrics(result.values["single"][l, 0], result.errors["single"][l, 0], expected,
                     result.bins.projected_solid_angle, dof=result.dof["single"][l, 0])
-        assert abs(m["z_mean"]) < 0.4 and m["z_std"] < (1.5 if theta == 75 else 1.3), (
+        assert abs(m.z_mean) < 0.4 and m.z_std < (1.5 if theta == 75 else 1.3), (
             theta, m)
-        sigma = result.albedo_err_of["single"][l, 0, 0] / m["albedo_model"][0]
-        excess = m["albedo_sim"][0] / m["albedo_model"][0] - 1
+        sigma = result.albedo_err_of["single"][l, 0, 0] / m.albedo_model[0]
+        excess = m.albedo_sim[0] / m.albedo_model[0] - 1
         assert -4 * sigma < excess < 0.019 + 4 * sigma, (theta, excess, sigma)
 
 

@@ -211,10 +211,10 @@ def test_compare_pairs_orders_with_the_same_orders_of_the_model(four) -> None:
     _, _, model = parse_model_spec("beckmann-ms:alpha=0.8,samples=8")
     _, _, ts = parse_model_spec("beckmann:alpha=0.8")
     single = compare_table(four, model, "single")
-    assert np.array_equal(single["model"], compare_table(four, ts, "single")["model"])
-    assert np.all(single["model_err"] == 0)
+    assert np.array_equal(single.model, compare_table(four, ts, "single").model)
+    assert np.all(single.model_err == 0)
     second = compare_table(four, model, "order2")
-    assert np.all(second["model_err"][..., 0].max(axis=(2, 3)) > 0)
+    assert np.all(second.model_err[..., 0].max(axis=(2, 3)) > 0)
 
 
 def test_demo_compares_single_and_all_orders(cli, tmp_path) -> None:

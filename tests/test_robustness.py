@@ -446,18 +446,18 @@ def test_verdict_follows_the_error_bars():
     for seed in range(10):
         table = analytic_table(model, theta, bins, 0.02, np.random.default_rng(seed))
         check = agreement(compare_table(table, model))
-        assert check["agrees"], (seed, check)
-    n = check["lobe_bins"]
+        assert check.agrees, (seed, check)
+    n = check.lobe_bins
     assert n > 500
-    approx = 1 + norm.ppf(1 - check["significance"]) / np.sqrt(2 * n)
-    assert check["z_std_max"] == pytest.approx(approx, rel=0.01)
+    approx = 1 + norm.ppf(1 - check.significance) / np.sqrt(2 * n)
+    assert check.z_std_max == pytest.approx(approx, rel=0.01)
     half = analytic_table(model, theta, bins, 0.02, np.random.default_rng(0))
     for c in half.errors:
         half.errors[c] = half.errors[c] / 2
-    assert not agreement(compare_table(half, model))["agrees"]
+    assert not agreement(compare_table(half, model)).agrees
     _, _, off = parse_model_spec("beckmann:alpha=0.315")
     assert not agreement(compare_table(analytic_table(model, theta, bins, 0.02,
-                                                      np.random.default_rng(0)), off))["agrees"]
+                                                      np.random.default_rng(0)), off)).agrees
 
 
 def test_demo_ends_with_a_verdict_line_per_model(cli, tmp_path):
@@ -644,7 +644,7 @@ def test_comparison_figures_keep_their_texts_apart(small_table, tmp_path, monkey
     monkeypatch.setattr(plt, "close", inspect)
     table = microsim.read_table(small_table)
     name, _, model = parse_model_spec("beckmann", model_defaults(table.meta))
-    bins = compare_table(table, model, "single")["model"]
+    bins = compare_table(table, model, "single").model
     title = title_of(table, name, "single") + ", a long title that must wrap or fit"
     incidence_plane(table, bins, tmp_path / "a.png", "single", title)
     half_difference_slices(table, model, tmp_path / "b.png", "single", title)

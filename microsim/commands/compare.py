@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from microsim.commands.common import (
     add_component_arg,
@@ -16,6 +17,10 @@ from microsim.commands.common import (
     table_component,
 )
 from microsim.files import writable_folder
+
+if TYPE_CHECKING:
+    from microsim.agreement import Agreement
+    from microsim.comparison import Comparison, IncidenceMetrics
 
 PLOTS = {
     "incidence_plane": "incidence-plane.png",
@@ -57,32 +62,54 @@ def title_of(table: Any, name: str, component: str) -> str:
             f"vs {name}")
 
 
-def model_albedo(row: dict[str, Any]) -> str:
+def model_albedo(row: IncidenceMetrics) -> str:
     """The model's albedo (mean over RGB), with its standard error if it has one."""
-    value, err = sum(row["albedo_model"]) / 3, sum(row["albedo_model_err"]) / 3
+    value, err = sum(row.albedo_model) / 3, sum(row.albedo_model_err) / 3
     return f"{value:.4f} ± {err:.4f}" if err > 0 else f"{value:.4f}"
 
 
-def write_report(out: Path, result: dict[str, Any], title: str) -> Path:
-    """``report.md``: the metrics table and every plot, in one page."""
+def write_report(out: Path, title: str, model: str, params: Mapping[str, Any],
+                 component: str, result: Comparison, check: Agreement) -> Path:
+    """``report.md``: the metrics table and every plot, in one page.
+
+    Parameters
+    ----------
+    out : Path
+        The folder of the plots.
+    title : str
+    model : str
+        The model's name.
+    params : mapping of str to value
+        Its parameters.
+    component : str
+        The table's component compared.
+    result : Comparison
+    check : Agreement
+        ``result``'s verdict.
+
+    Returns
+    -------
+    Path
+        ``out / "report.md"``.
+    """
     from microsim.agreement import verdict_text
 
-    lines = [f"# {title}", "", f"Model: `{result['model']}` with parameters "
-             f"{readable(result['params'])} (component: {result['component']}).", "",
+    lines = [f"# {title}", "", f"Model: `{model}` with parameters "
+             f"{readable(params)} (component: {component}).", "",
              f"Overall: median relative error against the model "
-             f"{100 * result['median_rel_error']:.2f}% (p90 {100 * result['p90_rel_error']:.2f}%) "
-             f"over lobe bins; {verdict_text(result, result['agreement'])} (a Monte Carlo "
+             f"{100 * result.median_rel_error:.2f}% (p90 {100 * result.p90_rel_error:.2f}%) "
+             f"over lobe bins; {verdict_text(result, check)} (a Monte Carlo "
              "model's own error is part of stderr).", "",
-             error_model_note(result["error_model"], result["realisations"]) + ".", "",
+             error_model_note(result.error_model, result.realisations) + ".", "",
              "| θi (°) | φi (°) | median err | p90 err | RMS (1/sr) | z mean | z std | "
              "albedo sim | albedo model | multiple scattering |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
-    for r in result["per_theta_i"]:
+    for r in result.per_theta_i:
         lines.append(
-            f"| {r['theta_i']:.1f} | {r['phi_i']:.1f} | {100 * r['median_rel_error']:.2f}% | "
-            f"{100 * r['p90_rel_error']:.2f}% | {r['rms_error']:.4g} | {r['z_mean']:.2f} | "
-            f"{r['z_std']:.2f} | {sum(r['albedo_sim']) / 3:.4f} | {model_albedo(r)} | "
-            f"{100 * r['multiple_scattering_share']:.2f}% |")
+            f"| {r.theta_i:.1f} | {r.phi_i:.1f} | {100 * r.median_rel_error:.2f}% | "
+            f"{100 * r.p90_rel_error:.2f}% | {r.rms_error:.4g} | {r.z_mean:.2f} | "
+            f"{r.z_std:.2f} | {sum(r.albedo_sim) / 3:.4f} | {model_albedo(r)} | "
+            f"{100 * r.multiple_scattering_share:.2f}% |")
     captions = {
         "incidence_plane": "Plane of incidence: simulation (±1 standard error) and model.",
         "half_difference": "θh–θd slices at φd = 90°: simulation, model, log ratio.",
@@ -112,38 +139,39 @@ def run(args: argparse.Namespace) -> int:
     name, params, model = parse_model_spec(args.model, model_defaults(table.meta))
     if args.out is not None:
         writable_folder(args.out, "--out")
-    result = compare_table(table, model, args.component)
-    model_bins, model_err = result.pop("model"), result.pop("model_err")
+    compared = compare_table(table, model, args.component)
+    check = agreement(compared)
     result = {"model": name, "params": params, "component": args.component,
-              "table": str(args.table), **result, "agreement": agreement(result)}
+              "table": str(args.table), **compared.to_json(), "agreement": check.to_json()}
     if args.out is not None:
         title = title_of(table, name, args.component)
-        incidence_plane(table, model_bins, args.out / PLOTS["incidence_plane"],
+        incidence_plane(table, compared.model, args.out / PLOTS["incidence_plane"],
                         args.component, title)
         if table.isotropic:
             half_difference_slices(table, model_for(model, args.component),
                                    args.out / PLOTS["half_difference"],
                                    args.component, title)
-        z_maps(table, model_bins, args.out / PLOTS["z_maps"], args.component, title,
-               model_err)
-        albedo_plot(table, model_bins, args.out / PLOTS["albedo"], title, args.component)
-        result["report"] = str(write_report(args.out, result, title))
+        z_maps(table, compared.model, args.out / PLOTS["z_maps"], args.component, title,
+               compared.model_err)
+        albedo_plot(table, compared.model, args.out / PLOTS["albedo"], title, args.component)
+        result["report"] = str(write_report(args.out, title, name, params, args.component,
+                                            compared, check))
     if args.json:
         print_json(result)
         return 0
     print(f"{args.component} of {args.table} vs {name} ({readable(params)})")
     print(f"{'theta_i':>8} {'phi_i':>6} {'median err':>11} {'p90 err':>8} {'z mean':>7} "
           f"{'z std':>6} {'albedo sim':>11} {'model':>16} {'multiple':>9}")
-    for r in result["per_theta_i"]:
-        print(f"{r['theta_i']:8.1f} {r['phi_i']:6.1f} {100 * r['median_rel_error']:10.2f}% "
-              f"{100 * r['p90_rel_error']:7.2f}% {r['z_mean']:7.2f} {r['z_std']:6.2f} "
-              f"{sum(r['albedo_sim']) / 3:11.4f} {model_albedo(r):>16} "
-              f"{100 * r['multiple_scattering_share']:8.2f}%")
+    for r in compared.per_theta_i:
+        print(f"{r.theta_i:8.1f} {r.phi_i:6.1f} {100 * r.median_rel_error:10.2f}% "
+              f"{100 * r.p90_rel_error:7.2f}% {r.z_mean:7.2f} {r.z_std:6.2f} "
+              f"{sum(r.albedo_sim) / 3:11.4f} {model_albedo(r):>16} "
+              f"{100 * r.multiple_scattering_share:8.2f}%")
     print(f"overall: median relative error against the model "
-          f"{100 * result['median_rel_error']:.2f}% (err: |sim - model| / model over lobe "
-          f"bins), z mean {result['z_mean']:.2f}, z std {result['z_std']:.2f}")
-    print(verdict_text(result, result["agreement"]))
-    print(error_model_note(result["error_model"], result["realisations"]))
+          f"{100 * compared.median_rel_error:.2f}% (err: |sim - model| / model over lobe "
+          f"bins), z mean {compared.z_mean:.2f}, z std {compared.z_std:.2f}")
+    print(verdict_text(compared, check))
+    print(error_model_note(compared.error_model, compared.realisations))
     if "report" in result:
         print(f"wrote {result['report']}")
     return 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import microsim
 from microsim import recipe
@@ -22,7 +22,14 @@ from microsim.commands.measure import roughness_json
 from microsim.files import PLOT_SUFFIXES, writable_file
 from microsim.tables.exr import write_table
 
+if TYPE_CHECKING:
+    from microsim.agreement import Agreement
+    from microsim.comparison import Comparison
+    from microsim.tables.table import BRDFTable
+
 RECIPE = Path(microsim.__file__).resolve().parent.parent / "surfaces" / "gaussian-0.3.toml"
+SINGLE_MODEL = "torrance-sparrow:ndf=beckmann,shadowing=smith-correlated"
+"""The single-scattering model of the demo, as a model spec."""
 MS_SAMPLES = 64
 """Random walks per bin of the multiple-scattering reference in the demo: about a second
 for the recipe's 4 incidences × 32 × 64 bins (docs/compare.md)."""
@@ -56,21 +63,22 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def comparison(table: Any) -> dict[str, Any]:
-    """Simulated single scattering against the microfacet model at the realised alpha."""
+def comparison(table: BRDFTable) -> tuple[Comparison, Agreement]:
+    """Simulated single scattering against the microfacet model at the realised alpha
+    (``SINGLE_MODEL``), and its verdict."""
     from microsim.agreement import agreement
     from microsim.compare import compare_table
     from microsim.table_models import microfacet_model
 
     result = compare_table(table, microfacet_model(table.meta), "single")
-    return {"model": "torrance-sparrow:ndf=beckmann,shadowing=smith-correlated",
-            **roughness_json(table.meta.surface), **result,
-            "agreement": agreement(result)}
+    return result, agreement(result)
 
 
-def total_comparison(table: Any) -> dict[str, Any]:
+def total_comparison(table: BRDFTable
+                     ) -> tuple[str, dict[str, Any], Comparison, Agreement]:
     """All simulated orders against the multiple-scattering Smith microsurface at the
-    realised alpha (``MS_SAMPLES`` walks per bin, seeded with the table's seed)."""
+    realised alpha (``MS_SAMPLES`` walks per bin, seeded with the table's seed): the
+    model's spec and parameters, the comparison and its verdict."""
     from microsim.agreement import agreement
     from microsim.analytic.registry import parse_model_spec
     from microsim.compare import compare_table
@@ -79,9 +87,7 @@ def total_comparison(table: Any) -> dict[str, Any]:
     spec = f"beckmann-ms:samples={MS_SAMPLES},seed={table.meta.seed}"
     _, params, model = parse_model_spec(spec, model_defaults(table.meta))
     result = compare_table(table, model, "total")
-    for bins in ("model", "model_err"):
-        result.pop(bins)
-    return {"model": spec, "params": params, **result, "agreement": agreement(result)}
+    return spec, params, result, agreement(result)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -98,49 +104,51 @@ def run(args: argparse.Namespace) -> int:
         writable_file(args.plot, "--plot", PLOT_SUFFIXES)
     table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json)
     write_table(table, args.output)
-    compared = comparison(table)
-    model_bins = compared.pop("model")
-    compared.pop("model_err")
-    result = {"simulation": summary(table, args.output), "comparison": compared,
-              "comparison_total": total_comparison(table)}
+    single, single_check = comparison(table)
+    roughness = roughness_json(table.meta.surface)
+    simulated = summary(table, args.output)
+    spec, params, total, total_check = total_comparison(table)
+    result = {"simulation": simulated,
+              "comparison": {"model": SINGLE_MODEL, **roughness, **single.to_json(),
+                             "agreement": single_check.to_json()},
+              "comparison_total": {"model": spec, "params": params, **total.to_json(),
+                                   "agreement": total_check.to_json()}}
     if args.plot is not None:
         from microsim.plots import incidence_plane
 
-        incidence_plane(table, model_bins, args.plot,
+        incidence_plane(table, single.model, args.plot,
                         title=f"Gaussian surface, mirror facets, α realised "
-                              f"{result['comparison']['alpha_realised']:.3f}, "
+                              f"{roughness['alpha_realised']:.3f}, "
                               f"{int(table.rays[0, 0]):,} rays per θi: single scattering "
                               "vs Torrance-Sparrow + Smith")
         result["plot"] = str(args.plot)
     if args.json:
         print_json(result)
         return 0
-    print_summary(result["simulation"])
-    c = result["comparison"]
-    print(f"\nBeckmann models at the realised alpha {c['alpha_realised']:.4f} (target "
-          f"{c['alpha_target']:.4f}): single scattering against Torrance-Sparrow with "
-          "height-correlated Smith, all orders against Heitz et al. 2016's multiple "
-          "scattering (beckmann-ms):")
-    t = result["comparison_total"]
+    print_summary(simulated)
+    print(f"\nBeckmann models at the realised alpha {roughness['alpha_realised']:.4f} "
+          f"(target {roughness['alpha_target']:.4f}): single scattering against "
+          "Torrance-Sparrow with height-correlated Smith, all orders against Heitz et al. "
+          "2016's multiple scattering (beckmann-ms):")
     print(f"{'':8} {'single vs Torrance-Sparrow':^40}   "
           f"{'all orders vs multiple-scattering Smith':^48}")
     print(f"{'theta_i':>8} {'median err':>11} {'z mean':>7} {'z std':>6} {'albedo sim':>11} "
           f"{'model':>7}   {'median err':>11} {'z mean':>7} {'z std':>6} {'albedo sim':>11} "
           f"{'model':>16}")
-    for r, q in zip(c["per_theta_i"], t["per_theta_i"], strict=True):
-        print(f"{r['theta_i']:8.1f} {100 * r['median_rel_error']:10.2f}% {r['z_mean']:7.2f} "
-              f"{r['z_std']:6.2f} {r['albedo_sim'][1]:11.4f} {r['albedo_model'][1]:7.4f}   "
-              f"{100 * q['median_rel_error']:10.2f}% {q['z_mean']:7.2f} {q['z_std']:6.2f} "
-              f"{q['albedo_sim'][1]:11.4f} {q['albedo_model'][1]:9.4f} ± "
-              f"{q['albedo_model_err'][1]:.4f}")
+    for r, q in zip(single.per_theta_i, total.per_theta_i, strict=True):
+        print(f"{r.theta_i:8.1f} {100 * r.median_rel_error:10.2f}% {r.z_mean:7.2f} "
+              f"{r.z_std:6.2f} {r.albedo_sim[1]:11.4f} {r.albedo_model[1]:7.4f}   "
+              f"{100 * q.median_rel_error:10.2f}% {q.z_mean:7.2f} {q.z_std:6.2f} "
+              f"{q.albedo_sim[1]:11.4f} {q.albedo_model[1]:9.4f} ± "
+              f"{q.albedo_model_err[1]:.4f}")
     print("(err: relative error against the model, |sim - model| / model, over lobe bins "
           "where the model reaches 10% of its peak; z = (sim - model) / stderr, standard "
           f"normal if the two differ by noise alone, the model's own Monte Carlo error "
           f"({MS_SAMPLES} walks per bin) included; Torrance-Sparrow leaves out the light "
           "scattered more than once, the multiple-scattering model holds it)")
-    print(verdict_text(c, c["agreement"], "single scattering vs Torrance-Sparrow"))
-    print(verdict_text(t, t["agreement"], "all orders vs multiple-scattering Smith"))
-    print(error_model_note(c["error_model"], c["realisations"]))
+    print(verdict_text(single, single_check, "single scattering vs Torrance-Sparrow"))
+    print(verdict_text(total, total_check, "all orders vs multiple-scattering Smith"))
+    print(error_model_note(single.error_model, single.realisations))
     if "plot" in result:
         print(f"wrote {result['plot']}")
     return 0
