@@ -46,6 +46,39 @@ def test_known_noise_gives_unit_z_spread():
     assert 0.01 < r.median_rel_error < 0.02  # median |N(0, 0.02)| = 0.0135
 
 
+METRIC_KEYS = ["median_rel_error", "p90_rel_error", "rms_error", "z_mean", "z_std",
+               "lobe_bins", "albedo_sim", "albedo_model", "albedo_difference",
+               "albedo_model_err"]
+
+
+def test_json_of_a_comparison_has_the_documented_keys_in_order():
+    """The JSON of a comparison (what ``compare --json`` prints beside the model): the
+    pooled keys, then one row per incidence whose metrics come before θi, φi and the
+    multiple-scattering share; bins compared on their own have no incidence keys; the
+    verdict's keys. Every value is plain JSON (no numpy scalars or arrays), and NaN
+    stays NaN (``print_json`` prints it as null)."""
+    from microsim.agreement import agreement
+    from microsim.compare import metrics
+
+    _, _, model = parse_model_spec("beckmann:alpha=0.3")
+    table = model_table("beckmann:alpha=0.3", 0.02, seed=3)
+    result = compare_table(table, model)
+    data = result.to_json()
+    assert list(data) == ["median_rel_error", "p90_rel_error", "z_mean", "z_std",
+                          "error_model", "realisations", "dof", "per_theta_i"]
+    assert len(data["per_theta_i"]) == len(THETA_I)
+    for row, record in zip(data["per_theta_i"], result.per_theta_i, strict=True):
+        assert list(row) == [*METRIC_KEYS, "theta_i", "phi_i", "multiple_scattering_share"]
+        assert row["albedo_sim"] == record.albedo_sim.tolist()
+    assert [row["theta_i"] for row in data["per_theta_i"]] == pytest.approx([0, 40, 70])
+    assert json.loads(json.dumps(data)) == data
+    assert list(agreement(result).to_json()) == ["agrees", "lobe_bins", "z_mean_max",
+                                                 "z_std_max", "significance"]
+    flat = np.ones((2, 2, 3))
+    alone = metrics(flat, np.full_like(flat, np.nan), flat, np.ones((2, 2))).to_json()
+    assert list(alone) == METRIC_KEYS and np.isnan(alone["z_mean"])
+
+
 def test_different_model_reports_the_known_difference():
     """Lambertian 0.8 against Lambertian 0.6: every bin is off by exactly 1/3 and the
     albedo by 0.2."""
