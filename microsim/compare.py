@@ -30,7 +30,7 @@ from microsim.tables.table import LOBE_FRACTION, BRDFTable
 __all__ = ["LOBE_FRACTION", "Comparison", "IncidenceMetrics", "Model", "StochasticModel",
            "bin_average", "bin_estimate", "compare_table", "direction", "lobe_residuals",
            "metrics", "microfacet_model", "model_defaults", "model_for", "model_table",
-           "normal_z", "pooled", "singular_albedo"]
+           "normal_z", "residual_statistics", "singular_albedo"]
 """``direction``, ``LOBE_FRACTION``, ``microfacet_model`` and ``model_defaults`` are
 ``microsim.geometry``'s, ``microsim.tables.table``'s and ``microsim.table_models``'s, and
 ``Comparison`` and ``IncidenceMetrics`` ``microsim.comparison``'s, named here too for the
@@ -205,7 +205,7 @@ def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
     return rel, normal_z((sim - model)[ok] / err[ok], np.nan_to_num(nu[ok], nan=np.inf)), lobe
 
 
-def pooled(rel: np.ndarray, z: np.ndarray) -> tuple[float, float, float, float]:
+def residual_statistics(rel: np.ndarray, z: np.ndarray) -> tuple[float, float, float, float]:
     """Median and 90th percentile of relative errors, mean and sample standard deviation
     of z-scores, as ``lobe_residuals`` gives them; NaN where there are too few (none; one
     for the standard deviation).
@@ -251,7 +251,7 @@ def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         estimates); no incidence (``theta_i`` and the rest None).
     """
     rel, z, lobe = lobe_residuals(sim, err, model, model_err, dof)
-    median, p90, z_mean, z_std = pooled(rel, z)
+    median, p90, z_mean, z_std = residual_statistics(rel, z)
     albedo_sim = (sim * proj[..., None]).sum(axis=(0, 1))
     albedo_model = (model * proj[..., None]).sum(axis=(0, 1))
     albedo_model_err = np.zeros(3) if model_err is None else np.sqrt(
@@ -365,7 +365,7 @@ def compare_table(table: BRDFTable, model: Model, component: str = "total") -> C
                                 phi_i=float(np.degrees(phi)),
                                 multiple_scattering_share=float((total - single) / total)
                                 if total > 0 else float("nan")))
-    median, p90, z_mean, z_std = pooled(np.concatenate(rels), np.concatenate(zs))
+    median, p90, z_mean, z_std = residual_statistics(np.concatenate(rels), np.concatenate(zs))
     return Comparison(
         median_rel_error=median, p90_rel_error=p90, z_mean=z_mean, z_std=z_std,
         error_model=table.error_model, realisations=int(table.realisations.max()),
