@@ -224,6 +224,7 @@ def test_demo_compares_single_and_all_orders(cli, tmp_path) -> None:
     result = json.loads(out)
     assert code == 0
     single, total = result["comparison"], result["comparison_total"]
+    assert single["model"] == "torrance-sparrow:ndf=beckmann,shadowing=smith-correlated"
     assert total["model"].startswith("beckmann-ms:") and total["params"]["alpha"] == \
         single["alpha_realised"]
     assert all(r["albedo_model_err"][1] > 0 for r in total["per_theta_i"])
