@@ -40,10 +40,19 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from embreex.mesh_construction import TriangleMesh
+from embreex.rtcore_scene import EmbreeScene
 
+from microsim.analytic.multiple_scattering import SmithMultipleScattering
+from microsim.analytic.ndf import Beckmann
+from microsim.analytic.shadowing import vcavity_G1
 from microsim.compare import compare_table, lobe_residuals
 from microsim.geometry import direction
+from microsim.kernel.packing import FacetMaterials
+from microsim.masking import measure_g1, sample_faces
+from microsim.materials import Lambertian
 from microsim.recipe import resolve
+from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.table_models import microfacet_model
 from microsim.trace import PeriodicScene
@@ -62,9 +71,6 @@ in a lobe bin stays below the table's at the sweep's most rays."""
 
 def bare_scene(vertices: np.ndarray, faces: np.ndarray) -> Any:
     """A bare Embree scene of the mesh, committed (the first query builds the BVH)."""
-    from embreex.mesh_construction import TriangleMesh
-    from embreex.rtcore_scene import EmbreeScene
-
     scene = EmbreeScene()
     TriangleMesh(scene, np.ascontiguousarray(vertices, np.float32),
                  np.ascontiguousarray(faces, np.int32))
@@ -117,9 +123,6 @@ def surface_rays(scene: PeriodicScene, n: int, seed: int) -> tuple[np.ndarray, n
     -------
     origins, dirs : (n, 3) float
     """
-    from microsim.kernel.packing import FacetMaterials
-    from microsim.masking import sample_faces
-    from microsim.materials import Lambertian
 
     faces, points = sample_faces(scene.tile, scene.areas, n, np.random.default_rng(seed))
     lambert = FacetMaterials(np.zeros(len(scene.areas), np.int64), ("surface",),
@@ -139,8 +142,6 @@ def run_tables(case: str, surface: dict[str, Any], material: str, theta: list[fl
                rays: int, bins: int, bounces: int, seed: int,
                score: Callable[[Any], tuple[float, float]]) -> dict[str, Any]:
     """Simulate one table and score it; the row of the CSV."""
-    from microsim.simulation import simulate
-
     r = resolve({"surface": surface, "material": {"kind": material},
                  "simulation": {"theta_i": theta, "rays": rays, "bounces": bounces,
                                 "seed": seed},
@@ -217,8 +218,6 @@ def score_furnace(table: Any) -> tuple[float, float]:
 def g1_rows(case: str, tile: Any, resolution: int, theta: list[float], rays: int,
             reference: np.ndarray, seed: int) -> dict[str, Any]:
     """Trace G1 at ``theta`` (degrees, φ = 0) and score it against ``reference``."""
-    from microsim.masking import measure_g1
-
     with PeriodicScene(tile) as scene:
         start = time.perf_counter()
         g1, err = measure_g1(scene, np.radians(theta), 0.0, rays,
@@ -235,7 +234,6 @@ def g1_rows(case: str, tile: Any, resolution: int, theta: list[float], rays: int
 def vcavity_reference(slope: float, theta: np.ndarray) -> np.ndarray:
     """G1 of symmetric V-grooves across the grooves: the V-cavity G1 of each facet
     (``analytic.shadowing.vcavity_G1``) averaged with weight area · ⟨ω, m⟩⁺."""
-    from microsim.analytic.shadowing import vcavity_G1
 
     w = direction(theta, 0.0)
     num = den = 0.0
@@ -257,8 +255,6 @@ def sweep(quick: bool, seed: int = 1, threads: int = 2,
     resolutions 64…512, tables of 16 and 32 θo bins. The ``ms`` case runs at
     ``MS_RESOLUTION`` with the smaller tables only.
     """
-    from microsim.analytic.multiple_scattering import SmithMultipleScattering
-    from microsim.analytic.ndf import Beckmann
 
     rays = np.geomspace(1e3, 1e5, 5) if quick else np.geomspace(1e4, 1e6, 5)
     rays = [int(round(r, -2)) for r in rays]
