@@ -14,6 +14,10 @@ and near-zero bins finite, and the floor ρ stops bins with tiny errors from dom
 (no ray landed) are left out. ``scipy.optimize.least_squares`` (trust region, bounds)
 minimises Σ r²; parameter uncertainties are √diag((JᵀJ)⁻¹) scaled by χ²/dof when that
 exceeds 1 (the model does not explain the noise: the uncertainty widens accordingly).
+
+The result is a ``FitResult`` (one ``IncidenceFit`` per incidence), and the progress
+callback receives a ``FitProgress``; their JSON form (``to_json``) is made here only: it is
+what ``microsim fit --json`` prints, before the command's own keys.
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ from scipy.optimize import least_squares
 from microsim.analytic.brdf import KayKajiya, Lafortune, OrenNayar, Phong, TorranceSparrow
 from microsim.analytic.cloth import MicrocylinderCloth
 from microsim.analytic.ndf import GGX, Beckmann
-from microsim.compare import bin_average, compare_table
+from microsim.compare import Model, bin_average, compare_table
 from microsim.errors import InputError
 from microsim.geometry import direction
 from microsim.table_models import model_defaults
@@ -39,6 +43,99 @@ SUBSAMPLES = 5
 """Midpoints per bin and axis while fitting (8 for the final metrics). With 3, the model's
 own discretisation shifted α by 4 standard errors on a 16 × 32 table with 5% noise; with 5
 by 0.7 (tests/test_fit.py)."""
+
+
+@dataclass(frozen=True)
+class FitProgress:
+    """Where a fit stands after one evaluation of the model over the table.
+
+    Attributes
+    ----------
+    evaluations : int
+        Evaluations of the model over the table so far (counting from 1).
+    chi2_dof : float
+        χ²/dof of that evaluation's residuals.
+    """
+
+    evaluations: int
+    chi2_dof: float
+
+    def to_json(self) -> dict[str, Any]:
+        """The progress as JSON: ``evaluations`` and ``chi2_dof``."""
+        return {"evaluations": self.evaluations, "chi2_dof": self.chi2_dof}
+
+
+@dataclass(frozen=True)
+class IncidenceFit:
+    """The fitted model against the table at one incident direction.
+
+    Attributes
+    ----------
+    theta_i, phi_i : float
+        The incident direction, degrees.
+    albedo_fit, albedo_table : (3,) float
+        Σ f_r Ω_proj over every bin, per channel: of the fitted model and of the table's
+        fitted component.
+    """
+
+    theta_i: float
+    phi_i: float
+    albedo_fit: np.ndarray
+    albedo_table: np.ndarray
+
+    def to_json(self) -> dict[str, Any]:
+        """The row as JSON, the albedos as lists."""
+        return {"theta_i": self.theta_i, "phi_i": self.phi_i,
+                "albedo_fit": self.albedo_fit.tolist(),
+                "albedo_table": self.albedo_table.tolist()}
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """A model family fitted to a table: the parameters, their errors, the fit's quality.
+
+    Attributes
+    ----------
+    model : str
+        The family's spec (``lafortune:K`` with its number of lobes).
+    params, uncertainty : dict of str to float
+        The fitted parameters and their 1σ uncertainties, by the family's parameter names
+        in its order.
+    chi2_dof : float
+        χ² of the weighted log-space residuals over the degrees of freedom (the bins with
+        a defined error less the parameters, at least 1).
+    median_rel_error : float
+        Median |sim − fit| / fit over lobe bins, as ``compare_table``'s.
+    per_theta_i : tuple of IncidenceFit
+        One per incident direction (θi outer, φi inner).
+    nfev : int
+        Evaluations of the residuals by ``scipy.optimize.least_squares``.
+    fitted : Model
+        The model at the fitted parameters.
+    model_bins : (a, b, nt, np, 3) float
+        The fitted model's bin averages per incidence (a θi, b φi), bin and colour, 1/sr:
+        for plots.
+    """
+
+    model: str
+    params: dict[str, float]
+    uncertainty: dict[str, float]
+    chi2_dof: float
+    median_rel_error: float
+    per_theta_i: tuple[IncidenceFit, ...]
+    nfev: int
+    fitted: Model
+    model_bins: np.ndarray
+
+    def to_json(self) -> dict[str, Any]:
+        """The fit as JSON: the parameters, their uncertainties, the fit's quality and
+        the per-incidence rows; the ``fitted`` model and its ``model_bins`` are left
+        out."""
+        return {"model": self.model, "params": dict(self.params),
+                "uncertainty": dict(self.uncertainty), "chi2_dof": self.chi2_dof,
+                "median_rel_error": self.median_rel_error,
+                "per_theta_i": [row.to_json() for row in self.per_theta_i],
+                "nfev": self.nfev}
 
 
 @dataclass(frozen=True)
@@ -180,7 +277,7 @@ def model_bins(model: Any, table: Any, n: int) -> np.ndarray:
 
 def fit_table(table: Any, spec: str, component: str = "total",
               start: Sequence[float] | None = None,
-              progress: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
+              progress: Callable[[FitProgress], None] | None = None) -> FitResult:
     """Fit a model family to a table.
 
     Parameters
@@ -195,16 +292,15 @@ def fit_table(table: Any, spec: str, component: str = "total",
         Start values (default: the family's; for microfacet models α starts at the
         table's realised roughness when it has one).
     progress : callable or None
-        Called after every evaluation of the model over the table with a dict:
-        ``evaluations`` (so far) and ``chi2_dof`` (of that evaluation).
+        Called after every evaluation of the model over the table with a
+        ``FitProgress`` (the evaluations so far and that evaluation's χ²/dof).
 
     Returns
     -------
-    dict
-        ``model``, ``params`` (name → value), ``uncertainty`` (name → 1σ), ``chi2_dof``,
-        ``median_rel_error`` (over lobe bins, as ``compare``), ``per_theta_i`` (θi and φi
-        in degrees, albedo of fit and table per channel), ``nfev``, ``fitted`` (the
-        model) and ``model_bins`` (its bin averages, for plots).
+    FitResult
+        The parameters and their 1σ uncertainties, χ²/dof, the median relative error
+        over lobe bins, per incidence the albedo of fit and table, the fitted model and
+        its bin averages (a, b, nt, np, 3).
     """
     name, fam = family(spec, model_defaults(table.meta))
     component = table.component(component)
@@ -228,7 +324,7 @@ def fit_table(table: Any, spec: str, component: str = "total",
         r = (np.log(np.maximum(m, 0.0) + eps) - target) / sigma
         evaluations += 1
         if progress is not None:
-            progress({"evaluations": evaluations, "chi2_dof": float(r @ r) / dof})
+            progress(FitProgress(evaluations, float(r @ r) / dof))
         return r
 
     result = least_squares(residuals, x0, bounds=(fam.lower, fam.upper), x_scale="jac")
@@ -242,13 +338,12 @@ def fit_table(table: Any, spec: str, component: str = "total",
     compared = compare_table(table, fitted, component)
     proj = table.bins.projected_solid_angle[None, None, :, :, None]
     albedo_fit = (compared.model * proj).sum(axis=(2, 3))
-    rows = [{"theta_i": float(np.degrees(t)), "phi_i": float(np.degrees(p)),
-             "albedo_fit": albedo_fit[k, j].tolist(),
-             "albedo_table": table.albedo_of[component][k, j].tolist()}
-            for k, t in enumerate(table.theta_i) for j, p in enumerate(table.phi_i)]
-    return {"model": spec if name != "lafortune" else f"lafortune:{len(x0) // 3}",
-            "params": dict(zip(fam.names, result.x.tolist(), strict=True)),
-            "uncertainty": dict(zip(fam.names, unc.tolist(), strict=True)),
-            "chi2_dof": chi2 / dof, "median_rel_error": compared.median_rel_error,
-            "per_theta_i": rows, "nfev": int(result.nfev), "fitted": fitted,
-            "model_bins": compared.model}
+    rows = tuple(IncidenceFit(float(np.degrees(t)), float(np.degrees(p)), albedo_fit[k, j],
+                              table.albedo_of[component][k, j].copy())
+                 for k, t in enumerate(table.theta_i) for j, p in enumerate(table.phi_i))
+    return FitResult(
+        model=spec if name != "lafortune" else f"lafortune:{len(x0) // 3}",
+        params=dict(zip(fam.names, result.x.tolist(), strict=True)),
+        uncertainty=dict(zip(fam.names, unc.tolist(), strict=True)),
+        chi2_dof=chi2 / dof, median_rel_error=compared.median_rel_error, per_theta_i=rows,
+        nfev=int(result.nfev), fitted=fitted, model_bins=compared.model)

@@ -66,9 +66,9 @@ def cylinders() -> None:
     report("cylinders.toml", table, "cylinders", "single", "cylinders-exact.png")
     fit = fit_table(table, "kay-kajiya", "total")
     print("kay-kajiya fit to cylinders.toml (total):", json.dumps(
-        {k: round(v, 4) for k, v in fit["params"].items()}), f"chi2/dof {fit['chi2_dof']:.1f}",
-        f"median {100 * fit['median_rel_error']:.1f}%")
-    incidence_plane(table, fit["model_bins"], OUT / "cylinders-kay-kajiya.png", "total",
+        {k: round(v, 4) for k, v in fit.params.items()}), f"chi2/dof {fit.chi2_dof:.1f}",
+        f"median {100 * fit.median_rel_error:.1f}%")
+    incidence_plane(table, fit.model_bins, OUT / "cylinders-kay-kajiya.png", "total",
                     "cylinders.toml: total vs fitted Kay-Kajiya layer")
     for smooth in (True, False):
         r = resolve({"surface": {"kind": "cylinders", "radius": 0.1, "spacing": 1.0,
@@ -167,11 +167,11 @@ def weaves() -> None:
             start = time.time()
             fit = fit_table(t, "microcylinder", "single")
             label = f"{pattern} weave, {name} yarns"
-            print(f"| {label} | {100 * fit['median_rel_error']:.1f}% | "
-                  f"{fit['chi2_dof']:.1f} | " + ", ".join(
-                      f"{k} {v:.3g}" for k, v in fit["params"].items()) + " |"
+            print(f"| {label} | {100 * fit.median_rel_error:.1f}% | "
+                  f"{fit.chi2_dof:.1f} | " + ", ".join(
+                      f"{k} {v:.3g}" for k, v in fit.params.items()) + " |"
                   f" ({time.time() - start:.0f} s)")
-            incidence_plane(t, fit["model_bins"], OUT / f"weave-{pattern}-{name}.png",
+            incidence_plane(t, fit.model_bins, OUT / f"weave-{pattern}-{name}.png",
                             "single", f"{label}: single vs fitted microcylinder model")
 
 

@@ -26,9 +26,9 @@ def table_of(model, sigma_rel=0.0, seed=0):
 def test_beckmann_without_noise_comes_back_within_one_percent():
     truth = TorranceSparrow(Beckmann(0.4), fresnel=("schlick", np.array([0.9, 0.6, 0.3])))
     r = fit_table(table_of(truth), "beckmann")
-    assert r["params"]["alpha"] == pytest.approx(0.4, rel=0.01)
+    assert r.params["alpha"] == pytest.approx(0.4, rel=0.01)
     for ch, f0 in zip("RGB", (0.9, 0.6, 0.3), strict=True):
-        assert r["params"][f"F0_{ch}"] == pytest.approx(f0, rel=0.01)
+        assert r.params[f"F0_{ch}"] == pytest.approx(f0, rel=0.01)
 
 
 def test_noisy_fit_within_two_sigma():
@@ -36,16 +36,16 @@ def test_noisy_fit_within_two_sigma():
     (a 95% interval; fixed seed)."""
     truth = TorranceSparrow(Beckmann(0.25), fresnel=("schlick", np.array([0.8, 0.8, 0.8])))
     r = fit_table(table_of(truth, 0.05, seed=5), "beckmann")
-    a, s = r["params"]["alpha"], r["uncertainty"]["alpha"]
+    a, s = r.params["alpha"], r.uncertainty["alpha"]
     assert 0 < s < 0.05 and abs(a - 0.25) < 2 * s
-    assert 0.5 < r["chi2_dof"] < 2.0  # the errors describe the noise
+    assert 0.5 < r.chi2_dof < 2.0  # the errors describe the noise
 
 
 def test_oren_nayar_without_noise():
     truth = OrenNayar(0.35, [0.7, 0.5, 0.3])
     r = fit_table(table_of(truth), "oren-nayar")
-    assert r["params"]["sigma"] == pytest.approx(0.35, rel=0.01)
-    assert r["params"]["albedo_G"] == pytest.approx(0.5, rel=0.01)
+    assert r.params["sigma"] == pytest.approx(0.35, rel=0.01)
+    assert r.params["albedo_G"] == pytest.approx(0.5, rel=0.01)
 
 
 @pytest.mark.parametrize(("spec", "truth"), [
@@ -64,10 +64,10 @@ def test_other_families_recover_their_own_parameters(spec, truth):
     _, fam = family(spec)
     model = fam.build(np.array([truth[name] for name in fam.names]))
     r = fit_table(table_of(model), spec)
-    assert set(r["params"]) == set(truth) == set(r["uncertainty"])
+    assert set(r.params) == set(truth) == set(r.uncertainty)
     for name, value in truth.items():
-        assert r["params"][name] == pytest.approx(value, rel=0.01), name
-    assert r["median_rel_error"] < 0.01
+        assert r.params[name] == pytest.approx(value, rel=0.01), name
+    assert r.median_rel_error < 0.01
 
 
 def test_simulated_gaussian_fits_beckmann_at_its_realised_alpha(cli, tmp_path):

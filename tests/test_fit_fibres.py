@@ -45,8 +45,8 @@ def test_microcylinder_fit_comes_back_on_an_anisotropic_weave_table():
                      {"kind": "lambertian", "albedo": 0.5}, [45.0])
     truth = [0.7, 0.6, 1.6, 0.12, 0.3, 0.4, 0.2, 0.3, 0.8, 0.9, 0.8, 0.7]
     r = fit_table(made_from(table, "microcylinder", truth), "microcylinder", "single")
-    assert r["median_rel_error"] < 0.01
-    assert r["chi2_dof"] < 1.0
+    assert r.median_rel_error < 0.01
+    assert r.chi2_dof < 1.0
 
 
 def test_kay_kajiya_fit_uses_the_cylinders_axis_and_coverage():
@@ -58,5 +58,5 @@ def test_kay_kajiya_fit_uses_the_cylinders_axis_and_coverage():
     assert model_defaults(table.meta)["coverage"] == pytest.approx(0.5)
     truth = [0.02, 0.02, 0.02, 0.3, 0.2, 0.1, 40.0]
     r = fit_table(made_from(table, "kay-kajiya", truth), "kay-kajiya", "single")
-    for name, value in zip(r["params"], truth, strict=True):
-        assert r["params"][name] == pytest.approx(value, rel=0.02)
+    for name, value in zip(r.params, truth, strict=True):
+        assert r.params[name] == pytest.approx(value, rel=0.02)

@@ -480,8 +480,8 @@ def test_fit_reports_progress_and_rounds_to_its_uncertainty(small_table):
 
     seen = []
     result = fit_table(microsim.read_table(small_table), "beckmann", progress=seen.append)
-    assert [s["evaluations"] for s in seen] == list(range(1, len(seen) + 1))
-    assert len(seen) >= result["nfev"]
+    assert [s.evaluations for s in seen] == list(range(1, len(seen) + 1))
+    assert len(seen) >= result.nfev
     assert with_error(0.29117715, 0.0012345) == "0.2912 ± 0.0012"
     assert with_error(12345.6, 230.0) == "12350 ± 230"
     assert with_error(3.14159, 0.5) == "3.14 ± 0.50"

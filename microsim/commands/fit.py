@@ -6,7 +6,7 @@ import argparse
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from microsim.commands.common import (
     add_component_arg,
@@ -16,6 +16,9 @@ from microsim.commands.common import (
     table_component,
     with_error,
 )
+
+if TYPE_CHECKING:
+    from microsim.fit import FitProgress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -43,14 +46,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def progress_printer(enabled: bool) -> Callable[[dict[str, Any]], None] | None:
+def progress_printer(enabled: bool) -> Callable[[FitProgress], None] | None:
     """A ``fit_table`` progress callback rewriting one line on stderr, or None."""
     if not enabled:
         return None
 
-    def show(state: dict[str, Any]) -> None:
-        print(f"\rfitting: {state['evaluations']:4d} evaluations of the model over the "
-              f"table, chi^2/dof {state['chi2_dof']:.4g}   ", end="", file=sys.stderr,
+    def show(state: FitProgress) -> None:
+        print(f"\rfitting: {state.evaluations:4d} evaluations of the model over the "
+              f"table, chi^2/dof {state.chi2_dof:.4g}   ", end="", file=sys.stderr,
               flush=True)
 
     return show
@@ -71,35 +74,34 @@ def run(args: argparse.Namespace) -> int:
     result = fit_table(table, args.model, args.component, progress=progress_printer(show))
     if show:
         print(file=sys.stderr)
-    result.update(error_model=table.error_model,
-                  realisations=int(table.realisations.max()),
-                  alpha_realised=None if table.meta.surface is None
-                  or table.meta.surface.alpha_realised is None
-                  else table.meta.surface.alpha_realised.to_json())
-    result.pop("fitted")
-    bins = result.pop("model_bins")
+    surface = table.meta.surface
+    alpha = None if surface is None else surface.alpha_realised
+    out: dict[str, Any] = {**result.to_json(), "error_model": table.error_model,
+                           "realisations": int(table.realisations.max()),
+                           "alpha_realised": None if alpha is None else alpha.to_json()}
     if args.plot is not None:
         from microsim.plots import incidence_plane
 
-        incidence_plane(table, bins, args.plot, args.component,
-                        f"{args.table}: {args.component} vs fitted {result['model']}",
-                        model_label=f"fit: {result['model']}")
-        result["plot"] = str(args.plot)
+        incidence_plane(table, result.model_bins, args.plot, args.component,
+                        f"{args.table}: {args.component} vs fitted {result.model}",
+                        model_label=f"fit: {result.model}")
+        out["plot"] = str(args.plot)
     if args.json:
-        print_json(result)
+        print_json(out)
         return 0
-    print(f"{result['model']} fitted to the {args.component} of {args.table}:")
-    for name, value in result["params"].items():
-        print(f"  {name:>10} = {with_error(value, result['uncertainty'][name])}")
-    print(f"  chi^2/dof {result['chi2_dof']:.3g}, median relative error against the fit "
+    print(f"{result.model} fitted to the {args.component} of {args.table}:")
+    for name, value in result.params.items():
+        print(f"  {name:>10} = {with_error(value, result.uncertainty[name])}")
+    print(f"  chi^2/dof {result.chi2_dof:.3g}, median relative error against the fit "
           "over lobe bins "
-          f"{100 * result['median_rel_error']:.2f}%")
-    for row in result["per_theta_i"]:
-        print(f"  theta_i {row['theta_i']:5.1f}, phi_i {row['phi_i']:5.1f}: albedo fit "
-              f"{sum(row['albedo_fit']) / 3:.4f}, table {sum(row['albedo_table']) / 3:.4f}")
-    if result["alpha_realised"] is not None:
+          f"{100 * result.median_rel_error:.2f}%")
+    for row in result.per_theta_i:
+        print(f"  theta_i {row.theta_i:5.1f}, phi_i {row.phi_i:5.1f}: albedo fit "
+              f"{sum(row.albedo_fit.tolist()) / 3:.4f}, "
+              f"table {sum(row.albedo_table.tolist()) / 3:.4f}")
+    if out["alpha_realised"] is not None:
         print(f"  the surface's realised alpha (pooled over its tiles): "
-              f"{result['alpha_realised']}")
-    print("  " + error_model_note(result["error_model"], result["realisations"],
+              f"{out['alpha_realised']}")
+    print("  " + error_model_note(table.error_model, out["realisations"],
                                   "chi^2 and the parameter uncertainties"))
     return 0
