@@ -487,6 +487,25 @@ def test_fit_reports_progress_and_rounds_to_its_uncertainty(small_table):
     assert with_error(3.14159, 0.5) == "3.14 ± 0.50"
 
 
+def test_fit_json_is_the_records_json_then_the_tables_keys(cli, small_table):
+    """``microsim fit --json`` prints ``FitResult.to_json()`` (the keys docs/compare.md
+    lists, in that order) followed by the table's error model, realisations and realised
+    alpha; the fit is deterministic, so the command's values equal a second fit's."""
+    import microsim
+    from microsim.fit import fit_table
+
+    code, out, err = cli("fit", str(small_table), "--model", "beckmann", "--json")
+    assert code == 0, err
+    printed = json.loads(out)
+    assert list(printed) == ["model", "params", "uncertainty", "chi2_dof",
+                             "median_rel_error", "per_theta_i", "nfev", "error_model",
+                             "realisations", "alpha_realised"]
+    record = fit_table(microsim.read_table(small_table), "beckmann").to_json()
+    assert json.loads(json.dumps(record)) == {k: printed[k] for k in record}
+    assert [list(row) for row in printed["per_theta_i"]] == [
+        ["theta_i", "phi_i", "albedo_fit", "albedo_table"]] * len(printed["per_theta_i"])
+
+
 def test_view_says_when_a_lobe_is_interpolated(cli, small_table, tmp_path, monkeypatch):
     """The small table holds theta_i 0 and 60: 30 is drawn interpolated and 75 as the
     nearest (60), both said in the title and on stderr; 60 is drawn as measured."""
