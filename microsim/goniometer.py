@@ -60,7 +60,7 @@ class Sums:
     Row 0 of every array holds every escaping ray (``"total"``); row k, 1 ≤ k < N, the rays
     that escaped after k scattering events; row N those after N or more
     (``components_for(N)``, N = ``orders``). The compiled tally adds each ray to row 0 and
-    to the row of its order (``slot_of_order``), so the order rows add up to row 0.
+    to row min(k, N) of its order k, so the order rows add up to row 0.
 
     Attributes
     ----------
@@ -68,9 +68,6 @@ class Sums:
         Rays launched.
     orders : int
         N of the order components.
-    slot_of_order : (N + 1,) int
-        Row of scattering order k at index min(k, N) (``microsim.kernel.tally``; order 0,
-        not escaped, has none: −1).
     sums, sums_sq : (N + 1, b, 3) float
         Per row and bin, the sum of exit weights w and of w**2.
     lost, transmitted, absorbed : (3,) float
@@ -91,7 +88,6 @@ class Sums:
     def __init__(self, bins: int, sh_order: int = 0, orders: int = DEFAULT_ORDERS) -> None:
         self.rays = 0
         self.orders = int(orders)
-        self.slot_of_order = np.concatenate([[-1], np.arange(1, self.orders + 1)])
         rows = self.orders + 1
         self.sums = np.zeros((rows, bins, 3))
         self.sums_sq = np.zeros((rows, bins, 3))
@@ -120,7 +116,7 @@ class Sums:
             sums = np.zeros_like(self.sums)
             sums_sq, unbinned = np.zeros_like(sums), np.zeros(3)
             bin_escapes(paths.direction[a:b], paths.weight[a:b], paths.order[a:b], phi_ref,
-                        bins.theta_bins, bins.phi_bins, bins.folded, self.slot_of_order, sums,
+                        bins.theta_bins, bins.phi_bins, bins.folded, self.orders, sums,
                         sums_sq, index[a:b], unbinned)
             return sums, sums_sq, unbinned
 
@@ -142,7 +138,7 @@ class Sums:
         transform per order row over that row's rays alone, the total row their sum."""
         loc = sh.angles(paths.direction[binned], phi_ref)
         w = paths.weight[binned]
-        row = self.slot_of_order[np.minimum(paths.order[binned], self.orders)]
+        row = np.minimum(paths.order[binned], self.orders)
         for k in range(1, self.orders + 1):
             mine = row == k
             if mine.any():

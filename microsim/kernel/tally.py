@@ -125,7 +125,7 @@ def bin_of(x: float, y: float, z: float, phi_ref: float, theta_bins: int, phi_bi
 @njit(**JIT)
 def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
                 phi_ref: float, theta_bins: int, phi_bins: int, folded: bool,
-                slot_of_order: np.ndarray, sums: np.ndarray, sums_sq: np.ndarray,
+                orders: int, sums: np.ndarray, sums_sq: np.ndarray,
                 index: np.ndarray, unbinned: np.ndarray) -> None:
     """Add escaping rays' weights w and w² to their bins, per component.
 
@@ -138,17 +138,16 @@ def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
         Azimuth the bins' φ is measured from, radians.
     theta_bins, phi_bins : int
     folded : bool
-    slot_of_order : (k,) int
-        Component each order adds to besides component 0 (all orders), by order (the
-        last entry for every higher order); -1: none.
-    sums, sums_sq : (c, theta_bins · phi_bins, 3) float
+    orders : int
+        N ≥ 1: a ray of order k adds to component min(k, N) besides component 0 (all
+        orders).
+    sums, sums_sq : (N + 1, theta_bins · phi_bins, 3) float
         Running Σw and Σw² per component, bin and channel.
     index : (n,) int
         Filled with each ray's bin (-1: none).
     unbinned : (3,) float
         Running summed weight of scattered rays no bin takes (escaping on the horizon).
     """
-    last = len(slot_of_order) - 1
     for r in range(len(order)):
         k = order[r]
         b = -1
@@ -161,11 +160,10 @@ def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
         index[r] = b
         if b < 0:
             continue
-        slot = slot_of_order[min(k, last)]
+        slot = min(k, orders)
         for c in range(3):
             w = weight[r, c]
             sums[0, b, c] += w
             sums_sq[0, b, c] += w * w
-            if slot > 0:
-                sums[slot, b, c] += w
-                sums_sq[slot, b, c] += w * w
+            sums[slot, b, c] += w
+            sums_sq[slot, b, c] += w * w
