@@ -135,14 +135,19 @@ class Sums:
     def _add_sh(self, paths: Paths, binned: np.ndarray, phi_ref: float,
                 mapper: sh.Mapper | None) -> None:
         """Moments of the escaping rays' exit weights against the real harmonics: one
-        transform per order row over that row's rays alone, the total row their sum."""
-        loc = sh.angles(paths.direction[binned], phi_ref)
-        w = paths.weight[binned]
-        row = np.minimum(paths.order[binned], self.orders)
+        transform per order row over that row's rays alone, the total row their sum.
+
+        The binned rays are gathered once, grouped by row (a stable sort on the row, so
+        each row's rays keep their ray order); a row's rays are then one slice."""
+        row = np.minimum(paths.order[binned], self.orders).astype(np.uint8)  # N ≤ 32
+        rays = np.flatnonzero(binned)[np.argsort(row, kind="stable")]
+        ends = np.cumsum(np.bincount(row, minlength=self.orders + 1))
+        loc = sh.angles(paths.direction[rays], phi_ref)
+        w = paths.weight[rays]
         for k in range(1, self.orders + 1):
-            mine = row == k
-            if mine.any():
-                s1, s2 = sh.moments(loc[mine], w[mine], self.sh_order, mapper)
+            a, b = ends[k - 1], ends[k]
+            if b > a:
+                s1, s2 = sh.moments(loc[a:b], w[a:b], self.sh_order, mapper)
                 self.sh_sums[k] += s1
                 self.sh_sums_sq[k] += s2
                 self.sh_sums[0] += s1
