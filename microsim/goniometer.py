@@ -160,12 +160,14 @@ class Sums:
 
 
 class _Batch(NamedTuple):
-    """One batch of one direction's rays: what the pipeline needs to trace and add it."""
+    """One batch of one direction's rays: what the pipeline needs to trace and add it
+    (``dirs``: its rays' directions of travel, −ωi, (rays, 3), a view of one array its
+    direction's batches share)."""
 
     run: Run
     number: int
     rays: int
-    wi: np.ndarray
+    dirs: np.ndarray
     phi_ref: float
     seed: np.random.SeedSequence
     report: Callable[[int], None] | None
@@ -189,14 +191,15 @@ def _batches(work: Mapping[Direction, int], runs: dict[RunKey, Run], new_run: Ca
         run = runs[key] = runs.get(key) or new_run()
         phi_ref = math.radians(phi_deg[k]) if isotropic else 0.0
         wi = direction(math.radians(theta_deg[l]), math.radians(phi_deg[k]))
+        dirs = np.ascontiguousarray(np.broadcast_to(-wi, (min(BATCH, rays), 3)))
         report = None if progress is None else _reporter(
             progress, theta_deg[l], phi_deg[k], realisation, run.sums)
         first = run.batches  # grows as the batches are added, while later ones are made
         for index, start in enumerate(range(0, rays, BATCH)):
             number = first + index
             stream = np.random.SeedSequence(seed, spawn_key=(*key, number))
-            yield _Batch(run, number, min(BATCH, rays - start), wi, phi_ref, stream,
-                              report)
+            count = min(BATCH, rays - start)
+            yield _Batch(run, number, count, dirs[:count], phi_ref, stream, report)
 
 
 def _pipeline(scene: PeriodicScene, facets: FacetMaterials,
@@ -216,9 +219,8 @@ def _pipeline(scene: PeriodicScene, facets: FacetMaterials,
         for batch in itertools.islice(batches, 1):
             u = np.random.default_rng(batch.seed).random((batch.rays, 2))
             origins = beam_origins(u, scene.period, scene.z_top, CELLS)
-            pending.append((batch, start_paths(
-                scene, facets, origins, np.broadcast_to(-batch.wi, (batch.rays, 3)), bounces,
-                batch.seed)))
+            pending.append((batch, start_paths(scene, facets, origins, batch.dirs, bounces,
+                                               batch.seed)))
 
     for _ in range(DEPTH):
         queue_next()
