@@ -25,7 +25,7 @@ from microsim.table_models import microfacet_model, model_defaults
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import order_range
 from microsim.tables.meta import TableMeta
-from microsim.tables.table import LOBE_FRACTION, BRDFTable
+from microsim.tables.table import LOBE_FRACTION, BRDFTable, lobe_of
 
 __all__ = ["LOBE_FRACTION", "Comparison", "IncidenceMetrics", "Model", "StochasticModel",
            "bin_average", "bin_estimate", "compare_table", "direction", "lobe_residuals",
@@ -191,8 +191,7 @@ def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         non-zero error: the two estimates are independent, so their variances add.
     lobe : (nt, np, 3) bool
     """
-    peak = model.max(axis=(0, 1), keepdims=True)
-    lobe = model >= LOBE_FRACTION * np.where(peak > 0, peak, np.inf)
+    lobe = lobe_of(model, (0, 1))
     rel = np.abs(sim - model)[lobe] / model[lobe]
     nu = np.broadcast_to(np.asarray(dof, float), sim.shape)
     if model_err is not None:

@@ -50,7 +50,7 @@ from microsim.compare import bin_average, bin_estimate, lobe_residuals
 from microsim.geometry import direction
 from microsim.table_models import model_defaults
 from microsim.tables.components import order_range
-from microsim.tables.table import LOBE_FRACTION
+from microsim.tables.table import lobe_of
 
 SLOPE_STEP = 0.05
 """Relative step in α of the central difference dA/dα of a reference's albedo: small
@@ -113,13 +113,6 @@ def model_bins(table: Any, refs: References) -> dict[tuple[str, str], tuple[np.n
     return out
 
 
-def lobe_of(model: np.ndarray) -> np.ndarray:
-    """(a, b, nt, np, 3) bool: bins where the model holds ≥ ``LOBE_FRACTION`` of its peak,
-    per incidence and channel (``compare.lobe_residuals``)."""
-    peak = model.max(axis=(2, 3), keepdims=True)
-    return model >= LOBE_FRACTION * np.where(peak > 0, peak, np.inf)
-
-
 def lobe_medians(sim: np.ndarray, model: np.ndarray, lobe: np.ndarray) -> np.ndarray:
     """(a, b) median of |sim − model| / |model| over each incidence's lobe bins; NaN
     where it has none."""
@@ -138,7 +131,7 @@ def lobe_errors(table: Any, component: str, model: np.ndarray, model_err: np.nda
     the model has no lobe."""
     sim = table.values[component]
     sim_err = np.nan_to_num(table.errors[component])
-    lobe = lobe_of(model)
+    lobe = lobe_of(model, (2, 3))              # per incidence and channel, as compare
 
     def redraw(x: np.ndarray, e: np.ndarray) -> np.ndarray:
         return x + rng.standard_normal(x.shape) * e
