@@ -249,6 +249,14 @@ def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         model's standard error of its albedo (√Σ (σ Ω_proj)², bins being independent
         estimates); no incidence (``theta_i`` and the rest None).
     """
+    return _metrics(sim, err, model, proj, model_err, dof)[0]
+
+
+def _metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray, proj: np.ndarray,
+             model_err: np.ndarray | None, dof: np.ndarray | float
+             ) -> tuple[IncidenceMetrics, np.ndarray, np.ndarray]:
+    """``metrics`` with the lobe bins' relative errors and z-scores it was made from
+    (``lobe_residuals``), which ``compare_table`` pools over incidences."""
     rel, z, lobe = lobe_residuals(sim, err, model, model_err, dof)
     median, p90, z_mean, z_std = residual_statistics(rel, z)
     albedo_sim = (sim * proj[..., None]).sum(axis=(0, 1))
@@ -259,7 +267,8 @@ def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         median_rel_error=median, p90_rel_error=p90,
         rms_error=float(np.sqrt(np.mean((sim - model) ** 2))), z_mean=z_mean, z_std=z_std,
         lobe_bins=int(lobe[..., 0].sum()), albedo_sim=albedo_sim, albedo_model=albedo_model,
-        albedo_difference=albedo_sim - albedo_model, albedo_model_err=albedo_model_err)
+        albedo_difference=albedo_sim - albedo_model, albedo_model_err=albedo_model_err
+    ), rel, z
 
 
 def model_table(model: Model, theta_i: np.ndarray, bins: HemisphereBins,
@@ -353,11 +362,10 @@ def compare_table(table: BRDFTable, model: Model, component: str = "total") -> C
                                         table.bins.phi_edges, phi if table.isotropic else 0.0)
             averages[a, b], errors[a, b] = avg, avg_err
             sim, err = table.values[component][a, b], table.errors[component][a, b]
-            dof = table.dof[component][a, b]
-            rel, z, _ = lobe_residuals(sim, err, avg, avg_err, dof)
+            m, rel, z = _metrics(sim, err, avg, table.bins.projected_solid_angle, avg_err,
+                                 table.dof[component][a, b])
             rels.append(rel)
             zs.append(z)
-            m = metrics(sim, err, avg, table.bins.projected_solid_angle, avg_err, dof)
             total = table.albedo_of["total"][a, b].mean()
             single = table.albedo_of["single"][a, b].mean()
             rows.append(replace(m, theta_i=float(np.degrees(theta)),
