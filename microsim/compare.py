@@ -24,13 +24,14 @@ from microsim.surfaces.facts import SurfaceFacts, TileFacts
 from microsim.table_models import microfacet_model, model_defaults
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import order_range
+from microsim.tables.evaluate import Axes
 from microsim.tables.meta import TableMeta
 from microsim.tables.table import LOBE_FRACTION, BRDFTable, lobe_of
 
 __all__ = ["LOBE_FRACTION", "Comparison", "IncidenceMetrics", "Model", "StochasticModel",
-           "bin_average", "bin_estimate", "compare_table", "direction", "lobe_residuals",
-           "metrics", "microfacet_model", "model_defaults", "model_for", "model_table",
-           "normal_z", "residual_statistics", "singular_albedo"]
+           "bin_average", "bin_averages", "bin_estimate", "compare_table", "direction",
+           "lobe_residuals", "metrics", "microfacet_model", "model_defaults", "model_for",
+           "model_table", "normal_z", "residual_statistics", "singular_albedo"]
 """``direction``, ``LOBE_FRACTION``, ``microfacet_model`` and ``model_defaults`` are
 ``microsim.geometry``'s, ``microsim.tables.table``'s and ``microsim.table_models``'s, and
 ``Comparison`` and ``IncidenceMetrics`` ``microsim.comparison``'s, named here too for the
@@ -104,6 +105,29 @@ def bin_average(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
     if hasattr(model, "singular"):
         f = f + model.singular(wi, theta_edges, phi_edges, phi_i)
     return f
+
+
+def bin_averages(model: Model, axes: Axes, n: int = 8) -> np.ndarray:
+    """``bin_average`` at every incidence of a table's axes.
+
+    Parameters
+    ----------
+    model : Model
+    axes : Axes
+        The table's (``BRDFTable.axes``): outgoing azimuths relative to φi when
+        isotropic, absolute otherwise.
+    n : int
+        Midpoints per bin and axis.
+
+    Returns
+    -------
+    (a, b, nt, np, 3) float
+        1/sr, θi outer, φi inner.
+    """
+    return np.stack([np.stack([bin_average(model, direction(t, p), axes.bins.theta_edges,
+                                           axes.bins.phi_edges,
+                                           p if axes.isotropic else 0.0, n)
+                               for p in axes.phi_i]) for t in axes.theta_i])
 
 
 def singular_albedo(model: Model, wi: np.ndarray) -> float:
@@ -306,9 +330,7 @@ def model_table(model: Model, theta_i: np.ndarray, bins: HemisphereBins,
     """
     theta_i = np.asarray(theta_i, float)
     azimuths = np.zeros(1) if phi_i is None else np.asarray(phi_i, float)
-    avg = np.stack([np.stack([bin_average(model, direction(t, p), bins.theta_edges,
-                                          bins.phi_edges) for p in azimuths])
-                    for t in theta_i])
+    avg = bin_averages(model, Axes(bins, theta_i, azimuths, phi_i is None))
     err = sigma_rel * avg + 1e-12
     values = avg + rng.standard_normal(avg.shape) * err if sigma_rel else avg
     albedo = (values * bins.projected_solid_angle[None, None, :, :, None]).sum(axis=(2, 3))
