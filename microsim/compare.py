@@ -24,13 +24,14 @@ from microsim.surfaces.facts import SurfaceFacts, TileFacts
 from microsim.table_models import microfacet_model, model_defaults
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import order_range
+from microsim.tables.evaluate import Axes
 from microsim.tables.meta import TableMeta
-from microsim.tables.table import LOBE_FRACTION, BRDFTable
+from microsim.tables.table import LOBE_FRACTION, BRDFTable, lobe_of
 
 __all__ = ["LOBE_FRACTION", "Comparison", "IncidenceMetrics", "Model", "StochasticModel",
-           "bin_average", "bin_estimate", "compare_table", "direction", "lobe_residuals",
-           "metrics", "microfacet_model", "model_defaults", "model_for", "model_table",
-           "normal_z", "residual_statistics", "singular_albedo"]
+           "bin_average", "bin_averages", "bin_estimate", "compare_table", "direction",
+           "lobe_residuals", "metrics", "microfacet_model", "model_defaults", "model_for",
+           "model_table", "normal_z", "residual_statistics", "singular_albedo"]
 """``direction``, ``LOBE_FRACTION``, ``microfacet_model`` and ``model_defaults`` are
 ``microsim.geometry``'s, ``microsim.tables.table``'s and ``microsim.table_models``'s, and
 ``Comparison`` and ``IncidenceMetrics`` ``microsim.comparison``'s, named here too for the
@@ -104,6 +105,29 @@ def bin_average(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
     if hasattr(model, "singular"):
         f = f + model.singular(wi, theta_edges, phi_edges, phi_i)
     return f
+
+
+def bin_averages(model: Model, axes: Axes, n: int = 8) -> np.ndarray:
+    """``bin_average`` at every incidence of a table's axes.
+
+    Parameters
+    ----------
+    model : Model
+    axes : Axes
+        The table's (``BRDFTable.axes``): outgoing azimuths relative to φi when
+        isotropic, absolute otherwise.
+    n : int
+        Midpoints per bin and axis.
+
+    Returns
+    -------
+    (a, b, nt, np, 3) float
+        1/sr, θi outer, φi inner.
+    """
+    return np.stack([np.stack([bin_average(model, direction(t, p), axes.bins.theta_edges,
+                                           axes.bins.phi_edges,
+                                           p if axes.isotropic else 0.0, n)
+                               for p in axes.phi_i]) for t in axes.theta_i])
 
 
 def singular_albedo(model: Model, wi: np.ndarray) -> float:
@@ -191,8 +215,7 @@ def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         non-zero error: the two estimates are independent, so their variances add.
     lobe : (nt, np, 3) bool
     """
-    peak = model.max(axis=(0, 1), keepdims=True)
-    lobe = model >= LOBE_FRACTION * np.where(peak > 0, peak, np.inf)
+    lobe = lobe_of(model, (0, 1))
     rel = np.abs(sim - model)[lobe] / model[lobe]
     nu = np.broadcast_to(np.asarray(dof, float), sim.shape)
     if model_err is not None:
@@ -250,6 +273,14 @@ def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         model's standard error of its albedo (√Σ (σ Ω_proj)², bins being independent
         estimates); no incidence (``theta_i`` and the rest None).
     """
+    return _metrics(sim, err, model, proj, model_err, dof)[0]
+
+
+def _metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray, proj: np.ndarray,
+             model_err: np.ndarray | None, dof: np.ndarray | float
+             ) -> tuple[IncidenceMetrics, np.ndarray, np.ndarray]:
+    """``metrics`` with the lobe bins' relative errors and z-scores it was made from
+    (``lobe_residuals``), which ``compare_table`` pools over incidences."""
     rel, z, lobe = lobe_residuals(sim, err, model, model_err, dof)
     median, p90, z_mean, z_std = residual_statistics(rel, z)
     albedo_sim = (sim * proj[..., None]).sum(axis=(0, 1))
@@ -260,7 +291,8 @@ def metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         median_rel_error=median, p90_rel_error=p90,
         rms_error=float(np.sqrt(np.mean((sim - model) ** 2))), z_mean=z_mean, z_std=z_std,
         lobe_bins=int(lobe[..., 0].sum()), albedo_sim=albedo_sim, albedo_model=albedo_model,
-        albedo_difference=albedo_sim - albedo_model, albedo_model_err=albedo_model_err)
+        albedo_difference=albedo_sim - albedo_model, albedo_model_err=albedo_model_err
+    ), rel, z
 
 
 def model_table(model: Model, theta_i: np.ndarray, bins: HemisphereBins,
@@ -298,9 +330,7 @@ def model_table(model: Model, theta_i: np.ndarray, bins: HemisphereBins,
     """
     theta_i = np.asarray(theta_i, float)
     azimuths = np.zeros(1) if phi_i is None else np.asarray(phi_i, float)
-    avg = np.stack([np.stack([bin_average(model, direction(t, p), bins.theta_edges,
-                                          bins.phi_edges) for p in azimuths])
-                    for t in theta_i])
+    avg = bin_averages(model, Axes(bins, theta_i, azimuths, phi_i is None))
     err = sigma_rel * avg + 1e-12
     values = avg + rng.standard_normal(avg.shape) * err if sigma_rel else avg
     albedo = (values * bins.projected_solid_angle[None, None, :, :, None]).sum(axis=(2, 3))
@@ -354,11 +384,10 @@ def compare_table(table: BRDFTable, model: Model, component: str = "total") -> C
                                         table.bins.phi_edges, phi if table.isotropic else 0.0)
             averages[a, b], errors[a, b] = avg, avg_err
             sim, err = table.values[component][a, b], table.errors[component][a, b]
-            dof = table.dof[component][a, b]
-            rel, z, _ = lobe_residuals(sim, err, avg, avg_err, dof)
+            m, rel, z = _metrics(sim, err, avg, table.bins.projected_solid_angle, avg_err,
+                                 table.dof[component][a, b])
             rels.append(rel)
             zs.append(z)
-            m = metrics(sim, err, avg, table.bins.projected_solid_angle, avg_err, dof)
             total = table.albedo_of["total"][a, b].mean()
             single = table.albedo_of["single"][a, b].mean()
             rows.append(replace(m, theta_i=float(np.degrees(theta)),

@@ -32,9 +32,8 @@ from scipy.optimize import least_squares
 from microsim.analytic.brdf import KayKajiya, Lafortune, OrenNayar, Phong, TorranceSparrow
 from microsim.analytic.cloth import MicrocylinderCloth
 from microsim.analytic.ndf import GGX, Beckmann
-from microsim.compare import Model, bin_average, compare_table
+from microsim.compare import Model, bin_averages, compare_table
 from microsim.errors import InputError
-from microsim.geometry import direction
 from microsim.table_models import model_defaults
 
 EPS_FRACTION = 1e-3
@@ -266,15 +265,6 @@ def family(spec: str, defaults: Mapping[str, Any] | None = None) -> tuple[str, F
     raise InputError(f"--model {spec}: must be one of {FAMILIES}")
 
 
-def model_bins(model: Any, table: Any, n: int) -> np.ndarray:
-    """The model's bin averages over the whole table: (a, b, nt, np, 3) (azimuths
-    relative to φi for isotropic tables, absolute otherwise)."""
-    return np.stack([np.stack([bin_average(model, direction(t, p), table.bins.theta_edges,
-                                           table.bins.phi_edges,
-                                           p if table.isotropic else 0.0, n)
-                               for p in table.phi_i]) for t in table.theta_i])
-
-
 def fit_table(table: Any, spec: str, component: str = "total",
               start: Sequence[float] | None = None,
               progress: Callable[[FitProgress], None] | None = None) -> FitResult:
@@ -320,7 +310,7 @@ def fit_table(table: Any, spec: str, component: str = "total",
 
     def residuals(p: np.ndarray) -> np.ndarray:
         nonlocal evaluations
-        m = model_bins(fam.build(p), table, SUBSAMPLES)[keep]
+        m = bin_averages(fam.build(p), table.axes, SUBSAMPLES)[keep]
         r = (np.log(np.maximum(m, 0.0) + eps) - target) / sigma
         evaluations += 1
         if progress is not None:

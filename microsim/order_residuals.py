@@ -46,11 +46,11 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from microsim.analytic.registry import parse_model_spec
-from microsim.compare import bin_average, bin_estimate, lobe_residuals
+from microsim.compare import bin_averages, bin_estimate, lobe_residuals
 from microsim.geometry import direction
 from microsim.table_models import model_defaults
 from microsim.tables.components import order_range
-from microsim.tables.table import LOBE_FRACTION
+from microsim.tables.table import lobe_of
 
 SLOPE_STEP = 0.05
 """Relative step in α of the central difference dA/dα of a reference's albedo: small
@@ -97,11 +97,10 @@ def model_bins(table: Any, refs: References) -> dict[tuple[str, str], tuple[np.n
     reference): Smith for order 1 and the total, the walk for the orders above 1 (random
     parts) and the total (Smith + the orders' random parts)."""
     shape = table.values["total"].shape
-    smith = np.zeros(shape)
+    smith = bin_averages(refs.smith, table.axes)
     random = {c: (np.zeros(shape), np.zeros(shape)) for c in table.components
               if order_range(c)[0] >= 2}
     for a, b, args in incidences(table):
-        smith[a, b] = bin_average(refs.smith, *args)
         for c, (mean, err) in random.items():
             mean[a, b], err[a, b] = bin_estimate(refs.walk.with_orders(*order_range(c)),
                                                  *args)
@@ -111,13 +110,6 @@ def model_bins(table: Any, refs: References) -> dict[tuple[str, str], tuple[np.n
                                np.sqrt(sum(e**2 for _, e in random.values())))}
     out.update({(c, "walk"): v for c, v in random.items()})
     return out
-
-
-def lobe_of(model: np.ndarray) -> np.ndarray:
-    """(a, b, nt, np, 3) bool: bins where the model holds ≥ ``LOBE_FRACTION`` of its peak,
-    per incidence and channel (``compare.lobe_residuals``)."""
-    peak = model.max(axis=(2, 3), keepdims=True)
-    return model >= LOBE_FRACTION * np.where(peak > 0, peak, np.inf)
 
 
 def lobe_medians(sim: np.ndarray, model: np.ndarray, lobe: np.ndarray) -> np.ndarray:
@@ -138,7 +130,7 @@ def lobe_errors(table: Any, component: str, model: np.ndarray, model_err: np.nda
     the model has no lobe."""
     sim = table.values[component]
     sim_err = np.nan_to_num(table.errors[component])
-    lobe = lobe_of(model)
+    lobe = lobe_of(model, (2, 3))              # per incidence and channel, as compare
 
     def redraw(x: np.ndarray, e: np.ndarray) -> np.ndarray:
         return x + rng.standard_normal(x.shape) * e
@@ -187,6 +179,10 @@ def model_albedos(table: Any, refs: References, bins: dict, walks: int
     walk = {c: (np.zeros(shape), np.zeros(shape), np.full(shape, np.nan))
             for c in table.components}
     smith_slope = np.full(shape, np.nan)
+    if refs.shifted:
+        lo, hi = ((bin_averages(s, table.axes) * omega).sum(axis=(2, 3)).mean(axis=-1)
+                  for s, _ in refs.shifted)
+        smith_slope = (hi - lo) / refs.step
     for a, b, args in incidences(table):
         mean, err = refs.walk.albedo(args[0], walks, ranges)
         ends = [model.albedo(args[0], walks, ranges)[0] for _, model in refs.shifted]
@@ -194,10 +190,6 @@ def model_albedos(table: Any, refs: References, bins: dict, walks: int
             walk[c][0][a, b], walk[c][1][a, b] = mean[j].mean(), err[j].mean()
             if ends:
                 walk[c][2][a, b] = (ends[1][j] - ends[0][j]).mean() / refs.step
-        if refs.shifted:
-            lo, hi = ((bin_average(s, *args) * omega).sum(axis=(0, 1)).mean()
-                      for s, _ in refs.shifted)
-            smith_slope[a, b] = (hi - lo) / refs.step
     for c in ("order1", "total"):
         out[(c, "smith")] = (smith, np.zeros(shape), smith_slope)
     out.update({(c, "walk"): v for c, v in walk.items()})

@@ -8,7 +8,8 @@ import copy
 import numpy as np
 import pytest
 
-from microsim.fit import family, fit_table, model_bins
+from microsim.compare import bin_averages
+from microsim.fit import family, fit_table
 from microsim.recipe import resolve
 from microsim.simulation import simulate
 from microsim.surfaces import build_tile
@@ -29,7 +30,7 @@ def made_from(table: object, spec: str, params: list) -> object:
     """The table with its bins replaced by the family's bin averages at ``params``,
     each with a 1% error: a noiseless anisotropic table of that model."""
     _, fam = family(spec, model_defaults(table.meta))
-    avg = model_bins(fam.build(np.asarray(params, float)), table, 5)
+    avg = bin_averages(fam.build(np.asarray(params, float)), table.axes, 5)
     out = copy.copy(table)
     out.values = {c: avg for c in table.values}
     out.errors = {c: 0.01 * avg + 1e-12 for c in table.errors}

@@ -16,6 +16,7 @@ from microsim.tables.assemble import from_sums, merge
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import write_table
 from microsim.tables.meta import TableMeta
+from microsim.tables.table import lobe_of
 
 LAMBERT = 1 / np.pi
 
@@ -250,3 +251,13 @@ def test_attribute_that_is_not_json(tmp_path):
                  {"R": np.zeros((2, 2), np.float32)}).write(str(path))
     with pytest.raises(InputError, match="not JSON"):
         microsim.read_table(path)
+
+
+def test_lobe_of_is_the_fraction_of_each_incidences_peak():
+    # two incidences over three bins: a lobe and an empty incidence (no lobe at all)
+    f = np.array([[1.0, 0.1, 0.099], [0.0, 0.0, 0.0]])
+    lobe = lobe_of(f, -1)
+    assert lobe.tolist() == [[True, True, False], [False, False, False]]
+    # the bin axes may be any: the same values along axis 0 give the transpose
+    assert np.array_equal(lobe_of(f.T, 0), lobe.T)
+    assert lobe_of(f, -1, threshold=0.05).tolist()[0] == [True, True, True]

@@ -18,7 +18,7 @@ from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.estimator import ENSEMBLE, RAYS, estimate
 from microsim.tables.meta import TableMeta
-from microsim.tables.table import LOBE_FRACTION, BRDFTable, by_component, components_of
+from microsim.tables.table import BRDFTable, by_component, components_of, lobe_of
 
 
 def from_sums(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
@@ -57,8 +57,8 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
     Σ X² from the order-2L sums (``microsim.tables.sh.second_moments``). Over
     realisations every quantity is the mean of the realisations' estimates
     (``microsim.tables.estimator``): the bins' errors are moderated over the lobe bins
-    of each incidence (bins of the mean f_r at least ``LOBE_FRACTION`` of its peak),
-    the albedo's and the harmonics' are batch means.
+    of each incidence (``lobe_of`` the mean f_r over RGB), the albedo's and the
+    harmonics' are batch means.
 
     Parameters
     ----------
@@ -111,8 +111,7 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
         with np.errstate(invalid="ignore", divide="ignore"):
             mean = np.nansum(s1 / np.where(rays > 0, rays, np.nan)[..., None, None],
                              axis=0)
-        f = mean.mean(axis=-1)
-        lobe = (f >= LOBE_FRACTION * f.max(axis=-1, keepdims=True)) & (f > 0)
+        lobe = lobe_of(mean.mean(axis=-1), -1)
         e = estimate(s1, s2, rays, np.broadcast_to(lobe[..., None], mean.shape))
         values[c], errors[c] = (e.mean / omega).reshape(shape), (e.stderr / omega
                                                                   ).reshape(shape)

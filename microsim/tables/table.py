@@ -36,6 +36,29 @@ LOBE_FRACTION = 0.1
 compared with it) is at least this fraction of the incidence's peak."""
 
 
+def lobe_of(f: np.ndarray, axis: int | tuple[int, ...],
+              threshold: float = LOBE_FRACTION) -> np.ndarray:
+    """Lobe bins: where ``f`` is at least ``threshold`` times its peak over ``axis`` (the
+    bins of one incidence), none where that peak is not positive (nothing landed).
+
+    Parameters
+    ----------
+    f : (...) float
+        Bin values (a table's f_r, or a model's bin averages).
+    axis : int or tuple of int
+        The bin axes of ``f``.
+    threshold : float
+        The fraction of the peak (``LOBE_FRACTION``).
+
+    Returns
+    -------
+    (...) bool
+        The shape of ``f``.
+    """
+    peak = f.max(axis=axis, keepdims=True)
+    return (f >= threshold * peak) & (peak > 0)
+
+
 class BRDFTable:
     """A binned BRDF with per-bin standard errors.
 
@@ -208,9 +231,8 @@ class BRDFTable:
                   threshold: float = LOBE_FRACTION) -> np.ndarray:
         """(a, b, nt, np) bool: bins whose f_r (mean over RGB) is at least ``threshold``
         times the peak of their incidence."""
-        f = self.values[self.component(component)].mean(axis=-1)
-        peak = f.max(axis=(2, 3), keepdims=True)
-        return (f >= threshold * peak) & (peak > 0)
+        return lobe_of(self.values[self.component(component)].mean(axis=-1), (2, 3),
+                         threshold)
 
     def median_rel_stderr(self, component: str = "total") -> float:
         """Median relative standard error over the lobe bins of every incidence (NaN
