@@ -165,7 +165,7 @@ def _simulation(raw: Any, surface: Mapping[str, Any]) -> Simulation:
         raise InputError(f"simulation.max_realisations = {sim['max_realisations']!r}: must "
                          f"be 1 for this {surface['kind']} surface, whose geometry has "
                          "nothing random")
-    return Simulation(**{k: tuple(v) if isinstance(v, list) else v for k, v in sim.items()})
+    return Simulation.from_json(sim)
 
 
 # --- loading and overrides --------------------------------------------------------------
