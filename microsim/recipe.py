@@ -28,7 +28,15 @@ from typing import Any
 
 from microsim.errors import InputError
 from microsim.materials import MATERIALS, Material, parse_material
-from microsim.schema import REQUIRED, Key, check_section, parse_value, suggest, unknown_key
+from microsim.schema import (
+    REQUIRED,
+    Key,
+    check_section,
+    parse_value,
+    suggest,
+    unknown_key,
+    unknown_kind,
+)
 from microsim.settings import (
     SIMULATION,
     TABLE,
@@ -121,13 +129,8 @@ def resolve(raw: Mapping[str, Any]) -> Recipe:
                          + " | ".join(repr(k) for k in SURFACE_KINDS))
     surface = _table(raw["surface"], "surface")
     kind = surface.get("kind")
-    if kind is None:
-        raise InputError("surface.kind: missing; must be one of "
-                         + ", ".join(repr(k) for k in SURFACE_KINDS))
     if not isinstance(kind, str) or kind not in SURFACE_KINDS:
-        raise InputError(f"surface.kind = {kind!r}: must be one of "
-                         + ", ".join(repr(k) for k in SURFACE_KINDS)
-                         + suggest(str(kind), SURFACE_KINDS))
+        raise unknown_kind("surface.", kind, SURFACE_KINDS)
     spec = SURFACE_KINDS[kind]
     rest = {k: v for k, v in surface.items() if k != "kind"}
     surf = {"kind": kind, **check_section(rest, spec.keys, "surface.")}
@@ -162,7 +165,7 @@ def _simulation(raw: Any, surface: Mapping[str, Any]) -> Simulation:
         raise InputError(f"simulation.max_realisations = {sim['max_realisations']!r}: must "
                          f"be 1 for this {surface['kind']} surface, whose geometry has "
                          "nothing random")
-    return Simulation(**{k: tuple(v) if isinstance(v, list) else v for k, v in sim.items()})
+    return Simulation.from_json(sim)
 
 
 # --- loading and overrides --------------------------------------------------------------

@@ -127,6 +127,17 @@ def unknown_key(where: str, name: str, options: Iterable[str]) -> InputError:
                       f"allowed: {', '.join(options) if options else 'none'}")
 
 
+def unknown_kind(where: str, kind: Any, kinds: Iterable[str]) -> InputError:
+    """The error for a missing (None) or unknown ``kind`` of a section (``where``, e.g.
+    ``"surface."``), naming the ``kinds`` allowed."""
+    kinds = list(kinds)
+    allowed = ", ".join(repr(k) for k in kinds)
+    if kind is None:
+        return InputError(f"{where}kind: missing; must be one of {allowed}")
+    return InputError(f"{where}kind = {kind!r}: must be one of {allowed}"
+                      + suggest(str(kind), kinds))
+
+
 def _number(value: Any, name: str, key: Key, integer: bool = False) -> float | int:
     """Check one number (type, finiteness, bounds) and return it."""
     bad = InputError(f"{name} = {value!r}: must be {key.allowed()}")

@@ -52,11 +52,6 @@ def add_realisations_arg(p: argparse.ArgumentParser) -> None:
                         "deterministic geometry)")
 
 
-def realisations_override(args: argparse.Namespace) -> list[str]:
-    """``[simulation.realisations=K]`` when ``--realisations K`` was given, else ``[]``."""
-    return [] if args.realisations is None else [f"simulation.realisations={args.realisations}"]
-
-
 def error_model_note(model: str, realisations: int, what: str = "z-scores") -> str:
     """One line saying what a result's errors include (``rays``, ``ensemble``, ...) and so
     what ``what`` (the numbers made from them) are about."""
@@ -120,9 +115,12 @@ def table_component(table: Any, name: str, path: Any) -> str:
                          + ", ".join(table.components)) from None
 
 
-def seed_override(args: argparse.Namespace, section: str) -> list[str]:
-    """``[section.seed=N]`` when ``--seed N`` was given, else ``[]``."""
-    return [] if args.seed is None else [f"{section}.seed={args.seed}"]
+def flag_overrides(args: argparse.Namespace, section: str, *flags: str) -> list[str]:
+    """``--set`` strings ``section.<flag>=<value>`` for each of ``flags`` that was given
+    (argparse destinations named as the section's recipe keys, e.g. ``--seed N`` gives
+    ``section.seed=N``), so the schema validates a flag as it validates ``--set``."""
+    return [f"{section}.{flag}={getattr(args, flag)!r}" for flag in flags
+            if getattr(args, flag) is not None]
 
 
 def nonnegative_int(text: str) -> int:

@@ -14,9 +14,9 @@ from microsim.commands.common import (
     add_seed_arg,
     add_threads_arg,
     error_model_note,
+    flag_overrides,
     positive_int,
     print_json,
-    seed_override,
 )
 from microsim.commands.measure import roughness_json
 from microsim.files import PLOT_SUFFIXES, writable_file
@@ -95,10 +95,7 @@ def run(args: argparse.Namespace) -> int:
     from microsim.agreement import verdict_text
     from microsim.commands.simulate import print_summary, simulate_resolved, summary
 
-    overrides = seed_override(args, "simulation")
-    if args.rays is not None:
-        overrides.append(f"simulation.rays={args.rays}")
-    resolved = recipe.load(RECIPE, overrides)
+    resolved = recipe.load(RECIPE, flag_overrides(args, "simulation", "seed", "rays"))
     writable_file(args.output, "--output", (".exr",))
     if args.plot is not None:
         writable_file(args.plot, "--plot", PLOT_SUFFIXES)

@@ -13,9 +13,9 @@ from microsim.commands.common import (
     add_memory_arg,
     add_recipe_args,
     add_seed_arg,
+    flag_overrides,
     print_json,
     readable,
-    seed_override,
 )
 from microsim.files import atomic_path, writable_file
 
@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     from microsim.surfaces import build_tile
 
     writable_file(args.output, "--output", FORMATS)
-    resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "surface")])
+    resolved = recipe.load(args.recipe, [*args.overrides, *flag_overrides(args, "surface", "seed")])
     tile = build_tile(resolved.surface, args.memory_limit)
     for warning in tile.warnings:
         print(f"warning: {warning}", file=sys.stderr)

@@ -17,12 +17,11 @@ from microsim.commands.common import (
     add_seed_arg,
     add_threads_arg,
     error_model_note,
+    flag_overrides,
     number_list,
     positive_int,
     print_json,
-    realisations_override,
     roughness_text,
-    seed_override,
 )
 from microsim.errors import InputError
 from microsim.files import PLOT_SUFFIXES, writable_file
@@ -107,8 +106,8 @@ def run_g1(args: argparse.Namespace) -> int:
 
     if not math.isfinite(args.phi):
         raise InputError(f"--phi {args.phi}: must be a finite angle in degrees")
-    resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "simulation"),
-                                         *realisations_override(args)])
+    resolved = recipe.load(args.recipe, [*args.overrides, *flag_overrides(
+        args, "simulation", "seed", "realisations")])
     inside = [part for part, m in resolved.material.items() if m.medium() is not None]
     if inside:
         print(f"warning: part {inside[0]!r} refracts: G1 samples every face, also those "
@@ -157,8 +156,8 @@ def run_ndf(args: argparse.Namespace) -> int:
     from microsim.analytic.ndf import Beckmann, ndf_bin_average
     from microsim.facets import measure_ndf_recipe
 
-    resolved = recipe.load(args.recipe, [*args.overrides, *seed_override(args, "surface"),
-                                         *realisations_override(args)])
+    resolved = recipe.load(args.recipe, [*args.overrides, *flag_overrides(args, "surface", "seed"),
+                                         *flag_overrides(args, "simulation", "realisations")])
     if args.plot:
         writable_file(args.plot, "--plot", PLOT_SUFFIXES)
     m = measure_ndf_recipe(resolved, args.bins, args.memory_limit)

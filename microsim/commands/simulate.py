@@ -18,6 +18,7 @@ from microsim.commands.common import (
     add_seed_arg,
     add_threads_arg,
     error_model_note,
+    flag_overrides,
     positive_int,
     print_json,
     roughness_text,
@@ -76,16 +77,9 @@ def add_tracing_args(p: argparse.ArgumentParser) -> None:
     add_memory_arg(p)
 
 
-def tracing_overrides(args: argparse.Namespace) -> list[str]:
-    """``--set`` strings for the tracing flags that were given (validated by the schema)."""
-    out = []
-    for flag, key in (("rays", "rays"), ("realisations", "realisations"),
-                      ("target_error", "target_error"), ("max_rays", "max_rays"),
-                      ("max_realisations", "max_realisations"), ("seed", "seed")):
-        value = getattr(args, flag)
-        if value is not None:
-            out.append(f"simulation.{key}={value!r}")
-    return out
+TRACING_FLAGS = ("rays", "realisations", "target_error", "max_rays", "max_realisations",
+                 "seed")
+"""The flags of ``add_tracing_args`` that override the ``[simulation]`` key of their name."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -214,7 +208,8 @@ def simulate_resolved(resolved: Recipe, threads: int | None, show_progress: bool
 
 def run(args: argparse.Namespace) -> int:
     """Simulate, write the table, print the summary."""
-    resolved = recipe.load(args.recipe, [*args.overrides, *tracing_overrides(args)])
+    resolved = recipe.load(args.recipe, [*args.overrides,
+                                         *flag_overrides(args, "simulation", *TRACING_FLAGS)])
     output = writable_file(args.output or Path("tables") / (Path(args.recipe).stem + ".exr"),
                            "--output", (".exr",))
     table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json,

@@ -11,9 +11,9 @@ from microsim import recipe
 from microsim.commands.common import (
     add_memory_arg,
     add_seed_arg,
+    flag_overrides,
     number_list,
     positive_int,
-    seed_override,
 )
 from microsim.errors import InputError
 from microsim.files import SCREENSHOT_SUFFIXES, writable_file
@@ -156,7 +156,7 @@ def run(args: argparse.Namespace) -> int:
         title = source.name
         resolved = None
     elif suffix == ".toml":
-        resolved = recipe.load(source, [*args.overrides, *seed_override(args, "surface")])
+        resolved = recipe.load(source, [*args.overrides, *flag_overrides(args, "surface", "seed")])
         surface = resolved.surface
         title = f"{source.name}: {surface['kind']}"
     elif suffix == ".exr":

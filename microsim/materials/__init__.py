@@ -12,13 +12,14 @@ from collections.abc import Mapping
 from typing import Any
 
 from microsim.errors import InputError
-from microsim.materials.base import Material, unknown_kind
+from microsim.materials.base import Material
 from microsim.materials.black import Black
 from microsim.materials.conductor import Conductor
 from microsim.materials.dielectric import Dielectric
 from microsim.materials.lambertian import Lambertian
 from microsim.materials.mirror import Mirror
 from microsim.materials.table import Table
+from microsim.schema import unknown_kind
 
 __all__ = ["KINDS", "MATERIALS", "Black", "Conductor", "Dielectric", "Lambertian", "Material",
            "Mirror", "Table", "code_of", "material_from_json", "parse_material"]

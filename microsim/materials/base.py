@@ -30,8 +30,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from microsim.errors import InputError
-from microsim.schema import Key, check_section, schema_of, suggest
+from microsim.schema import Key, check_section, schema_of
 
 KIND_COLUMNS = 9
 """Columns of the kernel's parameter row that a kind's ``parameters`` fill."""
@@ -156,11 +155,3 @@ class Material:
         """Model parameters this material implies (``eta``, ``k``, ``albedo``)."""
         return {}
 
-
-def unknown_kind(where: str, kind: Any, kinds: Mapping[str, type[Material]]) -> InputError:
-    """The error for a missing or unknown ``kind``."""
-    allowed = ", ".join(repr(k) for k in kinds)
-    if kind is None:
-        return InputError(f"{where}kind: missing; must be one of {allowed}")
-    return InputError(f"{where}kind = {kind!r}: must be one of {allowed}"
-                      + suggest(str(kind), kinds))
