@@ -124,7 +124,11 @@ def run(args: argparse.Namespace) -> int:
             panels = [("table" if models else label, figure.display(image))]
             if models:
                 name, params, model = models[k]
-                bsdf, how = bsdfs.model_bsdf(mi, model, args.rotate)
+                # one Python call per direction pair in scalar variants takes minutes:
+                # there the model is tabulated like a table (docs/render.md)
+                tabulate = Path(tmp) / f"model{k}.bsdf" if args.variant.startswith(
+                    "scalar") else None
+                bsdf, how = bsdfs.model_bsdf(mi, model, args.rotate, tabulate)
                 other = scene.render(mi, surface, bsdf, camera, lights, args.spp,
                                      args.seed + 1)
                 diff = figure.difference(image, other)

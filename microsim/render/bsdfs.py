@@ -13,8 +13,10 @@ not exactly reciprocal.
 (``mitsuba_equivalent``): ``diffuse`` for ``lambertian``; ``roughconductor`` for a
 Beckmann or GGX microfacet model with separable Smith masking (Mitsuba's) and a conductor
 or no Fresnel term (F = 1: ``material = none``); ``roughplastic`` with no diffuse layer for
-an isotropic one with a dielectric Fresnel term. Everything else is evaluated by numpy
-through a Python BSDF (``python_bsdf``), sampled cosine-weighted.
+an isotropic one with a dielectric Fresnel term. Everything else is tabulated as a table
+is (``tensor_bsdf``) where the caller gives a file for it — the render command does in
+scalar variants, where a Python call per direction pair would take minutes — or else
+evaluated by numpy through a Python BSDF (``python_bsdf``), sampled cosine-weighted.
 """
 
 from __future__ import annotations
@@ -62,28 +64,55 @@ def oriented(f: Any, rotation: float) -> Any:
     return lambda a, b: f(b @ inverse.T, a @ inverse.T)
 
 
-def table_bsdf(mi: Any, table: Any, path: str | Path, component: str = "total",
-               rotation: float = 0.0) -> Any:
-    """Write ``table`` as an RGL tensor at ``path`` and load it with ``measured``.
+def tensor_bsdf(mi: Any, f: Any, isotropic: bool, path: str | Path, rotation: float,
+                description: str) -> Any:
+    """Write f_r as an RGL tensor at ``path`` and load it with ``measured``.
 
     Parameters
     ----------
     mi : module
         Mitsuba, variant set.
-    table : BRDFTable
+    f : callable
+        ``f(wi, wo) -> (..., 3)`` (or (...)) f_r in 1/sr for (..., 3) unit directions.
+    isotropic : bool
+        Whether f depends on the azimuths only through their difference (one φi slice).
     path : str or Path
         Where the ``.bsdf`` goes (a temporary file of the caller).
-    component : str
     rotation : float
-        Degrees about the normal (anisotropic tables; isotropic ones are unchanged).
+        Degrees about the normal (anisotropic f; an isotropic one is unchanged).
+    description : str
+        The tensor's description field.
     """
-    iso = bool(table.isotropic)
-    fields = rgl_tensor(oriented(lambda wi, wo: table.eval(wi, wo, component), rotation),
-                        np.radians(np.linspace(0.0, 89.0, THETA_NODES[iso])),
-                        None if iso else rgl_phi_i(PHI_STEP), RESOLUTION[iso],
-                        f"microsim {component} table")
+    def rgb(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        return as_rgb(f(wi, wo), np.broadcast_shapes(wi.shape, wo.shape)[:-1])
+
+    fields = rgl_tensor(oriented(rgb, rotation),
+                        np.radians(np.linspace(0.0, 89.0, THETA_NODES[isotropic])),
+                        None if isotropic else rgl_phi_i(PHI_STEP), RESOLUTION[isotropic],
+                        description)
     write_tensor_file(fields, path)
     return mi.load_dict({"type": "measured", "filename": str(path)})
+
+
+def table_bsdf(mi: Any, table: Any, path: str | Path, component: str = "total",
+               rotation: float = 0.0) -> Any:
+    """``table``'s ``component`` through ``measured`` (``tensor_bsdf``)."""
+    return tensor_bsdf(mi, lambda wi, wo: table.eval(wi, wo, component),
+                       bool(table.isotropic), path, rotation, f"microsim {component} table")
+
+
+def isotropic(f: Any, pairs: int = 256, seed: int = 0) -> bool:
+    """Whether ``f(wi, wo)`` is unchanged when both directions turn about the normal:
+    checked at ``pairs`` random direction pairs each turned by a random angle (relative
+    difference ≤ 1e-9 of the largest value)."""
+    rng = np.random.default_rng(seed)
+    v = rng.normal(size=(2, pairs, 3))
+    v[..., 2] = np.abs(v[..., 2])  # upper hemisphere
+    wi, wo = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    turn = rotation_z(float(rng.uniform(10.0, 350.0)))
+    a = as_rgb(f(wi, wo), (pairs,))
+    b = as_rgb(f(wi @ turn.T, wo @ turn.T), (pairs,))
+    return bool(np.all(np.abs(a - b) <= 1e-9 * max(float(np.abs(a).max()), 1e-300)))
 
 
 def rgb_spectrum(value: Any) -> dict[str, Any]:
@@ -137,18 +166,23 @@ def mitsuba_equivalent(model: Any, rotation: float = 0.0) -> dict[str, Any] | No
     return None
 
 
-def model_bsdf(mi: Any, model: Any, rotation: float = 0.0) -> tuple[Any, str]:
-    """Mitsuba's equivalent plugin if there is one, else the Python BSDF.
+def model_bsdf(mi: Any, model: Any, rotation: float = 0.0,
+               path: str | Path | None = None) -> tuple[Any, str]:
+    """Mitsuba's equivalent plugin if there is one; else the model tabulated as a table is
+    (``tensor_bsdf``) when ``path`` is given, or the Python BSDF.
 
     Returns
     -------
     bsdf : mitsuba.BSDF
     how : str
-        The plugin's name, or ``"python"``.
+        The plugin's name, ``"tabulated"`` or ``"python"``.
     """
     plugin = mitsuba_equivalent(model, rotation)
     if plugin is not None:
         return mi.load_dict(plugin), plugin["type"]
+    if path is not None:
+        return tensor_bsdf(mi, model.eval, isotropic(model.eval), path, rotation,
+                           f"microsim model {type(model).__name__}"), "tabulated"
     return python_bsdf(mi, model, rotation), "python"
 
 
