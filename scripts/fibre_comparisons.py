@@ -8,6 +8,7 @@ quote, with ray counts and the load average. Several minutes on 2 cores.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import sys
@@ -200,8 +201,17 @@ def furnace() -> None:
                   f"{100 * lost.max():.3f}% |")
 
 
+SECTIONS = {"cylinders": cylinders, "velvet": velvet, "weaves": weaves, "furnace": furnace}
+
 if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("sections", nargs="*", metavar="SECTION",
+                        help=f"what to measure: {', '.join(SECTIONS)} (default: all)")
+    args = parser.parse_args()
+    unknown = sorted(set(args.sections) - set(SECTIONS))
+    if unknown:
+        parser.error(f"unknown section {unknown[0]!r}; choose from {', '.join(SECTIONS)}")
     OUT.mkdir(parents=True, exist_ok=True)
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
-    for section in sys.argv[1:] or ["cylinders", "velvet", "weaves", "furnace"]:
-        globals()[section]()
+    for section in args.sections or list(SECTIONS):
+        SECTIONS[section]()

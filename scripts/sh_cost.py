@@ -32,7 +32,8 @@ from microsim.files import replace_marked
 from microsim.geometry import direction
 from microsim.goniometer import BATCH, Sums
 from microsim.kernel.beam import CELLS, beam_origins
-from microsim.materials import Conductor, FacetMaterials, Mirror
+from microsim.kernel.packing import FacetMaterials
+from microsim.materials import Conductor, Mirror
 from microsim.paths import trace_paths
 from microsim.recipe import load
 from microsim.surfaces import build_tile
