@@ -9,6 +9,7 @@ shares; docs/ensembles.md describes the rule and its measured constants.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -24,10 +25,9 @@ MAX_REALISATIONS_FACTOR = 16
 GROWTH = 4
 """Per round of the adaptive stop, rays per realisation and realisations grow at most this
 many times (the variance split that plans a round is itself an estimate)."""
-TILE_COST = 1.0
-"""Building a tile and its Embree scene costs about as much as tracing this many rays per
-triangle (measured on the shipped 256² tile: 0.11 s against 0.9 M rays per second; docs/
-ensembles.md); the adaptive stop weighs new realisations by it."""
+MIN_RAYS = 8192
+"""Fewest rays a new realisation gets per direction: below it a batch's fixed costs (its
+start, binning and harmonic transforms) outweigh its rays."""
 
 
 def _median(x: np.ndarray) -> float:
@@ -59,46 +59,64 @@ def direction_errors(table: BRDFTable, component: str = "total"
     return rel, share
 
 
-def next_plan(realisations: int, rays: int, rel: float, share: float,
-               simulation: Simulation, tile_cost: float) -> tuple[int, int] | str:
-    """The next (realisations, rays per realisation) of a direction that missed its target,
-    or why it stops (``"max_rays"``, ``"max_realisations"``).
+def next_plan(rays: Sequence[int], rel: float, share: float, simulation: Simulation,
+              tile_cost: float) -> tuple[int, int] | str:
+    """The next (realisations, rays) of a direction that missed its target, or why it stops
+    (``"max_rays"``, ``"max_realisations"``).
 
-    With one realisation the error is the rays' (∝ 1/n): the rays grow by (rel/target)².
-    With K ≥ 2 the variance splits as V = R/(K n) + T/K (ray share ``share``); the rays per
-    realisation move towards Cochran's (1977, Sampling Techniques, 3rd ed., sec. 10.6)
-    optimum n* = √(R c / T) for a realisation costing c rays, and the realisations grow
-    until (R/n + T)/K reaches target². Both grow by at most ``GROWTH`` per round; the
-    caps ``max_rays`` (K n) and ``max_realisations`` bound them.
+    With one realisation (deterministic geometry) the error is the rays' (∝ 1/n): its rays
+    grow by (rel/target)², and the plan is (1, its rays in all). With realisations, those
+    traced keep their rays and new ones are added, each with n rays: the plan is (K', n),
+    the realisations in all and the rays of each new one. The variance of the mean of K
+    realisations of n_r rays is V = (R Σ 1/n_r + K T) / K² (ray variance R per ray and
+    tile variance T, from ``rel`` and the ray share ``share``); new realisations get
+    Cochran's (1977, Sampling Techniques, 3rd ed., sec. 10.6) optimum n* = √(R c / T) for
+    a realisation costing c rays (``tile_cost``, measured on the run), at least
+    ``MIN_RAYS``, and K' is the least count with V ≤ target². K' grows by at most
+    ``GROWTH`` per round (the variance split is itself an estimate); the caps
+    ``max_rays`` (rays in all) and ``max_realisations`` bound the plan.
+
+    Parameters
+    ----------
+    rays : sequence of int
+        Rays of each realisation traced so far.
+    rel, share : float
+        The direction's median relative standard error over its lobe bins and the ray
+        noise's share of its variance (``direction_errors``).
+    simulation : Simulation
+    tile_cost : float
+        What a new realisation costs, in rays of this direction.
     """
     target = float(simulation.target_error)
     most_rays = int(simulation.max_rays or MAX_RAYS_FACTOR * int(simulation.rays))
     most_real = int(simulation.max_realisations
                     or min(MAX_REALISATIONS_FACTOR * simulation.realisations_or_one, 65536))
-    if simulation.realisations_or_one == 1:
-        most_real = 1
-    k, n = realisations, rays
     v, goal = rel**2, target**2
-    if k == 1 or not math.isfinite(v):
+    k, total = len(rays), int(sum(rays))
+    if simulation.realisations_or_one == 1:
         grow = min(GROWTH, v / goal) if math.isfinite(v) else GROWTH
-        k1, n1 = k, n * grow
-    else:
-        r_coef, t_coef = share * v * k * n, (1.0 - share) * v * k
-        n1 = min(max(math.sqrt(r_coef * tile_cost / t_coef) if t_coef > 0 else math.inf, n),
-                 GROWTH * n)
-        k1 = min(max(math.ceil((r_coef / n1 + t_coef) / goal), k + 1), GROWTH * k)
-        if k1 > most_real:  # fewer realisations than wished: more rays make up, if they can
-            k1 = most_real
-            if k1 * goal <= t_coef:  # the tiles' spread alone exceeds the target
-                return "max_realisations" if k1 == k else (k1, n)
-            n1 = min(max(r_coef / (k1 * goal - t_coef), n), GROWTH * n)
-    n1 = n + math.ceil(max(n1 - n, 0.0) / BATCH) * BATCH  # whole batches added
-    bound = "max_realisations" if k1 >= most_real and k1 > k else None
-    if k1 * n1 > most_rays:
-        n1 = max(n, min(n1, most_rays // k1))
-        if k1 * n1 > most_rays:
-            k1 = max(k, most_rays // n1)
-        bound = "max_rays"
-    if (k1, n1) == (k, n):
-        return bound or ("max_realisations" if k >= most_real else "max_rays")
-    return k1, n1
+        n1 = total + math.ceil(max(total * grow - total, 0.0) / BATCH) * BATCH
+        n1 = min(n1, most_rays)
+        return (1, n1) if n1 > total else "max_rays"
+    if k >= most_real:
+        return "max_realisations"
+    if not math.isfinite(v):
+        return min(GROWTH * k, most_real), max(rays)
+    inverse = float(np.sum(1.0 / np.asarray(rays, float)))
+    r_coef = share * v * k * k / inverse          # R
+    t_coef = (1.0 - share) * v * k                # T
+    n = max(MIN_RAYS, max(rays) * GROWTH) if t_coef <= 0 else min(
+        max(MIN_RAYS, math.ceil(math.sqrt(r_coef * tile_cost / t_coef))), GROWTH * max(rays))
+    # least K' with goal K'² − (T + R/n) K' − R (Σ 1/n_r − K/n) ≥ 0
+    b = t_coef + r_coef / n
+    c = r_coef * (inverse - k / n)
+    k1 = math.ceil((b + math.sqrt(b * b + 4.0 * goal * c)) / (2.0 * goal))
+    k1 = min(max(k1, k + 1), GROWTH * k)
+    bound = None
+    if k1 >= most_real:
+        k1, bound = most_real, "max_realisations"
+    if total + (k1 - k) * n > most_rays:
+        k1, bound = k + (most_rays - total) // n, "max_rays"
+    if k1 <= k:
+        return bound or "max_rays"
+    return k1, n

@@ -37,6 +37,7 @@ from microsim.settings import DEFAULT_ORDERS, Simulation, TableSettings
 from microsim.surfaces.facts import TileFacts
 from microsim.surfaces.tile import Tile
 from microsim.tables import sh
+from microsim.tables.assemble import EnsembleSums
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import components_for
 from microsim.tables.meta import DirectionRecord, TableInput
@@ -266,15 +267,34 @@ class Progress:
 
 
 @dataclass
+class Energies:
+    """What the folded realisations of one incident direction leave for its record
+    (``DirectionRecord``): Σ over realisations of each one's lost, transmitted and
+    absorbed weight per ray ((3, 3) float, rows in that order) and the paths per ending."""
+
+    energy: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
+    fates: dict[str, int] = field(default_factory=dict)
+
+    def add(self, sums: Sums) -> None:
+        """Add one realisation's run."""
+        self.energy += np.stack([sums.lost, sums.transmitted, sums.absorbed]) / sums.rays
+        for name, n in sums.fates.items():
+            self.fates[name] = self.fates.get(name, 0) + n
+
+
+@dataclass
 class Measurement:
     """What tracing some incident directions of some realisations gives; the pieces a table
     is assembled from (``microsim.simulation.assemble_table``).
 
+    Realisations a measurement will add no rays to are folded into running sums
+    (``fold``), so its memory does not grow with their number; the others stay runs.
+
     Attributes
     ----------
     runs : dict of RunKey to Run
-        Per traced (l, k, r): incident polar angle index l into ``simulation.theta_i``,
-        azimuth index k, realisation r.
+        Per traced (l, k, r) not folded: incident polar angle index l into
+        ``simulation.theta_i``, azimuth index k, realisation r.
     surfaces : dict of int to TileFacts
         The facts of each realisation's tile.
     inputs : list of TableInput
@@ -287,11 +307,18 @@ class Measurement:
         The scene's ray offset (``PeriodicScene.eps``; of realisation 0 when traced).
     scene_time, trace_time : float
         Wall-clock seconds to build the tiles and scenes, and to trace.
+    tiles : int
+        Tiles built (and their scenes) in ``scene_time``.
     stops : dict of (int, int) to str
         Why each direction's adaptive stop ended (``microsim.simulation``); directions
         traced with a fixed count are absent.
     warnings : list of str
         The tiles' warnings, each once.
+    ensemble : EnsembleSums or None
+        The folded realisations' sums, of every direction of the simulation's table
+        (those of realisations 0, 1, ... of a direction, in order).
+    energies : dict of (int, int) to Energies
+        The folded realisations' energies and fates, per direction.
     """
 
     runs: dict[RunKey, Run]
@@ -302,13 +329,41 @@ class Measurement:
     offset: float = math.nan
     scene_time: float = 0.0
     trace_time: float = 0.0
+    tiles: int = 0
     stops: dict[Direction, str] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    ensemble: EnsembleSums | None = None
+    energies: dict[Direction, Energies] = field(default_factory=dict)
 
     @property
     def rays(self) -> int:
-        """Rays traced over every run."""
-        return sum(run.sums.rays for run in self.runs.values())
+        """Rays traced over every run, folded ones included."""
+        folded = 0 if self.ensemble is None else int(self.ensemble.rays.sum())
+        return folded + sum(run.sums.rays for run in self.runs.values())
+
+    def fold(self, key: RunKey, simulation: Simulation, table: TableSettings) -> None:
+        """Move run ``key`` into the running sums (realisations of a direction in index
+        order)."""
+        if self.ensemble is None:
+            self.ensemble = new_ensemble(simulation, table, self.isotropic)
+        fold(self.ensemble, self.energies.setdefault(key[:2], Energies()), key,
+             self.runs.pop(key).sums)
+
+
+def fold(ensemble: EnsembleSums, energies: Energies, key: RunKey, sums: Sums) -> None:
+    """Add one realisation's run of a direction to running sums: the table's
+    (``EnsembleSums``) and the record's (``Energies``)."""
+    ensemble.add((key.theta, key.phi), key.realisation, sums.rays, sums.sums, sums.sums_sq,
+                 sums.lost_energy, sums.sh_sums, sums.sh_sums_sq)
+    energies.add(sums)
+
+
+def new_ensemble(simulation: Simulation, table: TableSettings, isotropic: bool
+                 ) -> EnsembleSums:
+    """Empty running sums for every incident direction of a simulation's table."""
+    return EnsembleSums((len(simulation.theta_i), len(incident_azimuths(isotropic, simulation))),
+                        components_for(table.orders), table.theta_bins * table.phi_bins,
+                        table.sh_order)
 
 
 def incident_azimuths(isotropic: bool, simulation: Simulation) -> list[float]:

@@ -19,18 +19,21 @@ from typing import Any
 import numpy as np
 
 import microsim
-from microsim.adaptive import TILE_COST, direction_errors, next_plan
+from microsim.adaptive import direction_errors, next_plan
 from microsim.goniometer import (
     BATCH,
     Direction,
+    Energies,
     Measurement,
     Progress,
     Run,
     RunKey,
     Sums,
+    fold,
     incident_azimuths,
     lost_energy_warnings,
     measure_directions,
+    new_ensemble,
 )
 from microsim.materials import Material
 from microsim.settings import Recipe, Simulation, SurfaceSection, TableSettings
@@ -38,7 +41,7 @@ from microsim.surfaces import build_tile
 from microsim.surfaces.facts import SurfaceFacts
 from microsim.surfaces.realisations import realisation, realisation_seed
 from microsim.surfaces.tile import Tile
-from microsim.tables.assemble import from_realisations
+from microsim.tables.assemble import from_ensemble
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.meta import DirectionRecord, TableMeta, Timing
 from microsim.tables.table import BRDFTable
@@ -76,9 +79,16 @@ class Tiles:
 def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Material],
                      simulation: Simulation, table: TableSettings,
                      thetas: Sequence[int] | None = None, *, threads: int | None = None,
-                     progress: Callable[[Progress], None] | None = None) -> Measurement:
+                     progress: Callable[[Progress], None] | None = None,
+                     keep_runs: bool = False) -> Measurement:
     """Trace the incident directions of some polar angles over the surface's realisations,
     one tile at a time, until each direction's plan (and adaptive stop) is done.
+
+    With realisations (``simulation.realisations_or_one`` > 1) each tile is traced once,
+    for every direction that plans it, and its runs are folded into running sums
+    (``Measurement.fold``), so the memory does not grow with the realisations; the
+    adaptive stop adds realisations (``microsim.adaptive.next_plan``). With one
+    realisation its rays grow in place.
 
     Parameters
     ----------
@@ -91,20 +101,24 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
         azimuth. Directions are measured independently (their own plans and random
         streams), so measurements of disjoint index sets assemble into the table of one
         measurement of all.
+    keep_runs : bool
+        Keep every realisation's run instead of folding it (for studies of the
+        realisations themselves; the memory then grows with them).
 
     Returns
     -------
     Measurement
-        Every realisation of every direction, and the directions' stop reasons when
-        ``simulation.target_error`` is set.
+        The folded (or kept) realisations of every direction, and the directions' stop
+        reasons when ``simulation.target_error`` is set.
     """
     chosen = list(range(len(simulation.theta_i)) if thetas is None else thetas)
     k0, n0 = simulation.realisations_or_one, simulation.rays_per_realisation
+    ensemble = k0 > 1
     target = simulation.target_error
-    runs: dict[RunKey, Run] = {}
-    done = Measurement(runs, {}, [], False)
+    done = Measurement({}, {}, [], False)
     held: tuple[int, Tile, PeriodicScene] | None = None
-    plan: dict[Direction, tuple[int, int]] = {}
+    plan: dict[Direction, tuple[int, int]] = {}   # (realisations, rays of each new one)
+    traced: dict[Direction, list[int]] = {}       # rays of each realisation traced
     bins = HemisphereBins(table.theta_bins, table.phi_bins)
     try:
         while True:
@@ -113,36 +127,44 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
             if not plan:  # the first round: the tile says whether it is isotropic
                 azimuths = incident_azimuths(done.isotropic, simulation)
                 plan = {(l, k): (k0, n0) for l in chosen for k in range(len(azimuths))}
-                cost = TILE_COST * len(held[1].faces) / len(plan)
+                traced = {d: [] for d in plan}
             work: dict[int, dict[Direction, int]] = {}
             for d, (k, n) in plan.items():
-                for r in range(k):
-                    key = RunKey(*d, r)
-                    have = runs[key].sums.rays if key in runs else 0
-                    if d not in done.stops and n > have:
-                        work.setdefault(r, {})[d] = n - have
-            # serpentine order: the tile held from the last round is traced first
-            for r in sorted(work, reverse=held[0] != min(work, default=0)):
+                if d in done.stops:
+                    continue
+                if ensemble:
+                    for r in range(len(traced[d]), k):
+                        work.setdefault(r, {})[d] = n
+                elif n > sum(traced[d]):
+                    work.setdefault(0, {})[d] = n - sum(traced[d])
+            for r in sorted(work):
                 if held[0] != r:
                     held[2].close()
                     held = None
                     held = _open(tiles, r, threads, done)
-                _trace(held, materials, simulation, table, work[r], runs, done, plan,
-                       progress)
+                _trace(held, materials, simulation, table, work[r], done, plan, progress)
+                for d, n in work[r].items():
+                    if ensemble:
+                        traced[d].append(n)
+                        if not keep_runs:
+                            done.fold(RunKey(*d, r), simulation, table)
+                    else:
+                        traced[d] = [sum(traced[d]) + n]
             if target is None:
                 break
             current = assemble_table([done], materials, simulation, table, thetas=chosen,
                                      bins=bins)
             rel, share = direction_errors(current)
-            for d, (k, n) in plan.items():
+            cost = _tile_cost(done, sum(d not in done.stops for d in plan))
+            for d in plan:
                 if d in done.stops:
                     continue
                 index = (chosen.index(d[0]), d[1])
                 if rel[index] <= target:
                     done.stops[d] = "target_error"
                     continue
-                nxt = next_plan(k, n, float(rel[index]), float(share[index]), simulation,
-                                 cost)
+                nxt = next_plan(traced[d], float(rel[index]), float(share[index]),
+                                simulation, cost)
                 if isinstance(nxt, str):
                     done.stops[d] = nxt
                 else:
@@ -155,6 +177,14 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
     return done
 
 
+def _tile_cost(done: Measurement, directions: int) -> float:
+    """What a new realisation costs a direction, in rays of that direction: the measured
+    seconds per tile (its generation, facts and scene) over the measured seconds per
+    traced ray, shared by the ``directions`` traced on each tile."""
+    rays_per_second = done.rays / max(done.trace_time, 1e-9)
+    return done.scene_time / max(done.tiles, 1) * rays_per_second / max(directions, 1)
+
+
 def _open(tiles: Callable[[int], Tile], r: int, threads: int | None, done: Measurement
           ) -> tuple[int, Tile, PeriodicScene]:
     """Build realisation r's tile and scene, counting the time and keeping its facts."""
@@ -162,6 +192,7 @@ def _open(tiles: Callable[[int], Tile], r: int, threads: int | None, done: Measu
     tile = tiles(r)
     scene = PeriodicScene(tile, threads)
     done.scene_time += time.perf_counter() - start
+    done.tiles += 1
     done.surfaces.setdefault(r, tile.facts)
     done.isotropic = bool(tile.facts.isotropic)
     done.warnings += [w for w in tile.warnings if w not in done.warnings]
@@ -172,8 +203,7 @@ def _open(tiles: Callable[[int], Tile], r: int, threads: int | None, done: Measu
 
 def _trace(held: tuple[int, Tile, PeriodicScene], materials: Mapping[str, Material],
            simulation: Simulation, table: TableSettings, work: dict[Direction, int],
-           runs: dict[RunKey, Run], done: Measurement,
-           plan: Mapping[Direction, tuple[int, int]],
+           done: Measurement, plan: Mapping[Direction, tuple[int, int]],
            progress: Callable[[Progress], None] | None) -> None:
     """Trace one realisation's share of a round in its open scene."""
     r, tile, scene = held
@@ -182,7 +212,7 @@ def _trace(held: tuple[int, Tile, PeriodicScene], materials: Mapping[str, Materi
         progress(replace(state, realisations=max(k for k, _ in plan.values())))
 
     part = measure_directions(tile, materials, simulation, table, rays=work, realisation=r,
-                              runs=runs, scene=scene,
+                              runs=done.runs, scene=scene,
                               progress=None if progress is None else report)
     done.segments += part.segments
     done.trace_time += part.trace_time
@@ -200,7 +230,8 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
     ----------
     parts : sequence of Measurement
         Of the same recipe, in any order (``measure_ensemble``, or
-        ``measure_directions`` of single realisations, e.g. batch jobs).
+        ``measure_directions`` of single realisations, e.g. batch jobs). They are not
+        changed.
     materials, simulation, table, recipe
         As for ``simulate``.
     wall_time : float or None
@@ -216,7 +247,8 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
     -------
     BRDFTable
         As ``simulate`` returns it. The same runs give the same table bit for bit, however
-        they were split into parts: realisations are combined in index order.
+        they were split into parts: each direction's realisations are added in index
+        order.
 
     Raises
     ------
@@ -224,37 +256,51 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
         If a run appears twice, a polar angle is missing, or a direction's realisations
         are not 0, 1, ..., K − 1.
     """
+    first = parts[0]
+    ensemble = new_ensemble(simulation, table, first.isotropic)
+    energies: dict[Direction, Energies] = {}
     runs: dict[RunKey, Run] = {}
     for part in parts:
+        if part.ensemble is not None:
+            ensemble.absorb(part.ensemble)
+            energies.update({d: Energies(e.energy.copy(), dict(e.fates))
+                             for d, e in part.energies.items()})
         for key, run in part.runs.items():
             if key in runs:
                 raise ValueError(f"direction {key[:2]} of realisation {key[2]} was traced "
                                  "twice")
             runs[key] = run
-    first = parts[0]
     surfaces = {r: facts for part in parts for r, facts in part.surfaces.items()}
     stops = {d: stop for part in parts for d, stop in part.stops.items()}
     theta_all = [float(t) for t in simulation.theta_i]
     chosen = list(range(len(theta_all)) if thetas is None else thetas)
     phi_deg = incident_azimuths(first.isotropic, simulation)
     directions = [(l, k) for l in chosen for k in range(len(phi_deg))]
-    count = {d: sum(1 for key in runs if key[:2] == d) for d in directions}
-    if any(count[d] < 1 or any(RunKey(*d, r) not in runs for r in range(count[d]))
-           for d in directions) or len(runs) != sum(count.values()):
+    folded = {d: len(ensemble.realisation_rays.get(d, ())) for d in directions}
+    open_runs = {d: sorted(key.realisation for key in runs if key[:2] == d)
+                 for d in directions}
+    if any(open_runs[d] != list(range(folded[d], folded[d] + len(open_runs[d])))
+           or folded[d] + len(open_runs[d]) < 1 for d in directions) or len(runs) != sum(
+            map(len, open_runs.values())) or set(ensemble.realisation_rays) - set(directions):
         raise ValueError("the measurements do not trace every incident polar angle once "
                          "with realisations 0 .. K-1")
+    for key in sorted(runs, key=lambda key: (key.realisation, key.theta, key.phi)):
+        fold(ensemble, energies.setdefault(key[:2], Energies()), key, runs[key].sums)
     bins = bins or HemisphereBins(table.theta_bins, table.phi_bins)
-    result = _table(bins, [theta_all[l] for l in chosen], phi_deg, first.isotropic, runs,
-                    directions, max(count.values()))
+    single = not any(folded.values()) and all(len(r) == 1 for r in open_runs.values())
+    raw = raw_sums(runs, chosen, len(phi_deg), ensemble.components) if single else None
+    result = from_ensemble(bins, np.radians([theta_all[l] for l in chosen]),
+                           np.radians(phi_deg), first.isotropic, ensemble.take(chosen),
+                           TableMeta(), raw)
     surface = None if recipe is None else recipe.surface
     seeds = [None if surface is None else realisation_seed(surface.get("seed", 0), r)
              for r in sorted(surfaces)]
     rel, share = direction_errors(result)
     rays = int(result.rays.sum())
     segments = sum(part.segments for part in parts)
-    records = tuple(_direction_record(runs, d, theta_all[d[0]], phi_deg[d[1]], count[d],
-                                      stops.get(d, "rays"), rel[i, d[1]], share[i, d[1]],
-                                      result.albedo[i, d[1]])
+    records = tuple(_direction_record(ensemble.realisation_rays[d], energies[d],
+                                      theta_all[d[0]], phi_deg[d[1]], stops.get(d, "rays"),
+                                      rel[i, d[1]], share[i, d[1]], result.albedo[i, d[1]])
                     for i, l in enumerate(chosen) for d in directions if d[0] == l)
     timing = None
     if wall_time is not None:
@@ -276,57 +322,65 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
     return result
 
 
-def _direction_record(runs: Mapping[RunKey, Run], d: Direction, theta: float, phi: float,
-                      k: int, stop: str, rel: float, share: float, albedo: np.ndarray
-                      ) -> DirectionRecord:
-    """One direction's record; energies are the mean over its realisations of each one's
-    fraction per ray."""
-    sums = [runs[RunKey(*d, r)].sums for r in range(k)]
+def raw_sums(runs: Mapping[RunKey, Run], chosen: Sequence[int], azimuths: int,
+             components: Sequence[str]) -> dict[str, Any]:
+    """The raw per-realisation sums of runs, as ``BRDFTable`` keeps them for a table of
+    one realisation per direction (so that tables of independent rays merge:
+    ``microsim.tables.assemble.merge``) and as studies of the realisations read them
+    (``measure_ensemble(..., keep_runs=True)``): (K, a, b, ...) arrays, zero where a
+    realisation did not trace a direction.
 
-    def mean(get: Callable[[Sums], np.ndarray]) -> tuple[float, float, float]:
-        r, g, b = (sum(get(acc) / acc.rays for acc in sums) / k).tolist()
-        return r, g, b
+    Parameters
+    ----------
+    runs : mapping of RunKey to Run
+    chosen : sequence of int
+        The polar angle indices of the rows.
+    azimuths : int
+        Incident azimuths.
+    components : sequence of str
+        The components of the rows of the runs' sums.
 
-    fates: dict[str, int] = {}
-    for acc in sums:
-        for name, n in acc.fates.items():
-            fates[name] = fates.get(name, 0) + n
-    r, g, b = albedo.tolist()
-    return DirectionRecord(theta, phi, sum(acc.rays for acc in sums), k,
-                           tuple(acc.rays for acc in sums), mean(lambda a: a.lost),
-                           mean(lambda a: a.transmitted), mean(lambda a: a.absorbed), fates,
-                           stop, float(rel), float(share), (r, g, b))
-
-
-def _table(bins: HemisphereBins, theta_deg: Sequence[float], phi_deg: Sequence[float],
-           isotropic: bool, runs: Mapping[RunKey, Run], directions: Sequence[Direction],
-           k: int) -> BRDFTable:
-    """The table of the runs (absent realisations count zero rays)."""
-    a, b = len(theta_deg), len(phi_deg)
-    rows = {l: i for i, l in enumerate(dict.fromkeys(d[0] for d in directions))}
+    Returns
+    -------
+    dict
+        ``realisation_rays`` (K, a, b) int, ``lost`` (K, a, b, 3), per component
+        ``sums`` and ``sums_sq`` (K, a, b, m, 3), ``sh_sums`` and ``sh_sums_sq`` (or None).
+    """
+    rows = {l: i for i, l in enumerate(chosen)}
     some = next(iter(runs.values())).sums
+    k = 1 + max(key.realisation for key in runs)
 
-    def stacked(get: Callable[[Any], np.ndarray], like: np.ndarray) -> np.ndarray:
-        out = np.zeros((k, a, b) + np.shape(like))
+    def stacked(get: Callable[[Sums], Any]) -> np.ndarray:
+        like = np.asarray(get(some))
+        out = np.zeros((k, len(chosen), azimuths) + like.shape, like.dtype)
         for (l, kk, r), run in runs.items():
             out[r, rows[l], kk] = get(run.sums)
         return out
 
-    def by_component(get: Callable[[Any], np.ndarray]) -> dict[str, np.ndarray]:
-        """Per component, the (K, a, b, ...) array of its row of the accumulators."""
-        rows_of = stacked(get, get(some))                       # (K, a, b, N + 1, ...)
-        return {c: rows_of[:, :, :, j] for j, c in enumerate(some.components)}
+    def by_component(get: Callable[[Sums], np.ndarray]) -> dict[str, np.ndarray]:
+        rows_of = stacked(get)                               # (1, a, b, N + 1, ...)
+        return {c: rows_of[:, :, :, j] for j, c in enumerate(components)}
 
-    rays = stacked(lambda acc: acc.rays, np.int64(0)).astype(np.int64)
-    sums = by_component(lambda acc: acc.sums)
-    sums_sq = by_component(lambda acc: acc.sums_sq)
     harmonics = some.sh_order > 0
-    sh_sums = by_component(lambda acc: acc.sh_sums) if harmonics else None
-    sh_sums_sq = by_component(lambda acc: acc.sh_sums_sq) if harmonics else None
-    return from_realisations(
-        bins, np.radians(theta_deg), np.radians(phi_deg), isotropic, rays, sums, sums_sq,
-        stacked(lambda acc: acc.lost_energy, some.lost_energy), TableMeta(), sh_sums=sh_sums,
-        sh_sums_sq=sh_sums_sq)
+    return {"realisation_rays": stacked(lambda acc: np.int64(acc.rays)),
+            "lost": stacked(lambda acc: acc.lost_energy),
+            "sums": by_component(lambda acc: acc.sums),
+            "sums_sq": by_component(lambda acc: acc.sums_sq),
+            "sh_sums": by_component(lambda acc: acc.sh_sums) if harmonics else None,
+            "sh_sums_sq": by_component(lambda acc: acc.sh_sums_sq) if harmonics else None}
+
+
+def _direction_record(rays: Sequence[int], energies: Energies, theta: float, phi: float,
+                      stop: str, rel: float, share: float, albedo: np.ndarray
+                      ) -> DirectionRecord:
+    """One direction's record from its realisations' rays and energies; energies are the
+    mean over its realisations of each one's fraction per ray."""
+    k = len(rays)
+    lost, transmitted, absorbed = (tuple((row / k).tolist()) for row in energies.energy)
+    r, g, b = albedo.tolist()
+    return DirectionRecord(theta, phi, int(sum(rays)), k, tuple(rays), lost, transmitted,
+                           absorbed, dict(energies.fates), stop, float(rel), float(share),
+                           (r, g, b))
 
 
 def simulate(tile: Tile, materials: Mapping[str, Material], simulation: Simulation,

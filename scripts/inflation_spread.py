@@ -22,9 +22,8 @@ import numpy as np
 from scipy.special import polygamma
 
 from microsim.recipe import load
-from microsim.simulation import Tiles, measure_ensemble
-from microsim.simulation import _table as table_of
-from microsim.tables.binning import HemisphereBins
+from microsim.simulation import Tiles, measure_ensemble, raw_sums
+from microsim.tables.components import components_for
 from microsim.tables.estimator import realisation_moments
 from microsim.tables.sh import second_moments
 
@@ -53,14 +52,13 @@ def main() -> None:
                   [f"simulation.theta_i={list(THETAS)}", f"simulation.realisations={k}",
                    f"simulation.rays={args.rays}", "table.sh_order=16"])
     measured = measure_ensemble(Tiles(recipe.surface), recipe.material,
-                                recipe.simulation, recipe.table)
-    bins = HemisphereBins(int(recipe.table.theta_bins), int(recipe.table.phi_bins))
-    table = table_of(bins, THETAS, [0.0], True, measured.runs,
-                     [(l, 0) for l in range(len(THETAS))], k)
-    rays = table.realisation_rays
-    m, v = realisation_moments(table.sums["single"], table.sums_sq["single"], rays)
-    sm, sv = realisation_moments(table.sh_sums["single"],
-                                 second_moments(table.sh_sums_sq["single"], 16), rays)
+                                recipe.simulation, recipe.table, keep_runs=True)
+    raw = raw_sums(measured.runs, range(len(THETAS)), 1,
+                   components_for(recipe.table.orders))
+    rays = raw["realisation_rays"]
+    m, v = realisation_moments(raw["sums"]["order1"], raw["sums_sq"]["order1"], rays)
+    sm, sv = realisation_moments(raw["sh_sums"]["order1"],
+                                 second_moments(raw["sh_sums_sq"]["order1"], 16), rays)
     degree = np.floor(np.sqrt(np.arange(sm.shape[-2]))).astype(int)
     print(f"{k} realisations, {args.rays:,} rays per direction; sampling alone: var log = "
           f"{float(polygamma(1, (k - 1) / 2)):.3f}")

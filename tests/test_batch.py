@@ -400,8 +400,8 @@ def test_measurements_of_disjoint_angles_merge_into_simulate() -> None:
         first = measure_directions(tile, *sections, [1, 0], scene=scene)
     merged = assemble_table([last, first], *sections)
     for c in ("total", "single"):
-        assert merged.sums[c].tobytes() == whole.sums[c].tobytes()
-        assert merged.sums_sq[c].tobytes() == whole.sums_sq[c].tobytes()
+        assert merged.values[c].tobytes() == whole.values[c].tobytes()
+        assert merged.errors[c].tobytes() == whole.errors[c].tobytes()
     assert merged.meta.segments == whole.meta.segments
     assert merged.meta.directions == whole.meta.directions
     assert whole.meta.timing is not None and merged.meta.timing is None

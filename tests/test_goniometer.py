@@ -159,7 +159,7 @@ def test_same_seed_same_numbers_whatever_the_threads() -> None:
     two = simulate(tile, material, simulation, table, threads=2)
     for c in ("total", "single"):
         assert one.values[c].tobytes() == two.values[c].tobytes()
-        assert one.sums_sq[c].tobytes() == two.sums_sq[c].tobytes()
+        assert one.errors[c].tobytes() == two.errors[c].tobytes()
     assert one.lost_energy.tobytes() == two.lost_energy.tobytes()
 
 

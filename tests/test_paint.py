@@ -280,5 +280,5 @@ def test_paint_tables_do_not_depend_on_threads_and_repeat_bit_for_bit() -> None:
                      recipe.table, threads=threads)
             for threads, seed in ((1, 0), (2, 0), (2, 0), (2, 1))]
     for run in runs[1:3]:
-        assert np.array_equal(run.sums["total"], runs[0].sums["total"])
-    assert not np.array_equal(runs[3].sums["total"], runs[0].sums["total"])
+        assert np.array_equal(run.values["total"], runs[0].values["total"])
+    assert not np.array_equal(runs[3].values["total"], runs[0].values["total"])

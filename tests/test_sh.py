@@ -15,12 +15,12 @@ from scipy.special import sph_harm_y
 import microsim
 from microsim.commands.sh import MATRIX_MAX_ORDER as CLI_MATRIX_MAX_ORDER
 from microsim.commands.sh import WINDOWS as CLI_WINDOWS
-from microsim.goniometer import Run, RunKey, Sums
+from microsim.goniometer import Energies, RunKey, Sums, fold
 from microsim.paths import Paths
 from microsim.recipe import resolve
-from microsim.simulation import _table, simulate
+from microsim.simulation import simulate
 from microsim.tables import sh
-from microsim.tables.assemble import merge
+from microsim.tables.assemble import EnsembleSums, from_ensemble, merge
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import components_for
 from microsim.tables.exr import write_table
@@ -164,7 +164,9 @@ def test_projection_of_rays_is_unbiased_with_honest_errors() -> None:
         orders = np.where(rng.random(n) < 1 / 3, 2, 1)
         paths = Paths(wo, weight, orders, np.zeros(3), np.zeros(3), np.zeros(3), {})
         acc.add(paths, bins)
-    table = _table(bins, [40.0], [0.0], True, {RunKey(0, 0, 0): Run(acc)}, [(0, 0)], 1)
+    ensemble = EnsembleSums((1, 1), acc.components, bins.size, order)
+    fold(ensemble, Energies(), RunKey(0, 0, 0), acc)
+    table = from_ensemble(bins, np.radians([40.0]), np.zeros(1), True, ensemble, TableMeta())
     exact = lobe_coefficients(phong, np.radians([40.0]), order)[0]
     for comp, share in (("total", 1.0), ("order1", 2 / 3), ("order2", 1 / 3)):
         z = (table.sh[comp][0, 0] - share * exact[:, None] * [1.0, 0.5, 0.25]) / table.sh_err[

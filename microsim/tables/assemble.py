@@ -10,13 +10,19 @@ estimates (``microsim.tables.estimator``).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.estimator import ENSEMBLE, RAYS, estimate
+from microsim.tables.estimator import (
+    ENSEMBLE,
+    GROUPS,
+    RAYS,
+    RunningEstimate,
+    realisation_moments,
+)
 from microsim.tables.meta import TableMeta
 from microsim.tables.table import BRDFTable, by_component, components_of, lobe_of
 
@@ -40,13 +46,105 @@ def from_sums(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
                                  sh_sums_sq=one(sh_sums_sq))
 
 
-def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
-                      phi_i: np.ndarray, isotropic: bool, rays: np.ndarray,
-                      sums: Mapping[str, np.ndarray], sums_sq: Mapping[str, np.ndarray],
-                      lost: np.ndarray, meta: TableMeta, *,
-                      sh_sums: Mapping[str, np.ndarray] | None = None,
-                      sh_sums_sq: Mapping[str, np.ndarray] | None = None) -> BRDFTable:
-    """The goniophotometer's estimator from per-realisation sums of exit weights.
+class EnsembleSums:
+    """Running sums of a table's estimates over the surface's realisations, per incident
+    direction: what ``from_ensemble`` makes the table of, in the memory of at most
+    ``microsim.tables.estimator.GROUPS`` realisations however many are added.
+
+    Parameters
+    ----------
+    directions : (int, int)
+        (a, b): incident polar angles and azimuths.
+    components : tuple of str
+        The components, in the order of the rows of the sums added.
+    bins : int
+        Outgoing bins m.
+    sh_order : int
+        Order L of the harmonics added (0: none).
+
+    Attributes
+    ----------
+    bins, albedo, sh : RunningEstimate
+        Per direction and component: the bins' Σw / N ((a, b, rows, m, 3); their errors
+        moderated), the albedo's ((a, b, rows, 1, 3)) and the harmonics' ((a, b, rows,
+        (L + 1)², 3), or None).
+    rays : (a, b) int
+        Rays added per direction.
+    lost : (a, b, 3) float
+        Σ over realisations of each one's lost weight per ray.
+    realisation_rays : dict of (int, int) to list of int
+        Per direction, each added realisation's rays, in the order added.
+    """
+
+    def __init__(self, directions: tuple[int, int], components: tuple[str, ...],
+                 bins: int, sh_order: int = 0) -> None:
+        a, b = directions
+        rows = len(components)
+        self.components, self.sh_order = tuple(components), int(sh_order)
+        self.bins = RunningEstimate((a, b, rows, bins, 3), GROUPS)
+        self.albedo = RunningEstimate((a, b, rows, 1, 3))
+        self.sh = RunningEstimate((a, b, rows, sh.size(sh_order), 3)) if sh_order else None
+        self.rays = np.zeros((a, b), np.int64)
+        self.lost = np.zeros((a, b, 3))
+        self.realisation_rays: dict[tuple[int, int], list[int]] = {}
+
+    def add(self, at: tuple[int, int], r: int, rays: int, sums: np.ndarray,
+            sums_sq: np.ndarray, lost: np.ndarray, sh_sums: np.ndarray | None = None,
+            sh_sums_sq: np.ndarray | None = None) -> None:
+        """Add realisation ``r`` of direction ``at``: its ``rays`` (≥ 1), per component
+        row its sums Σw and Σw² per bin ((rows, m, 3)), its lost weight (3,) and, with
+        harmonics, Σ w Y_k ((rows, (L + 1)², 3)) and Σ w² Y_K to order 2L ((rows,
+        (2L + 1)², 3)). Realisations are added in index order (the sums then do not
+        depend on how the work was split)."""
+        m, v = realisation_moments(sums, sums_sq, np.int64(rays))
+        self.bins.add(r, m, v, rays, at)
+        m, v = realisation_moments(sums.sum(axis=-2, keepdims=True),
+                                   sums_sq.sum(axis=-2, keepdims=True), np.int64(rays))
+        self.albedo.add(r, m, v, rays, at)
+        if self.sh is not None:
+            m, v = realisation_moments(sh_sums, sh.second_moments(sh_sums_sq, self.sh_order),
+                                       np.int64(rays))
+            self.sh.add(r, m, v, rays, at)
+        self.rays[at] += rays
+        self.lost[at] += lost / rays
+        self.realisation_rays.setdefault(at, []).append(int(rays))
+
+    def take(self, rows: Sequence[int]) -> EnsembleSums:
+        """The sums of the incident polar angles ``rows`` (copies)."""
+        out = EnsembleSums((0, 0), self.components, 0)
+        rows = list(rows)
+        out.sh_order = self.sh_order
+        out.bins, out.albedo = self.bins.take(rows), self.albedo.take(rows)
+        out.sh = None if self.sh is None else self.sh.take(rows)
+        out.rays, out.lost = self.rays[rows], self.lost[rows]
+        out.realisation_rays = {(i, k): list(self.realisation_rays[(l, k)])
+                                for i, l in enumerate(rows) for k in range(self.rays.shape[1])
+                                if (l, k) in self.realisation_rays}
+        return out
+
+    def absorb(self, other: EnsembleSums) -> None:
+        """Take over ``other``'s directions (of the same table; none of them added here).
+
+        Raises
+        ------
+        ValueError
+            If a direction has realisations in both.
+        """
+        if set(self.realisation_rays) & set(other.realisation_rays):
+            raise ValueError("the same incident direction was measured twice")
+        for mine, theirs in ((self.bins, other.bins), (self.albedo, other.albedo),
+                             (self.sh, other.sh)):
+            if mine is not None:
+                mine.absorb(theirs)
+        self.rays += other.rays
+        self.lost += other.lost
+        self.realisation_rays.update(other.realisation_rays)
+
+
+def from_ensemble(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
+                  isotropic: bool, ensemble: EnsembleSums, meta: TableMeta,
+                  raw: Mapping[str, object] | None = None) -> BRDFTable:
+    """The goniophotometer's estimator from running sums over realisations.
 
     Each launched ray contributes its exit weight w to at most one bin, so per bin the
     per-ray quantity X = w·1[bin] has mean Σw/N and f_r = (Σw/N) / Ω_proj (Nicodemus
@@ -59,6 +157,68 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
     (``microsim.tables.estimator``): the bins' errors are moderated over the lobe bins
     of each incidence (``lobe_of`` the mean f_r over RGB), the albedo's and the
     harmonics' are batch means.
+
+    Parameters
+    ----------
+    bins : HemisphereBins
+    theta_i : (a,) float
+    phi_i : (b,) float
+    isotropic : bool
+    ensemble : EnsembleSums
+        Of (a, b) directions, each with at least one realisation.
+    meta : TableMeta
+    raw : mapping or None
+        The raw per-realisation sums (``BRDFTable``'s ``realisation_rays``, ``sums``,
+        ``sums_sq``, ``lost``, ``sh_sums``, ``sh_sums_sq``) when the caller has them.
+
+    Returns
+    -------
+    BRDFTable
+        Error model ``ensemble`` when some direction has two realisations or more,
+        ``rays`` otherwise.
+
+    Raises
+    ------
+    ValueError
+        If a direction launched no ray.
+    """
+    a, b = len(theta_i), len(phi_i)
+    if ensemble.rays.shape != (a, b) or np.any(ensemble.rays < 1):
+        raise ValueError(f"every one of the ({a}, {b}) incident directions needs rays, got "
+                         f"{ensemble.rays.tolist()}")
+    omega = bins.projected_solid_angle.reshape(1, 1, -1, 1)
+    shape = (a, b) + bins.shape + (3,)
+    lobe = lobe_of(ensemble.bins.mean.mean(axis=-1), -1)
+    e = ensemble.bins.estimate(np.broadcast_to(lobe[..., None], ensemble.bins.shape))
+    w = ensemble.albedo.estimate()
+    s = None if ensemble.sh is None else ensemble.sh.estimate()
+    values, errors, ray_errors, albedo, albedo_err, dof, inflation = ({} for _ in range(7))
+    sh_values = None if s is None else {}
+    sh_errors = None if s is None else {}
+    for j, c in enumerate(ensemble.components):
+        values[c] = (e.mean[:, :, j] / omega).reshape(shape)
+        errors[c] = (e.stderr[:, :, j] / omega).reshape(shape)
+        ray_errors[c] = (e.ray_stderr[:, :, j] / omega).reshape(shape)
+        dof[c], inflation[c] = e.dof[:, :, j], e.inflation[:, :, j]
+        albedo[c], albedo_err[c] = w.mean[:, :, j, 0], w.stderr[:, :, j, 0]
+        if s is not None:
+            sh_values[c], sh_errors[c] = s.mean[:, :, j], s.stderr[:, :, j]
+    realisations = e.realisations[:, :, 0]
+    return BRDFTable(bins, theta_i, phi_i, isotropic, values, errors, ensemble.rays.copy(),
+                     albedo, albedo_err, ensemble.lost / realisations[..., None], meta,
+                     error_model=ENSEMBLE if realisations.max() > 1 else RAYS,
+                     realisations=realisations, dof=dof, inflation=inflation,
+                     ray_errors=ray_errors, sh=sh_values, sh_err=sh_errors, **(raw or {}))
+
+
+def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
+                      phi_i: np.ndarray, isotropic: bool, rays: np.ndarray,
+                      sums: Mapping[str, np.ndarray], sums_sq: Mapping[str, np.ndarray],
+                      lost: np.ndarray, meta: TableMeta, *,
+                      sh_sums: Mapping[str, np.ndarray] | None = None,
+                      sh_sums_sq: Mapping[str, np.ndarray] | None = None) -> BRDFTable:
+    """``from_ensemble`` of per-realisation sums, which the table keeps (tables of the
+    same realisations and independent rays then merge: ``merge``).
 
     Parameters
     ----------
@@ -82,8 +242,6 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
     Returns
     -------
     BRDFTable
-        Error model ``ensemble`` when some direction has two realisations or more,
-        ``rays`` otherwise.
 
     Raises
     ------
@@ -102,51 +260,36 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
     for c in components:
         if not np.shape(sums[c]) == np.shape(sums_sq[c]) == expected:
             raise ValueError(f"sums[{c!r}] and sums_sq[{c!r}] must have shape {expected}")
-    omega = bins.projected_solid_angle.reshape(1, 1, -1, 1)
-    shape = (a, b) + bins.shape + (3,)
-    values, errors, ray_errors, albedo, albedo_err = {}, {}, {}, {}, {}
-    dof, inflation = {}, {}
-    for c in components:
-        s1, s2 = np.asarray(sums[c], float), np.asarray(sums_sq[c], float)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            mean = np.nansum(s1 / np.where(rays > 0, rays, np.nan)[..., None, None],
-                             axis=0)
-        lobe = lobe_of(mean.mean(axis=-1), -1)
-        e = estimate(s1, s2, rays, np.broadcast_to(lobe[..., None], mean.shape))
-        values[c], errors[c] = (e.mean / omega).reshape(shape), (e.stderr / omega
-                                                                  ).reshape(shape)
-        ray_errors[c] = (e.ray_stderr / omega).reshape(shape)
-        dof[c], inflation[c] = e.dof, e.inflation
-        w = estimate(s1.sum(axis=3, keepdims=True), s2.sum(axis=3, keepdims=True), rays)
-        albedo[c], albedo_err[c] = w.mean[:, :, 0], w.stderr[:, :, 0]
-    sh_values = sh_errors = None
+    order = 0
     if sh_sums is not None and sh_sums_sq is not None:
-        sh_values, sh_errors = {}, {}
         sh_sums = by_component(sh_sums, components)
         sh_sums_sq = by_component(sh_sums_sq, components)
+        order = sh.order_of(np.shape(sh_sums["total"])[-2])
         for c in components:
-            s1 = np.asarray(sh_sums[c], float)
-            order = sh.order_of(s1.shape[-2])
-            if s1.shape != rays.shape + (sh.size(order), 3) or np.shape(
+            if np.shape(sh_sums[c]) != rays.shape + (sh.size(order), 3) or np.shape(
                     sh_sums_sq[c]) != rays.shape + (sh.size(2 * order), 3):
                 raise ValueError(f"sh_sums[{c!r}] and sh_sums_sq[{c!r}] must have shapes "
                                  f"(K, a, b, (L+1)^2, 3) and (K, a, b, (2L+1)^2, 3)")
-            e = estimate(s1, sh.second_moments(sh_sums_sq[c], order), rays)
-            sh_values[c], sh_errors[c] = e.mean, e.stderr
+    else:
+        sh_sums = sh_sums_sq = None
+    ensemble = EnsembleSums((a, b), components, bins.size, order)
     lost = np.asarray(lost, float)
-    realisations = (rays > 0).sum(axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        lost_energy = np.nansum(lost / np.where(rays > 0, rays, np.nan)[..., None],
-                                axis=0) / realisations[..., None]
-    return BRDFTable(bins, theta_i, phi_i, isotropic, values, errors, rays.sum(axis=0), albedo,
-               albedo_err, lost_energy, meta,
-               error_model=ENSEMBLE if realisations.max() > 1 else RAYS,
-               realisations=realisations, dof=dof, inflation=inflation,
-               realisation_rays=rays, ray_errors=ray_errors,
-               sums={c: np.asarray(sums[c], float) for c in components},
-               sums_sq={c: np.asarray(sums_sq[c], float) for c in components},
-               lost=lost, sh=sh_values, sh_err=sh_errors,
-               sh_sums=sh_sums, sh_sums_sq=sh_sums_sq)
+
+    def rows(x: Mapping[str, np.ndarray] | None, r: int, at: tuple[int, int]
+             ) -> np.ndarray | None:
+        return None if x is None else np.stack([np.asarray(x[c], float)[(r, *at)]
+                                                for c in components])
+
+    for r, l, k in zip(*np.nonzero(rays), strict=True):
+        at = (int(l), int(k))
+        ensemble.add(at, int(r), int(rays[r, l, k]), rows(sums, r, at),
+                     rows(sums_sq, r, at), lost[r, l, k], rows(sh_sums, r, at),
+                     rows(sh_sums_sq, r, at))
+    raw = {"realisation_rays": rays, "lost": lost,
+           "sums": {c: np.asarray(sums[c], float) for c in components},
+           "sums_sq": {c: np.asarray(sums_sq[c], float) for c in components},
+           "sh_sums": sh_sums, "sh_sums_sq": sh_sums_sq}
+    return from_ensemble(bins, theta_i, phi_i, isotropic, ensemble, meta, raw)
 
 
 def merge(self: BRDFTable, other: BRDFTable) -> BRDFTable:

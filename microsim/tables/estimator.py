@@ -43,6 +43,7 @@ error √v (error model ``rays``), conditional on the one tile.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -159,6 +160,17 @@ def moderation_prior(ratio: np.ndarray, d: int) -> tuple[float, float]:
     return math.exp(float(e.mean()) + psi(d0 / 2) - math.log(d0 / 2)), d0
 
 
+GROUPS = 32
+"""Groups of realisations whose sums ``RunningEstimate`` keeps apart for the jackknife of the
+pooled inflation: realisation r joins group r mod ``GROUPS``, so up to ``GROUPS``
+realisations it is the delete-one jackknife and beyond it the delete-a-group jackknife
+(Kott 2001, "The delete-a-group jackknife", J. Official Statistics 17(4), 521), and the
+memory stays that of ``GROUPS`` realisations however many are averaged."""
+ROUNDOFF = 1e-12
+"""A sum of squared deviations below this fraction of the squared deviations from the
+shift it was computed about is round-off of an exact zero (realisations that tie)."""
+
+
 def estimate(s1: np.ndarray, s2: np.ndarray, rays: np.ndarray,
              pool: np.ndarray | None = None) -> Estimate:
     """The ensemble mean of realisations' sums and its standard error.
@@ -186,7 +198,8 @@ def estimate(s1: np.ndarray, s2: np.ndarray, rays: np.ndarray,
 
 def combine(m: np.ndarray, v: np.ndarray, dof_one: np.ndarray | float,
             pool: np.ndarray | None = None) -> Estimate:
-    """The ensemble mean of realisations' estimates and its standard error.
+    """The ensemble mean of realisations' estimates and its standard error
+    (``RunningEstimate`` fed realisation by realisation).
 
     Parameters
     ----------
@@ -203,71 +216,210 @@ def combine(m: np.ndarray, v: np.ndarray, dof_one: np.ndarray | float,
     -------
     Estimate
     """
-    present = ~np.isnan(m).all(axis=(-2, -1))
-    k = present.sum(axis=0)                                                   # (...)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        kk = k[..., None, None].astype(float)
-        mean = np.nansum(m, axis=0) / kk
-        ray_var = np.nansum(v, axis=0) / kk**2
-        ray_var = np.where(np.isnan(v).all(axis=0), np.nan, ray_var)
-        spread = np.nansum((m - mean) ** 2, axis=0) / (kk * (kk - 1))
-    # batch means floored at the ray variance: realisations that tie (equal hit counts in
-    # a dim bin) must not report a zero error; E[s²] is never below the ray part
-    one = (k == 1)[..., None, None]
-    stderr_sq = np.where(one, ray_var, np.fmax(spread, ray_var))
-    dof = np.where(k == 1, np.minimum(dof_one, DOF_MAX), k - 1).astype(float)
-    dof = np.broadcast_to(dof[..., None], mean.shape[:-2] + mean.shape[-1:]).copy()
-    inflation = np.full(dof.shape, np.nan)
-    if pool is not None:
-        _moderate(stderr_sq, spread, ray_var, m, v, k, np.asarray(pool, bool), dof,
-                  inflation)
-    undefined = np.isnan(ray_var) | (k[..., None, None] < 1)
-    stderr = np.where(undefined, np.nan, np.sqrt(stderr_sq))
-    return Estimate(mean, stderr, np.sqrt(ray_var), dof, inflation, k)
+    running = RunningEstimate(m.shape[1:], GROUPS)
+    for r in range(len(m)):
+        running.add(r, m[r], v[r])
+    return running.estimate(pool, dof_one)
 
 
-def _moderate(var: np.ndarray, spread: np.ndarray, ray_var: np.ndarray, m: np.ndarray,
-              v: np.ndarray, k: np.ndarray, pool: np.ndarray, dof: np.ndarray,
-              inflation: np.ndarray) -> None:
-    """Replace the variances ``var`` (..., m, c) by Smyth's posterior variances from the
-    batch means ``spread`` (not floored: the fit needs their χ² scatter) where a group
-    (leading index, column) has K ≥ 3 and at least two pooled ratios; ``dof`` and
-    ``inflation`` (..., c) are filled in for those groups.
+class RunningEstimate:
+    """Running sums over realisations from which ``estimate`` follows: the memory of at
+    most ``groups`` realisations, whatever their number.
 
-    The degrees of freedom combine the prior's and the sample's, d0 + d, with the
-    uncertainty of the pooled ρ0 itself: the bins of one incidence share their tiles, so
-    their ratios are not independent, and ρ0 is known to ν_ρ = 2 / Var_J(log ρ0) degrees of
-    freedom, Var_J the jackknife variance over realisations (Efron & Stein 1981, Ann.
-    Stat. 9(3), 586). The posterior variance w ρ0 u + (1 − w) s², w = d0 / (d0 + d), then
-    has relative variance 2 / (d0 + d) + w² 2 / ν_ρ (Satterthwaite 1946, Biometrics
-    Bull. 2(6), 110), i.e. 1/ν = 1/(d0 + d) + w²/ν_ρ.
+    Realisation r's estimates m_r and ray variances v_r are added as Σ (m_r − c) and
+    Σ (m_r − c)² about a shift c, the first realisation's m (so realisations that tie sum
+    to exactly zero deviation, and the one-pass variance does not cancel: Chan, Golub &
+    LeVeque 1983, "Algorithms for computing the sample variance", Am. Stat. 37(3), 242),
+    and Σ v_r, kept per group r mod ``groups`` for the jackknife of the moderated
+    estimator. Each leading index (an incident direction, a component) counts its own
+    realisations: an entry is added only where the realisation has it.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        (..., m, c) of one realisation's estimates.
+    groups : int
+        Groups kept apart (``GROUPS`` for families the moderated estimator pools; 1 for
+        batch means alone).
     """
-    for index in np.ndindex(*var.shape[:-2]):
-        kk = int(k[index])
-        if kk < 3:
-            continue
-        d = kk - 1
-        rows = np.flatnonzero(np.isfinite(m[(slice(None),) + index][:, 0, 0]))
-        for c in range(var.shape[-1]):
-            s2, u = spread[index][:, c], ray_var[index][:, c]
-            use = pool[index][:, c] & np.isfinite(s2 / np.where(u > 0, u, np.nan)) & (s2 > 0)
-            if use.sum() < 2:
+
+    def __init__(self, shape: tuple[int, ...], groups: int = 1) -> None:
+        self.shape, self.groups = tuple(shape), int(groups)
+        lead = self.shape[:-2]
+        self.count = np.zeros(lead, np.int64)
+        self.shift = np.full(self.shape, np.nan)
+        self.known = np.zeros(self.shape, np.int64)    # realisations whose v is defined
+        self.dof_one = np.zeros(lead)                  # their rays − 1 (one realisation)
+        self._sums: dict[int, tuple[np.ndarray, ...]] = {}
+
+    def add(self, r: int, m: np.ndarray, v: np.ndarray, rays: np.ndarray | int | None = None,
+            at: tuple[int, ...] = ()) -> None:
+        """Add realisation ``r``'s estimates.
+
+        Parameters
+        ----------
+        r : int
+            Its index (it decides the group).
+        m, v : (..., m, c) float
+            Its estimates and their ray variances (of the entries ``at`` selects); NaN
+            rows of ``m`` where it is absent, NaN in ``v`` where the variance is unknown.
+        rays : (...) int, int or None
+            Its rays, whose sum less one are the degrees of freedom of one realisation.
+        at : tuple of int
+            A leading index the arrays belong to (default: all of ``shape``).
+        """
+        m, v = np.asarray(m, float), np.asarray(v, float)
+        ix = (*at, Ellipsis)  # views, also of 0-d leading shapes
+        present = ~np.isnan(m).all(axis=(-2, -1))
+        keep = present[..., None, None]
+        shift = self.shift[ix]
+        shift[...] = np.where(keep & (self.count[ix] == 0)[..., None, None], m, shift)
+        g = r % self.groups
+        if g not in self._sums:
+            self._sums[g] = (np.zeros(self.shape), np.zeros(self.shape),
+                             np.zeros(self.shape), np.zeros(self.shape[:-2], np.int64))
+        s1, s2, sv, n = (x[ix] for x in self._sums[g])
+        d = np.where(keep, m - shift, 0.0)
+        s1 += d
+        s2 += d * d
+        sv += np.where(keep & np.isfinite(v), v, 0.0)
+        n += present
+        self.known[ix] += keep & np.isfinite(v)
+        self.count[ix] += present
+        if rays is not None:
+            self.dof_one[ix] += np.where(present, rays, 0)
+
+    def absorb(self, other: RunningEstimate) -> None:
+        """Add ``other``'s sums, of the same shape, whose leading indices (directions)
+        hold no realisation here."""
+        theirs = other.count > 0
+        self.shift = np.where(theirs[..., None, None], other.shift, self.shift)
+        self.count += other.count
+        self.known += other.known
+        self.dof_one += other.dof_one
+        for g, sums in other._sums.items():
+            mine = self._sums.get(g)
+            self._sums[g] = tuple(x.copy() for x in sums) if mine is None else tuple(
+                x + y for x, y in zip(mine, sums, strict=True))
+
+    def take(self, rows: Sequence[int]) -> RunningEstimate:
+        """The sums of the leading indices ``rows`` of the first axis (copies)."""
+        out = RunningEstimate(self.shape, self.groups)
+        out.shape = (len(rows),) + self.shape[1:]
+        rows = list(rows)
+        out.count, out.shift = self.count[rows], self.shift[rows]
+        out.known, out.dof_one = self.known[rows], self.dof_one[rows]
+        out._sums = {g: tuple(x[rows] for x in sums) for g, sums in self._sums.items()}
+        return out
+
+    @property
+    def mean(self) -> np.ndarray:
+        """(..., m, c) the mean of the realisations added (NaN where none)."""
+        s1 = self._totals()[0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return self.shift + s1 / self.count[..., None, None]
+
+    def _totals(self) -> tuple[np.ndarray, ...]:
+        """Σ (m − c), Σ (m − c)², Σ v and the counts over the groups, in group order."""
+        parts = [x for _, x in sorted(self._sums.items())]
+        return tuple(sum(x[j] for x in parts) for j in range(4))
+
+    def estimate(self, pool: np.ndarray | None = None,
+                 dof_one: np.ndarray | float | None = None) -> Estimate:
+        """The ensemble mean so far and its errors, as ``estimate`` defines them.
+
+        Parameters
+        ----------
+        pool : (..., m, c) bool or None
+            As for ``estimate``.
+        dof_one : (...) float or None
+            Degrees of freedom where one realisation is present (default: the rays
+            added, less one).
+
+        Returns
+        -------
+        Estimate
+        """
+        k = self.count
+        s1, s2, sv, _ = self._totals()
+        mean = self.mean
+        with np.errstate(invalid="ignore", divide="ignore"):
+            kk = k[..., None, None].astype(float)
+            ray_var = np.where(self.known > 0, sv / kk**2, np.nan)
+            spread = _deviations(s1, s2, kk) / (kk * (kk - 1))
+        # batch means floored at the ray variance: realisations that tie (equal hit counts
+        # in a dim bin) must not report a zero error; E[s²] is never below the ray part
+        one = (k == 1)[..., None, None]
+        stderr_sq = np.where(one, ray_var, np.fmax(spread, ray_var))
+        dof_one = self.dof_one - 1.0 if dof_one is None else dof_one
+        dof = np.where(k == 1, np.minimum(dof_one, DOF_MAX), k - 1).astype(float)
+        dof = np.broadcast_to(dof[..., None], mean.shape[:-2] + mean.shape[-1:]).copy()
+        inflation = np.full(dof.shape, np.nan)
+        if pool is not None:
+            self._moderate(stderr_sq, spread, ray_var, np.asarray(pool, bool), dof,
+                           inflation)
+        undefined = np.isnan(ray_var) | (k[..., None, None] < 1)
+        stderr = np.where(undefined, np.nan, np.sqrt(stderr_sq))
+        return Estimate(mean, stderr, np.sqrt(ray_var), dof, inflation, k.copy())
+
+    def _moderate(self, var: np.ndarray, spread: np.ndarray, ray_var: np.ndarray,
+                  pool: np.ndarray, dof: np.ndarray, inflation: np.ndarray) -> None:
+        """Replace the variances ``var`` (..., m, c) by Smyth's posterior variances from
+        the batch means ``spread`` (not floored: the fit needs their χ² scatter) where a
+        group (leading index, column) has K ≥ 3 and at least two pooled ratios; ``dof``
+        and ``inflation`` (..., c) are filled in for those groups.
+
+        The degrees of freedom combine the prior's and the sample's, d0 + d, with the
+        uncertainty of the pooled ρ0 itself: the bins of one incidence share their tiles,
+        so their ratios are not independent, and ρ0 is known to ν_ρ = 2 / Var_J(log ρ0)
+        degrees of freedom, Var_J the jackknife variance over realisations (Efron & Stein
+        1981, Ann. Stat. 9(3), 586), deleting one group of realisations at a time (one
+        realisation each up to ``groups``). The posterior variance w ρ0 u + (1 − w) s²,
+        w = d0 / (d0 + d), then has relative variance 2 / (d0 + d) + w² 2 / ν_ρ
+        (Satterthwaite 1946, Biometrics Bull. 2(6), 110), i.e. 1/ν = 1/(d0 + d) + w²/ν_ρ.
+        """
+        totals = self._totals()
+        left = {g: tuple(t - x for t, x in zip(totals, group, strict=True))
+                for g, group in self._sums.items()}
+        for index in np.ndindex(*var.shape[:-2]):
+            kk = int(self.count[index])
+            if kk < 3:
                 continue
-            rho0, d0 = moderation_prior(s2[use] / u[use], d)
-            mc = m[(rows,) + index][:, use, c]                          # (K, g)
-            vc = np.nan_to_num(v[(rows,) + index][:, use, c])
-            logs = []
-            for r in range(kk):
-                rest = np.delete(np.arange(kk), r)
-                s2_r = mc[rest].var(axis=0, ddof=1) / (kk - 1)
-                u_r = vc[rest].sum(axis=0) / (kk - 1) ** 2
-                ok = (s2_r > 0) & (u_r > 0)
-                if ok.sum() >= 2:
-                    logs.append(math.log(moderation_prior(s2_r[ok] / u_r[ok], d - 1)[0]))
-            jack = (kk - 1) / kk * float(np.sum((np.array(logs) - np.mean(logs)) ** 2)) \
-                if len(logs) == kk else math.inf
-            w = 1.0 if math.isinf(d0) else d0 / (d0 + d)
-            prior = 0.0 if math.isinf(d0) else 1.0 / (d0 + d)
-            dof[index][c] = min(1.0 / max(prior + w * w * jack / 2, 1.0 / DOF_MAX), DOF_MAX)
-            var[index][:, c] = w * rho0 * u + (1.0 - w) * s2
-            inflation[index][c] = rho0
+            d = kk - 1
+            groups = [g for g in sorted(self._sums) if self._sums[g][3][index] > 0]
+            for c in range(var.shape[-1]):
+                s2, u = spread[index][:, c], ray_var[index][:, c]
+                use = pool[index][:, c] & np.isfinite(s2 / np.where(u > 0, u, np.nan)) & (
+                    s2 > 0)
+                if use.sum() < 2:
+                    continue
+                rho0, d0 = moderation_prior(s2[use] / u[use], d)
+                logs = []
+                for g in groups:
+                    t1, t2, tv, tn = (x[index] for x in left[g])
+                    rest = float(tn)
+                    if rest < 2:
+                        continue
+                    s2_g = _deviations(t1[use, c], t2[use, c], rest) / ((rest - 1) * rest)
+                    u_g = tv[use, c] / rest**2
+                    ok = (s2_g > 0) & (u_g > 0)
+                    if ok.sum() >= 2:
+                        logs.append(math.log(moderation_prior(s2_g[ok] / u_g[ok],
+                                                              int(rest) - 1)[0]))
+                jack = (len(groups) - 1) / len(groups) * float(
+                    np.sum((np.array(logs) - np.mean(logs)) ** 2)) \
+                    if len(logs) == len(groups) else math.inf
+                w = 1.0 if math.isinf(d0) else d0 / (d0 + d)
+                prior = 0.0 if math.isinf(d0) else 1.0 / (d0 + d)
+                dof[index][c] = min(1.0 / max(prior + w * w * jack / 2, 1.0 / DOF_MAX),
+                                    DOF_MAX)
+                var[index][:, c] = w * rho0 * u + (1.0 - w) * s2
+                inflation[index][c] = rho0
+
+
+def _deviations(s1: np.ndarray, s2: np.ndarray, k: np.ndarray | float) -> np.ndarray:
+    """Σ (m − m̄)² from Σ (m − c) and Σ (m − c)² of k values: s2 − s1²/k, zero where it is
+    round-off of zero (``ROUNDOFF``)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dev = s2 - s1 * s1 / k
+    return np.where(dev > ROUNDOFF * s2, dev, 0.0)
