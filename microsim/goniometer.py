@@ -22,6 +22,7 @@ import math
 import time
 from collections import deque
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -32,7 +33,7 @@ from microsim.kernel.beam import CELLS, beam_origins
 from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.tally import bin_escapes, in_blocks
 from microsim.materials import Material
-from microsim.paths import Paths, PendingPaths, start_paths
+from microsim.paths import Paths, start_paths
 from microsim.settings import DEFAULT_ORDERS, Simulation, TableSettings
 from microsim.surfaces.facts import TileFacts
 from microsim.surfaces.tile import Tile
@@ -45,9 +46,10 @@ from microsim.trace import PeriodicScene
 
 BATCH = 65536
 """Rays per batch: the unit of random streams, accumulation and the adaptive stop."""
-DEPTH = 2
-"""Batches queued on the worker threads ahead of the one being added: the next batch's
-chunks keep the workers busy while this one is summarised and binned."""
+DEPTH = 3
+"""Batches under way on the worker threads (traced, or summarised, binned and projected on
+the harmonics there) ahead of the one whose sums are being added: the workers always
+have the next batch's chunks to trace while one of them tallies a batch."""
 LOST_WARNING = 0.01
 """Lost energy (paths cut at the bounce limit or leaving through the tile's underside) as
 a fraction of the incident energy above which a table carries a warning: a closed surface
@@ -109,8 +111,13 @@ class Sums:
         azimuth ``phi_ref`` (radians), which the harmonics use too; ``mapper`` runs the
         binning's blocks and the harmonic transforms (``sh.Mapper``: e.g. on the tracer's
         threads; the sums do not depend on it: ``microsim.kernel.tally.in_blocks``)."""
+        self.add_tally(self.tally(paths, bins, phi_ref, mapper))
+
+    def tally(self, paths: Paths, bins: HemisphereBins, phi_ref: float = 0.0,
+              mapper: sh.Mapper | None = None) -> Tally:
+        """One batch's sums, to be added with ``add_tally`` (``add`` does both); reads only
+        the settings of these sums, so batches are tallied on any thread."""
         n = len(paths.order)
-        self.rays += n
         index = np.empty(n, np.int64)
 
         def block(a: int, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -122,21 +129,33 @@ class Sums:
             return sums, sums_sq, unbinned
 
         sums, sums_sq, unbinned = in_blocks(block, n, mapper)
-        self.sums += sums
-        self.sums_sq += sums_sq
-        if self.sh_order:
-            self._add_sh(paths, index >= 0, phi_ref, mapper)
+        harmonics = self._harmonics(paths, index >= 0, phi_ref, mapper) if self.sh_order \
+            else []
         # an escaping ray the bins do not take (none for a closed surface) is lost, not hidden
-        self.lost += paths.lost + unbinned
-        self.transmitted += paths.transmitted
-        self.absorbed += paths.absorbed
-        for name, count in paths.fate_counts.items():
+        return Tally(n, sums, sums_sq, harmonics, paths.lost + unbinned, paths.transmitted,
+                     paths.absorbed, paths.fate_counts)
+
+    def add_tally(self, tally: Tally) -> None:
+        """Add one batch's sums (``tally``)."""
+        self.rays += tally.rays
+        self.sums += tally.sums
+        self.sums_sq += tally.sums_sq
+        for k, s1, s2 in tally.harmonics:
+            self.sh_sums[k] += s1
+            self.sh_sums_sq[k] += s2
+            self.sh_sums[0] += s1
+            self.sh_sums_sq[0] += s2
+        self.lost += tally.lost
+        self.transmitted += tally.transmitted
+        self.absorbed += tally.absorbed
+        for name, count in tally.fates.items():
             self.fates[name] = self.fates.get(name, 0) + count
 
-    def _add_sh(self, paths: Paths, binned: np.ndarray, phi_ref: float,
-                mapper: sh.Mapper | None) -> None:
+    def _harmonics(self, paths: Paths, binned: np.ndarray, phi_ref: float,
+                   mapper: sh.Mapper | None) -> list[tuple[int, np.ndarray, np.ndarray]]:
         """Moments of the escaping rays' exit weights against the real harmonics: one
-        transform per order row over that row's rays alone, the total row their sum.
+        transform per order row over that row's rays alone, (row, Σ w Y_k, Σ w² Y_K) in
+        row order (the total row is their sum).
 
         The binned rays are gathered once, grouped by row (a stable sort on the row, so
         each row's rays keep their ray order); a row's rays are then one slice."""
@@ -145,19 +164,32 @@ class Sums:
         ends = np.cumsum(np.bincount(row, minlength=self.orders + 1))
         loc = sh.angles(paths.direction[rays], phi_ref)
         w = paths.weight[rays]
+        out = []
         for k in range(1, self.orders + 1):
             a, b = ends[k - 1], ends[k]
             if b > a:
-                s1, s2 = sh.moments(loc[a:b], w[a:b], self.sh_order, mapper)
-                self.sh_sums[k] += s1
-                self.sh_sums_sq[k] += s2
-                self.sh_sums[0] += s1
-                self.sh_sums_sq[0] += s2
+                out.append((k, *sh.moments(loc[a:b], w[a:b], self.sh_order, mapper)))
+        return out
 
     @property
     def lost_energy(self) -> np.ndarray:
         """(3,) summed weight a table reports as lost: simulation ends and transmission."""
         return self.lost + self.transmitted
+
+
+class Tally(NamedTuple):
+    """One batch's sums (``Sums.tally``): its rays; per row and bin Σw and Σw²; per order
+    row with rays, (row, Σ w Y_k, Σ w² Y_K); the lost (unbinned escapes included),
+    transmitted and absorbed weight; the paths per ending."""
+
+    rays: int
+    sums: np.ndarray
+    sums_sq: np.ndarray
+    harmonics: list[tuple[int, np.ndarray, np.ndarray]]
+    lost: np.ndarray
+    transmitted: np.ndarray
+    absorbed: np.ndarray
+    fates: dict[str, int]
 
 
 class _Batch(NamedTuple):
@@ -204,32 +236,37 @@ def _batches(work: Mapping[Direction, int], runs: dict[RunKey, Run], new_run: Ca
 
 
 def _pipeline(scene: PeriodicScene, facets: FacetMaterials,
-              batches: Iterator[_Batch], bounces: int
-              ) -> Iterator[tuple[_Batch, Paths]]:
-    """The traced paths of each batch, in order, with ``DEPTH`` batches queued ahead.
+              batches: Iterator[_Batch], bounces: int, bins: HemisphereBins
+              ) -> Iterator[tuple[_Batch, Tally]]:
+    """The tally of each batch, in order, with ``DEPTH`` batches under way.
 
     A batch's origins are drawn uniformly over the tile's top (its own stream; traced in
-    cell order, ``microsim.kernel.beam``) and its chunks queued on the worker threads; the
-    next batch is queued before the caller adds this one, so the workers never wait for
-    the adding (or for the last chunk of a batch on the other thread). What comes out is
-    what tracing the batches one after the other gives, bit for bit.
+    cell order, ``microsim.kernel.beam``) and its chunks queued on the worker threads;
+    when they have ended, the batch is summarised, binned and projected on the harmonics
+    there too (``Sums.tally``, one batch on one thread, its blocks in order), so this
+    thread only queues batches and adds their sums, and the workers never wait for it.
+    What comes out is what tracing and tallying the batches one after the other gives,
+    bit for bit.
     """
-    pending: deque[tuple[_Batch, PendingPaths]] = deque()
+    pending: deque[tuple[_Batch, Future[Tally]]] = deque()
 
     def queue_next() -> None:
         for batch in itertools.islice(batches, 1):
             u = np.random.default_rng(batch.seed).random((batch.rays, 2))
             origins = beam_origins(u, scene.period, scene.z_top, CELLS)
-            pending.append((batch, start_paths(scene, facets, origins, batch.dirs, bounces,
-                                               batch.seed)))
+            paths = start_paths(scene, facets, origins, batch.dirs, bounces, batch.seed)
+            sums, phi_ref = batch.run.sums, batch.phi_ref
+            pending.append((batch, paths.then(
+                lambda traced, sums=sums, phi_ref=phi_ref: sums.tally(traced, bins,
+                                                                      phi_ref))))
 
     for _ in range(DEPTH):
         queue_next()
     while pending:
-        batch, paths = pending.popleft()
-        paths.wait()
+        batch, tally = pending.popleft()
+        done = tally.result()
         queue_next()
-        yield batch, paths.result()
+        yield batch, done
 
 
 @dataclass
@@ -433,8 +470,9 @@ def measure_directions(tile: Tile, materials: Mapping[str, Material], simulation
         if scene is None:
             scene = stack.enter_context(PeriodicScene(tile, threads))
         built, before = time.perf_counter(), scene.segments
-        for batch, paths in _pipeline(scene, facets, batches, int(simulation.bounces)):
-            batch.run.sums.add(paths, bins, batch.phi_ref, scene.map)
+        for batch, tally in _pipeline(scene, facets, batches, int(simulation.bounces),
+                                      bins):
+            batch.run.sums.add_tally(tally)
             batch.run.batches = batch.number + 1
             if batch.report is not None:
                 batch.report(batch.rays)

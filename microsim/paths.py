@@ -11,14 +11,19 @@ kernel (``microsim.kernel``); docs/goniometer.md explains the energy accounting.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from concurrent.futures import Future
 from dataclasses import dataclass
+from typing import Any, TypeVar
 
 import numpy as np
 
 from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.slots import FATES
 from microsim.kernel.tally import in_blocks, summarise
-from microsim.trace import PeriodicScene, Tracing
+from microsim.trace import Outcomes, PeriodicScene, Tracing
+
+T = TypeVar("T")
 
 
 @dataclass
@@ -96,7 +101,8 @@ def start_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nda
 
 class PendingPaths:
     """Paths being traced (``start_paths``): ``wait`` for the tracing, ``result`` for the
-    paths, summarised on the scene's worker threads.
+    paths, summarised on the scene's worker threads, or ``then`` to have a function of
+    them run there.
 
     Parameters
     ----------
@@ -113,18 +119,30 @@ class PendingPaths:
         self._tracing.result()
 
     def result(self) -> Paths:
-        """The paths: exit directions, weights and orders, and the energy and fate sums."""
-        out = self._tracing.result()
-        n = len(out.floats)
-        direction, weight = np.empty((n, 3)), np.empty((n, 3))
-        order = np.empty(n, np.int64)
+        """The paths: exit directions, weights and orders, and the energy and fate sums
+        (summarised on the scene's worker threads)."""
+        return _summarise(self._tracing.result(), self._scene.map)
 
-        def block(a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
-            energy, counts = np.zeros((3, 3)), np.zeros(len(FATES), np.int64)
-            summarise(out.floats[a:b], out.ints[a:b], direction[a:b], weight[a:b],
-                      order[a:b], energy, counts)
-            return energy, counts
+    def then(self, fn: Callable[[Paths], T]) -> Future[T]:
+        """``fn(paths)`` on one of the scene's worker threads once every path has ended
+        (summarised there, the paths those of ``result``), so the caller's thread need
+        not wait for the tracing (``Tracing.then``)."""
+        return self._tracing.then(lambda out: fn(_summarise(out, None)))
 
-        energy, counts = in_blocks(block, n, self._scene.map)
-        return Paths(direction, weight, order, energy[0], energy[1], energy[2],
-                     dict(zip(FATES, map(int, counts), strict=True)))
+
+def _summarise(out: Outcomes, mapper: Callable[..., list[Any]] | None) -> Paths:
+    """The paths of traced outcomes, summarised in blocks (``in_blocks``: the same sums
+    whatever ``mapper`` runs them)."""
+    n = len(out.floats)
+    direction, weight = np.empty((n, 3)), np.empty((n, 3))
+    order = np.empty(n, np.int64)
+
+    def block(a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
+        energy, counts = np.zeros((3, 3)), np.zeros(len(FATES), np.int64)
+        summarise(out.floats[a:b], out.ints[a:b], direction[a:b], weight[a:b],
+                  order[a:b], energy, counts)
+        return energy, counts
+
+    energy, counts = in_blocks(block, n, mapper)
+    return Paths(direction, weight, order, energy[0], energy[1], energy[2],
+                 dict(zip(FATES, map(int, counts), strict=True)))

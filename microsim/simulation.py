@@ -257,14 +257,17 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
         are not 0, 1, ..., K − 1.
     """
     first = parts[0]
-    ensemble = new_ensemble(simulation, table, first.isotropic)
-    energies: dict[Direction, Energies] = {}
-    runs: dict[RunKey, Run] = {}
-    for part in parts:
-        if part.ensemble is not None:
+    summed = [part for part in parts if part.ensemble is not None]
+    if len(summed) == 1 and not any(part.runs for part in parts):
+        ensemble, energies = summed[0].ensemble, summed[0].energies  # read, not changed
+    else:
+        ensemble, energies = new_ensemble(simulation, table, first.isotropic), {}
+        for part in summed:
             ensemble.absorb(part.ensemble)
             energies.update({d: Energies(e.energy.copy(), dict(e.fates))
                              for d, e in part.energies.items()})
+    runs: dict[RunKey, Run] = {}
+    for part in parts:
         for key, run in part.runs.items():
             if key in runs:
                 raise ValueError(f"direction {key[:2]} of realisation {key[2]} was traced "

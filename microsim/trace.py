@@ -115,12 +115,46 @@ class Tracing:
         self._arrays = (floats, ints, vertices)
         self._outcomes: Outcomes | None = None
 
+    def then(self, fn: Callable[[Outcomes], T]) -> Future[T]:
+        """``fn(outcomes)`` on a worker thread, queued when the last chunk has ended (at
+        once, in this thread, without workers); the returned future holds its result, or
+        the error of a chunk or of ``fn``."""
+        pool = self._scene._pool
+        if pool is None:
+            future: Future[T] = Future()
+            try:
+                future.set_result(fn(self.result()))
+            except Exception as error:  # noqa: BLE001 (handed to the future's reader)
+                future.set_exception(error)
+            return future
+        out: Future[T] = Future()
+        left = [len(self._chunks)]
+        lock = threading.Lock()
+
+        def run() -> None:
+            try:
+                out.set_result(fn(self.result()))
+            except Exception as error:  # noqa: BLE001 (handed to the future's reader)
+                out.set_exception(error)
+
+        def ended(_: Future[int]) -> None:
+            with lock:
+                left[0] -= 1
+                last = left[0] == 0
+            if last:
+                pool.submit(run)
+
+        for chunk in self._chunks:
+            chunk.add_done_callback(ended)
+        return out
+
     def result(self) -> Outcomes:
         """Wait for every chunk; the outcomes (the same object on later calls)."""
         if self._outcomes is None:
             segments = sum(chunk.result() for chunk in self._chunks)
             self._scene.segments += segments
             self._outcomes = Outcomes(*self._arrays, segments)
+            self._chunks = []  # their callbacks refer to this: no cycle outlives the wait
         return self._outcomes
 
 

@@ -110,9 +110,12 @@ class EnsembleSums:
         self.realisation_rays.setdefault(at, []).append(int(rays))
 
     def take(self, rows: Sequence[int]) -> EnsembleSums:
-        """The sums of the incident polar angles ``rows`` (copies)."""
-        out = EnsembleSums((0, 0), self.components, 0)
+        """The sums of the incident polar angles ``rows`` (copies; these sums themselves
+        for all of them in order)."""
         rows = list(rows)
+        if rows == list(range(len(self.rays))):
+            return self
+        out = EnsembleSums((0, 0), self.components, 0)
         out.sh_order = self.sh_order
         out.bins, out.albedo = self.bins.take(rows), self.albedo.take(rows)
         out.sh = None if self.sh is None else self.sh.take(rows)

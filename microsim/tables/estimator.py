@@ -379,8 +379,6 @@ class RunningEstimate:
         (Satterthwaite 1946, Biometrics Bull. 2(6), 110), i.e. 1/ν = 1/(d0 + d) + w²/ν_ρ.
         """
         totals = self._totals()
-        left = {g: tuple(t - x for t, x in zip(totals, group, strict=True))
-                for g, group in self._sums.items()}
         for index in np.ndindex(*var.shape[:-2]):
             kk = int(self.count[index])
             if kk < 3:
@@ -396,7 +394,8 @@ class RunningEstimate:
                 rho0, d0 = moderation_prior(s2[use] / u[use], d)
                 logs = []
                 for g in groups:
-                    t1, t2, tv, tn = (x[index] for x in left[g])
+                    t1, t2, tv, tn = (t[index] - x[index]
+                                      for t, x in zip(totals, self._sums[g], strict=True))
                     rest = float(tn)
                     if rest < 2:
                         continue
