@@ -19,7 +19,7 @@ from microsim.tables.table import BRDFTable
 
 MAX_RAYS_FACTOR = 100
 """With ``target_error`` and no ``max_rays``, at most this many times ``rays`` are traced."""
-MAX_REALISATIONS_FACTOR = 16
+MAX_REALISATIONS_FACTOR = 64
 """With ``target_error`` and no ``max_realisations``, at most this many times
 ``realisations``."""
 GROWTH = 4

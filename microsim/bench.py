@@ -32,10 +32,14 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 import statistics
+import subprocess
+import tempfile
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -104,6 +108,38 @@ def bare_rays_per_second(scene: Any, origins: np.ndarray, dirs: np.ndarray,
                                           d32[starts[k]:starts[k] + share], dists=dists[k]),
                       range(len(starts))))
         return len(o32) / (time.perf_counter() - start)
+
+
+@dataclass(frozen=True)
+class ChildRun:
+    """A command run to its end (``run_child``): its standard output, wall and CPU
+    seconds (user + system) and peak resident memory in GiB."""
+
+    stdout: str
+    wall: float
+    cpu: float
+    peak_gib: float
+
+
+def run_child(argv: list[str]) -> ChildRun:
+    """Run a command as a child process and measure it (``os.wait4``'s usage of that
+    child alone).
+
+    Raises
+    ------
+    RuntimeError
+        If it exits with a non-zero status.
+    """
+    start = time.perf_counter()
+    with tempfile.TemporaryFile() as out:
+        process = subprocess.Popen(argv, stdout=out, stderr=subprocess.DEVNULL)
+        _, status, usage = os.wait4(process.pid, 0)
+        wall = time.perf_counter() - start
+        if status != 0:
+            raise RuntimeError(f"{' '.join(argv)} failed with status {status}")
+        out.seek(0)
+        return ChildRun(out.read().decode(), wall, usage.ru_utime + usage.ru_stime,
+                        usage.ru_maxrss / 2**20)
 
 
 def surface_rays(scene: PeriodicScene, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:

@@ -74,7 +74,7 @@ class Simulation:
                                high=10**11)
     max_realisations: int | None = key(
         "int", None, "Adaptive stop: upper limit of realisations per incident direction "
-        "(default: 16 x realisations).", low=1, high=65536)
+        "(default: 64 x realisations).", low=1, high=65536)
 
     @property
     def realisations_or_one(self) -> int:

@@ -123,7 +123,7 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
     try:
         while True:
             if held is None:
-                held = _open(tiles, 0, threads, done)
+                held = open_realisation(tiles, 0, threads, done)
             if not plan:  # the first round: the tile says whether it is isotropic
                 azimuths = incident_azimuths(done.isotropic, simulation)
                 plan = {(l, k): (k0, n0) for l in chosen for k in range(len(azimuths))}
@@ -141,7 +141,7 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
                 if held[0] != r:
                     held[2].close()
                     held = None
-                    held = _open(tiles, r, threads, done)
+                    held = open_realisation(tiles, r, threads, done)
                 _trace(held, materials, simulation, table, work[r], done, plan, progress)
                 for d, n in work[r].items():
                     if ensemble:
@@ -185,9 +185,16 @@ def _tile_cost(done: Measurement, directions: int) -> float:
     return done.scene_time / max(done.tiles, 1) * rays_per_second / max(directions, 1)
 
 
-def _open(tiles: Callable[[int], Tile], r: int, threads: int | None, done: Measurement
+def open_realisation(tiles: Callable[[int], Tile], r: int, threads: int | None, done: Measurement
           ) -> tuple[int, Tile, PeriodicScene]:
-    """Build realisation r's tile and scene, counting the time and keeping its facts."""
+    """Build realisation r's tile and scene as ``measure_ensemble`` does, counting the
+    time and the tile in ``done`` and keeping its facts and warnings there.
+
+    Returns
+    -------
+    (r, tile, scene)
+        The scene is open: the caller closes it.
+    """
     start = time.perf_counter()
     tile = tiles(r)
     scene = PeriodicScene(tile, threads)

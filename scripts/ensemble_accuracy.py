@@ -35,12 +35,12 @@ import argparse
 import json
 import os
 import platform
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+from microsim.bench import run_child
 from microsim.compare import compare_table
 from microsim.files import replace_marked
 from microsim.recipe import load, to_toml
@@ -59,19 +59,6 @@ def load_average() -> float:
     return os.getloadavg()[0]
 
 
-def run_child(argv: list[str]) -> tuple[str, float, float]:
-    """Run a command; its stdout, wall seconds and peak resident memory (GiB)."""
-    start = time.perf_counter()
-    with tempfile.TemporaryFile() as out:
-        process = subprocess.Popen(argv, stdout=out, stderr=subprocess.DEVNULL)
-        _, status, usage = os.wait4(process.pid, 0)
-        wall = time.perf_counter() - start
-        if status != 0:
-            raise RuntimeError(f"{' '.join(argv)} failed with status {status}")
-        out.seek(0)
-        return out.read().decode(), wall, usage.ru_maxrss / 2**20
-
-
 def header(command: str, before: float) -> str:
     return (f"`python scripts/ensemble_accuracy.py {command}` ({platform.machine()}, "
             f"{os.cpu_count()} CPUs, Python {platform.python_version()}, "
@@ -88,8 +75,9 @@ def write(name: str, text: str, heading: str) -> None:
 def demo() -> str:
     before = load_average()
     with tempfile.TemporaryDirectory() as folder:
-        text, wall, memory = run_child([sys.executable, "-m", "microsim.cli", "demo",
-                                        "--json", "-o", str(Path(folder) / "demo.exr")])
+        child = run_child([sys.executable, "-m", "microsim.cli", "demo", "--json", "-o",
+                           str(Path(folder) / "demo.exr")])
+    text, wall, memory = child.stdout, child.wall, child.peak_gib
     result = json.loads(text)
     s, c = result["simulation"], result["comparison"]
     lines = [header("demo", before) + f": `microsim demo` with its defaults "
@@ -176,9 +164,9 @@ def targets(most: int, rays: int) -> str:
         with tempfile.TemporaryDirectory() as folder:
             path = Path(folder) / "r.toml"
             path.write_text(to_toml(sub), encoding="utf-8")
-            _, wall, memory = run_child([sys.executable, "-m", "microsim.cli", "simulate",
-                                         str(path), "-o", str(Path(folder) / "t.exr"),
-                                         "--json"])
+            child = run_child([sys.executable, "-m", "microsim.cli", "simulate", str(path),
+                               "-o", str(Path(folder) / "t.exr"), "--json"])
+        wall, memory = child.wall, child.peak_gib
         lines.append(f"| {100 * target:g}% | `--set simulation.realisations={k} --set "
                      f"simulation.rays={k * rays}` (16 × 32 bins) | {wall:.1f} s | "
                      f"{memory:.2f} GiB |")

@@ -1,0 +1,244 @@
+"""What users run: the whole ``microsim simulate`` of shipped recipes with their defaults,
+against bare Embree on the same tile in the same run.
+
+Usage::
+
+    python scripts/bench_default.py [--repeats 3] [--write]
+
+Sections (``--only`` picks some):
+
+- ``recipes``: ``microsim simulate`` of ``surfaces/gaussian-0.3.toml``, ``velvet.toml`` and
+  ``paint.toml`` as they are (their realisations, harmonics and orders), run as a command
+  ``repeats`` times, each run between two timings of bare ``EmbreeScene.run`` on
+  incoherent rays from the recipe's own tile (``microsim.bench.surface_rays``, 2 threads,
+  one call per thread). Two ratios per run: segments over ``simulate``'s own wall time
+  (``wall_s``: tiles, scenes, tracing) and over the whole command's (start-up, assembly
+  and writing included), each against the mean bare rays per second around it; medians
+  and ranges over the repeats, with the command's CPU time and peak memory.
+- ``heavy``: a tile-heavy ensemble (256² Gaussian, α = 0.5, 32 realisations, 400 000 rays
+  per direction, θi = 0, 20, 40, 60, 80°) with mirror and with gold facets, the same way.
+- ``target``: ``microsim simulate surfaces/gaussian-0.3.toml --target-error 0.01``: wall
+  and CPU time, peak resident memory, realisations and rays per direction.
+- ``tile``: the cost of one realisation of the 256² Gaussian tile, as ``simulate`` opens
+  one (``microsim.simulation.open_realisation``: the tile's generation and facts, then its
+  scene),
+  median of 16 after one not counted.
+
+``--write`` puts the figures at the head of docs/performance.md (marked section).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from microsim.bench import bare_rays_per_second, bare_scene, run_child, surface_rays
+from microsim.files import replace_marked
+from microsim.goniometer import Measurement
+from microsim.recipe import load, resolve, to_toml
+from microsim.simulation import Tiles, open_realisation
+from microsim.surfaces import build_tile
+from microsim.trace import PeriodicScene
+
+ROOT = Path(__file__).resolve().parent.parent
+DOC = ROOT / "docs" / "performance.md"
+RECIPES = ("gaussian-0.3.toml", "velvet.toml", "paint.toml")
+GOLD = {"kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]}
+BARE_RAYS = 400_000
+"""Rays per pass of bare Embree."""
+BARE_MOST = 4_000_000
+"""Most rays bare Embree is timed on around one run (passes of ``BARE_RAYS``)."""
+THREADS = 2
+
+
+def command() -> list[str]:
+    """``microsim`` as the installed command runs it."""
+    return [sys.executable, "-m", "microsim.cli"]
+
+
+def heavy_recipe(material: dict[str, Any]) -> str:
+    """The tile-heavy case as a recipe (TOML)."""
+    base = load(ROOT / "surfaces" / "gaussian-0.3.toml").to_json()
+    base["description"] = "tile-heavy ensemble"
+    base["surface"] = {"kind": "gaussian", "alpha": 0.5, "resolution": 256, "seed": 1}
+    base["material"] = material
+    base["simulation"] = {"theta_i": [0, 20, 40, 60, 80], "rays": 400_000, "bounces": 16,
+                          "seed": 1, "realisations": 32}
+    return to_toml(resolve(base))
+
+
+def bare_rate(scene: Any, rays: tuple[np.ndarray, np.ndarray], total: int) -> float:
+    """Bare Embree's rays per second over about ``total`` rays (passes of the rays)."""
+    passes = max(1, min(BARE_MOST, total) // BARE_RAYS)
+    return passes / sum(1.0 / bare_rays_per_second(scene, *rays, THREADS)
+                        for _ in range(passes))
+
+
+def timed_case(path: Path, repeats: int) -> dict[str, Any]:
+    """``repeats`` runs of ``microsim simulate PATH`` between bare Embree timings on the
+    recipe's tile (realisation 0)."""
+    recipe = load(path)
+    tile = build_tile(recipe.surface)
+    with PeriodicScene(tile, threads=1) as scene:
+        rays = surface_rays(scene, BARE_RAYS, 0)
+    bare = bare_scene(tile.vertices, tile.faces)
+    rows = []
+    with tempfile.TemporaryDirectory() as folder:
+        out = str(Path(folder) / "t.exr")
+        argv = command() + ["simulate", str(path), "-o", out, "--json",
+                            "--threads", str(THREADS)]
+        run_child(argv)  # warm: compiled code, file caches
+        for _ in range(repeats):
+            guess = rows[-1]["segments"] if rows else BARE_MOST
+            before = bare_rate(bare, rays, guess)
+            child = run_child(argv)
+            after = bare_rate(bare, rays, guess)
+            result = json.loads(child.stdout)
+            embree = 0.5 * (before + after)
+            rows.append({"segments": result["segments"], "wall_s": result["wall_s"],
+                         "command_s": child.wall, "cpu_s": child.cpu,
+                         "peak_gib": child.peak_gib, "bare": embree,
+                         "simulate": result["segments"] / result["wall_s"] / embree,
+                         "whole": result["segments"] / child.wall / embree,
+                         "realisations": result["realisations"]})
+            print(json.dumps(rows[-1]), flush=True)
+    return {"faces": len(tile.faces), "rows": rows}
+
+
+def median_range(values: list[float]) -> str:
+    return f"**{statistics.median(values):.2f}** ({min(values):.2f}–{max(values):.2f})"
+
+
+def case_rows(name: str, case: dict[str, Any]) -> str:
+    rows = case["rows"]
+
+    def med(key: str) -> float:
+        return statistics.median(r[key] for r in rows)
+
+    return (f"| {name} | {case['faces']:,} | {rows[0]['realisations']} | "
+            f"{med('segments') / 1e6:.1f} M | {med('wall_s'):.2f} s | "
+            f"{med('command_s'):.2f} s | {med('cpu_s'):.1f} s | {med('peak_gib'):.2f} GiB | "
+            f"{med('bare') / 1e6:.2f} | {median_range([r['simulate'] for r in rows])} | "
+            f"{median_range([r['whole'] for r in rows])} |")
+
+
+TABLE_HEAD = ("| recipe | faces | realisations | segments | simulate's wall | command | "
+              "CPU | peak memory | bare Embree, 10⁶ rays/s | segments/s over bare, "
+              "simulate | the whole command |\n"
+              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+
+
+def recipes_section(repeats: int) -> str:
+    rows = [case_rows(f"`{name}`", timed_case(ROOT / "surfaces" / name, repeats))
+            for name in RECIPES]
+    return "\n".join([TABLE_HEAD, *rows])
+
+
+def heavy_section(repeats: int) -> str:
+    rows = []
+    with tempfile.TemporaryDirectory() as folder:
+        for name, material in (("mirror", {"kind": "mirror"}), ("gold", GOLD)):
+            path = Path(folder) / f"heavy-{name}.toml"
+            path.write_text(heavy_recipe(material), encoding="utf-8")
+            rows.append(case_rows(f"tile-heavy, {name}", timed_case(path, repeats)))
+    return "\n".join([TABLE_HEAD, *rows])
+
+
+def target_section() -> str:
+    with tempfile.TemporaryDirectory() as folder:
+        child = run_child(command() + [
+            "simulate", str(ROOT / "surfaces" / "gaussian-0.3.toml"), "--target-error",
+            "0.01", "-o", str(Path(folder) / "t.exr"), "--json", "--threads",
+            str(THREADS)])
+    result = json.loads(child.stdout)
+    per = ", ".join(f"{k} / {r / 1e6:.1f} M" for k, r in zip(
+        result["realisations_per_direction"], result["rays_per_direction"], strict=True))
+    return (f"`microsim simulate surfaces/gaussian-0.3.toml --target-error 0.01`: "
+            f"**{child.wall:.1f} s** wall, {child.cpu:.1f} s CPU, "
+            f"**{child.peak_gib:.2f} GiB** peak resident memory; "
+            f"{result['segments'] / 1e6:.0f} M segments; realisations / rays per "
+            f"incidence (θi = 0, 30, 60, 80°): {per}; stop: {', '.join(result['stop'])}; "
+            f"median relative standard error {100 * result['median_rel_stderr']:.2f}%.")
+
+
+def tile_section() -> str:
+    recipe = load(ROOT / "surfaces" / "gaussian-0.3.toml")
+    tiles = Tiles(recipe.surface)
+    done = Measurement({}, {}, [], False)
+    build, scene_time = [], []
+    for r in range(17):
+        start = time.perf_counter()
+        tile = tiles(r)
+        built = time.perf_counter()
+        scene = PeriodicScene(tile, THREADS)
+        end = time.perf_counter()
+        scene.close()
+        if r:
+            build.append(built - start)
+            scene_time.append(end - built)
+    start = time.perf_counter()
+    for r in range(1, 17):
+        open_realisation(tiles, r, THREADS, done)[2].close()
+    whole = (time.perf_counter() - start) / 16
+    return (f"One realisation of the 256² Gaussian tile (131,072 faces) as `simulate` "
+            f"opens it: **{1e3 * whole:.1f} ms** (mean of 16), of which the tile's "
+            f"generation and facts {1e3 * statistics.median(build):.1f} ms and its scene "
+            f"{1e3 * statistics.median(scene_time):.1f} ms (medians of 16).")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--only", nargs="+", choices=("recipes", "heavy", "target", "tile"),
+                        default=("recipes", "heavy", "target", "tile"))
+    parser.add_argument("--write", action="store_true",
+                        help="write the results into docs/performance.md")
+    args = parser.parse_args()
+    load_before = os.getloadavg()[0]
+    parts = {}
+    for name in args.only:
+        parts[name] = {"recipes": lambda: recipes_section(args.repeats),
+                       "heavy": lambda: heavy_section(args.repeats),
+                       "target": target_section, "tile": tile_section}[name]()
+        print(parts[name], flush=True)
+    if not args.write:
+        return
+    head = (f"Measured with `python scripts/bench_default.py --repeats {args.repeats} "
+            f"--write` on {platform.machine()}, {os.cpu_count()} CPUs, Python "
+            f"{platform.python_version()}, {time.strftime('%Y-%m-%d')}; load average "
+            f"(1 min) {load_before:.1f} before, {os.getloadavg()[0]:.1f} after. Every run "
+            f"is the command `microsim simulate RECIPE --threads {THREADS}` (its `--json` "
+            "gives the segments and `wall_s`, the time inside simulate: tiles, scenes and "
+            "tracing); the command's wall and CPU time and peak memory are the child "
+            "process's. Bare Embree: `EmbreeScene.run` on incoherent rays from the "
+            "recipe's own tile (realisation 0), 2 threads, timed right before and right "
+            "after each run; ratios are segments per second over the mean of the two, "
+            "median (range) over the repeats.")
+    sections = [head]
+    if "recipes" in parts:
+        sections += ["", "### The shipped recipes, as they are", "", parts["recipes"]]
+    if "heavy" in parts:
+        sections += ["", "### A tile-heavy ensemble", "",
+                     "256² Gaussian, α = 0.5, 32 realisations, 400,000 rays per direction, "
+                     "θi = 0, 20, 40, 60, 80°, harmonics of order 32:", "", parts["heavy"]]
+    if "target" in parts:
+        sections += ["", "### To 1% ensemble error", "", parts["target"]]
+    if "tile" in parts:
+        sections += ["", "### The cost of a realisation", "", parts["tile"]]
+    begin, end = "<!-- bench_default: begin -->", "<!-- bench_default: end -->"
+    text = "\n".join([begin, "## What users run: `simulate` end to end", "", *sections, end])
+    replace_marked(DOC, text, begin, end, heading="# Performance")
+
+
+if __name__ == "__main__":
+    main()
