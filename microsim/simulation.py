@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import replace
 from typing import Any
 
@@ -117,13 +118,14 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
     target = simulation.target_error
     done = Measurement({}, {}, [], False)
     held: tuple[int, Tile, PeriodicScene] | None = None
+    opener = Opener(tiles, threads, done)
     plan: dict[Direction, tuple[int, int]] = {}   # (realisations, rays of each new one)
     traced: dict[Direction, list[int]] = {}       # rays of each realisation traced
     bins = HemisphereBins(table.theta_bins, table.phi_bins)
     try:
         while True:
             if held is None:
-                held = open_realisation(tiles, 0, threads, done)
+                held = opener.open(0)
             if not plan:  # the first round: the tile says whether it is isotropic
                 azimuths = incident_azimuths(done.isotropic, simulation)
                 plan = {(l, k): (k0, n0) for l in chosen for k in range(len(azimuths))}
@@ -137,11 +139,14 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
                         work.setdefault(r, {})[d] = n
                 elif n > sum(traced[d]):
                     work.setdefault(0, {})[d] = n - sum(traced[d])
-            for r in sorted(work):
+            order = sorted(work)
+            for i, r in enumerate(order):
                 if held[0] != r:
                     held[2].close()
                     held = None
-                    held = open_realisation(tiles, r, threads, done)
+                    held = opener.open(r)
+                if i + 1 < len(order):
+                    opener.ahead(order[i + 1])
                 _trace(held, materials, simulation, table, work[r], done, plan, progress)
                 for d, n in work[r].items():
                     if ensemble:
@@ -174,6 +179,7 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
     finally:
         if held is not None:
             held[2].close()
+        opener.close()
     return done
 
 
@@ -185,27 +191,71 @@ def _tile_cost(done: Measurement, directions: int) -> float:
     return done.scene_time / max(done.tiles, 1) * rays_per_second / max(directions, 1)
 
 
-def open_realisation(tiles: Callable[[int], Tile], r: int, threads: int | None, done: Measurement
-          ) -> tuple[int, Tile, PeriodicScene]:
-    """Build realisation r's tile and scene as ``measure_ensemble`` does, counting the
-    time and the tile in ``done`` and keeping its facts and warnings there.
+class Opener:
+    """Opens the realisations a measurement traces and records them in it: the tile and
+    its scene of each, and (``ahead``) the next one on a thread of its own while the
+    current one is traced, so that building it keeps no tracing thread waiting. At most
+    two tiles are alive: the one traced and the one prepared.
 
-    Returns
-    -------
-    (r, tile, scene)
-        The scene is open: the caller closes it.
+    Parameters
+    ----------
+    tiles : callable
+        Realisation index → its tile (``Tiles``).
+    threads : int or None
+        Tracing threads of the scenes.
+    done : Measurement
+        Where each opened realisation is recorded (build time, tile count, facts,
+        warnings, isotropy, the ray offset of realisation 0).
     """
-    start = time.perf_counter()
-    tile = tiles(r)
-    scene = PeriodicScene(tile, threads)
-    done.scene_time += time.perf_counter() - start
-    done.tiles += 1
-    done.surfaces.setdefault(r, tile.facts)
-    done.isotropic = bool(tile.facts.isotropic)
-    done.warnings += [w for w in tile.warnings if w not in done.warnings]
-    if r == 0:
-        done.offset = scene.eps
-    return r, tile, scene
+
+    def __init__(self, tiles: Callable[[int], Tile], threads: int | None,
+                 done: Measurement) -> None:
+        self._tiles, self._threads, self._done = tiles, threads, done
+        self._pool = ThreadPoolExecutor(1, thread_name_prefix="microsim-tiles")
+        self._ahead: tuple[int, Future[tuple[Tile, PeriodicScene, float]]] | None = None
+
+    def _build(self, r: int) -> tuple[Tile, PeriodicScene, float]:
+        start = time.perf_counter()
+        tile = self._tiles(r)
+        scene = PeriodicScene(tile, self._threads)
+        return tile, scene, time.perf_counter() - start
+
+    def open(self, r: int) -> tuple[int, Tile, PeriodicScene]:
+        """Realisation r's tile and open scene (the one prepared, if it is r); the caller
+        closes the scene."""
+        if self._ahead is not None and self._ahead[0] == r:
+            tile, scene, seconds = self._ahead[1].result()
+            self._ahead = None
+        else:
+            self._discard()
+            tile, scene, seconds = self._build(r)
+        done = self._done
+        done.scene_time += seconds
+        done.tiles += 1
+        done.surfaces.setdefault(r, tile.facts)
+        done.isotropic = bool(tile.facts.isotropic)
+        done.warnings += [w for w in tile.warnings if w not in done.warnings]
+        if r == 0:
+            done.offset = scene.eps
+        return r, tile, scene
+
+    def ahead(self, r: int) -> None:
+        """Start preparing realisation r (the next ``open``)."""
+        if self._ahead is None or self._ahead[0] != r:
+            self._discard()
+            self._ahead = (r, self._pool.submit(self._build, r))
+
+    def _discard(self) -> None:
+        """Close a prepared realisation nobody opened."""
+        if self._ahead is not None:
+            future, self._ahead = self._ahead[1], None
+            if not future.cancel() and future.exception() is None:
+                future.result()[1].close()
+
+    def close(self) -> None:
+        """Close what was prepared and stop the thread."""
+        self._discard()
+        self._pool.shutdown()
 
 
 def _trace(held: tuple[int, Tile, PeriodicScene], materials: Mapping[str, Material],

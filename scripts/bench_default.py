@@ -20,8 +20,8 @@ Sections (``--only`` picks some):
 - ``target``: ``microsim simulate surfaces/gaussian-0.3.toml --target-error 0.01``: wall
   and CPU time, peak resident memory, realisations and rays per direction.
 - ``tile``: the cost of one realisation of the 256² Gaussian tile, as ``simulate`` opens
-  one (``microsim.simulation.open_realisation``: the tile's generation and facts, then its
-  scene),
+  one (``microsim.simulation.Opener.open``, one after the other: the tile's generation and
+  facts, then its scene),
   median of 16 after one not counted.
 
 ``--write`` puts the figures at the head of docs/performance.md (marked section).
@@ -46,7 +46,7 @@ from microsim.bench import bare_rays_per_second, bare_scene, run_child, surface_
 from microsim.files import replace_marked
 from microsim.goniometer import Measurement
 from microsim.recipe import load, resolve, to_toml
-from microsim.simulation import Tiles, open_realisation
+from microsim.simulation import Opener, Tiles
 from microsim.surfaces import build_tile
 from microsim.trace import PeriodicScene
 
@@ -186,10 +186,12 @@ def tile_section() -> str:
         if r:
             build.append(built - start)
             scene_time.append(end - built)
+    opener = Opener(tiles, THREADS, done)
     start = time.perf_counter()
     for r in range(1, 17):
-        open_realisation(tiles, r, THREADS, done)[2].close()
+        opener.open(r)[2].close()
     whole = (time.perf_counter() - start) / 16
+    opener.close()
     return (f"One realisation of the 256² Gaussian tile (131,072 faces) as `simulate` "
             f"opens it: **{1e3 * whole:.1f} ms** (mean of 16), of which the tile's "
             f"generation and facts {1e3 * statistics.median(build):.1f} ms and its scene "
