@@ -132,7 +132,9 @@ def _done(value: T) -> Future[T]:
 
 
 class PeriodicScene:
-    """One tile in Embree, traced with periodic wrap on a thread pool.
+    """One tile in Embree, traced with periodic wrap on a thread pool; ``update`` moves it
+    to another tile (the next realisation of a surface) without building anew what it can
+    keep.
 
     Parameters
     ----------
@@ -145,10 +147,12 @@ class PeriodicScene:
 
     Attributes
     ----------
+    tile : Tile
+        The tile traced.
     normals : (m, 3) float
-        Unit face normals (away from the material).
+        Unit face normals (away from the material), the tile's (read-only).
     areas : (m,) float
-        Face areas.
+        Face areas, the tile's (read-only).
     eps : float
         Offset of secondary-ray origins off their face.
     box : (7,) float

@@ -148,6 +148,29 @@ def test_every_scene_shares_the_process_embree_device() -> None:
     assert device() == scenes[0]._device
 
 
+def hits_and_own_device(seed: int) -> tuple[np.ndarray, bool]:
+    """Faces hit by fixed rays in a new scene of a random tile, and whether the process's
+    Embree device was made by this process (run in a forked child too)."""
+    import os
+
+    from microsim.kernel import embree
+
+    with PeriodicScene(random_tile(n=32, seed=seed), threads=1) as scene:
+        start, d = incoherent_rays(scene, 2000, 1)
+        return scene.closest_hit(start, d).face, embree._DEVICE[0] == os.getpid()
+
+
+def test_a_forked_process_makes_its_own_device() -> None:
+    """A child forked after the parent made its device (whose build threads the child does
+    not have) makes its own, and traces as the parent does."""
+    import multiprocessing
+
+    want, own = hits_and_own_device(3)
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        got, child_own = pool.apply_async(hits_and_own_device, (3,)).get(timeout=120)
+    assert own and child_own and np.array_equal(got, want)
+
+
 def test_an_updated_scene_finds_what_a_new_one_finds() -> None:
     """``PeriodicScene.update`` to another realisation of the same grid (the same faces
     array: the BVH is refitted) finds the closest hits a new scene of it finds, except
