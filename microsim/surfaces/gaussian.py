@@ -70,13 +70,18 @@ def heights(n: int, size: float, sigma: float, tau_x: float, tau_y: float,
 @functools.lru_cache(maxsize=4)
 def root_power(n: int, size: float, sigma: float, tau_x: float, tau_y: float,
                rotation: float) -> np.ndarray:
-    """√P, P = DFT(C) the eigenvalues of the circulant covariance (parameters as for
-    ``heights``): the same for every realisation of a surface, so made once and kept
-    (read-only) for the last few surfaces.
+    """√P, P = DFT(C) the eigenvalues of the circulant covariance: the same for every
+    realisation of a surface, so made once and kept (read-only) for the last few surfaces.
+
+    Parameters
+    ----------
+    n, size, sigma, tau_x, tau_y, rotation
+        As for ``heights``.
 
     Returns
     -------
     (n, n) float
+        Read-only.
     """
     d = np.arange(n) * (size / n)
     d = np.where(d >= size / 2, d - size, d)  # minimum-image displacement
