@@ -166,7 +166,9 @@ def _done(value: T) -> Future[T]:
 
 
 class PeriodicScene:
-    """One tile in Embree, traced with periodic wrap on a thread pool.
+    """One tile in Embree, traced with periodic wrap on a thread pool; ``update`` moves it
+    to another tile (the next realisation of a surface) without building anew what it can
+    keep.
 
     Parameters
     ----------
@@ -179,10 +181,12 @@ class PeriodicScene:
 
     Attributes
     ----------
+    tile : Tile
+        The tile traced.
     normals : (m, 3) float
-        Unit face normals (away from the material).
+        Unit face normals (away from the material), the tile's (read-only).
     areas : (m,) float
-        Face areas.
+        Face areas, the tile's (read-only).
     eps : float
         Offset of secondary-ray origins off their face.
     box : (7,) float
@@ -193,12 +197,46 @@ class PeriodicScene:
     """
 
     def __init__(self, tile: Tile, threads: int | None = None, chunk: int = CHUNK) -> None:
+        self._faces: np.ndarray | None = None
+        self._take(tile)
+        self._scene = Scene(tile.vertices, tile.faces)
+        self.threads = threads or os.cpu_count() or 1
+        self.chunk = chunk
+        self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        self._local = threading.local()
+        self.segments = 0
+
+    def update(self, tile: Tile) -> None:
+        """Trace ``tile`` from now on, keeping the worker threads and, when the tile has
+        the same faces as the current one (another realisation of a height field on the
+        same grid: ``faces`` the same array, or equal), the Embree scene, whose BVH is
+        then refitted to the new vertices instead of built anew
+        (``microsim.kernel.embree.Scene.update``). Outcomes are as a new
+        ``PeriodicScene(tile)``'s; ``segments`` keeps counting.
+
+        Call it only when no tracing is under way (every ``Tracing`` collected).
+
+        Parameters
+        ----------
+        tile : Tile
+            The new tile, of any topology.
+        """
+        self._take(tile)
+        held = self._scene
+        if len(tile.vertices) == held.vertex_count and (
+                tile.faces is held.faces or np.array_equal(tile.faces, held.faces)):
+            held.update(tile.vertices)
+        else:
+            held.close()
+            self._scene = Scene(tile.vertices, tile.faces)
+
+    def _take(self, tile: Tile) -> None:
+        """Make ``tile`` the scene's: its face table and slab (not its Embree scene)."""
         self.tile = tile
         self.period = np.array(tile.period, dtype=float)
         self.normals, self.areas = tile.face_normals_areas()
-        # plane of each face: n . x = c
-        plane = np.einsum("ij,ij->i", self.normals, tile.vertices[tile.faces[:, 0]])
-        self._faces = ks.face_table(self.normals, plane, tile.material, tile.tangents)
+        self._faces = ks.face_table(self.normals, tile.face_planes(), tile.material,
+                                    tile.tangents, self._faces)
         z_min, z_max = tile.z_range
         extent = max(float(np.abs(tile.vertices).max()), *tile.period, z_max - z_min)
         self.eps = EPS_REL * extent
@@ -207,12 +245,6 @@ class PeriodicScene:
         self.z_bottom = z_min - 4 * self.eps
         self.box = np.array([*self.period, self.z_bottom, self.z_top, self.eps,
                              *(1.0 / self.period)])
-        self._scene = Scene(tile.vertices, tile.faces)
-        self.threads = threads or os.cpu_count() or 1
-        self.chunk = chunk
-        self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
-        self._local = threading.local()
-        self.segments = 0
 
     def close(self) -> None:
         """Stop the worker threads and release the Embree scene."""

@@ -134,3 +134,24 @@ def test_the_beam_is_the_points_drawn_in_cell_order() -> None:
     out = beam_origins(u, period, 0.25, cells)
     assert np.array_equal(out[:, :2], want)
     assert np.all(out[:, 2] == 0.25)
+
+
+@pytest.mark.parametrize("with_tangents", [False, True])
+def test_face_table_holds_each_faces_columns(with_tangents) -> None:
+    """The compiled face table against its columns set by numpy; an old table of as many
+    faces is overwritten in place, one of another size replaced."""
+    from microsim.kernel import slots as ks
+
+    rng = np.random.default_rng(2)
+    m = 1000
+    normals, plane = rng.normal(size=(m, 3)), rng.normal(size=m)
+    part = rng.integers(0, 3, m).astype(np.int32)
+    tangents = rng.normal(size=(m, 3)) if with_tangents else None
+    want = np.zeros((m, ks.FACE_FLOATS))
+    want[:, ks.F_NX:ks.F_NZ + 1], want[:, ks.F_C], want[:, ks.F_PART] = normals, plane, part
+    if with_tangents:
+        want[:, ks.F_TX:ks.F_TZ + 1] = tangents
+    old = np.full((m, ks.FACE_FLOATS), np.nan)
+    got = ks.face_table(normals, plane, part, tangents, old)
+    assert got is old and np.array_equal(got, want)
+    assert np.array_equal(ks.face_table(normals, plane, part, tangents, old[:-1]), want)

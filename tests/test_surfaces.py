@@ -10,7 +10,8 @@ from scipy import stats
 
 from microsim.analytic.ndf import Beckmann, ndf_bin_average
 from microsim.recipe import resolve
-from microsim.surfaces import build_tile
+from microsim.surfaces import build_tile, gaussian
+from microsim.surfaces.tile import height_field_vertices
 
 
 def tile_of(**surface):
@@ -269,3 +270,82 @@ def test_weave_bad_width():
     from microsim.errors import InputError
     with pytest.raises(InputError, match="yarn_width"):
         tile_of(kind="weave", yarn_width=1.0, spacing=1.0)
+
+
+def reference_geometry(t):
+    """Normals, areas and plane constants as numpy computes them (np.cross, norm, einsum)."""
+    v = t.vertices[t.faces]
+    cross = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    norm = np.linalg.norm(cross, axis=1)
+    normals = np.divide(cross, norm[:, None], out=np.zeros_like(cross),
+                        where=norm[:, None] > 0)
+    return normals, 0.5 * norm, np.einsum("ij,ij->i", normals, v[:, 0])
+
+
+def reference_alpha(t, rotation):
+    """``Tile.realised_alpha`` in plain numpy: masked arrays, then sums."""
+    normals, areas, _ = reference_geometry(t)
+    up = normals[:, 2] > 0
+    n, weight = normals[up], areas[up] * normals[up, 2]
+    gx, gy = -n[:, 0] / n[:, 2], -n[:, 1] / n[:, 2]
+    c, s = np.cos(rotation), np.sin(rotation)
+    return tuple(float(np.sqrt(2 * np.sum(weight * slope**2) / weight.sum()))
+                 for slope in (c * gx + s * gy, -s * gx + c * gy))
+
+
+TILES = {"gaussian": {"kind": "gaussian", "alpha_x": 0.2, "alpha_y": 0.6, "rotation": 30.0,
+                      "resolution": 64, "correlation_length": 1 / 16, "seed": 2},
+         "velvet": {"kind": "velvet", "seed": 1},  # tubes: faces with n_z <= 0
+         "paint": {"kind": "paint", "seed": 1}}
+
+
+@pytest.mark.parametrize("kind", sorted(TILES))
+def test_face_geometry_is_numpys_bit_for_bit(kind):
+    """The compiled normals, areas, plane constants and realised roughness equal the numpy
+    reference exactly (a degenerate face gets a zero normal and area)."""
+    t = tile_of(**TILES[kind])
+    t.faces = np.concatenate([t.faces, [[0, 0, 1]]])
+    normals, areas = t.face_normals_areas()
+    ref_n, ref_a, ref_c = reference_geometry(t)
+    assert np.array_equal(normals, ref_n) and np.array_equal(areas, ref_a)
+    assert np.array_equal(t.face_planes(), ref_c)
+    assert not normals[-1].any() and areas[-1] == 0
+    rotation = math.radians(30.0)
+    assert t.realised_alpha(rotation) == reference_alpha(t, rotation)
+
+
+def test_face_geometry_is_kept_until_the_arrays_change():
+    t = tile_of(kind="gaussian", alpha=0.3, seed=7, resolution=32)
+    normals, areas = t.face_normals_areas()
+    assert t.face_normals_areas()[0] is normals and not normals.flags.writeable
+    with pytest.raises(ValueError):
+        areas[0] = 1.0
+    t.vertices = t.vertices * [1.0, 1.0, 2.0]
+    steeper, _ = t.face_normals_areas()
+    assert steeper is not normals and np.array_equal(steeper, reference_geometry(t)[0])
+
+
+def test_gaussian_heights_and_vertices_are_the_direct_synthesis():
+    """Heights from the kept √P equal a fresh synthesis (covariance, FFT) bit for bit, and
+    the vertices equal the padded grid; a second realisation reuses √P and the faces."""
+    n, size, sigma, tau_x, tau_y, rotation = 32, 1.0, 0.01, 0.05, 0.08, 0.4
+    d = np.arange(n) * (size / n)
+    d = np.where(d >= size / 2, d - size, d)
+    dx, dy = np.meshgrid(d, d, indexing="ij")
+    c, s = math.cos(rotation), math.sin(rotation)
+    cov = sigma**2 * np.exp(-(((c * dx + s * dy) / tau_x) ** 2
+                              + ((-s * dx + c * dy) / tau_y) ** 2))
+    noise = np.random.default_rng(3).standard_normal((n, n))
+    power = np.maximum(np.fft.fft2(cov).real, 0.0)
+    expected = np.fft.ifft2(np.fft.fft2(noise) * np.sqrt(power)).real
+    h = gaussian.heights(n, size, sigma, tau_x, tau_y, rotation, np.random.default_rng(3))
+    assert np.array_equal(h, expected)
+    assert gaussian.root_power(n, size, sigma, tau_x, tau_y, rotation) is \
+        gaussian.root_power(n, size, sigma, tau_x, tau_y, rotation)
+    g = np.linspace(0.0, size, n + 1)
+    x, y = np.meshgrid(g, g, indexing="ij")
+    z = np.pad(h, ((0, 1), (0, 1)), mode="wrap")
+    assert np.array_equal(height_field_vertices(h, size),
+                          np.column_stack([x.ravel(), y.ravel(), z.ravel()]))
+    a, b = (tile_of(kind="gaussian", alpha=0.3, seed=seed, resolution=32) for seed in (1, 2))
+    assert a.faces is b.faces and not a.faces.flags.writeable

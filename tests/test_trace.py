@@ -124,3 +124,116 @@ def test_kernel_queries_find_what_bare_embreex_finds() -> None:
                                                      d.astype(np.float32))
     assert np.all(hits.status == HIT)
     assert np.array_equal(hits.face, bare)
+
+
+def incoherent_rays(scene: PeriodicScene, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Rays from the top of the slab, cosine-distributed about −z, anywhere over the box."""
+    rng = np.random.default_rng(seed)
+    start = np.c_[rng.random((n, 2)), np.full(n, scene.z_top)]
+    return start, -cosine_directions(np.tile([0.0, 0.0, 1.0], (n, 1)), rng.random((n, 2)))
+
+
+def test_every_scene_shares_the_process_embree_device() -> None:
+    """Scenes made on several threads at once come from one device, made once."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from microsim.kernel.embree import Scene, device
+
+    tile = random_tile(n=16, seed=1)
+    with ThreadPoolExecutor(4) as pool:
+        scenes = list(pool.map(lambda _: Scene(tile.vertices, tile.faces), range(8)))
+    assert {s._device for s in scenes} == {device()}
+    for s in scenes:
+        s.close()
+    assert device() == scenes[0]._device
+
+
+def hits_and_own_device(seed: int) -> tuple[np.ndarray, bool]:
+    """Faces hit by fixed rays in a new scene of a random tile, and whether the process's
+    Embree device was made by this process (run in a forked child too)."""
+    import os
+
+    from microsim.kernel import embree
+
+    with PeriodicScene(random_tile(n=32, seed=seed), threads=1) as scene:
+        start, d = incoherent_rays(scene, 2000, 1)
+        return scene.closest_hit(start, d).face, embree._DEVICE[0] == os.getpid()
+
+
+def test_a_forked_process_makes_its_own_device() -> None:
+    """A child forked after the parent made its device (whose build threads the child does
+    not have) makes its own, and traces as the parent does."""
+    import multiprocessing
+
+    want, own = hits_and_own_device(3)
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        got, child_own = pool.apply_async(hits_and_own_device, (3,)).get(timeout=120)
+    assert own and child_own and np.array_equal(got, want)
+
+
+def test_an_updated_scene_finds_what_a_new_one_finds() -> None:
+    """``PeriodicScene.update`` to another realisation of the same grid (the same faces
+    array: the BVH is refitted) finds the closest hits a new scene of it finds, except
+    float32 ties: a ray through a shared edge may get either face, the hit points then
+    agree to float32 precision. A tile of other faces is rebuilt: the same hits exactly."""
+    from microsim.recipe import resolve
+    from microsim.surfaces import build_tile
+
+    surface = resolve({"surface": {"kind": "gaussian", "alpha": 0.4, "resolution": 64,
+                                   "correlation_length": 1 / 16}}).surface
+    a, b = (build_tile({**surface, "seed": seed}) for seed in (1, 2))
+    assert a.faces is b.faces
+    n = 200_000
+    with PeriodicScene(a, threads=2) as reused:
+        before = reused._scene
+        reused.update(b)
+        assert reused._scene is before and reused.tile is b
+        start, d = incoherent_rays(reused, n, 7)
+        got = reused.closest_hit(start, d)
+        with PeriodicScene(b, threads=2) as new:
+            want = new.closest_hit(start, d)
+            assert reused.eps == new.eps and np.array_equal(reused.box, new.box)
+            assert np.array_equal(reused._faces, new._faces)
+        assert np.array_equal(got.status, want.status)
+        tie = got.face != want.face
+        assert tie.sum() <= 1e-4 * n  # measured: about 1e-6 of first hits
+        assert np.allclose(got.point[tie], want.point[tie], rtol=0, atol=1e-6)
+        assert np.array_equal(got.point[~tie], want.point[~tie])
+        other = random_tile(n=32, seed=2)
+        reused.update(other)
+        assert reused._scene is not before and before.handle == 0
+        start, d = incoherent_rays(reused, 20_000, 8)
+        got = reused.closest_hit(start, d)
+        with PeriodicScene(other) as new:
+            want = new.closest_hit(start, d)
+        assert np.array_equal(got.face, want.face) and np.array_equal(got.point, want.point)
+
+
+def test_embree_scene_update_refuses_other_vertices_and_closed_scenes() -> None:
+    from microsim.kernel.embree import Scene
+
+    tile = random_tile(n=8, seed=1)
+    scene = Scene(tile.vertices, tile.faces)
+    with pytest.raises(ValueError, match="vertices"):
+        scene.update(tile.vertices[:-1])
+    scene.close()
+    with pytest.raises(RuntimeError, match="closed"):
+        scene.update(tile.vertices)
+
+
+def test_scenes_closed_release_their_memory() -> None:
+    """Making and closing 200 scenes (8 MB of Embree memory each, were it kept) or updating
+    one 200 times leaves the process no larger than a few scenes."""
+    import psutil
+
+    tile = random_tile(n=256, seed=1)
+    process = psutil.Process()
+    for _ in range(5):  # the device, the compiled code and numpy's pools warm up
+        PeriodicScene(tile, threads=1).close()
+    before = process.memory_info().rss
+    for _ in range(200):
+        PeriodicScene(tile, threads=1).close()
+    with PeriodicScene(tile, threads=1) as scene:
+        for _ in range(200):
+            scene.update(tile)
+    assert process.memory_info().rss - before < 40e6

@@ -8,6 +8,20 @@ finds it beside the installed ``embreex`` package and loads it with ``ctypes``, 
 of ``rtcIntersect1`` as an integer and calls it through ``call3`` (an LLVM indirect call),
 so the compiled kernel holds no process-specific address and stays cacheable.
 
+Every scene of a process comes from one Embree device (``device``: made on first use; a
+device starts Embree's build threads), and shares its vertex and index arrays with Embree
+(``rtcSetSharedGeometryBuffer``) instead of copying them into Embree's own buffers. A scene
+can take new positions for the same vertices and faces (``Scene.update``: the realisations
+of a height field on one grid) and then refits its BVH, about 2 ms instead of a 16 ms
+build for 131 072 triangles: Embree refits a geometry of build quality
+``RTC_BUILD_QUALITY_REFIT`` in a scene of quality ``RTC_BUILD_QUALITY_LOW`` (its two-level
+structure, where geometries keep their own quality) with ``RTC_SCENE_FLAG_DYNAMIC``
+(without the flag it rebuilds); Embree's documentation, ``rtcSetGeometryBuildQuality`` and
+``rtcSetSceneFlags``. Measured on that tile (docs/goniometer.md, "The Embree scene"): built
+anew, the same hits at the same speed as Embree's default build; refitted, 1–2% more time
+per query, and a float32 tie where a ray meets an edge two faces share may be answered
+with the other face (16 of 12 million first hits).
+
 The ray-hit record is Embree 4's ``RTCRayHit`` (``rtcore_ray.h``): 16-byte aligned, the
 ray's origin, ``tnear``, direction, ``time``, ``tfar`` (float32), ``mask``, ``id``,
 ``flags`` (uint32), then the hit's geometric normal, u, v (float32), ``primID``,
@@ -16,8 +30,11 @@ ray's origin, ``tnear``, direction, ``time``, ``tfar`` (float32), ``mask``, ``id
 
 from __future__ import annotations
 
+import atexit
 import ctypes
 import ctypes.util
+import os
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -33,11 +50,18 @@ RAYHIT_WORDS = 24
 INVALID = 0xFFFFFFFF
 """``RTC_INVALID_GEOMETRY_ID``: no hit."""
 _TRIANGLE, _INDEX, _VERTEX = 0, 0, 1
-"""``RTC_GEOMETRY_TYPE_TRIANGLE``, ``RTC_BUFFER_TYPE_INDEX``, ``RTC_BUFFER_TYPE_VERTEX``."""
+"""``RTC_GEOMETRY_TYPE_TRIANGLE`` (``rtcore_geometry.h``), ``RTC_BUFFER_TYPE_INDEX``,
+``RTC_BUFFER_TYPE_VERTEX`` (``rtcore_buffer.h``)."""
 _UINT3, _FLOAT3 = 0x5003, 0x9003
-"""``RTC_FORMAT_UINT3``, ``RTC_FORMAT_FLOAT3``."""
+"""``RTC_FORMAT_UINT3``, ``RTC_FORMAT_FLOAT3`` (``rtcore_common.h``)."""
+_QUALITY_LOW, _QUALITY_REFIT = 0, 3
+"""``RTC_BUILD_QUALITY_LOW``, ``RTC_BUILD_QUALITY_REFIT`` (``enum RTCBuildQuality``,
+``rtcore_common.h``)."""
+_SCENE_DYNAMIC = 1
+"""``RTC_SCENE_FLAG_DYNAMIC`` (``enum RTCSceneFlags``, ``rtcore_scene.h``)."""
 _VERSION = 0
-"""``RTC_DEVICE_PROPERTY_VERSION``: major · 10000 + minor · 100 + patch."""
+"""``RTC_DEVICE_PROPERTY_VERSION`` (``rtcore_device.h``): major · 10000 + minor · 100 +
+patch."""
 
 
 def library() -> ctypes.CDLL:
@@ -79,10 +103,15 @@ def _declare(lib: ctypes.CDLL) -> None:
             ("rtcReleaseDevice", None, [size]),
             ("rtcNewScene", size, [size]),
             ("rtcReleaseScene", None, [size]),
+            ("rtcSetSceneBuildQuality", None, [size, ctypes.c_int]),
+            ("rtcSetSceneFlags", None, [size, ctypes.c_int]),
             ("rtcCommitScene", None, [size]),
             ("rtcNewGeometry", size, [size, ctypes.c_int]),
-            ("rtcSetNewGeometryBuffer", size,
-             [size, ctypes.c_int, ctypes.c_uint, ctypes.c_int, size, size]),
+            ("rtcSetGeometryBuildQuality", None, [size, ctypes.c_int]),
+            ("rtcSetSharedGeometryBuffer", None,
+             [size, ctypes.c_int, ctypes.c_uint, ctypes.c_int, ctypes.c_void_p, size, size,
+              size]),
+            ("rtcUpdateGeometryBuffer", None, [size, ctypes.c_int, ctypes.c_uint]),
             ("rtcCommitGeometry", None, [size]),
             ("rtcAttachGeometry", ctypes.c_uint, [size, size]),
             ("rtcReleaseGeometry", None, [size])):
@@ -91,6 +120,9 @@ def _declare(lib: ctypes.CDLL) -> None:
 
 
 _LIB: ctypes.CDLL | None = None
+_DEVICE: tuple[int, int] | None = None
+"""(process id, ``RTCDevice``) of this process's device."""
+_DEVICE_LOCK = threading.Lock()
 
 
 def _lib() -> ctypes.CDLL:
@@ -100,8 +132,44 @@ def _lib() -> ctypes.CDLL:
     return _LIB
 
 
+def device() -> int:
+    """This process's Embree device (``RTCDevice``), made on first use, thread-safe.
+
+    A forked child makes its own (a device's build threads do not survive a fork). The
+    process's reference is released at exit; scenes hold references of their own
+    (Embree's objects are reference counted), so one still open then stays valid.
+
+    Raises
+    ------
+    RuntimeError
+        If Embree cannot create a device.
+    """
+    global _DEVICE
+    with _DEVICE_LOCK:
+        if _DEVICE is None or _DEVICE[0] != os.getpid():
+            lib = _lib()
+            handle = lib.rtcNewDevice(None)
+            if not handle:
+                raise RuntimeError("Embree could not create a device")
+            _DEVICE = (os.getpid(), handle)
+            atexit.register(_release_device, handle)
+        return _DEVICE[1]
+
+
+def _release_device(handle: int) -> None:
+    """Drop this process's reference to its device (at exit)."""
+    global _DEVICE
+    if _DEVICE is not None and _DEVICE == (os.getpid(), handle):
+        _lib().rtcReleaseDevice(handle)
+        _DEVICE = None
+
+
 class Scene:
     """One triangle mesh in an Embree 4 scene, committed and ready for ``rtcIntersect1``.
+
+    The scene reads its vertices and faces from arrays it keeps (float32 and uint32
+    copies, shared with Embree), and refits its BVH when given new vertex positions
+    (``update``).
 
     Parameters
     ----------
@@ -118,6 +186,10 @@ class Scene:
         The address of ``rtcIntersect1``.
     version : int
         Embree's version, major · 10000 + minor · 100 + patch.
+    faces : (m, 3) int
+        The ``faces`` array given (the object itself, to recognise the same topology).
+    vertex_count : int
+        n.
 
     Raises
     ------
@@ -125,39 +197,69 @@ class Scene:
         If Embree reports an error while building the scene.
     """
 
+    handle = 0  # until made (so that close is safe on a failed construction)
+
     def __init__(self, vertices: np.ndarray, faces: np.ndarray) -> None:
-        lib = _lib()
-        self._lib = lib
-        self._device = lib.rtcNewDevice(None)
-        if not self._device:
-            raise RuntimeError("Embree could not create a device")
+        lib = self._lib = _lib()
+        self._device = device()
         self.version = int(lib.rtcGetDeviceProperty(self._device, _VERSION))
+        self.faces, self.vertex_count = faces, len(vertices)
+        # float3 vertex buffers are read with 16-byte loads: one float of padding at the
+        # end (Embree's documentation, rtcSetSharedGeometryBuffer)
+        self._vertices = np.zeros(3 * len(vertices) + 1, np.float32)
+        self._indices = np.ascontiguousarray(faces, np.uint32)
         self.handle = lib.rtcNewScene(self._device)
-        geometry = lib.rtcNewGeometry(self._device, _TRIANGLE)
-        for kind, fmt, ctype, data in ((_VERTEX, _FLOAT3, ctypes.c_float,
-                                        np.asarray(vertices, np.float32)),
-                                       (_INDEX, _UINT3, ctypes.c_uint,
-                                        np.asarray(faces, np.uint32))):
-            address = lib.rtcSetNewGeometryBuffer(geometry, kind, 0, fmt, 12, len(data))
-            if not address:
-                raise RuntimeError(f"Embree could not allocate a buffer "
-                                   f"(error {lib.rtcGetDeviceError(self._device)})")
-            view = (ctype * data.size).from_address(address)
-            np.ctypeslib.as_array(view)[:] = np.ascontiguousarray(data).ravel()
-        lib.rtcCommitGeometry(geometry)
-        lib.rtcAttachGeometry(self.handle, geometry)
-        lib.rtcReleaseGeometry(geometry)
-        lib.rtcCommitScene(self.handle)
-        error = lib.rtcGetDeviceError(self._device)
-        if error:
-            raise RuntimeError(f"Embree failed to build the scene (error {error})")
+        lib.rtcSetSceneBuildQuality(self.handle, _QUALITY_LOW)
+        lib.rtcSetSceneFlags(self.handle, _SCENE_DYNAMIC)
+        self._geometry = lib.rtcNewGeometry(self._device, _TRIANGLE)
+        lib.rtcSetGeometryBuildQuality(self._geometry, _QUALITY_REFIT)
+        for kind, fmt, data, count in ((_VERTEX, _FLOAT3, self._vertices, len(vertices)),
+                                       (_INDEX, _UINT3, self._indices, len(faces))):
+            lib.rtcSetSharedGeometryBuffer(self._geometry, kind, 0, fmt, data.ctypes.data,
+                                           0, 12, count)
+        self._check("could not share the mesh's buffers")
+        lib.rtcAttachGeometry(self.handle, self._geometry)
+        self.update(vertices)
         self.intersect = ctypes.cast(lib.rtcIntersect1, ctypes.c_void_p).value
 
+    def update(self, vertices: np.ndarray) -> None:
+        """Move the vertices and refit the BVH (the faces stay); not while queries run.
+
+        Parameters
+        ----------
+        vertices : (n, 3) float
+            New positions of the scene's n vertices.
+
+        Raises
+        ------
+        ValueError
+            If the number of vertices differs.
+        RuntimeError
+            If the scene is closed, or Embree reports an error while committing it.
+        """
+        if not self.handle:
+            raise RuntimeError("the Embree scene is closed")
+        if len(vertices) != self.vertex_count:
+            raise ValueError(f"the scene has {self.vertex_count} vertices, not "
+                             f"{len(vertices)}")
+        self._vertices[:-1] = np.ravel(vertices)
+        lib = self._lib
+        lib.rtcUpdateGeometryBuffer(self._geometry, _VERTEX, 0)
+        lib.rtcCommitGeometry(self._geometry)
+        lib.rtcCommitScene(self.handle)
+        self._check("failed to build the scene")
+
+    def _check(self, what: str) -> None:
+        """Raise ``RuntimeError`` if the device reports an error."""
+        error = self._lib.rtcGetDeviceError(self._device)
+        if error:
+            raise RuntimeError(f"Embree {what} (error {error})")
+
     def close(self) -> None:
-        """Release the scene and its device."""
+        """Release the scene (the device stays for the next)."""
         if self.handle:
+            self._lib.rtcReleaseGeometry(self._geometry)
             self._lib.rtcReleaseScene(self.handle)
-            self._lib.rtcReleaseDevice(self._device)
             self.handle = 0
 
     def __del__(self) -> None:

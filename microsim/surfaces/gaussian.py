@@ -14,6 +14,7 @@ facets really have (``Tile.realised_alpha``).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import replace
@@ -23,7 +24,7 @@ import numpy as np
 
 from microsim.surfaces.facts import GaussianFacts, Roughness
 from microsim.surfaces.rules import correlation_lengths
-from microsim.surfaces.tile import Tile, grid_faces
+from microsim.surfaces.tile import Tile, grid_faces, height_field_vertices
 
 MIN_CELLS = 4
 """Below this many cells per correlation length the facets under-resolve the slopes."""
@@ -60,6 +61,28 @@ def heights(n: int, size: float, sigma: float, tau_x: float, tau_y: float,
     (n, n) float
         ``h[i, j]`` at x = i·size/n, y = j·size/n.
     """
+    root = root_power(n, float(size), float(sigma), float(tau_x), float(tau_y),
+                      float(rotation))
+    noise = rng.standard_normal((n, n))
+    return np.fft.ifft2(np.fft.fft2(noise) * root).real
+
+
+@functools.lru_cache(maxsize=4)
+def root_power(n: int, size: float, sigma: float, tau_x: float, tau_y: float,
+               rotation: float) -> np.ndarray:
+    """√P, P = DFT(C) the eigenvalues of the circulant covariance: the same for every
+    realisation of a surface, so made once and kept (read-only) for the last few surfaces.
+
+    Parameters
+    ----------
+    n, size, sigma, tau_x, tau_y, rotation
+        As for ``heights``.
+
+    Returns
+    -------
+    (n, n) float
+        Read-only.
+    """
     d = np.arange(n) * (size / n)
     d = np.where(d >= size / 2, d - size, d)  # minimum-image displacement
     dx, dy = np.meshgrid(d, d, indexing="ij")
@@ -67,9 +90,9 @@ def heights(n: int, size: float, sigma: float, tau_x: float, tau_y: float,
     xr, yr = c * dx + s * dy, -s * dx + c * dy
     cov = sigma**2 * np.exp(-((xr / tau_x) ** 2 + (yr / tau_y) ** 2))
     # eigenvalues of the circulant covariance; tiny negatives are round-off of zeros
-    power = np.maximum(np.fft.fft2(cov).real, 0.0)
-    noise = rng.standard_normal((n, n))
-    return np.fft.ifft2(np.fft.fft2(noise) * np.sqrt(power)).real
+    root = np.sqrt(np.maximum(np.fft.fft2(cov).real, 0.0))
+    root.flags.writeable = False
+    return root
 
 
 def build(surface: Mapping[str, Any]) -> Tile:
@@ -93,10 +116,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
     rotation = math.radians(surface.get("rotation", 0.0))
     sigma, tau_x, tau_y = correlation_lengths(surface)
     h = heights(n, size, sigma, tau_x, tau_y, rotation, np.random.default_rng(surface["seed"]))
-    h = np.pad(h, ((0, 1), (0, 1)), mode="wrap")
-    g = np.linspace(0.0, size, n + 1)
-    x, y = np.meshgrid(g, g, indexing="ij")
-    vertices = np.column_stack([x.ravel(), y.ravel(), h.ravel()])
+    vertices = height_field_vertices(h, size)
     faces = grid_faces(n + 1, n + 1)
     isotropic = math.isclose(tau_x, tau_y)
     tile = Tile(vertices, faces, np.zeros(len(faces), np.int32), ("base",), (size, size),

@@ -36,7 +36,7 @@ from microsim.surfaces.facts import PaintFacts
 from microsim.surfaces.gaussian import MIN_LENGTHS, heights
 from microsim.surfaces.periodic import wrap_into_box
 from microsim.surfaces.rules import DEFAULT_CELLS
-from microsim.surfaces.tile import Tile, grid_faces
+from microsim.surfaces.tile import Tile, grid_faces, height_field_vertices
 
 GAP = 0.01
 """Clearance between a particle and anything else, as a fraction of its radius: no two
@@ -155,11 +155,7 @@ class _Top:
 
     def mesh(self) -> tuple[np.ndarray, np.ndarray]:
         """Vertices and faces (normals up) of the top, spanning the whole box."""
-        h = np.pad(self.h, ((0, 1), (0, 1)), mode="wrap")
-        g = np.linspace(0.0, self.size, self.n + 1)
-        x, y = np.meshgrid(g, g, indexing="ij")
-        return np.column_stack([x.ravel(), y.ravel(), h.ravel()]), grid_faces(self.n + 1,
-                                                                              self.n + 1)
+        return height_field_vertices(self.h, self.size), grid_faces(self.n + 1, self.n + 1)
 
 
 def _place(surface: Mapping[str, Any], top: _Top, unit_volume: float,

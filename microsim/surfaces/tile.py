@@ -8,6 +8,7 @@ replicates it; rays leaving a side re-enter at the other.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -50,6 +51,12 @@ class Tile:
         section has the sheared pair its generator documents (``weave.yarn``). The face's
         vertices lie on the quadric, so the face lies inside it (the tube is convex).
         Rows with u = v = 0 are flat faces. None: every face is flat.
+
+    Notes
+    -----
+    The face normals, areas and plane constants are computed once, on first use, and kept
+    (read-only) for as long as ``vertices`` and ``faces`` are the same arrays: give a tile
+    new geometry by assigning new arrays, not by writing into them.
     """
 
     vertices: np.ndarray
@@ -61,6 +68,8 @@ class Tile:
     warnings: list[str] = field(default_factory=list)
     tangents: np.ndarray | None = None
     curved: np.ndarray | None = None
+    _geometry: tuple[np.ndarray, ...] | None = field(default=None, init=False, repr=False,
+                                                      compare=False)
 
     @property
     def z_range(self) -> tuple[float, float]:
@@ -68,8 +77,23 @@ class Tile:
         z = self.vertices[:, 2]
         return float(z.min()), float(z.max())
 
+    def _face_geometry(self) -> tuple[np.ndarray, ...]:
+        """(vertices, faces, normals, areas, plane) of the current arrays, computed once."""
+        kept = self._geometry
+        if kept is None or kept[0] is not self.vertices or kept[1] is not self.faces:
+            # compiled (numba): imported on first use so that importing the surfaces
+            # package, as recipe validation does, does not load numba
+            from microsim.surfaces.faces import face_geometry
+
+            computed = face_geometry(np.ascontiguousarray(self.vertices, float),
+                                     np.ascontiguousarray(self.faces))
+            for array in computed:
+                array.flags.writeable = False
+            kept = self._geometry = (self.vertices, self.faces, *computed)
+        return kept
+
     def face_normals_areas(self) -> tuple[np.ndarray, np.ndarray]:
-        """Unit face normals and face areas.
+        """Unit face normals and face areas (``microsim.surfaces.faces``), read-only.
 
         Returns
         -------
@@ -78,12 +102,18 @@ class Tile:
         areas : (m,) float
             Triangle areas.
         """
-        v = self.vertices[self.faces]
-        cross = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
-        norm = np.linalg.norm(cross, axis=1)
-        normals = np.divide(cross, norm[:, None], out=np.zeros_like(cross),
-                            where=norm[:, None] > 0)
-        return normals, 0.5 * norm
+        _, _, normals, areas, _ = self._face_geometry()
+        return normals, areas
+
+    def face_planes(self) -> np.ndarray:
+        """Plane constant of every face, read-only: face f lies in {x : n_f · x = c_f}.
+
+        Returns
+        -------
+        (m,) float
+            n_f · (first vertex of f), n_f the unit normal (0 for degenerate faces).
+        """
+        return self._face_geometry()[4]
 
     def realised_alpha(self, rotation: float = 0.0) -> tuple[float, float]:
         """Roughness of the facets along two axes rotated by ``rotation`` about +z.
@@ -104,14 +134,14 @@ class Tile:
         alpha_x, alpha_y : float
             Along the rotated x and y axes.
         """
-        normals, areas = self.face_normals_areas()
-        up = normals[:, 2] > 0
-        n, weight = normals[up], areas[up] * normals[up, 2]
-        gx, gy = -n[:, 0] / n[:, 2], -n[:, 1] / n[:, 2]
-        c, s = np.cos(rotation), np.sin(rotation)
+        from microsim.surfaces.faces import slope_terms  # compiled: see _face_geometry
+
+        weight, along_x, along_y = slope_terms(*self.face_normals_areas(),
+                                               float(np.cos(rotation)),
+                                               float(np.sin(rotation)))
         total = weight.sum()
-        return tuple(float(np.sqrt(2 * np.sum(weight * slope**2) / total))
-                     for slope in (c * gx + s * gy, -s * gx + c * gy))
+        return (float(np.sqrt(2 * along_x.sum() / total)),
+                float(np.sqrt(2 * along_y.sum() / total)))
 
     def ndf_histogram(self, bins: int, theta_max: float, blocks: int = 4
                       ) -> dict[str, np.ndarray]:
@@ -163,9 +193,50 @@ class Tile:
                 "stderr": np.where(total > 0, err, np.nan)}
 
 
+def height_field_vertices(h: np.ndarray, size: float) -> np.ndarray:
+    """Vertices of a periodic height field on [0, size]², indexed as ``grid_faces`` expects.
+
+    Parameters
+    ----------
+    h : (n, n) float
+        ``h[i, j]`` at x = i·size/n, y = j·size/n.
+    size : float
+        Period.
+
+    Returns
+    -------
+    ((n + 1)², 3) float
+        Vertex i·(n + 1) + j at (x_i, y_j, h[i mod n, j mod n]), x_i = y_i the
+        ``linspace(0, size, n + 1)`` nodes: the last row and column repeat the first, so
+        opposite edges are equal bit for bit.
+    """
+    n = len(h)
+    vertices = np.empty((n + 1, n + 1, 3))
+    vertices[..., :2] = _grid_xy(n, float(size))
+    z = vertices[..., 2]
+    z[:n, :n] = h
+    z[n, :n] = h[0]
+    z[:, n] = z[:, 0]
+    return vertices.reshape(-1, 3)
+
+
+@functools.lru_cache(maxsize=4)
+def _grid_xy(n: int, size: float) -> np.ndarray:
+    """(n + 1, n + 1, 2) read-only: (x_i, y_j) of the height-field grid."""
+    g = np.linspace(0.0, size, n + 1)
+    xy = np.stack(np.meshgrid(g, g, indexing="ij"), axis=-1)
+    xy.flags.writeable = False
+    return xy
+
+
+@functools.lru_cache(maxsize=8)
 def grid_faces(nx: int, ny: int) -> np.ndarray:
     """Triangles of a vertex grid indexed ``i * ny + j``, two per cell, counter-clockwise
     seen from +z when x grows with i and y with j.
+
+    Made once per grid size and shared, read-only: every realisation of a height field on
+    one grid holds the same faces array, so a tracer can tell that their topology is the
+    same (and refit rather than rebuild its acceleration structure).
 
     Parameters
     ----------
@@ -180,5 +251,7 @@ def grid_faces(nx: int, ny: int) -> np.ndarray:
     v00 = (i * ny + j).ravel()
     v10, v01 = v00 + ny, v00 + 1
     v11 = v10 + 1
-    return np.concatenate([np.column_stack([v00, v10, v11]),
-                           np.column_stack([v00, v11, v01])]).astype(np.int64)
+    faces = np.concatenate([np.column_stack([v00, v10, v11]),
+                            np.column_stack([v00, v11, v01])]).astype(np.int64)
+    faces.flags.writeable = False
+    return faces
