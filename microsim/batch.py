@@ -26,7 +26,7 @@ import json
 import os
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -65,18 +65,27 @@ def _tile(surface: str) -> Tile:
     return build_tile(json.loads(surface))
 
 
-def _scene(surface: str, threads: int) -> tuple[Tile, PeriodicScene]:
-    """The tile of a surface section and an open Embree scene of it, kept per worker
-    thread (a scene is used by one job at a time) until another surface needs one."""
+def _scene(surface: Mapping[str, Any], realisation: int, threads: int
+           ) -> tuple[Tile, PeriodicScene]:
+    """Realisation ``realisation``'s tile of a surface section and an open Embree scene
+    of it, kept per worker thread (a scene is used by one job at a time) until another
+    surface needs one. As in ``microsim.simulation.Opener``, the scene is built for
+    realisation 0's tile and updated (its BVH refitted) to the others, so a job traces
+    exactly what one ``simulate`` of all realisations does."""
+    base = canonical(realisation_of(surface, 0))
+    key = (base, threads)
     kept = getattr(_scenes, "kept", None)
-    if kept is not None and kept[0] == (surface, threads):
-        return kept[1], kept[2]
-    if kept is not None:
+    if kept is not None and kept[0] != key:
         kept[2].close()
-        _scenes.kept = None
-    tile = _tile(surface)
-    _scenes.kept = ((surface, threads), tile, PeriodicScene(tile, threads))
-    return _scenes.kept[1], _scenes.kept[2]
+        kept = _scenes.kept = None
+    if kept is None:
+        first = _tile(base)
+        kept = _scenes.kept = [key, first, PeriodicScene(first, threads)]
+    tile = _tile(canonical(realisation_of(surface, realisation)))
+    if kept[1] is not tile:
+        kept[2].update(tile)
+        kept[1] = tile
+    return tile, kept[2]
 
 
 def run_job(recipe: Recipe, thetas: tuple[int, ...], threads: int = 1,
@@ -109,7 +118,7 @@ def run_job(recipe: Recipe, thetas: tuple[int, ...], threads: int = 1,
         measured = measure_ensemble(Tiles(recipe.surface), recipe.material, sim,
                                     recipe.table, thetas, threads=threads)
         return measured, measured.warnings, time.perf_counter() - start
-    tile, scene = _scene(canonical(realisation_of(recipe.surface, realisation)), threads)
+    tile, scene = _scene(recipe.surface, realisation, threads)
     measured = measure_directions(tile, recipe.material, sim, recipe.table, thetas,
                                   realisation=realisation, scene=scene)
     return measured, list(tile.warnings), time.perf_counter() - start

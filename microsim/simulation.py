@@ -142,7 +142,7 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
             order = sorted(work)
             for i, r in enumerate(order):
                 if held[0] != r:
-                    held[2].close()
+                    opener.release(held[2])
                     held = None
                     held = opener.open(r)
                 if i + 1 < len(order):
@@ -178,7 +178,7 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
                 break
     finally:
         if held is not None:
-            held[2].close()
+            opener.release(held[2])
         opener.close()
     return done
 
@@ -193,9 +193,15 @@ def _tile_cost(done: Measurement, directions: int) -> float:
 
 class Opener:
     """Opens the realisations a measurement traces and records them in it: the tile and
-    its scene of each, and (``ahead``) the next one on a thread of its own while the
-    current one is traced, so that building it keeps no tracing thread waiting. At most
-    two tiles are alive: the one traced and the one prepared.
+    scene of each, the next one prepared (``ahead``) on a thread of its own while the
+    current one is traced, so that building it keeps no tracing thread waiting.
+
+    Scenes are reused (``release`` hands one back): a scene's Embree BVH is built once,
+    for realisation 0's tile, and refitted to each later realisation of the same topology
+    (``PeriodicScene.update``; a Gaussian height field on its grid), so a realisation
+    costs its tile and a refit, and its outcomes depend on nothing but its index (the
+    BVH of any scene is realisation 0's, refitted). At most three tiles are alive:
+    realisation 0's, the one traced and the one prepared.
 
     Parameters
     ----------
@@ -213,16 +219,28 @@ class Opener:
         self._tiles, self._threads, self._done = tiles, threads, done
         self._pool = ThreadPoolExecutor(1, thread_name_prefix="microsim-tiles")
         self._ahead: tuple[int, Future[tuple[Tile, PeriodicScene, float]]] | None = None
+        self._first: Tile | None = None
+        self._spare: list[PeriodicScene] = []
 
     def _build(self, r: int) -> tuple[Tile, PeriodicScene, float]:
         start = time.perf_counter()
         tile = self._tiles(r)
-        scene = PeriodicScene(tile, self._threads)
+        if r == 0:
+            self._first = tile
+        if self._spare:
+            scene = self._spare.pop()
+            scene.update(tile)
+        else:
+            if self._first is None:
+                self._first = self._tiles(0)
+            scene = PeriodicScene(self._first, self._threads)
+            if r != 0:
+                scene.update(tile)
         return tile, scene, time.perf_counter() - start
 
     def open(self, r: int) -> tuple[int, Tile, PeriodicScene]:
-        """Realisation r's tile and open scene (the one prepared, if it is r); the caller
-        closes the scene."""
+        """Realisation r's tile and open scene (the one prepared, if it is r); hand the
+        scene back with ``release``."""
         if self._ahead is not None and self._ahead[0] == r:
             tile, scene, seconds = self._ahead[1].result()
             self._ahead = None
@@ -239,6 +257,12 @@ class Opener:
             done.offset = scene.eps
         return r, tile, scene
 
+    def release(self, scene: PeriodicScene) -> None:
+        """Take back a scene no longer traced in, for a later realisation (it lets go of
+        its tile)."""
+        scene.set_aside()
+        self._spare.append(scene)
+
     def ahead(self, r: int) -> None:
         """Start preparing realisation r (the next ``open``)."""
         if self._ahead is None or self._ahead[0] != r:
@@ -246,16 +270,19 @@ class Opener:
             self._ahead = (r, self._pool.submit(self._build, r))
 
     def _discard(self) -> None:
-        """Close a prepared realisation nobody opened."""
+        """Take back a prepared realisation nobody opened."""
         if self._ahead is not None:
             future, self._ahead = self._ahead[1], None
             if not future.cancel() and future.exception() is None:
-                future.result()[1].close()
+                self.release(future.result()[1])
 
     def close(self) -> None:
-        """Close what was prepared and stop the thread."""
+        """Close every scene it holds and stop the thread."""
         self._discard()
         self._pool.shutdown()
+        for scene in self._spare:
+            scene.close()
+        self._spare, self._first = [], None
 
 
 def _trace(held: tuple[int, Tile, PeriodicScene], materials: Mapping[str, Material],

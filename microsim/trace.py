@@ -230,6 +230,11 @@ class PeriodicScene:
             held.close()
             self._scene = Scene(tile.vertices, tile.faces)
 
+    def set_aside(self) -> None:
+        """Let go of the tile (its arrays), keeping the threads, the Embree scene and the
+        face table's memory for the next ``update``, the only call valid until then."""
+        self.tile = self.normals = self.areas = None
+
     def _take(self, tile: Tile) -> None:
         """Make ``tile`` the scene's: its face table and slab (not its Embree scene)."""
         self.tile = tile
