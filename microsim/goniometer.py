@@ -31,7 +31,7 @@ import numpy as np
 from microsim.geometry import direction
 from microsim.kernel.beam import CELLS, beam_origins
 from microsim.kernel.packing import FacetMaterials
-from microsim.kernel.tally import bin_escapes, in_blocks
+from microsim.kernel.tally import bin_escapes, gather_rows, in_blocks
 from microsim.materials import Material
 from microsim.paths import Paths, start_paths
 from microsim.settings import DEFAULT_ORDERS, Simulation, TableSettings
@@ -129,7 +129,7 @@ class Sums:
             return sums, sums_sq, unbinned
 
         sums, sums_sq, unbinned = in_blocks(block, n, mapper)
-        harmonics = self._harmonics(paths, index >= 0, phi_ref, mapper) if self.sh_order \
+        harmonics = self._harmonics(paths, index, phi_ref, mapper) if self.sh_order \
             else []
         # an escaping ray the bins do not take (none for a closed surface) is lost, not hidden
         return Tally(n, sums, sums_sq, harmonics, paths.lost + unbinned, paths.transmitted,
@@ -151,19 +151,18 @@ class Sums:
         for name, count in tally.fates.items():
             self.fates[name] = self.fates.get(name, 0) + count
 
-    def _harmonics(self, paths: Paths, binned: np.ndarray, phi_ref: float,
+    def _harmonics(self, paths: Paths, index: np.ndarray, phi_ref: float,
                    mapper: sh.Mapper | None) -> list[tuple[int, np.ndarray, np.ndarray]]:
         """Moments of the escaping rays' exit weights against the real harmonics: one
-        transform per order row over that row's rays alone, (row, Σ w Y_k, Σ w² Y_K) in
-        row order (the total row is their sum).
-
-        The binned rays are gathered once, grouped by row (a stable sort on the row, so
-        each row's rays keep their ray order); a row's rays are then one slice."""
-        row = np.minimum(paths.order[binned], self.orders).astype(np.uint8)  # N ≤ 32
-        rays = np.flatnonzero(binned)[np.argsort(row, kind="stable")]
-        ends = np.cumsum(np.bincount(row, minlength=self.orders + 1))
-        loc = sh.angles(paths.direction[rays], phi_ref)
-        w = paths.weight[rays]
+        transform per order row over that row's binned rays alone (``index`` their
+        bins), (row, Σ w Y_k, Σ w² Y_K) in row order (the total row is their sum). The
+        rays are grouped by row and their angles taken in one compiled pass
+        (``microsim.kernel.tally.gather_rows``); a row's rays are then one slice."""
+        n = len(index)
+        loc, w = np.empty((n, 2)), np.empty((n, 3))
+        ends = np.empty(self.orders + 1, np.int64)
+        gather_rows(paths.direction, paths.weight, paths.order, index, phi_ref, self.orders,
+                    loc, w, ends)
         out = []
         for k in range(1, self.orders + 1):
             a, b = ends[k - 1], ends[k]

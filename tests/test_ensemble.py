@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import statistics
 import weakref
 
 import numpy as np
@@ -153,13 +154,13 @@ def test_running_sums_give_the_two_pass_estimates_and_the_group_jackknife() -> N
 
 
 def test_memory_does_not_grow_with_the_realisations() -> None:
-    """The peak of the memory numpy allocates (tracemalloc) while 16, 64 and 256
-    realisations of a small tile are traced and assembled. Before the running sums every
+    """The peak of the memory numpy allocates (tracemalloc; median of three runs) while 16,
+    64 and 256 realisations of a small tile are traced and assembled. Before the running sums every
     realisation's sums were kept (at 256 realisations sixteen times those of 16); now
     they hold at most GROUPS = 32 realisations' sums of the bins (here 32 bins: 6 kB a
     group and array) and one of everything else. What still grows are the few numbers
     kept per realisation (its seed, realised α and rays per direction: about 1 kB, 0.2 MB
-    from 64 to 256, measured). 16 and 256 within 10% of each other (measured 2-3%), 64
+    from 64 to 256, measured). 16 and 256 within 10% of each other (measured 2-4%), 64
     and 256 within 5% (measured 2.1%)."""
     import tracemalloc
 
@@ -177,7 +178,9 @@ def test_memory_does_not_grow_with_the_realisations() -> None:
             tracemalloc.stop()
 
     peak(16)  # caches filled once (harmonic matrices, compiled code, lookups)
-    few, some, many = peak(16), peak(64), peak(256)
+    # the next tile is built beside the tracing, so a peak varies a little with the
+    # moment it is built: the median of three runs
+    few, some, many = (statistics.median(peak(k) for _ in range(3)) for k in (16, 64, 256))
     assert abs(many / few - 1) < 0.1, (few, many)
     assert abs(many / some - 1) < 0.05, (some, many)
 

@@ -167,3 +167,65 @@ def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
             sums_sq[0, b, c] += w * w
             sums[slot, b, c] += w
             sums_sq[slot, b, c] += w * w
+
+
+@njit(**JIT)
+def gather_rows(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
+                index: np.ndarray, phi_ref: float, orders: int, loc: np.ndarray,
+                gathered: np.ndarray, ends: np.ndarray) -> int:
+    """The binned rays grouped by order row, for their harmonic transforms: a counting
+    sort on the row min(k, N) (stable: each row's rays keep their ray order), with each
+    ray's colatitude and azimuth (``microsim.tables.sh.angles``: θ = acos z, φ − φ_ref
+    reduced to [0, 2π) as numpy's ``mod`` reduces it) and weights.
+
+    Parameters
+    ----------
+    direction, weight : (n, 3) float
+    order : (n,) int
+    index : (n,) int
+        Each ray's bin (``bin_escapes``; -1: not binned, left out).
+    phi_ref : float
+        In [0, 2π), radians.
+    orders : int
+        N.
+    loc : (n, 2) float
+        Filled, in its first rows, with (θ, φ) of the binned rays, row by row.
+    gathered : (n, 3) float
+        Their weights, likewise.
+    ends : (N + 1,) int
+        Filled with the end of each row's rays (row 0, the total, holds none).
+
+    Returns
+    -------
+    int
+        The binned rays.
+    """
+    ends[:] = 0
+    for r in range(len(order)):
+        if index[r] >= 0:
+            ends[min(order[r], orders)] += 1
+    for k in range(1, orders + 1):
+        ends[k] += ends[k - 1]
+    fill = np.empty(orders + 1, np.int64)
+    fill[0] = 0
+    for k in range(1, orders + 1):
+        fill[k] = ends[k - 1]
+    for r in range(len(order)):
+        if index[r] < 0:
+            continue
+        row = min(order[r], orders)
+        j = fill[row]
+        fill[row] += 1
+        z = min(max(direction[r, 2], -1.0), 1.0)
+        loc[j, 0] = math.acos(z)
+        # numpy's mod: fmod (exact), then + 2π if negative; with φ_ref in [0, 2π) the
+        # difference lies in (−3π, π], where fmod is one exact addition of 2π below −2π
+        phi = math.atan2(direction[r, 1], direction[r, 0]) - phi_ref
+        if phi <= -TWO_PI:
+            phi += TWO_PI
+        if phi < 0.0:
+            phi += TWO_PI
+        loc[j, 1] = phi
+        for c in range(3):
+            gathered[j, c] = weight[r, c]
+    return ends[orders]

@@ -210,7 +210,9 @@ def project(loc: np.ndarray, weights: np.ndarray, order: int,
 def moments(loc: np.ndarray, weights: np.ndarray, order: int, mapper: Mapper | None = None,
             second: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
     """Σ w Y_k to order L and Σ w² Y_K to order 2L (``second_moments`` turns the latter
-    into Σ (w Y_k)²), one transform per distinct column and moment, run by ``mapper``.
+    into Σ (w Y_k)²), one transform per distinct column and moment, run by ``mapper``;
+    a column equal to its square (weights 0 or 1) takes Σ w Y_k from its order-2L
+    transform (one transform instead of two, to ducc0's accuracy, ``EPSILON``).
 
     Parameters
     ----------
@@ -227,12 +229,19 @@ def moments(loc: np.ndarray, weights: np.ndarray, order: int, mapper: Mapper | N
     sums_sq_wide : ((2L + 1)², c) float, or None without ``second``
     """
     first, which = _distinct(weights)
-    jobs = [(weights[:, j], order) for j in first]
-    if second:
-        jobs += [(weights[:, j] ** 2, 2 * order) for j in first]
+    squares = [weights[:, j] ** 2 for j in first] if second else []
+    # weights that are their own squares (0 or 1: mirror facets) take their first moments
+    # from the order-2L transform of w² = w, whose first (L + 1)² coefficients they are
+    own = [bool(squares) and np.array_equal(squares[i], weights[:, j])
+           for i, j in enumerate(first)]
+    jobs = [(weights[:, j], order) for i, j in enumerate(first) if not own[i]]
+    jobs += [(w2, 2 * order) for w2 in squares]
     done = (mapper or _in_order)(lambda i: _transform(loc, *jobs[i]), range(len(jobs)))
-    sums = np.stack(done[:len(first)], axis=1)[:, which]
-    return sums, np.stack(done[len(first):], axis=1)[:, which] if second else None
+    wide = done[len(jobs) - len(squares):]
+    narrow = iter(done[:len(jobs) - len(squares)])
+    columns = [wide[i][:size(order)] if own[i] else next(narrow) for i in range(len(first))]
+    sums = np.stack(columns, axis=1)[:, which]
+    return sums, np.stack(wide, axis=1)[:, which] if second else None
 
 
 @lru_cache(maxsize=8)
