@@ -21,7 +21,7 @@ import itertools
 import math
 import time
 from collections import deque
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import Future
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -203,6 +203,9 @@ class _Batch(NamedTuple):
     phi_ref: float
     seed: np.random.SeedSequence
     report: Callable[[int], None] | None
+    realisation: int
+    scene: PeriodicScene | None = None
+    facets: FacetMaterials | None = None
 
 
 def _batches(work: Mapping[Direction, int], runs: dict[RunKey, Run], new_run: Callable[[], Run],
@@ -231,29 +234,32 @@ def _batches(work: Mapping[Direction, int], runs: dict[RunKey, Run], new_run: Ca
             number = first + index
             stream = np.random.SeedSequence(seed, spawn_key=(*key, number))
             count = min(BATCH, rays - start)
-            yield _Batch(run, number, count, dirs[:count], phi_ref, stream, report)
+            yield _Batch(run, number, count, dirs[:count], phi_ref, stream, report,
+                         realisation)
 
 
-def _pipeline(scene: PeriodicScene, facets: FacetMaterials,
-              batches: Iterator[_Batch], bounces: int, bins: HemisphereBins
+def _pipeline(batches: Iterator[_Batch], bounces: int, bins: HemisphereBins
               ) -> Iterator[tuple[_Batch, Tally]]:
     """The tally of each batch, in order, with ``DEPTH`` batches under way.
 
-    A batch's origins are drawn uniformly over the tile's top (its own stream; traced in
-    cell order, ``microsim.kernel.beam``) and its chunks queued on the worker threads;
-    when they have ended, the batch is summarised, binned and projected on the harmonics
-    there too (``Sums.tally``, one batch on one thread, its blocks in order), so this
-    thread only queues batches and adds their sums, and the workers never wait for it.
-    What comes out is what tracing and tallying the batches one after the other gives,
-    bit for bit.
+    A batch's origins are drawn uniformly over its tile's top (its own stream; traced in
+    cell order, ``microsim.kernel.beam``) and its chunks queued on its scene's worker
+    threads; when they have ended, the batch is summarised, binned and projected on the
+    harmonics there too (``Sums.tally``, one batch on one thread, its blocks in order),
+    so this thread only queues batches and adds their sums, and the workers never wait
+    for it, not even where one realisation's batches end and the next one's begin. What
+    comes out is what tracing and tallying the batches one after the other gives, bit
+    for bit.
     """
     pending: deque[tuple[_Batch, Future[Tally]]] = deque()
 
     def queue_next() -> None:
         for batch in itertools.islice(batches, 1):
+            scene = batch.scene
             u = np.random.default_rng(batch.seed).random((batch.rays, 2))
             origins = beam_origins(u, scene.period, scene.z_top, CELLS)
-            paths = start_paths(scene, facets, origins, batch.dirs, bounces, batch.seed)
+            paths = start_paths(scene, batch.facets, origins, batch.dirs, bounces,
+                                batch.seed)
             sums, phi_ref = batch.run.sums, batch.phi_ref
             pending.append((batch, paths.then(
                 lambda traced, sums=sums, phi_ref=phi_ref: sums.tally(traced, bins,
@@ -407,6 +413,81 @@ def incident_azimuths(isotropic: bool, simulation: Simulation) -> list[float]:
     return [0.0] if isotropic else [float(p) for p in simulation.phi_i]
 
 
+class Part(NamedTuple):
+    """One realisation's share of a measurement (``trace_realisations``): its index, an
+    open scene of its tile (``scene.tile``; the part holds no tile of its own, so a scene
+    set aside lets go of it), and the rays to add per direction."""
+
+    realisation: int
+    scene: PeriodicScene
+    work: Mapping[Direction, int]
+
+
+def trace_realisations(parts: Iterable[Part], materials: Mapping[str, Material],
+                       simulation: Simulation, table: TableSettings,
+                       runs: dict[RunKey, Run], *,
+                       progress: Callable[[Progress], None] | None = None,
+                       ended: Callable[[Part, int, list[TableInput]], None] | None = None
+                       ) -> None:
+    """Trace the parts one after the other through one pipeline of batches, so that the
+    next realisation's batches are queued while the last ones of a realisation are
+    traced and tallied.
+
+    Parameters
+    ----------
+    parts : iterable of Part
+        Taken one at a time, when the pipeline needs the next one's batches (a generator
+        may open each realisation then).
+    materials, simulation, table
+        As for ``measure_directions``.
+    runs : dict of RunKey to Run
+        Runs to continue or start (their sums grow).
+    progress : callable or None
+        Called after every batch.
+    ended : callable or None
+        ``ended(part, segments, inputs)`` once every batch of a part has been added: the
+        Embree queries it made and the provenance of the tables its facet materials read
+        (its scene is free again).
+    """
+    theta_deg = [float(t) for t in simulation.theta_i]
+    bins = HemisphereBins(table.theta_bins, table.phi_bins)
+    left: dict[int, list] = {}  # per realisation: batches not added, part, segments, inputs
+
+    def new_run() -> Run:
+        return Run(Sums(bins.size, table.sh_order, table.orders))
+
+    def batches() -> Iterator[_Batch]:
+        for part in parts:
+            scene = part.scene
+            tile = scene.tile
+            facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
+                                    tile.curved)
+            items = list(_batches(part.work, runs, new_run, int(simulation.seed), theta_deg,
+                                  incident_azimuths(bool(tile.facts.isotropic), simulation),
+                                  bool(tile.facts.isotropic), part.realisation, progress))
+            state = left[part.realisation] = [len(items), part, scene.segments,
+                                              facets.inputs]
+            del tile
+            if not items:
+                finish(part.realisation, state)
+            yield from (b._replace(scene=scene, facets=facets) for b in items)
+
+    def finish(r: int, state: list) -> None:
+        del left[r]
+        if ended is not None:
+            ended(state[1], state[1].scene.segments - state[2], state[3])
+
+    for batch, tally in _pipeline(batches(), int(simulation.bounces), bins):
+        batch.run.sums.add_tally(tally)
+        batch.run.batches = batch.number + 1
+        if batch.report is not None:
+            batch.report(batch.rays)
+        state = left[batch.realisation]
+        state[0] -= 1
+        if state[0] == 0:
+            finish(batch.realisation, state)
+
+
 def measure_directions(tile: Tile, materials: Mapping[str, Material], simulation: Simulation,
                        table: TableSettings, thetas: Sequence[int] | None = None, *,
                        rays: int | Mapping[Direction, int] | None = None,
@@ -450,35 +531,29 @@ def measure_directions(tile: Tile, materials: Mapping[str, Material], simulation
     """
     start = time.perf_counter()
     isotropic = bool(tile.facts.isotropic)
-    theta_deg = [float(t) for t in simulation.theta_i]
     phi_deg = incident_azimuths(isotropic, simulation)
     if isinstance(rays, Mapping):
         work = dict(rays)
     else:
         n = simulation.rays_per_realisation if rays is None else int(rays)
-        work = {(l, k): n for l in (range(len(theta_deg)) if thetas is None else thetas)
-                for k in range(len(phi_deg))}
-    bins = HemisphereBins(table.theta_bins, table.phi_bins)
-    facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
-                            tile.curved)
+        work = {(l, k): n for l in (range(len(simulation.theta_i)) if thetas is None
+                                    else thetas) for k in range(len(phi_deg))}
     runs = {} if runs is None else runs
-    batches = _batches(work, runs, lambda: Run(Sums(bins.size, table.sh_order, table.orders)),
-                       int(simulation.seed), theta_deg, phi_deg, isotropic, realisation,
-                       progress)
+    done: dict[str, object] = {}
+
+    def ended(_: Part, segments: int, inputs: list[TableInput]) -> None:
+        done.update(segments=segments, inputs=inputs)
+
     with contextlib.ExitStack() as stack:
         if scene is None:
             scene = stack.enter_context(PeriodicScene(tile, threads))
-        built, before = time.perf_counter(), scene.segments
-        for batch, tally in _pipeline(scene, facets, batches, int(simulation.bounces),
-                                      bins):
-            batch.run.sums.add_tally(tally)
-            batch.run.batches = batch.number + 1
-            if batch.report is not None:
-                batch.report(batch.rays)
-        segments, eps = scene.segments - before, scene.eps
+        built = time.perf_counter()
+        trace_realisations([Part(realisation, scene, work)], materials, simulation,
+                           table, runs, progress=progress, ended=ended)
+        eps = scene.eps
     traced = {key: runs[key] for key in (RunKey(l, k, realisation) for l, k in work)}
-    return Measurement(traced, {realisation: tile.facts}, facets.inputs, isotropic,
-                       segments, eps, built - start, time.perf_counter() - built,
+    return Measurement(traced, {realisation: tile.facts}, done["inputs"], isotropic,
+                       done["segments"], eps, built - start, time.perf_counter() - built,
                        warnings=list(dict.fromkeys(tile.warnings)))
 
 

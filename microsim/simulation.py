@@ -12,7 +12,8 @@ is that of one tile. docs/ensembles.md explains the error bars and the adaptive 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections import deque
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import replace
 from typing import Any
@@ -26,6 +27,7 @@ from microsim.goniometer import (
     Direction,
     Energies,
     Measurement,
+    Part,
     Progress,
     Run,
     RunKey,
@@ -33,8 +35,8 @@ from microsim.goniometer import (
     fold,
     incident_azimuths,
     lost_energy_warnings,
-    measure_directions,
     new_ensemble,
+    trace_realisations,
 )
 from microsim.materials import Material
 from microsim.settings import Recipe, Simulation, SurfaceSection, TableSettings
@@ -44,7 +46,7 @@ from microsim.surfaces.realisations import realisation, realisation_seed
 from microsim.surfaces.tile import Tile
 from microsim.tables.assemble import from_ensemble
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.meta import DirectionRecord, TableMeta, Timing
+from microsim.tables.meta import DirectionRecord, TableInput, TableMeta, Timing
 from microsim.tables.table import BRDFTable
 from microsim.trace import PeriodicScene
 
@@ -124,9 +126,8 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
     bins = HemisphereBins(table.theta_bins, table.phi_bins)
     try:
         while True:
-            if held is None:
-                held = opener.open(0)
             if not plan:  # the first round: the tile says whether it is isotropic
+                held = opener.open(0)
                 azimuths = incident_azimuths(done.isotropic, simulation)
                 plan = {(l, k): (k0, n0) for l in chosen for k in range(len(azimuths))}
                 traced = {d: [] for d in plan}
@@ -139,22 +140,9 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
                         work.setdefault(r, {})[d] = n
                 elif n > sum(traced[d]):
                     work.setdefault(0, {})[d] = n - sum(traced[d])
-            order = sorted(work)
-            for i, r in enumerate(order):
-                if held[0] != r:
-                    opener.release(held[2])
-                    held = None
-                    held = opener.open(r)
-                if i + 1 < len(order):
-                    opener.ahead(order[i + 1])
-                _trace(held, materials, simulation, table, work[r], done, plan, progress)
-                for d, n in work[r].items():
-                    if ensemble:
-                        traced[d].append(n)
-                        if not keep_runs:
-                            done.fold(RunKey(*d, r), simulation, table)
-                    else:
-                        traced[d] = [sum(traced[d]) + n]
+            held = _trace_round(held, opener, sorted(work), work, materials, simulation,
+                                table, done, plan, progress,
+                                fold=ensemble and not keep_runs, traced=traced)
             if target is None:
                 break
             current = assemble_table([done], materials, simulation, table, thetas=chosen,
@@ -200,8 +188,8 @@ class Opener:
     for realisation 0's tile, and refitted to each later realisation of the same topology
     (``PeriodicScene.update``; a Gaussian height field on its grid), so a realisation
     costs its tile and a refit, and its outcomes depend on nothing but its index (the
-    BVH of any scene is realisation 0's, refitted). At most three tiles are alive:
-    realisation 0's, the one traced and the one prepared.
+    BVH of any scene is realisation 0's, refitted). The tiles alive are realisation 0's,
+    those of the scenes in use and the one prepared.
 
     Parameters
     ----------
@@ -285,22 +273,74 @@ class Opener:
         self._spare, self._first = [], None
 
 
-def _trace(held: tuple[int, Tile, PeriodicScene], materials: Mapping[str, Material],
-           simulation: Simulation, table: TableSettings, work: dict[Direction, int],
-           done: Measurement, plan: Mapping[Direction, tuple[int, int]],
-           progress: Callable[[Progress], None] | None) -> None:
-    """Trace one realisation's share of a round in its open scene."""
-    r, tile, scene = held
+def _trace_round(held: tuple[int, Tile, PeriodicScene] | None, opener: Opener,
+                 order: Sequence[int], work: Mapping[int, Mapping[Direction, int]],
+                 materials: Mapping[str, Material], simulation: Simulation,
+                 table: TableSettings, done: Measurement,
+                 plan: Mapping[Direction, tuple[int, int]],
+                 progress: Callable[[Progress], None] | None, *, fold: bool,
+                 traced: dict[Direction, list[int]]
+                 ) -> tuple[int, Tile, PeriodicScene] | None:
+    """Trace one round: realisations ``order`` with their ``work``, through one pipeline
+    (``trace_realisations``), each realisation opened when its batches are first needed
+    and the one after it prepared at once; each realisation's runs folded (``fold``) and
+    its scene handed back when its last batch has been added. The scenes in use are those
+    of the realisations with batches under way (one or two; up to ``DEPTH`` when
+    realisations have fewer batches than the pipeline holds) and the one prepared.
+
+    Returns
+    -------
+    tuple or None
+        The realisation still open: ``held`` when the round traced only it again (one
+        realisation, whose rays grow in place), else None.
+    """
+    opened: dict[int, tuple[int, Tile, PeriodicScene]] = {}
+    keep = held if held is not None and list(order) == [held[0]] and not fold else None
+    pending = deque(order)
+
+    def parts() -> Iterator[Part]:
+        nonlocal held
+        while pending:
+            r = pending.popleft()
+            if held is not None and held[0] == r:
+                opened[r], held = held, None
+            else:
+                opened[r] = opener.open(r)
+            if pending:
+                opener.ahead(pending[0])
+            yield Part(r, opened[r][2], work[r])
+
+    def ended(part: Part, segments: int, inputs: list[TableInput]) -> None:
+        r = part.realisation
+        done.segments += segments
+        done.inputs = inputs
+        for d, n in work[r].items():
+            if fold:
+                traced[d].append(n)
+                done.fold(RunKey(*d, r), simulation, table)
+            elif len(traced[d]) <= r:
+                traced[d].append(n)
+            else:
+                traced[d][r] += n
+        if opened[r] is not keep:
+            opener.release(opened.pop(r)[2])
 
     def report(state: Progress) -> None:
         progress(replace(state, realisations=max(k for k, _ in plan.values())))
 
-    part = measure_directions(tile, materials, simulation, table, rays=work, realisation=r,
-                              runs=done.runs, scene=scene,
-                              progress=None if progress is None else report)
-    done.segments += part.segments
-    done.trace_time += part.trace_time
-    done.inputs = part.inputs
+    if held is not None and held[0] not in order:
+        opener.release(held[2])
+        held = None
+    start = time.perf_counter()
+    try:
+        trace_realisations(parts(), materials, simulation, table, done.runs,
+                           progress=None if progress is None else report, ended=ended)
+    except BaseException:
+        for _, _, scene in opened.values():
+            scene.close()
+        raise
+    done.trace_time += time.perf_counter() - start
+    return keep
 
 
 def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Material],

@@ -311,23 +311,27 @@ def test_default_realisations_per_generator_and_deterministic_geometry_refused()
 
 
 def test_tiles_are_built_one_at_a_time() -> None:
-    """However many realisations, at most three tiles are alive at once: realisation 0's
-    (whose BVH the scenes refit), the one traced and the next, prepared beside it."""
+    """However many realisations, at most DEPTH + 2 tiles are alive at once: realisation
+    0's (whose BVH the scenes refit), those with batches under way (at most DEPTH, when
+    realisations have fewer batches than the pipeline holds) and the next, prepared
+    beside them."""
+    from microsim.goniometer import DEPTH
+
     alive: list[weakref.ref] = []
 
     class Counting(Tiles):
         def __call__(self, r: int):
             tile = super().__call__(r)
-            assert sum(ref() is not None for ref in alive[1:]) <= 1, "two later tiles live"
+            assert sum(ref() is not None for ref in alive[1:]) <= DEPTH, "too many tiles live"
             alive.append(weakref.ref(tile))
             return tile
 
     from microsim.simulation import measure_ensemble
 
-    recipe = small_gaussian(4, 2000)
+    recipe = small_gaussian(8, 4000)
     measured = measure_ensemble(Counting(recipe.surface), recipe.material,
                                 recipe.simulation, recipe.table, threads=1)
-    assert len(alive) == 4 and sorted(measured.surfaces) == [0, 1, 2, 3]
+    assert len(alive) == 8 and sorted(measured.surfaces) == list(range(8))
 
 
 def test_split_realisations_merge_bit_for_bit_whatever_the_threads() -> None:
