@@ -109,21 +109,36 @@ def realisation_moments(s1: np.ndarray, s2: np.ndarray, rays: np.ndarray
 
 
 def inverse_trigamma(x: float) -> float:
-    """y with ψ'(y) = x > 0, by Newton's method on 1/ψ', which is nearly linear (Smyth
-    2004, appendix; ψ'(y) ≈ 1/y for large y and 1/y² for small y)."""
+    """y with ψ'(y) = x > 0 (``inverse_trigammas`` of one value)."""
+    return float(inverse_trigammas(np.array([x], float))[0])
+
+
+def inverse_trigammas(x: np.ndarray) -> np.ndarray:
+    """y with ψ'(y) = x > 0, elementwise, by Newton's method on 1/ψ', which is nearly
+    linear (Smyth 2004, appendix; ψ'(y) ≈ 1/y for large y and 1/y² for small y); each
+    element stops when its relative step falls below 1e-12.
+
+    Parameters
+    ----------
+    x : (n,) float
+
+    Returns
+    -------
+    (n,) float
+    """
     from scipy.special import polygamma  # here: tables are read without scipy
 
-    if x > 1e7:
-        return 1.0 / math.sqrt(x)
-    if x < 1e-6:
-        return 1.0 / x
-    y = 0.5 + 1.0 / x
+    x = np.asarray(x, float)
+    y = np.where(x > 1e7, 1.0 / np.sqrt(x), np.where(x < 1e-6, 1.0 / x, 0.5 + 1.0 / x))
+    active = np.flatnonzero((x <= 1e7) & (x >= 1e-6))
     for _ in range(50):
-        tri = float(polygamma(1, y))
-        step = tri * (1.0 - tri / x) / float(polygamma(2, y))
-        y += step
-        if -step / y < 1e-12:
+        if not active.size:
             break
+        ya = y[active]
+        tri = polygamma(1, ya)
+        step = tri * (1.0 - tri / x[active]) / polygamma(2, ya)
+        y[active] = ya + step
+        active = active[-step / y[active] >= 1e-12]
     return y
 
 
@@ -158,6 +173,31 @@ def moderation_prior(ratio: np.ndarray, d: int) -> tuple[float, float]:
         return math.exp(float(e.mean())), math.inf
     d0 = 2.0 * inverse_trigamma(excess)
     return math.exp(float(e.mean()) + psi(d0 / 2) - math.log(d0 / 2)), d0
+
+
+def moderation_priors(ratio: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """ρ0 of ``moderation_prior`` for each row of ratios at once.
+
+    Parameters
+    ----------
+    ratio : (g, n) float
+        Per row its ratios, NaN where a row has none (at least two per row).
+    d : (g,) int
+        Their degrees of freedom per row.
+
+    Returns
+    -------
+    (g,) float
+    """
+    from scipy.special import polygamma, psi
+
+    d = np.asarray(d, float)
+    e = np.log(ratio) - (psi(d / 2) - np.log(d / 2))[:, None]
+    mean = np.nanmean(e, axis=1)
+    excess = np.nanvar(e, axis=1, ddof=1) - polygamma(1, d / 2)
+    prior = excess > 0
+    d0 = 2.0 * inverse_trigammas(np.where(prior, excess, 1.0))
+    return np.where(prior, np.exp(mean + psi(d0 / 2) - np.log(d0 / 2)), np.exp(mean))
 
 
 GROUPS = 32
@@ -271,20 +311,21 @@ class RunningEstimate:
         m, v = np.asarray(m, float), np.asarray(v, float)
         ix = (*at, Ellipsis)  # views, also of 0-d leading shapes
         present = ~np.isnan(m).all(axis=(-2, -1))
-        keep = present[..., None, None]
+        keep = np.broadcast_to(present[..., None, None], m.shape)
         shift = self.shift[ix]
-        shift[...] = np.where(keep & (self.count[ix] == 0)[..., None, None], m, shift)
+        np.copyto(shift, m, where=keep & (self.count[ix] == 0)[..., None, None])
         g = r % self.groups
         if g not in self._sums:
             self._sums[g] = (np.zeros(self.shape), np.zeros(self.shape),
                              np.zeros(self.shape), np.zeros(self.shape[:-2], np.int64))
         s1, s2, sv, n = (x[ix] for x in self._sums[g])
-        d = np.where(keep, m - shift, 0.0)
-        s1 += d
-        s2 += d * d
-        sv += np.where(keep & np.isfinite(v), v, 0.0)
+        d = m - shift
+        np.add(s1, d, out=s1, where=keep)
+        np.add(s2, np.square(d, out=d), out=s2, where=keep)
+        known = keep & np.isfinite(v)
+        np.add(sv, v, out=sv, where=known)
         n += present
-        self.known[ix] += keep & np.isfinite(v)
+        self.known[ix] += known
         self.count[ix] += present
         if rays is not None:
             self.dof_one[ix] += np.where(present, rays, 0)
@@ -392,22 +433,20 @@ class RunningEstimate:
                 if use.sum() < 2:
                     continue
                 rho0, d0 = moderation_prior(s2[use] / u[use], d)
-                logs = []
-                for g in groups:
-                    t1, t2, tv, tn = (t[index] - x[index]
-                                      for t, x in zip(totals, self._sums[g], strict=True))
-                    rest = float(tn)
-                    if rest < 2:
-                        continue
-                    s2_g = _deviations(t1[use, c], t2[use, c], rest) / ((rest - 1) * rest)
-                    u_g = tv[use, c] / rest**2
+                # every group left out at once: (groups, bins) sums of the others
+                t1, t2, tv = (np.stack([(t[index] - self._sums[g][j][index])[use, c]
+                                        for g in groups])
+                              for j, t in enumerate(totals[:3]))
+                rest = np.array([kk - self._sums[g][3][index] for g in groups], float)
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    s2_g = _deviations(t1, t2, rest[:, None]) / ((rest - 1) * rest)[:, None]
+                    u_g = tv / rest[:, None] ** 2
                     ok = (s2_g > 0) & (u_g > 0)
-                    if ok.sum() >= 2:
-                        logs.append(math.log(moderation_prior(s2_g[ok] / u_g[ok],
-                                                              int(rest) - 1)[0]))
+                    ratios = np.where(ok, s2_g / u_g, np.nan)
+                valid = (rest >= 2) & (ok.sum(axis=1) >= 2)
+                logs = np.log(moderation_priors(ratios[valid], rest[valid] - 1))
                 jack = (len(groups) - 1) / len(groups) * float(
-                    np.sum((np.array(logs) - np.mean(logs)) ** 2)) \
-                    if len(logs) == len(groups) else math.inf
+                    np.sum((logs - logs.mean()) ** 2)) if valid.all() else math.inf
                 w = 1.0 if math.isinf(d0) else d0 / (d0 + d)
                 prior = 0.0 if math.isinf(d0) else 1.0 / (d0 + d)
                 dof[index][c] = min(1.0 / max(prior + w * w * jack / 2, 1.0 / DOF_MAX),
