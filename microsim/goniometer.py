@@ -119,18 +119,18 @@ class Sums:
         the settings of these sums, so batches are tallied on any thread."""
         n = len(paths.order)
         index = np.empty(n, np.int64)
+        loc = np.empty((n if self.sh_order else 0, 2))
 
         def block(a: int, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             sums = np.zeros_like(self.sums)
             sums_sq, unbinned = np.zeros_like(sums), np.zeros(3)
             bin_escapes(paths.direction[a:b], paths.weight[a:b], paths.order[a:b], phi_ref,
                         bins.theta_bins, bins.phi_bins, bins.folded, self.orders, sums,
-                        sums_sq, index[a:b], unbinned)
+                        sums_sq, index[a:b], unbinned, loc[a:b])
             return sums, sums_sq, unbinned
 
         sums, sums_sq, unbinned = in_blocks(block, n, mapper)
-        harmonics = self._harmonics(paths, index, phi_ref, mapper) if self.sh_order \
-            else []
+        harmonics = self._harmonics(paths, index, loc, mapper) if self.sh_order else []
         # an escaping ray the bins do not take (none for a closed surface) is lost, not hidden
         return Tally(n, sums, sums_sq, harmonics, paths.lost + unbinned, paths.transmitted,
                      paths.absorbed, paths.fate_counts)
@@ -151,23 +151,22 @@ class Sums:
         for name, count in tally.fates.items():
             self.fates[name] = self.fates.get(name, 0) + count
 
-    def _harmonics(self, paths: Paths, index: np.ndarray, phi_ref: float,
+    def _harmonics(self, paths: Paths, index: np.ndarray, loc: np.ndarray,
                    mapper: sh.Mapper | None) -> list[tuple[int, np.ndarray, np.ndarray]]:
         """Moments of the escaping rays' exit weights against the real harmonics: one
-        transform per order row over that row's binned rays alone (``index`` their
-        bins), (row, Σ w Y_k, Σ w² Y_K) in row order (the total row is their sum). The
-        rays are grouped by row and their angles taken in one compiled pass
+        transform per order row over that row's binned rays alone (``index`` their bins,
+        ``loc`` their angles), (row, Σ w Y_k, Σ w² Y_K) in row order (the total row is
+        their sum). The rays are grouped by row in one compiled pass
         (``microsim.kernel.tally.gather_rows``); a row's rays are then one slice."""
         n = len(index)
-        loc, w = np.empty((n, 2)), np.empty((n, 3))
+        loc_rows, w = np.empty((n, 2)), np.empty((n, 3))
         ends = np.empty(self.orders + 1, np.int64)
-        gather_rows(paths.direction, paths.weight, paths.order, index, phi_ref, self.orders,
-                    loc, w, ends)
+        gather_rows(loc, paths.weight, paths.order, index, self.orders, loc_rows, w, ends)
         out = []
         for k in range(1, self.orders + 1):
             a, b = ends[k - 1], ends[k]
             if b > a:
-                out.append((k, *sh.moments(loc[a:b], w[a:b], self.sh_order, mapper)))
+                out.append((k, *sh.moments(loc_rows[a:b], w[a:b], self.sh_order, mapper)))
         return out
 
     @property

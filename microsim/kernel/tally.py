@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from microsim.jit import JIT
+from microsim.jit import INLINE, JIT
 from microsim.kernel.slots import (
     ESCAPED,
     O_FATE,
@@ -108,11 +108,17 @@ def bin_of(x: float, y: float, z: float, phi_ref: float, theta_bins: int, phi_bi
     and φ − φ_ref (folded: φ reflected into [0, π]), or -1 on or below the horizon
     (``microsim.tables.binning.HemisphereBins.index``; the azimuth is reduced modulo 2π
     with a floor instead of numpy's ``mod``, which may differ in the last bit)."""
+    return bin_at(x, y, z, math.atan2(y, x) - phi_ref, theta_bins, phi_bins, folded)
+
+
+@njit(**INLINE)
+def bin_at(x: float, y: float, z: float, phi: float, theta_bins: int, phi_bins: int,
+           folded: bool) -> int:
+    """``bin_of`` with the azimuth difference φ − φ_ref = atan2(y, x) − φ_ref given."""
     if z <= 0.0:
         return -1
     u = min(max(x * x + y * y, 0.0), 1.0)
     it = min(int(u * theta_bins), theta_bins - 1)
-    phi = math.atan2(y, x) - phi_ref
     phi -= TWO_PI * math.floor(phi * (1.0 / TWO_PI))
     if folded:
         phi = min(phi, TWO_PI - phi)
@@ -126,8 +132,9 @@ def bin_of(x: float, y: float, z: float, phi_ref: float, theta_bins: int, phi_bi
 def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
                 phi_ref: float, theta_bins: int, phi_bins: int, folded: bool,
                 orders: int, sums: np.ndarray, sums_sq: np.ndarray,
-                index: np.ndarray, unbinned: np.ndarray) -> None:
-    """Add escaping rays' weights w and w² to their bins, per component.
+                index: np.ndarray, unbinned: np.ndarray, loc: np.ndarray) -> None:
+    """Add escaping rays' weights w and w² to their bins, per component, and keep the
+    binned rays' angles for their harmonics.
 
     Parameters
     ----------
@@ -147,16 +154,31 @@ def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
         Filled with each ray's bin (-1: none).
     unbinned : (3,) float
         Running summed weight of scattered rays no bin takes (escaping on the horizon).
+    loc : (n, 2) float, or (0, 2) for none
+        Filled, for each binned ray, with its colatitude and its azimuth relative to
+        φ_ref in [0, 2π) (``microsim.tables.sh.angles``: θ = acos z, and φ reduced as
+        numpy's ``mod`` reduces it; φ_ref in [0, 2π)).
     """
+    angles = len(loc) > 0
     for r in range(len(order)):
         k = order[r]
         b = -1
         if k > 0:
-            b = bin_of(direction[r, 0], direction[r, 1], direction[r, 2], phi_ref,
-                       theta_bins, phi_bins, folded)
+            x, y, z = direction[r, 0], direction[r, 1], direction[r, 2]
+            phi = math.atan2(y, x) - phi_ref
+            b = bin_at(x, y, z, phi, theta_bins, phi_bins, folded)
             if b < 0:
                 for c in range(3):
                     unbinned[c] += weight[r, c]
+            elif angles:
+                # numpy's mod: fmod (exact), then + 2π if negative; the difference lies
+                # in (−3π, π], where fmod is one exact addition of 2π below −2π
+                if phi <= -TWO_PI:
+                    phi += TWO_PI
+                if phi < 0.0:
+                    phi += TWO_PI
+                loc[r, 0] = math.acos(min(max(z, -1.0), 1.0))
+                loc[r, 1] = phi
         index[r] = b
         if b < 0:
             continue
@@ -170,28 +192,25 @@ def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
 
 
 @njit(**JIT)
-def gather_rows(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
-                index: np.ndarray, phi_ref: float, orders: int, loc: np.ndarray,
-                gathered: np.ndarray, ends: np.ndarray) -> int:
+def gather_rows(loc: np.ndarray, weight: np.ndarray, order: np.ndarray, index: np.ndarray,
+                orders: int, loc_rows: np.ndarray, weight_rows: np.ndarray,
+                ends: np.ndarray) -> int:
     """The binned rays grouped by order row, for their harmonic transforms: a counting
-    sort on the row min(k, N) (stable: each row's rays keep their ray order), with each
-    ray's colatitude and azimuth (``microsim.tables.sh.angles``: θ = acos z, φ − φ_ref
-    reduced to [0, 2π) as numpy's ``mod`` reduces it) and weights.
+    sort on the row min(k, N) (stable: each row's rays keep their ray order).
 
     Parameters
     ----------
-    direction, weight : (n, 3) float
+    loc : (n, 2) float
+        The rays' angles (``bin_escapes``).
+    weight : (n, 3) float
     order : (n,) int
     index : (n,) int
         Each ray's bin (``bin_escapes``; -1: not binned, left out).
-    phi_ref : float
-        In [0, 2π), radians.
     orders : int
         N.
-    loc : (n, 2) float
-        Filled, in its first rows, with (θ, φ) of the binned rays, row by row.
-    gathered : (n, 3) float
-        Their weights, likewise.
+    loc_rows, weight_rows : (n, 2) and (n, 3) float
+        Filled, in their first rows, with the binned rays' angles and weights, row by
+        row.
     ends : (N + 1,) int
         Filled with the end of each row's rays (row 0, the total, holds none).
 
@@ -216,16 +235,8 @@ def gather_rows(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
         row = min(order[r], orders)
         j = fill[row]
         fill[row] += 1
-        z = min(max(direction[r, 2], -1.0), 1.0)
-        loc[j, 0] = math.acos(z)
-        # numpy's mod: fmod (exact), then + 2π if negative; with φ_ref in [0, 2π) the
-        # difference lies in (−3π, π], where fmod is one exact addition of 2π below −2π
-        phi = math.atan2(direction[r, 1], direction[r, 0]) - phi_ref
-        if phi <= -TWO_PI:
-            phi += TWO_PI
-        if phi < 0.0:
-            phi += TWO_PI
-        loc[j, 1] = phi
+        loc_rows[j, 0] = loc[r, 0]
+        loc_rows[j, 1] = loc[r, 1]
         for c in range(3):
-            gathered[j, c] = weight[r, c]
+            weight_rows[j, c] = weight[r, c]
     return ends[orders]
