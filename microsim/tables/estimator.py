@@ -291,6 +291,7 @@ class RunningEstimate:
         self.known = np.zeros(self.shape, np.int64)    # realisations whose v is defined
         self.dof_one = np.zeros(lead)                  # their rays − 1 (one realisation)
         self._sums: dict[int, tuple[np.ndarray, ...]] = {}
+        self._cached: tuple[np.ndarray, ...] | None = None
 
     def add(self, r: int, m: np.ndarray, v: np.ndarray, rays: np.ndarray | int | None = None,
             at: tuple[int, ...] = ()) -> None:
@@ -308,6 +309,7 @@ class RunningEstimate:
         at : tuple of int
             A leading index the arrays belong to (default: all of ``shape``).
         """
+        self._cached = None
         m, v = np.asarray(m, float), np.asarray(v, float)
         ix = (*at, Ellipsis)  # views, also of 0-d leading shapes
         present = ~np.isnan(m).all(axis=(-2, -1))
@@ -333,6 +335,7 @@ class RunningEstimate:
     def absorb(self, other: RunningEstimate) -> None:
         """Add ``other``'s sums, of the same shape, whose leading indices (directions)
         hold no realisation here."""
+        self._cached = None
         theirs = other.count > 0
         self.shift = np.where(theirs[..., None, None], other.shift, self.shift)
         self.count += other.count
@@ -351,6 +354,7 @@ class RunningEstimate:
         out.count, out.shift = self.count[rows], self.shift[rows]
         out.known, out.dof_one = self.known[rows], self.dof_one[rows]
         out._sums = {g: tuple(x[rows] for x in sums) for g, sums in self._sums.items()}
+        out._cached = None
         return out
 
     @property
@@ -361,9 +365,12 @@ class RunningEstimate:
             return self.shift + s1 / self.count[..., None, None]
 
     def _totals(self) -> tuple[np.ndarray, ...]:
-        """Σ (m − c), Σ (m − c)², Σ v and the counts over the groups, in group order."""
-        parts = [x for _, x in sorted(self._sums.items())]
-        return tuple(sum(x[j] for x in parts) for j in range(4))
+        """Σ (m − c), Σ (m − c)², Σ v and the counts over the groups, in group order
+        (kept until the next ``add`` or ``absorb``)."""
+        if self._cached is None:
+            parts = [x for _, x in sorted(self._sums.items())]
+            self._cached = tuple(sum(x[j] for x in parts) for j in range(4))
+        return self._cached
 
     def estimate(self, pool: np.ndarray | None = None,
                  dof_one: np.ndarray | float | None = None) -> Estimate:
@@ -426,6 +433,11 @@ class RunningEstimate:
                 continue
             d = kk - 1
             groups = [g for g in sorted(self._sums) if self._sums[g][3][index] > 0]
+            # every group left out at once: (groups, m, c) sums of the others
+            left = [totals[j][index][None] - np.stack([self._sums[g][j][index]
+                                                       for g in groups])
+                    for j in range(3)]
+            rest = np.array([kk - self._sums[g][3][index] for g in groups], float)
             for c in range(var.shape[-1]):
                 s2, u = spread[index][:, c], ray_var[index][:, c]
                 use = pool[index][:, c] & np.isfinite(s2 / np.where(u > 0, u, np.nan)) & (
@@ -433,11 +445,7 @@ class RunningEstimate:
                 if use.sum() < 2:
                     continue
                 rho0, d0 = moderation_prior(s2[use] / u[use], d)
-                # every group left out at once: (groups, bins) sums of the others
-                t1, t2, tv = (np.stack([(t[index] - self._sums[g][j][index])[use, c]
-                                        for g in groups])
-                              for j, t in enumerate(totals[:3]))
-                rest = np.array([kk - self._sums[g][3][index] for g in groups], float)
+                t1, t2, tv = (x[:, use, c] for x in left)
                 with np.errstate(invalid="ignore", divide="ignore"):
                     s2_g = _deviations(t1, t2, rest[:, None]) / ((rest - 1) * rest)[:, None]
                     u_g = tv / rest[:, None] ** 2
