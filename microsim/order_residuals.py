@@ -152,17 +152,13 @@ def lobe_errors(table: Any, component: str, model: np.ndarray, model_err: np.nda
 
 def realisation_albedos(table: Any) -> tuple[np.ndarray, np.ndarray] | None:
     """Per component, each realisation's albedo (RGB mean, (K, a, b), NaN where it traced
-    nothing) and realised α (K,); None for a table without realisation sums (one read
+    nothing) and realised α (K,); None for a table without realisation albedos (one read
     from a file) or without a scalar α per realisation."""
     per = () if table.meta.surface is None else table.meta.surface.per_realisation
-    if table.sums is None or not per or not all(
+    if table.realisation_albedo is None or not per or not all(
             isinstance(r.get("alpha_realised"), int | float) for r in per):
         return None
-    rays = table.realisation_rays.astype(float)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        albedo = {c: table.sums[c].sum(axis=3).mean(axis=-1) / np.where(rays > 0, rays,
-                                                                        np.nan)
-                  for c in table.components}
+    albedo = {c: table.realisation_albedo[c].mean(axis=-1) for c in table.components}
     return albedo, np.array([r["alpha_realised"] for r in per])
 
 

@@ -74,6 +74,9 @@ class EnsembleSums:
         Σ over realisations of each one's lost weight per ray.
     realisation_rays : dict of (int, int) to list of int
         Per direction, each added realisation's rays, in the order added.
+    realisation_albedo : dict of (int, int) to list of (rows, 3) float
+        Per direction, each added realisation's albedo per component (a few numbers a
+        realisation, for studies of the spread between tiles).
     """
 
     def __init__(self, directions: tuple[int, int], components: tuple[str, ...],
@@ -87,6 +90,7 @@ class EnsembleSums:
         self.rays = np.zeros((a, b), np.int64)
         self.lost = np.zeros((a, b, 3))
         self.realisation_rays: dict[tuple[int, int], list[int]] = {}
+        self.realisation_albedo: dict[tuple[int, int], list[np.ndarray]] = {}
 
     def add(self, at: tuple[int, int], r: int, rays: int, sums: np.ndarray,
             sums_sq: np.ndarray, lost: np.ndarray, sh_sums: np.ndarray | None = None,
@@ -101,6 +105,7 @@ class EnsembleSums:
         m, v = realisation_moments(sums.sum(axis=-2, keepdims=True),
                                    sums_sq.sum(axis=-2, keepdims=True), np.int64(rays))
         self.albedo.add(r, m, v, rays, at)
+        self.realisation_albedo.setdefault(at, []).append(m[:, 0])
         if self.sh is not None:
             m, v = realisation_moments(sh_sums, sh.second_moments(sh_sums_sq, self.sh_order),
                                        np.int64(rays))
@@ -120,9 +125,10 @@ class EnsembleSums:
         out.bins, out.albedo = self.bins.take(rows), self.albedo.take(rows)
         out.sh = None if self.sh is None else self.sh.take(rows)
         out.rays, out.lost = self.rays[rows], self.lost[rows]
-        out.realisation_rays = {(i, k): list(self.realisation_rays[(l, k)])
-                                for i, l in enumerate(rows) for k in range(self.rays.shape[1])
-                                if (l, k) in self.realisation_rays}
+        out.realisation_rays, out.realisation_albedo = ({
+            (i, k): list(per[(l, k)]) for i, l in enumerate(rows)
+            for k in range(self.rays.shape[1]) if (l, k) in per}
+            for per in (self.realisation_rays, self.realisation_albedo))
         return out
 
     def absorb(self, other: EnsembleSums) -> None:
@@ -142,6 +148,7 @@ class EnsembleSums:
         self.rays += other.rays
         self.lost += other.lost
         self.realisation_rays.update(other.realisation_rays)
+        self.realisation_albedo.update(other.realisation_albedo)
 
 
 def from_ensemble(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
@@ -207,11 +214,16 @@ def from_ensemble(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
         if s is not None:
             sh_values[c], sh_errors[c] = s.mean[:, :, j], s.stderr[:, :, j]
     realisations = e.realisations[:, :, 0]
+    per = np.full((int(realisations.max()), a, b, len(ensemble.components), 3), np.nan)
+    for (l, k), albedos in ensemble.realisation_albedo.items():
+        per[:len(albedos), l, k] = albedos
+    raw = {**(raw or {}), "realisation_albedo": {
+        c: per[:, :, :, j] for j, c in enumerate(ensemble.components)}}
     return BRDFTable(bins, theta_i, phi_i, isotropic, values, errors, ensemble.rays.copy(),
                      albedo, albedo_err, ensemble.lost / realisations[..., None], meta,
                      error_model=ENSEMBLE if realisations.max() > 1 else RAYS,
                      realisations=realisations, dof=dof, inflation=inflation,
-                     ray_errors=ray_errors, sh=sh_values, sh_err=sh_errors, **(raw or {}))
+                     ray_errors=ray_errors, sh=sh_values, sh_err=sh_errors, **raw)
 
 
 def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,

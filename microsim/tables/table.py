@@ -119,6 +119,9 @@ class BRDFTable:
     sh_sums, sh_sums_sq : dict or None
         Raw sums Σ w Y_k (K, a, b, (L + 1)², 3) and Σ w² Y_K to order 2L
         (K, a, b, (2L + 1)², 3) of fresh estimates, merged alike.
+    realisation_albedo : dict of str to (K, a, b, 3) float, or None
+        Each realisation's albedo per component of a fresh estimate (NaN where a
+        realisation did not trace a direction).
 
     Attributes
     ----------
@@ -143,7 +146,8 @@ class BRDFTable:
                  sh: Mapping[str, np.ndarray] | None = None,
                  sh_err: Mapping[str, np.ndarray] | None = None,
                  sh_sums: Mapping[str, np.ndarray] | None = None,
-                 sh_sums_sq: Mapping[str, np.ndarray] | None = None) -> None:
+                 sh_sums_sq: Mapping[str, np.ndarray] | None = None,
+                 realisation_albedo: Mapping[str, np.ndarray] | None = None) -> None:
         self.bins = bins
         self.theta_i = np.asarray(theta_i, float)
         self.phi_i = np.asarray(phi_i, float)
@@ -176,6 +180,8 @@ class BRDFTable:
         self.sh_sums = None if sh_sums is None else by_component(sh_sums, self.components)
         self.sh_sums_sq = None if sh_sums_sq is None else by_component(sh_sums_sq,
                                                                         self.components)
+        self.realisation_albedo = None if realisation_albedo is None else by_component(
+            realisation_albedo, self.components, float)
 
     # --- derived quantities ------------------------------------------------------------
     @property
