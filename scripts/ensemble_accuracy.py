@@ -118,7 +118,7 @@ def targets(most: int, rays: int) -> str:
     recipe = recipe_for(most, rays)
     start = time.perf_counter()
     measured = measure_ensemble(Tiles(recipe.surface), recipe.material,
-                                recipe.simulation, recipe.table)
+                                recipe.simulation, recipe.table, keep_runs=True)
     seconds = time.perf_counter() - start
     counts = sorted({k for k in (4, 8, 16, 24, 32, 48, 64, 96, 128, 192, 256) if k <= most}
                     | {most})
