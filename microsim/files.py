@@ -192,6 +192,15 @@ def replace_marked(path: str | Path, block: str, begin: str, end: str,
         tmp.write_text(page, encoding="utf-8")
 
 
+def write_section(path: str | Path, name: str, text: str,
+                  heading: str | None = None) -> None:
+    """Put ``text`` between the markers ``<!-- name: begin -->`` and ``<!-- name: end -->``
+    of a text file (``replace_marked``; appended after ``heading`` where they are absent).
+    """
+    begin, end = f"<!-- {name}: begin -->", f"<!-- {name}: end -->"
+    replace_marked(path, f"{begin}\n{text}\n{end}", begin, end, heading=heading)
+
+
 def file_digest(path: str | Path) -> str:
     """SHA-256 of a file's bytes, hex: the provenance of an input (a mesh, a table one scale
     up)."""

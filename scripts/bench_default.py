@@ -19,6 +19,8 @@ Sections (``--only`` picks some):
   per direction, θi = 0, 20, 40, 60, 80°) with mirror and with gold facets, the same way.
 - ``target``: ``microsim simulate surfaces/gaussian-0.3.toml --target-error 0.01``: wall
   and CPU time, peak resident memory, realisations and rays per direction.
+- ``breakdown``: the CPU time of each part of one in-process ``simulate`` of
+  ``surfaces/gaussian-0.3.toml`` (the kernel, the tally, tiles and scenes, ...).
 - ``tile``: the cost of one realisation of the 256² Gaussian tile, as ``simulate`` opens
   one (``microsim.simulation.Opener.open``, one after the other: the tile's generation and
   facts, then the refit of a scene built for realisation 0), mean of 16 after realisation
@@ -43,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from microsim.bench import bare_rays_per_second, bare_scene, run_child, surface_rays
-from microsim.files import replace_marked
+from microsim.files import write_section
 from microsim.goniometer import Measurement
 from microsim.recipe import load, resolve, to_toml
 from microsim.simulation import Opener, Tiles
@@ -200,48 +202,100 @@ def tile_section() -> str:
             "is traced.")
 
 
+PARTS = (("microsim.trace", "trace_chunk", "the kernel (trace_chunk)"),
+         ("microsim.paths", "summarise", "summaries of outcomes"),
+         ("microsim.goniometer", "bin_escapes", "binning"),
+         ("microsim.tables.sh", "_transform", "harmonic transforms (ducc0)"),
+         ("microsim.goniometer.Sums", "tally", "a batch's tally in all"),
+         ("microsim.goniometer", "beam_origins", "start points of the beam"),
+         ("microsim.goniometer.Sums", "add_tally", "adding tallies"),
+         ("microsim.goniometer.Measurement", "fold", "folding realisations"),
+         ("microsim.simulation.Opener", "_build", "tiles and scenes (beside)"),
+         ("microsim.simulation", "assemble_table", "assembling tables"))
+"""What ``--breakdown`` times: (module or class, function, label)."""
+
+
+def breakdown_section() -> str:
+    """CPU time (``time.thread_time`` of the thread that ran it) of each part of one
+    in-process ``simulate_recipe`` of ``surfaces/gaussian-0.3.toml`` (after one not
+    counted), against the process's CPU time and the wall time."""
+    import importlib
+    import threading
+    from collections import defaultdict
+
+    from microsim.simulation import simulate_recipe
+
+    spent: defaultdict[str, float] = defaultdict(float)
+    lock = threading.Lock()
+
+    def timed(fn: Any, label: str) -> Any:
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            start = time.thread_time()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                with lock:
+                    spent[label] += time.thread_time() - start
+        return wrapper
+
+    for where, name, label in PARTS:  # a module, or a module's class (capitalised)
+        names = where.split(".")
+        owner: Any = importlib.import_module(".".join(n for n in names if n[0].islower()))
+        for n in names:
+            if n[0].isupper():
+                owner = getattr(owner, n)
+        setattr(owner, name, timed(getattr(owner, name), label))
+    recipe = load(ROOT / "surfaces" / "gaussian-0.3.toml")
+    simulate_recipe(recipe, threads=THREADS)
+    spent.clear()
+    cpu, start = time.process_time(), time.perf_counter()
+    table = simulate_recipe(recipe, threads=THREADS)
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+    rows = [f"| {label} | {spent[label]:.2f} s | "
+            f"{1e9 * spent[label] / table.meta.segments:.0f} |" for _, _, label in PARTS]
+    return "\n".join([
+        f"One `simulate_recipe` of `surfaces/gaussian-0.3.toml` in this process, {THREADS} "
+        f"threads: {wall:.2f} s wall, {cpu:.2f} s of CPU in all "
+        f"({table.meta.segments / 1e6:.1f} M segments); the CPU time of each part, "
+        "summed over the threads that ran it (the tally includes the binning and the "
+        "transforms):", "", "| part | CPU | ns per segment |", "| --- | --- | --- |",
+        *rows])
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--only", nargs="+", choices=("recipes", "heavy", "target", "tile"),
-                        default=("recipes", "heavy", "target", "tile"))
+    parser.add_argument("--only", nargs="+",
+                        choices=("recipes", "heavy", "target", "tile", "breakdown"),
+                        default=("recipes", "heavy", "target", "tile", "breakdown"))
     parser.add_argument("--write", action="store_true",
                         help="write the results into docs/performance.md")
     args = parser.parse_args()
-    load_before = os.getloadavg()[0]
-    parts = {}
     for name in args.only:
-        parts[name] = {"recipes": lambda: recipes_section(args.repeats),
-                       "heavy": lambda: heavy_section(args.repeats),
-                       "target": target_section, "tile": tile_section}[name]()
-        print(parts[name], flush=True)
-    if not args.write:
-        return
-    head = (f"Measured with `python scripts/bench_default.py --repeats {args.repeats} "
-            f"--write` on {platform.machine()}, {os.cpu_count()} CPUs, Python "
-            f"{platform.python_version()}, {time.strftime('%Y-%m-%d')}; load average "
-            f"(1 min) {load_before:.1f} before, {os.getloadavg()[0]:.1f} after. Every run "
-            f"is the command `microsim simulate RECIPE --threads {THREADS}` (its `--json` "
-            "gives the segments and `wall_s`, the time inside simulate: tiles, scenes and "
-            "tracing); the command's wall and CPU time and peak memory are the child "
-            "process's. Bare Embree: `EmbreeScene.run` on incoherent rays from the "
-            "recipe's own tile (realisation 0), 2 threads, timed right before and right "
-            "after each run; ratios are segments per second over the mean of the two, "
-            "median (range) over the repeats.")
-    sections = [head]
-    if "recipes" in parts:
-        sections += ["", "### The shipped recipes, as they are", "", parts["recipes"]]
-    if "heavy" in parts:
-        sections += ["", "### A tile-heavy ensemble", "",
-                     "256² Gaussian, α = 0.5, 32 realisations, 400,000 rays per direction, "
-                     "θi = 0, 20, 40, 60, 80°, harmonics of order 32:", "", parts["heavy"]]
-    if "target" in parts:
-        sections += ["", "### To 1% ensemble error", "", parts["target"]]
-    if "tile" in parts:
-        sections += ["", "### The cost of a realisation", "", parts["tile"]]
-    begin, end = "<!-- bench_default: begin -->", "<!-- bench_default: end -->"
-    text = "\n".join([begin, "## What users run: `simulate` end to end", "", *sections, end])
-    replace_marked(DOC, text, begin, end, heading="# Performance")
+        load_before = os.getloadavg()[0]
+        text = {"recipes": lambda: recipes_section(args.repeats),
+                "heavy": lambda: heavy_section(args.repeats),
+                "target": target_section, "tile": tile_section,
+                "breakdown": breakdown_section}[name]()
+        print(text, flush=True)
+        if args.write:
+            repeats = f" --repeats {args.repeats}" if name in ("recipes", "heavy") else ""
+            head = (f"Measured with `python scripts/bench_default.py --only {name}{repeats} "
+                    f"--write` on {platform.machine()}, {os.cpu_count()} CPUs, Python "
+                    f"{platform.python_version()}, {time.strftime('%Y-%m-%d')}; load "
+                    f"average (1 min) {load_before:.1f} before, {os.getloadavg()[0]:.1f} "
+                    f"after.")
+            write_section(DOC, f"bench_default-{name}",
+                          "\n".join([f"### {TITLES[name]}", "", head, "", INTROS.get(name, ""),
+                                      text]).replace("\n\n\n", "\n\n"),
+                          heading="# Performance")
+
+
+TITLES = {"recipes": "The shipped recipes, as they are", "heavy": "A tile-heavy ensemble",
+          "target": "To 1% ensemble error", "tile": "The cost of a realisation",
+          "breakdown": "Where the demo's time goes"}
+INTROS = {"heavy": "256² Gaussian, α = 0.5, 32 realisations, 400,000 rays per direction, "
+                   "θi = 0, 20, 40, 60, 80°, harmonics of order 32:\n"}
 
 
 if __name__ == "__main__":

@@ -38,7 +38,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from microsim.files import replace_marked
+from microsim.files import write_section
 from microsim.geometry import direction
 from microsim.kernel import slots as ks
 from microsim.kernel.embree import Scene
@@ -185,8 +185,7 @@ def main() -> None:
     text = section(args.recipe, args.builds, args.rays, args.repeats)
     print(text)
     if args.write:
-        begin, end = f"<!-- {NAME}: begin -->", f"<!-- {NAME}: end -->"
-        replace_marked(DOC, f"{begin}\n{text}\n{end}", begin, end, heading="# Performance")
+        write_section(DOC, NAME, text, heading="# Performance")
 
 
 if __name__ == "__main__":

@@ -38,7 +38,7 @@ import numba
 import numpy as np
 
 from microsim.bench import bare_rays_per_second, bare_scene, gaussian, surface_rays
-from microsim.files import replace_marked
+from microsim.files import write_section
 from microsim.goniometer import measure_directions
 from microsim.kernel.beam import CELLS, cell_steps
 from microsim.recipe import load, resolve
@@ -296,8 +296,7 @@ def main() -> None:
         name, text = "bench_trace-speed", speed_section(args)
     print(text)
     if args.write:
-        begin, end = f"<!-- {name}: begin -->", f"<!-- {name}: end -->"
-        replace_marked(DOC, f"{begin}\n{text}\n{end}", begin, end, heading="# Performance")
+        write_section(DOC, name, text, heading="# Performance")
 
 
 if __name__ == "__main__":
