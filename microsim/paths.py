@@ -100,9 +100,8 @@ def start_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nda
 
 
 class PendingPaths:
-    """Paths being traced (``start_paths``): ``wait`` for the tracing, ``result`` for the
-    paths, summarised on the scene's worker threads, or ``then`` to have a function of
-    them run there.
+    """Paths being traced (``start_paths``): ``result`` for the paths, summarised on the
+    scene's worker threads, or ``then`` to have a function of them run there.
 
     Parameters
     ----------
@@ -113,10 +112,6 @@ class PendingPaths:
 
     def __init__(self, scene: PeriodicScene, tracing: Tracing) -> None:
         self._scene, self._tracing = scene, tracing
-
-    def wait(self) -> None:
-        """Return when every path has ended (the outcomes are not summarised yet)."""
-        self._tracing.result()
 
     def result(self) -> Paths:
         """The paths: exit directions, weights and orders, and the energy and fate sums
