@@ -117,16 +117,9 @@ class Tracing:
 
     def then(self, fn: Callable[[Outcomes], T]) -> Future[T]:
         """``fn(outcomes)`` on a worker thread, queued when the last chunk has ended (at
-        once, in this thread, without workers); the returned future holds its result, or
-        the error of a chunk or of ``fn``."""
+        once, in this thread, without workers or chunks); the returned future holds its
+        result, or the error of a chunk or of ``fn``."""
         pool = self._scene._pool
-        if pool is None:
-            future: Future[T] = Future()
-            try:
-                future.set_result(fn(self.result()))
-            except Exception as error:  # noqa: BLE001 (handed to the future's reader)
-                future.set_exception(error)
-            return future
         out: Future[T] = Future()
         left = [len(self._chunks)]
         lock = threading.Lock()
@@ -136,6 +129,10 @@ class Tracing:
                 out.set_result(fn(self.result()))
             except Exception as error:  # noqa: BLE001 (handed to the future's reader)
                 out.set_exception(error)
+
+        if pool is None or not self._chunks:
+            run()
+            return out
 
         def ended(_: Future[int]) -> None:
             with lock:

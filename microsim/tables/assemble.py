@@ -237,10 +237,8 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
 
     Parameters
     ----------
-    bins : HemisphereBins
-    theta_i : (a,) float
-    phi_i : (b,) float
-    isotropic : bool
+    bins, theta_i, phi_i, isotropic
+        As for ``from_ensemble``.
     rays : (K, a, b) int
         Rays per realisation and incident direction; 0 where a realisation did not
         trace a direction (every direction needs at least one realisation).
