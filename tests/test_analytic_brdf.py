@@ -86,11 +86,88 @@ def albedo(model, wi, n=256):
     return 0.5 * np.einsum("i,j,ij->", wu, wphi, f)
 
 
+def gauss_hemisphere(n=256):
+    """Gauss-Legendre nodes over the upper hemisphere in (u = sin²θ, φ): unit vectors
+    (n, n, 3) and weights of dω = du dφ / (2 cos θ), times cos θ (so Σ w g = ∫ g cos θ dω
+    for the vectors' cos θ; divide by it for ∫ g dω)."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    u, wu = (x + 1) / 2, w / 2
+    phi, wphi = np.pi * (x + 1), np.pi * w
+    return direction(np.arcsin(np.sqrt(u))[:, None], phi[None, :]), 0.5 * np.outer(wu, wphi)
+
+
+def albedo_over_half_vectors(model, wi):
+    """∫ f cos θo dωo of a half-vector model, from its formula written here and integrated
+    over h (dωo = 4 ⟨ωo, h⟩ dωh, Walter et al. 2007, eq. 14), not through ``eval``.
+
+    Torrance-Sparrow: f cos θo dωo = D(h) F(⟨ωi, h⟩) G2 ⟨ωi, h⟩ / cos θi dωh with
+    G2 = 1/(1 + Λi + Λo) (height-correlated, Heitz 2014 eq. 99) or 1/((1 + Λi)(1 + Λo))
+    (separable), Λ the NDF's, F from ``microsim.analytic.fresnel``. Blinn-Phong:
+    (n + 2)/(8π) cos^n θh cos θo 4 ⟨ωi, h⟩ dωh. Where ωo is below the horizon the
+    integrand is 0 (G2 and cos θo vanish there continuously)."""
+    h, w = gauss_hemisphere()
+    cos_d = np.sum(h * wi, axis=-1)
+    wo = 2 * cos_d[..., None] * h - wi
+    keep = (wo[..., 2] > 0) & (cos_d > 0)
+    wo = np.where(keep[..., None], wo, [0.0, 0.0, 1.0])
+    dw = w / h[..., 2]
+    if isinstance(model, BlinnPhong):
+        g = (model.n + 2) / (8 * np.pi) * h[..., 2] ** model.n * wo[..., 2] * 4 * cos_d
+        return float(np.sum(np.where(keep, g, 0.0) * dw))
+    lam_i, lam_o = model.ndf.Lambda(wi), model.ndf.Lambda(wo)
+    g2 = (1 / (1 + lam_i + lam_o) if model.shadowing == "smith-correlated"
+          else 1 / ((1 + lam_i) * (1 + lam_o)))
+    c = np.clip(cos_d, 0.0, 1.0)
+    if model.fresnel is None:
+        f = np.ones(c.shape + (1,))
+    elif model.fresnel[0] == "conductor":
+        f = fresnel_conductor(c[..., None], *model.fresnel[1:])
+    else:
+        f = fresnel_dielectric(c, model.fresnel[1])[..., None]
+    g = (model.ndf.D(h) * g2 * c / wi[2])[..., None] * f
+    return float(np.max(np.sum(np.where(keep[..., None], g, 0.0) * dw[..., None],
+                               axis=(0, 1))))
+
+
+def albedo_about_the_mirror(model, wi):
+    """∫ f cos θo dωo of normalised Phong, (n + 2)/(2π) cos^n a (a the angle between ωo
+    and ωi's mirror direction r) in polar coordinates about r: the lobe term is smooth
+    there and the horizon cuts it by max(0, cos θo)."""
+    r = np.array([-wi[0], -wi[1], wi[2]])
+    t = np.cross(r, [0.0, 1.0, 0.0] if abs(r[1]) < 0.9 else [1.0, 0.0, 0.0])
+    t /= np.linalg.norm(t)
+    b = np.cross(r, t)
+    q, w = gauss_hemisphere()  # q: directions about r; w includes cos a
+    wo = q[..., :1] * t + q[..., 1:2] * b + q[..., 2:] * r
+    g = (model.n + 2) / (2 * np.pi) * q[..., 2] ** model.n * np.maximum(wo[..., 2], 0.0)
+    return float(np.sum(g * w / q[..., 2]))
+
+
+FURNACE_REFERENCE = {
+    "ts-beckmann": albedo_over_half_vectors, "ts-ggx-separable": albedo_over_half_vectors,
+    "ts-conductor": albedo_over_half_vectors, "ts-dielectric": albedo_over_half_vectors,
+    "blinn-phong": albedo_over_half_vectors, "phong-normalized": albedo_about_the_mirror,
+    "lambertian": lambda model, wi: 0.9,
+}
+"""An independent albedo of each energy-conserving model (Lambertian: its largest
+channel, 0.9, exactly)."""
+
+
 @pytest.mark.parametrize("name", ENERGY_CONSERVING)
 @pytest.mark.parametrize("theta_deg", [0.0, 45.0, 80.0, 89.0])
-def test_white_furnace_albedo_at_most_one(name, theta_deg):
-    """Albedo ≤ 1 + 1e-3 (the quadrature's accuracy on these lobes)."""
-    assert albedo(RECIPROCAL[name], direction(math.radians(theta_deg), 0.3)) <= 1 + 1e-3
+def test_white_furnace_albedo_is_the_independent_integral_and_at_most_one(name, theta_deg):
+    """∫ f cos θo dωo through ``eval`` equals the same albedo integrated in another
+    variable from the formula written in the test (``FURNACE_REFERENCE``) within 1e-4,
+    and is ≤ 1 + 1e-4: energy is conserved and not lost either (a zero or halved BRDF, a
+    missing G or a wrong Jacobian fail). 1e-4 is the quadratures' accuracy: the half-
+    vector integral changes by < 2e-6 from 256 to 1024 nodes per axis at every case; the
+    integral over ωo by < 1e-5 up to 80°, but at 89° the horizon cuts the narrow lobes
+    where 256 nodes are too few (ts-dielectric, α = 0.2: 9e-3), so 89° takes 1024 nodes
+    (< 5e-5 from 2048)."""
+    model, wi = RECIPROCAL[name], direction(math.radians(theta_deg), 0.3)
+    got = albedo(model, wi, 1024 if theta_deg > 85 else 256)
+    assert got <= 1 + 1e-4
+    assert got == pytest.approx(FURNACE_REFERENCE[name](model, wi), abs=1e-4)
 
 
 def test_normalized_phong_integrates_to_one_at_normal_incidence():
@@ -195,16 +272,17 @@ def test_vgroove_attenuation_cases():
     """Torrance-Sparrow's three regimes: no masking near normal, then the ωi or ωo case."""
     h = direction(0.0, 0.0)
     assert vgroove_G(direction(0.2, 0.0), direction(0.2, np.pi), h) == 1.0
-    wi, wo = direction(1.3, 0.0), direction(1.3, np.pi)
-    hh = direction(0.0, 0.0)
-    expected = 2 * 1.0 * math.cos(1.3) / math.cos(1.3)  # 2 (n·h)(n·ωo)/(ωo·h) = 2, capped
-    assert vgroove_G(wi, wo, hh) == pytest.approx(min(1.0, expected))
+    # a facet along the normal is never masked, even at grazing angles: both terms
+    # 2 (n·h)(n·ω)/(ω·h) are 2 there, so G is its cap, 1
+    assert vgroove_G(direction(1.3, 0.0), direction(1.3, np.pi), h) == 1.0
     # a facet tilted 0.5 rad towards +x, lit along its normal, seen at 1.4 rad: the
     # viewer's term 2 cos 0.5 cos 1.4 / cos 0.9 = 0.480 is the smallest
     h2 = direction(0.5, 0.0)
     w = direction(1.4, 0.0)
     g = 2 * math.cos(0.5) * math.cos(1.4) / math.cos(0.9)
     assert float(vgroove_G(direction(0.5, 0.0), w, h2)) == pytest.approx(g, rel=1e-12)
+    # lit at 1.4 rad and seen along the normal: the light's term is the smallest, the same
+    assert float(vgroove_G(w, direction(0.5, 0.0), h2)) == pytest.approx(g, rel=1e-12)
     # a viewer behind the facet sees none of it
     assert float(vgroove_G(direction(0.5, 0.0), direction(1.4, np.pi), h2)) == 0.0
 
