@@ -203,9 +203,47 @@ def ensemble_runs(k: int, runs: int, rays: int) -> dict[str, np.ndarray]:
 def variance_ratios(r: dict[str, np.ndarray]) -> np.ndarray:
     """Per lobe bin: the empirical variance of the value over the runs against the mean
     variance the runs reported."""
-    f = r["f"].mean(axis=0)
-    lobe = f >= 0.1 * f.max(axis=(2, 3), keepdims=True)
-    return (r["f"].var(axis=0, ddof=1) / (r["e"] ** 2).mean(axis=0))[lobe]
+    return ratios_of(r["f"], r["e"], lobe_of_runs(r["f"]))
+
+
+def lobe_of_runs(f: np.ndarray) -> np.ndarray:
+    """The lobe bins of the runs' mean table (at least 10% of its peak per incidence)."""
+    mean = f.mean(axis=0)
+    return mean >= 0.1 * mean.max(axis=(2, 3), keepdims=True)
+
+
+def ratios_of(values: np.ndarray, errors: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """Empirical variance over the runs (axis 0) / mean reported variance, where ``keep``."""
+    return (values.var(axis=0, ddof=1) / (errors**2).mean(axis=0))[keep]
+
+
+def assert_variance_ratio_calibrated(values: np.ndarray, errors: np.ndarray,
+                                     keep: np.ndarray) -> float:
+    """The mean over the kept coefficients of (variance over the runs / mean reported
+    variance) is 1 within 4 of its own standard errors; returns that standard error.
+
+    Each ratio is an unbiased variance over a nearly exact reported one (the mean of R
+    runs' reports), so calibrated errors give a mean of 1. The coefficients are not
+    independent (one tile moves neighbouring bins, and every harmonic, together), so the
+    standard error comes from the runs themselves: the delete-one jackknife over the R
+    runs (Efron & Stein 1981; the mean of the ratios is a smooth statistic of them).
+    Measured for the test's seeds: bins 0.046 (K = 4) and 0.021 (K = 40), about twice
+    the 0.024 of independent bins; harmonics 0.16 and 0.06 (50 coefficients that move
+    together). A false alarm has probability 6e-5; errors off by √1.5 move the bins'
+    mean by 0.33-0.5, 7-20 standard errors. The old fixed interval [0.75, 1.33] on the
+    median was 5-12 of these standard errors wide for the bins and 1.5-4 for the
+    harmonics."""
+    runs = len(values)
+
+    def mean_ratio(rows: np.ndarray) -> float:
+        return float(np.mean(ratios_of(values[rows], errors[rows], keep)))
+
+    every = np.arange(runs)
+    left_out = np.array([mean_ratio(np.delete(every, i)) for i in range(runs)])
+    se = float(np.sqrt((runs - 1) / runs * np.sum((left_out - left_out.mean()) ** 2)))
+    got = mean_ratio(every)
+    assert abs(got - 1) < 4 * se, (got, se)
+    return se
 
 
 @pytest.mark.parametrize(("k", "rays"), [(4, 16_000), (40, 40_000)])
@@ -213,22 +251,23 @@ def test_ensemble_errors_are_calibrated(k: int, rays: int) -> None:
     """20 independent ensembles (other surface and ray seeds) of K = 4 realisations, 16 000
     rays per direction, and of K = 40 (more than the ``GROUPS`` the running sums keep
     apart, so the jackknife deletes groups of two), 1000 rays each: the empirical
-    variance of each lobe bin over the runs against the
-    mean variance the runs report has a median in [0.75, 1.33] (measured 0.92-0.97 for
-    four seed sets; the median over ~180 bins of ratios with 19 degrees of freedom
-    scatters by a few %). The claim that the z-scores are normal with the reported
+    variance of each lobe bin over the runs against the mean variance the runs report
+    averages to 1 over the lobe bins within 4 of its jackknife standard errors
+    (``assert_variance_ratio_calibrated``; measured 1.06 ± 0.046 and 1.009 ± 0.021), the
+    standard error itself below 0.1, so that errors off by √1.5 (a ratio of 0.67 or 1.5)
+    are always more than 3 of them away. The claim that the z-scores are normal with the reported
     degrees of freedom (Student-t mapped by compare.normal_z): against the leave-one-out
     mean of the other runs their spread is within [0.9, 1.12] and |z| > 2 happens in 2-8%
     of bins (normal: 4.6%; batch means read as normal, t with 3 degrees of freedom: 14%).
-    The albedo's and the harmonics' batch-means errors: median ratio over the
-    coefficients in [0.75, 1.33]; the two albedos' ratios (19 degrees of freedom each)
+    The albedo's and the harmonics' batch-means errors: the harmonics' mean ratio over
+    the coefficients likewise (its standard error is larger, 0.06-0.16); the two albedos' ratios (19 degrees of freedom each)
     within [0.4, 2.2] (the chi-square 0.1% and 99.9% points)."""
     from microsim.compare import normal_z
 
     r = ensemble_runs(k, 20, rays)
-    assert 0.75 <= np.median(variance_ratios(r)) <= 1.33
     f, e, n = r["f"], r["e"], len(r["f"])
-    lobe = f.mean(axis=0) >= 0.1 * f.mean(axis=0).max(axis=(2, 3), keepdims=True)
+    lobe = lobe_of_runs(f)
+    assert assert_variance_ratio_calibrated(f, e, lobe) < 0.1
     loo = (f.sum(axis=0) - f) / (n - 1)
     z = ((f - loo) / np.sqrt(e**2 + (e**2).mean(axis=0) / (n - 1)))[:, lobe]
     dof = np.broadcast_to(r["dof"][:, :, :, None, None], f.shape)[:, lobe]
@@ -237,7 +276,7 @@ def test_ensemble_errors_are_calibrated(k: int, rays: int) -> None:
     assert 0.9 <= zn.std() <= 1.12
     assert 0.02 <= np.mean(np.abs(zn) > 2) <= 0.08
     sh = r["sh"].var(axis=0, ddof=1) / (r["she"] ** 2).mean(axis=0)
-    assert 0.75 <= np.median(sh[np.isfinite(sh)]) <= 1.33
+    assert_variance_ratio_calibrated(r["sh"], r["she"], np.isfinite(sh))
     albedo = r["a"].var(axis=0, ddof=1) / (r["ae"] ** 2).mean(axis=0)
     assert np.all((albedo > 0.4) & (albedo < 2.2)), albedo
 
@@ -429,3 +468,75 @@ def test_cli_reports_the_error_model(tmp_path, cli) -> None:
     flat.write_text('[surface]\nkind = "flat"\n', encoding="utf-8")
     code, _, err = cli("simulate", str(flat), "-o", str(out), "--realisations", "2")
     assert code == 2 and err.startswith("error: simulation.realisations = 2: must be 1")
+
+
+def test_adaptive_stop_repeats_bit_for_bit_whatever_the_threads() -> None:
+    """The adaptive stop decides from the running estimate after each round, so its
+    decisions (and the table) could depend on the order in which batches finish: two
+    runs with two threads and one with one give the same table bit for bit, and the same
+    stop, realisations and rays per direction. (Here each new realisation's rays are
+    clamped to 4 × the 2000 of the first ones, below Cochran's optimum; where the optimum
+    itself decides, see the test below.)"""
+    recipe = small_gaussian(3, 6000, theta_i=(0.0, 30.0), target_error=0.08)
+    runs = [simulate_recipe(recipe, threads=t) for t in (2, 2, 1)]
+    first = runs[0]
+    assert first.meta.directions[1].realisations > 3  # the stop added tiles
+    for other in runs[1:]:
+        assert_same_table(other, first)
+
+
+def assert_same_table(other, first) -> None:
+    """Two tables equal bit for bit, with the same stop, realisations and rays."""
+    for c in ("total", "single"):
+        assert other.values[c].tobytes() == first.values[c].tobytes()
+        assert other.errors[c].tobytes() == first.errors[c].tobytes()
+        assert other.dof[c].tobytes() == first.dof[c].tobytes()
+    assert other.sh["total"].tobytes() == first.sh["total"].tobytes()
+    assert [(d.stop, d.realisations, d.rays) for d in other.meta.directions] == [
+        (d.stop, d.realisations, d.rays) for d in first.meta.directions]
+
+
+@pytest.mark.xfail(strict=True, reason="the rays of each new realisation, Cochran's "
+                   "n* = sqrt(R c / T), take the tile cost c from this run's measured "
+                   "seconds (simulation._tile_cost), so where n* is not clamped the plan, "
+                   "and with it the table, changes from run to run (measured: 18 "
+                   "realisations / 416 229 rays, then 21 / 332 736)")
+def test_adaptive_stop_with_cochrans_optimum_repeats_bit_for_bit() -> None:
+    """docs/ensembles.md: "the stop is deterministic and its tables are bit-for-bit
+    reproducible". With 20 000 rays per realisation on a 128² tile the optimum lies
+    inside its clamp [8192, 80 000]: two runs must give the same table."""
+    recipe = resolve({"surface": {"kind": "gaussian", "alpha": 0.5, "resolution": 128,
+                                  "correlation_length": 4 / 128, "seed": 1000},
+                      "simulation": {"theta_i": [30.0], "rays": 60_000, "seed": 0,
+                                     "realisations": 3, "target_error": 0.03},
+                      "table": {"theta_bins": 8, "phi_bins": 16, "sh_order": 2}})
+    first, other = (simulate_recipe(recipe, threads=2) for _ in range(2))
+    assert_same_table(other, first)
+
+
+def test_one_tile_tables_merge_and_ensemble_tables_are_refused() -> None:
+    """Two one-tile tables of independent rays merge into the ray-weighted mean exactly
+    (each bin's value is Σw / (n Ω), so the merged one is (n_a f_a + n_b f_b)/(n_a + n_b))
+    with smaller errors (of the pooled rays: about 1/√2 of either's for equal counts,
+    asserted as the median over the lobe bins within 0.1 of it: each error is estimated
+    from hundreds of rays, a few % each); two ensemble tables hold running sums over
+    their realisations, not which rays came from which tile, and are refused with a
+    message saying so."""
+    from microsim.tables.assemble import merge
+
+    a = simulate_recipe(small_gaussian(1, 4000, seed=0), threads=2)
+    b = simulate_recipe(small_gaussian(1, 4000, seed=7), threads=2)
+    merged = merge(a, b)
+    assert np.array_equal(merged.rays, a.rays + b.rays)
+    for c in ("total", "single"):
+        weighted = (a.values[c] * a.rays[:, :, None, None, None]
+                    + b.values[c] * b.rays[:, :, None, None, None]) / merged.rays[
+                        :, :, None, None, None]
+        np.testing.assert_allclose(merged.values[c], weighted, rtol=1e-12, atol=1e-15)
+    f = merged.values["total"][..., 0]
+    lobe = f >= 0.1 * f.max(axis=(2, 3), keepdims=True)
+    shrink = merged.errors["total"][..., 0][lobe] / a.errors["total"][..., 0][lobe]
+    assert abs(np.median(shrink) - 1 / np.sqrt(2)) < 0.1
+    with pytest.raises(ValueError, match="raw sums"):
+        merge(simulate_recipe(small_gaussian(3, 3000, seed=0), threads=2),
+              simulate_recipe(small_gaussian(3, 3000, seed=7), threads=2))
