@@ -307,7 +307,7 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
 
 def merge(self: BRDFTable, other: BRDFTable) -> BRDFTable:
     """Merge two estimates of the same set-up and realisations made with independent
-    rays (``BRDFTable + BRDFTable``): realisation by realisation, the rays pool.
+    rays: realisation by realisation, the rays pool.
 
     Raises
     ------
