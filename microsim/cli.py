@@ -33,13 +33,15 @@ from microsim.commands import (
     sh,
     simulate,
     view,
+    wavelets,
 )
+from microsim.commands import eval as eval_table
 from microsim.commands.common import Parser
 from microsim.errors import InputError, InputWarning
 
 COMMANDS = {module.__name__.rsplit(".", 1)[1]: module
             for module in (check, models, generate, measure, view, simulate, compare, fit, sh,
-                           export, render, bench, batch, demo)}
+                           export, render, bench, batch, demo, wavelets, eval_table)}
 """The command modules by name, in the order ``--help`` lists them."""
 
 

@@ -150,20 +150,41 @@ def from_harmonics(axes: Axes, coefficients: np.ndarray, wi: np.ndarray, wo: np.
     for start in range(0, len(wi), step):
         i, o = wi[start:start + step], wo[start:start + step]
         phi_in = np.arctan2(i[:, 1], i[:, 0])
-        t0, t1, wt = linear_weights(np.arccos(np.clip(i[:, 2], -1.0, 1.0)),
-                                    axes.theta_i)
-        p0, p1, wp = linear_weights(np.mod(phi_in, TWO_PI), axes.phi_i, TWO_PI)
         phi_out = np.arctan2(o[:, 1], o[:, 0]) - (phi_in if axes.isotropic else 0.0)
         g = (sh.basis(sh.order_of(n), o[:, 2], phi_out) @ coef).reshape(len(i), a * b, 3)
-        rows = np.arange(len(i))
-        total = np.zeros((len(i), 3))
-        for t, w_t in ((t0, 1.0 - wt), (t1, wt)):
-            for p, w_p in ((p0, 1.0 - wp), (p1, wp)):
-                total += (w_t * w_p)[:, None] * g[rows, t * b + p]
+        total = blend_incidences(axes, i, g)
         above = (i[:, 2] > 0) & (o[:, 2] > 0)
         out[start:start + step] = np.where(
             above[:, None], total / np.where(above, o[:, 2], 1.0)[:, None], 0.0)
     return out.reshape(shape + (3,))
+
+
+def blend_incidences(axes: Axes, wi: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """Values known at every incidence of the table, interpolated linearly in θi (and
+    periodically in φi) at each pair's own incidence, as the bins are.
+
+    Parameters
+    ----------
+    axes : Axes
+    wi : (n, 3) float
+        Unit directions towards the light.
+    g : (n, a·b, 3) float
+        Each pair's value at every incidence, rows ``i_theta_i * n_phi_i + i_phi_i``.
+
+    Returns
+    -------
+    (n, 3) float
+    """
+    b = len(axes.phi_i)
+    t0, t1, wt = linear_weights(np.arccos(np.clip(wi[:, 2], -1.0, 1.0)), axes.theta_i)
+    p0, p1, wp = linear_weights(np.mod(np.arctan2(wi[:, 1], wi[:, 0]), TWO_PI), axes.phi_i,
+                                TWO_PI)
+    rows = np.arange(len(wi))
+    total = np.zeros((len(wi), 3))
+    for t, w_t in ((t0, 1.0 - wt), (t1, wt)):
+        for p, w_p in ((p0, 1.0 - wp), (p1, wp)):
+            total += (w_t * w_p)[:, None] * g[rows, t * b + p]
+    return total
 
 
 def interpolate_error(axes: Axes, errors: np.ndarray, wi: np.ndarray, wo: np.ndarray

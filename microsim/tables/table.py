@@ -29,8 +29,10 @@ from microsim.tables.components import (
 from microsim.tables.estimator import RAYS
 from microsim.tables.evaluate import Axes, from_harmonics, interpolate, interpolate_error
 from microsim.tables.meta import TableMeta
+from microsim.tables.wavelets import Wavelets
+from microsim.tables.wavelets import evaluate as evaluate_wavelets
 
-REPRESENTATIONS = ("table", "sh")
+REPRESENTATIONS = ("table", "sh", "wavelet")
 LOBE_FRACTION = 0.1
 """Lobe bins: where f_r (mean over RGB; a table's, or a model's bin average when a table is
 compared with it) is at least this fraction of the incidence's peak."""
@@ -122,6 +124,9 @@ class BRDFTable:
     realisation_albedo : dict of str to (K, a, b, 3) float, or None
         Each realisation's albedo per component of a fresh estimate (NaN where a
         realisation did not trace a direction).
+    wavelets : Wavelets or None
+        Wavelet coefficients of f_r cos θo per incidence and component, kept by magnitude
+        (``microsim.tables.wavelets``; ``microsim wavelets TABLE --store``), or None.
 
     Attributes
     ----------
@@ -147,7 +152,8 @@ class BRDFTable:
                  sh_err: Mapping[str, np.ndarray] | None = None,
                  sh_sums: Mapping[str, np.ndarray] | None = None,
                  sh_sums_sq: Mapping[str, np.ndarray] | None = None,
-                 realisation_albedo: Mapping[str, np.ndarray] | None = None) -> None:
+                 realisation_albedo: Mapping[str, np.ndarray] | None = None,
+                 wavelets: Wavelets | None = None) -> None:
         self.bins = bins
         self.theta_i = np.asarray(theta_i, float)
         self.phi_i = np.asarray(phi_i, float)
@@ -182,6 +188,7 @@ class BRDFTable:
                                                                         self.components)
         self.realisation_albedo = None if realisation_albedo is None else by_component(
             realisation_albedo, self.components, float)
+        self.wavelets = wavelets
 
     # --- derived quantities ------------------------------------------------------------
     @property
@@ -275,7 +282,8 @@ class BRDFTable:
             ``"table"`` (the bins, as above) or ``"sh"``: f_r = Σ_k c_k Y_k(ωo) / cos θo
             from the coefficients of f_r cos θo, interpolated linearly in θi (and φi) as
             the bins are; the truncated series may be negative (``microsim sh`` reports
-            how much).
+            how much); or ``"wavelet"``: from the stored wavelet coefficients
+            (``microsim.tables.wavelets.evaluate``).
 
         Returns
         -------
@@ -285,8 +293,15 @@ class BRDFTable:
         Raises
         ------
         ValueError
-            For an unknown ``representation``, or ``"sh"`` on a table without harmonics.
+            For an unknown ``representation``, or ``"sh"`` (``"wavelet"``) on a table
+            without harmonics (wavelets).
         """
+        if representation == "wavelet":
+            if self.wavelets is None:
+                raise ValueError("this table holds no wavelets (store them with microsim "
+                                 "wavelets TABLE --store)")
+            return evaluate_wavelets(self.axes, self.wavelets, self.component(component),
+                                     wi, wo)
         if representation == "sh":
             if self.sh is None:
                 raise ValueError("this table holds no spherical harmonics (simulate it with "
