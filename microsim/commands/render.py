@@ -10,6 +10,7 @@ from typing import Any
 from microsim.commands.common import (
     add_component_arg,
     add_json_arg,
+    add_realisations_arg,
     finite_float,
     nonnegative_int,
     number_list,
@@ -20,6 +21,9 @@ from microsim.errors import InputError
 from microsim.files import writable_file
 
 DEFAULT_SPP = 64
+LIVE_LIGHTS = ("sun:elevation=50,azimuth=-40,irradiance=3,radius=10", "sky:radiance=0.25")
+"""``--live``'s default light: the default sun as a disc of 10° radius (a sampled-only
+BSDF cannot see a directional light) and the sky."""
 
 
 def size(text: str) -> tuple[int, int]:
@@ -47,7 +51,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "circles about the vertical). With --model, each row shows the table, "
                     "the analytic model and their relative difference. Needs Mitsuba 3: "
                     "pip install 'microsim[render]'. Angles in degrees. See docs/render.md.")
-    p.add_argument("tables", nargs="+", metavar="TABLE", help="table files (.exr)")
+    p.add_argument("tables", nargs="+", metavar="TABLE",
+                   help="table files (.exr); with --live, one RECIPE (.toml)")
     p.add_argument("-o", "--output", type=Path, required=True, help="PNG file to write")
     p.add_argument("--object", default="torus", metavar="OBJECT",
                    help="torus (default), sphere, sheet, or a mesh file (.ply, .obj, .stl, "
@@ -82,6 +87,19 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="sampler seed (default 0)")
     p.add_argument("--variant", default="scalar_rgb", choices=("scalar_rgb", "llvm_ad_rgb"),
                    help="Mitsuba variant (default scalar_rgb; llvm_ad_rgb needs LLVM >= 16)")
+    p.add_argument("--live", action="store_true",
+                   help="render RECIPE's microgeometry itself, each BSDF sample a path "
+                        "traced through its tile, beside the render of its table and the "
+                        "difference (docs/render.md, simulation at render time)")
+    p.add_argument("--table", type=Path, default=None, metavar="TABLE",
+                   help="with --live: the table to compare with (default: simulate the "
+                        "recipe first)")
+    add_realisations_arg(p)
+    p.add_argument("--set", dest="overrides", action="append", default=[],
+                   metavar="SECTION.KEY=VALUE",
+                   help="with --live: override a value of RECIPE (repeatable), e.g. --set "
+                        "'simulation.theta_i=[0,10,20,30,40,50,60,70,80,89]' for the "
+                        "table's incidences")
     add_json_arg(p)
     p.set_defaults(func=run)
 
@@ -95,6 +113,12 @@ def run(args: argparse.Namespace) -> int:
     from microsim.table_models import model_defaults
 
     writable_file(args.output, "--output", (".png",))
+    if args.live:
+        return run_live(args)
+    for flag, given in (("--table", args.table), ("--realisations", args.realisations),
+                        ("--set", args.overrides)):
+        if given not in (None, []):
+            raise InputError(f"{flag}: only with --live")
     for path in args.tables:
         if not Path(path).is_file():
             raise InputError(f"TABLE {path}: no such file")
@@ -162,6 +186,94 @@ def run(args: argparse.Namespace) -> int:
     print(f"wrote {args.output} ({args.size[0]}x{args.size[1]}, {args.spp} spp, "
           f"{surface.name})")
     return 0
+
+
+def run_live(args: argparse.Namespace) -> int:
+    """``render RECIPE --live``: the recipe's microgeometry traced at render time beside
+    its table's render, and their difference with its standard error."""
+    import microsim
+    from microsim import recipe
+    from microsim.commands.common import flag_overrides, print_json
+    from microsim.commands.simulate import simulate_resolved
+    from microsim.render import backend, bsdfs, figure, live, objects, scene
+    from microsim.simulation import Tiles
+
+    if len(args.tables) != 1 or Path(args.tables[0]).suffix.lower() != ".toml":
+        raise InputError("--live: give one RECIPE (.toml), not tables")
+    for flag, given in (("--model", args.model),
+                        ("--component", None if args.component == "total" else 1)):
+        if given:
+            raise InputError(f"{flag}: not with --live (the live surface is every "
+                             "scattering order, compared with the table's total)")
+    if args.table is not None and not args.table.is_file():
+        raise InputError(f"--table {args.table}: no such file")
+    resolved = recipe.load(args.tables[0], [*args.overrides, *flag_overrides(
+        args, "simulation", "realisations")])
+    lights = [scene.parse_light(s) for s in (args.light or LIVE_LIGHTS)]
+    live.check_lights(lights)
+    surface = objects.load_object(args.object)
+    mi = backend.load(args.variant)
+    k = int(resolved.simulation.realisations)
+    threads = 1 if args.variant.startswith("scalar") else None
+    with live.LiveSurface(resolved, k, Tiles(resolved.surface), args.seed,
+                          threads) as sampler:
+        if args.table is None:
+            table, table_name = simulate_resolved(resolved, None, False), "simulated"
+        else:
+            table, table_name = microsim.read_table(args.table), str(args.table)
+        camera = scene.Camera(args.size[0], args.size[1], args.camera[0], args.camera[1],
+                              args.fov[0])
+        with tempfile.TemporaryDirectory() as tmp:
+            bsdf = bsdfs.table_bsdf(mi, table, Path(tmp) / "table.bsdf", "total",
+                                    args.rotate)
+            tabled = scene.render(mi, surface, bsdf, camera, lights, args.spp, args.seed)
+        traced = scene.render(mi, surface, live.live_bsdf(mi, sampler, args.rotate),
+                              camera, lights, args.spp, args.seed + 1)
+        samples, segments = sampler.samples, sampler.segments
+    diff = figure.difference(traced, tabled)
+    label = Path(args.tables[0]).stem
+    figure.write_grid([figure.Row(label, [
+        ("table", figure.display(tabled)), (f"live ({k} realisations)",
+                                            figure.display(traced)),
+        (f"mean luminance {100 * diff.total:+.1f}% ± {100 * diff.total_err:.1f}%",
+         diff.relative)])],
+        args.output, difference="(live − table) / table")
+    result = {"output": str(args.output), "recipe": args.tables[0], "object": surface.name,
+              "spp": args.spp, "size": list(args.size), "variant": args.variant,
+              "rotate": args.rotate, "lights": [{"kind": n, **p} for n, p in lights],
+              "table": {"source": table_name, "seconds": tabled.seconds,
+                        "noise": _noise(tabled)},
+              "live": {"realisations": k, "seconds": traced.seconds,
+                       "noise": _noise(traced), "samples": samples, "segments": segments},
+              "difference": {"mean": diff.mean, "mean_err": diff.mean_err,
+                             "z": _z(diff.mean, diff.mean_err),
+                             "total": diff.total, "total_err": diff.total_err,
+                             "total_z": _z(diff.total, diff.total_err),
+                             "median_abs": diff.median_abs,
+                             "median_abs_noise_alone": diff.median_noise,
+                             "pixels": diff.pixels}}
+    if args.json:
+        print_json(result)
+        return 0
+    d = result["difference"]
+    print(f"table ({table_name}): {tabled.seconds:.2f} s, per-pixel noise "
+          f"{100 * result['table']['noise']:.1f}% (median)")
+    print(f"live ({k} realisations, {samples:,} samples, {segments:,} segments): "
+          f"{traced.seconds:.2f} s, per-pixel noise {100 * result['live']['noise']:.1f}% "
+          "(median)")
+    print(f"live against table over {d['pixels']} pixels: mean luminance "
+          f"{100 * d['total']:+.2f}% ± {100 * d['total_err']:.2f}% (z = {d['total_z']:+.2f}); "
+          f"mean relative difference {100 * d['mean']:+.2f}% ± {100 * d['mean_err']:.2f}% "
+          f"(z = {d['z']:+.2f}); median |Δ| {100 * d['median_abs']:.1f}% (noise alone "
+          f"{100 * d['median_abs_noise_alone']:.1f}%)")
+    print(f"wrote {args.output} ({args.size[0]}x{args.size[1]}, {args.spp} spp, "
+          f"{surface.name})")
+    return 0
+
+
+def _z(value: float, err: float) -> float | None:
+    """value / err, None where the error is not positive (no pixels, or none noisy)."""
+    return value / err if err > 0 else None
 
 
 def _noise(image: Any) -> float:

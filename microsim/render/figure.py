@@ -55,6 +55,15 @@ class Difference:
         |N(0, σ²)| is 0.674 σ).
     mean : float
         Mean of ``relative`` (a bias: noise alone averages to 0).
+    mean_err : float
+        Its standard error from the pixels' own, √(Σ σ²) / n: the pixels' samples are
+        independent (Mitsuba's ``independent`` sampler), so are their errors.
+    total : float
+        Σ T / Σ M − 1 over the same pixels: the relative difference of their mean
+        luminance, which rare bright samples in dim pixels (a sampled-only BSDF that finds
+        a small light now and then) move far less than ``mean``.
+    total_err : float
+        Its standard error, √(Σ σ_T² + σ_M²) / Σ M (first order in the errors).
     pixels : int
     """
 
@@ -63,6 +72,9 @@ class Difference:
     median_abs: float
     median_noise: float
     mean: float
+    mean_err: float
+    total: float
+    total_err: float
     pixels: int
 
 
@@ -77,9 +89,15 @@ def difference(table: Image, model: Image) -> Difference:
     noise = np.where(ok, np.hypot(table.luminance_err, model.luminance_err) / safe, np.nan)
     n = int(ok.sum())
     if n == 0:
-        return Difference(rel, noise, float("nan"), float("nan"), float("nan"), 0)
+        nan = float("nan")
+        return Difference(rel, noise, nan, nan, nan, nan, nan, nan, 0)
+    sum_m = float(np.sum(m[ok]))
     return Difference(rel, noise, float(np.median(np.abs(rel[ok]))),
-                      0.6745 * float(np.median(noise[ok])), float(np.mean(rel[ok])), n)
+                      0.6745 * float(np.median(noise[ok])), float(np.mean(rel[ok])),
+                      float(np.sqrt(np.sum(noise[ok] ** 2))) / n,
+                      float(np.sum(table.luminance[ok])) / sum_m - 1.0,
+                      float(np.sqrt(np.sum(table.luminance_err[ok] ** 2
+                                           + model.luminance_err[ok] ** 2))) / sum_m, n)
 
 
 @dataclass(frozen=True)
@@ -91,13 +109,14 @@ class Row:
     """(title, (h, w, 3) sRGB image or (h, w) relative difference)."""
 
 
-def write_grid(rows: Sequence[Row], path: str | Path, columns: int | None = None) -> None:
+def write_grid(rows: Sequence[Row], path: str | Path, columns: int | None = None,
+               difference: str = "(table − model) / model") -> None:
     """Write the grid as a PNG, atomically.
 
     Without a model every row has one panel, and the panels flow into ``columns`` columns
     (default: up to 4) with the table names as titles. With a model each row is
     (table, model, difference) with the row's name on the left; difference panels get a
-    shared colour bar of ±``DIFF_RANGE``.
+    shared colour bar of ±``DIFF_RANGE``, labelled ``difference``.
     """
     import matplotlib
 
@@ -139,7 +158,7 @@ def write_grid(rows: Sequence[Row], path: str | Path, columns: int | None = None
     if image is not None:
         bar = fig.colorbar(image, ax=axes[:, -1].tolist(), shrink=0.8,
                            format=lambda x, _: f"{100 * x:+.0f}%")
-        bar.set_label("(table − model) / model", fontsize=8)
+        bar.set_label(difference, fontsize=8)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=150, format="png")
     plt.close(fig)
