@@ -42,8 +42,6 @@ from microsim.tables.binning import HemisphereBins
 
 QUARTER = 0.5 * math.pi
 """The angle between the centres of two sectors of the concentric map."""
-COS_NODES = 4
-"""Gauss-Legendre nodes per pixel and axis for a pixel's mean cos θ."""
 
 
 def pixel_solid_angle(n: int) -> float:
@@ -238,17 +236,3 @@ class Resampling:
         flat = np.asarray(grid, float).reshape(grid.shape[:-2] + (-1,))
         out = (self.matrix.T @ flat.reshape(-1, flat.shape[-1]).T).T / self.bin_solid_angle
         return out.reshape(flat.shape[:-1] + (self.bins.size,))
-
-
-@lru_cache(maxsize=8)
-def mean_cos(n: int) -> np.ndarray:
-    """(n, n) mean cos θ over each pixel: (1/Ω_p) ∫_p (1 − max(|a|, |b|)²) (π/2) da db by
-    ``COS_NODES``² Gauss-Legendre nodes per pixel (exact but on the pixels the diagonals
-    cross, where the integrand has a kink)."""
-    t, w = np.polynomial.legendre.leggauss(COS_NODES)
-    edges = np.linspace(-1.0, 1.0, n + 1)
-    centre, half = 0.5 * (edges[1:] + edges[:-1]), 1.0 / n
-    x = (centre[:, None] + half * t[None, :]).ravel()                 # (n·q,)
-    r = np.maximum(np.abs(x)[:, None], np.abs(x)[None, :])
-    z = (1.0 - r * r).reshape(n, COS_NODES, n, COS_NODES)
-    return np.einsum("iqjp,q,p->ij", z, w, w) / 4.0

@@ -8,8 +8,10 @@ and lost energy at full precision, and the caller's metadata. Format 1 files (co
 ``total`` and ``single``) still read, with ``single`` as ``order1``. A table with
 spherical harmonics is a two-part file: the bins in part 0 (``table``), the coefficients
 in part 1 (``sh``: rows over (θi, φi), columns over the flat index l² + l + m, the same
-channel names, and a ``microsim_sh`` JSON attribute). Files are written atomically: a
-temporary file in the same folder, renamed over the target.
+channel names, and a ``microsim_sh`` JSON attribute). Stored wavelets are one more part
+(``wavelet``: rows over (θi, φi), columns over kept coefficients, float32 values and uint32
+indices, a ``microsim_wavelet`` JSON attribute; ``microsim.tables.wavelets``). Files are
+written atomically: a temporary file in the same folder, renamed over the target.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ import numpy as np
 
 from microsim.errors import InputError, InputWarning
 from microsim.files import atomic_path
+from microsim.tables import wavelets
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.estimator import RAYS
 from microsim.tables.meta import TableMeta
@@ -40,6 +43,8 @@ READ_VERSIONS = (1, 2)
 ATTRIBUTE = "microsim"
 SH_ATTRIBUTE = "microsim_sh"
 SH_PART = "sh"
+WAVELET_ATTRIBUTE = "microsim_wavelet"
+WAVELET_PART = "wavelet"
 COLOURS = ("R", "G", "B")
 MAGIC = b"v/1\x01"
 """The first four bytes of every OpenEXR file."""
@@ -150,17 +155,22 @@ def write_table(table: BRDFTable, path: str | Path) -> None:
     channels = _channels(table.values, table.errors, a * b * nt)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
               ATTRIBUTE: json.dumps(header_json(table))}
-    if table.sh is None or table.sh_err is None:
-        image = OpenEXR.File(header, channels)
-    else:
+    # every part of a multi-part file shares the display window
+    window = (np.array([0, 0], np.int32), np.array([np_ - 1, a * b * nt - 1], np.int32))
+    parts = [OpenEXR.Part(header, channels, "table")]
+    if table.sh is not None and table.sh_err is not None:
         sh_header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
-                     SH_ATTRIBUTE: json.dumps(sh_header_json(table)),
-                     # every part of a multi-part file shares the display window
-                     "displayWindow": (np.array([0, 0], np.int32),
-                                       np.array([np_ - 1, a * b * nt - 1], np.int32))}
-        image = OpenEXR.File([OpenEXR.Part(header, channels, "table"),
-                              OpenEXR.Part(sh_header, _channels(table.sh, table.sh_err,
-                                                                a * b), SH_PART)])
+                     SH_ATTRIBUTE: json.dumps(sh_header_json(table)), "displayWindow": window}
+        parts.append(OpenEXR.Part(sh_header, _channels(table.sh, table.sh_err, a * b),
+                                  SH_PART))
+    if table.wavelets is not None:
+        wavelet_header = {"compression": OpenEXR.ZIP_COMPRESSION,
+                          "type": OpenEXR.scanlineimage, "displayWindow": window,
+                          WAVELET_ATTRIBUTE: json.dumps(_jsonable(
+                              wavelets.part_header(table.wavelets, (a, b))))}
+        parts.append(OpenEXR.Part(wavelet_header, wavelets.part_channels(table.wavelets),
+                                  WAVELET_PART))
+    image = OpenEXR.File(header, channels) if len(parts) == 1 else OpenEXR.File(parts)
     with atomic_path(path) as tmp:
         image.write(str(tmp))
 
@@ -231,7 +241,8 @@ def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
     if not parts or (not header and int.from_bytes(start[4:8], "little") & MULTIPART):
         raise InputError(f"{damaged}: the bins cannot be read")
     sh_header, sh_pixels = parts.get(SH_PART, ({}, {}))
-    if int.from_bytes(start[4:8], "little") & MULTIPART and SH_PART not in parts:
+    if (int.from_bytes(start[4:8], "little") & MULTIPART and SH_PART not in parts
+            and WAVELET_PART not in parts):
         message = (f"{damaged}: its spherical-harmonics part cannot be read (the bins "
                    "can)")
         if require_sh:
@@ -270,6 +281,15 @@ def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
         sh_shape = tuple(shape[:2]) + (json.loads(sh_header[SH_ATTRIBUTE])["coefficients"], 3)
         sh = {c: load(c, sh_pixels, sh_shape) for c in stored}
         sh_err = {c: load(f"{c}_err", sh_pixels, sh_shape) for c in stored}
+    wavelet_header, wavelet_pixels = parts.get(WAVELET_PART, ({}, {}))
+    stored_wavelets = None
+    if WAVELET_ATTRIBUTE in wavelet_header:
+        try:
+            stored_wavelets = wavelets.from_part(
+                json.loads(wavelet_header[WAVELET_ATTRIBUTE]),
+                wavelet_pixels, stored, tuple(shape[:2]))
+        except ValueError as exc:
+            raise InputError(f"{path}: wavelet part: {exc}") from None
 
     return BRDFTable(
         bins, _array(axes["theta_i"]["values"]), _array(axes["phi_i"]["values"]),
@@ -280,7 +300,8 @@ def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
         _array(info["lost_energy"]), TableMeta.from_json(info["meta"]), sh=sh, sh_err=sh_err,
         # tables written before realisations existed carry ray errors
         error_model=info.get("error_model", RAYS), realisations=info.get("realisations"),
-        dof=_components(info.get("dof")), inflation=_components(info.get("inflation")))
+        dof=_components(info.get("dof")), inflation=_components(info.get("inflation")),
+        wavelets=stored_wavelets)
 
 
 def _components(x: Any) -> dict[str, np.ndarray] | None:

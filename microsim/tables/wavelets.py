@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from microsim.tables.binning import HemisphereBins
-from microsim.tables.equal_area import Resampling, mean_cos, to_square
+from microsim.tables.equal_area import Resampling, to_square
 from microsim.tables.evaluate import CHUNK, Axes, blend_incidences
 from microsim.tables.interpolation import linear_weights
 
@@ -315,9 +315,11 @@ def evaluate(axes: Axes, wavelets: Wavelets, component: str, wi: np.ndarray,
     """f_r from a component's wavelets (``BRDFTable.eval`` with
     ``representation="wavelet"``).
 
-    Per incidence the grid's f_r per pixel, g_p / (mean cos θ over the pixel), is read
-    bilinearly between pixel centres in the square's coordinates (clamped at its edges,
-    the horizon), then interpolated linearly in θi (and φi) as the bins are.
+    Per incidence the grid's f_r per pixel, g_p / c_p with c_p the pixel's mean cos θ as
+    the resampling reads it (the bins' mean cos θ, ``bin_cos``, resampled by the same
+    overlaps, so a table of constant f_r gives it back exactly), is read bilinearly between
+    pixel centres in the square's coordinates (clamped at its edges, the horizon), then
+    interpolated linearly in θi (and φi) as the bins are.
 
     Parameters
     ----------
@@ -333,7 +335,8 @@ def evaluate(axes: Axes, wavelets: Wavelets, component: str, wi: np.ndarray,
         0 where either direction is at or below the horizon.
     """
     n = wavelets.resolution
-    f = wavelets.grids(component) / mean_cos(n)                   # (a, b, 3, n, n)
+    cos = Resampling(n, axes.bins).to_grid(bin_cos(axes.bins))     # (n, n)
+    f = wavelets.grids(component) / cos                           # (a, b, 3, n, n)
     a, b = f.shape[:2]
     pixels = np.moveaxis(f, 2, -1).reshape(a * b, n * n, 3)
     wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))

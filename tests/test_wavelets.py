@@ -1,0 +1,301 @@
+"""Wavelets of a table's hemisphere: the equal-area square, the exact bin overlaps, the
+orthonormal transform (round trip, Parseval in the weighted L2 norm, monotone error), the
+comparison with the harmonics, the EXR part and ``microsim wavelets`` / ``microsim eval``."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import stats
+
+import microsim
+from microsim.tables import compression, wavelets
+from microsim.tables.binning import HemisphereBins
+from microsim.tables.components import components_for
+from microsim.tables.equal_area import (
+    Resampling,
+    overlaps,
+    pixel_solid_angle,
+    to_hemisphere,
+    to_square,
+)
+from microsim.tables.meta import TableMeta
+from microsim.tables.sh import size
+from microsim.tables.table import BRDFTable
+
+SIGNIFICANCE = 1e-3
+"""Chi-square tests fail below this p-value (a correct map fails one run in a thousand)."""
+
+
+# --- the equal-area square ----------------------------------------------------------------
+def test_the_map_is_equal_area_and_inverts() -> None:
+    """The Jacobian |∂ω/∂a × ∂ω/∂b| of the composed map, by central differences (an
+    independent derivative), is π/2 everywhere off the sector diagonals (1e-6 relative:
+    the differences' truncation error at step 1e-6); to_square inverts it to 1e-12."""
+    rng = np.random.default_rng(3)
+    a, b = rng.uniform(-0.999, 0.999, (2, 2000))
+    off = np.abs(np.abs(a) - np.abs(b)) > 1e-3
+    a, b = a[off], b[off]
+    h = 1e-6
+    da = (to_hemisphere(a + h, b) - to_hemisphere(a - h, b)) / (2 * h)
+    db = (to_hemisphere(a, b + h) - to_hemisphere(a, b - h)) / (2 * h)
+    jacobian = np.linalg.norm(np.cross(da, db), axis=-1)
+    np.testing.assert_allclose(jacobian, math.pi / 2, rtol=1e-6)
+    w = to_hemisphere(a, b)
+    np.testing.assert_allclose(np.linalg.norm(w, axis=-1), 1.0, atol=1e-14)
+    assert (w[:, 2] >= 0).all()
+    back = to_square(w)
+    np.testing.assert_allclose(back[0], a, atol=1e-12)
+    np.testing.assert_allclose(back[1], b, atol=1e-12)
+
+
+@pytest.mark.parametrize("period", [2 * math.pi, math.pi])
+def test_overlaps_sum_to_the_pixels_and_the_bins_solid_angles(period: float) -> None:
+    """Every pixel's overlaps add up to 2π/n², every bin's to Δcos θ Δφ (twice that when
+    folded), computed here from the bin edges alone, to 1e-12."""
+    bins = HemisphereBins(8, 12, period)
+    m = overlaps(16, 8, 12, period)
+    np.testing.assert_allclose(np.asarray(m.sum(axis=1)).ravel(), pixel_solid_angle(16),
+                               rtol=1e-12)
+    omega = np.outer(-np.diff(np.cos(bins.theta_edges)), np.diff(bins.phi_edges)).ravel()
+    np.testing.assert_allclose(np.asarray(m.sum(axis=0)).ravel(),
+                               omega * (2.0 if bins.folded else 1.0), rtol=1e-12)
+
+
+def test_overlaps_match_points_thrown_on_the_square() -> None:
+    """400 000 uniform points on the square, mapped and binned by ``HemisphereBins.index``
+    (not by the overlap code), fall in each (pixel, bin) cell in proportion to its overlap:
+    Pearson chi-square over the cells expecting >= 5 points, p > SIGNIFICANCE."""
+    n, bins = 8, HemisphereBins(4, 8)
+    rng = np.random.default_rng(11)
+    a, b = rng.uniform(-1, 1, (2, 400_000))
+    pixel = np.minimum(((b + 1) * n / 2).astype(int), n - 1) * n + np.minimum(
+        ((a + 1) * n / 2).astype(int), n - 1)
+    cell = pixel * bins.size + bins.index(to_hemisphere(a, b))
+    counts = np.bincount(cell, minlength=n * n * bins.size)
+    expected = overlaps(n, 4, 8, 2 * math.pi).toarray().ravel() * len(a) / (2 * math.pi)
+    assert counts[expected == 0].sum() == 0
+    big = expected >= 5
+    chi2 = float(((counts[big] - expected[big]) ** 2 / expected[big]).sum())
+    assert stats.chi2.sf(chi2, big.sum() - 1) > SIGNIFICANCE, (chi2, big.sum())
+
+
+# --- the transform -----------------------------------------------------------------------
+def lobe_values(theta_i: list[float], bins: HemisphereBins, sharpness: float = 40.0
+                ) -> np.ndarray:
+    """(a, 1, nt, np, 3) f_r of a smooth lobe about the mirror direction at bin centres,
+    with a different scale per colour."""
+    t, p = np.meshgrid(bins.theta_centers, bins.phi_centers, indexing="ij")
+    wo = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], -1)
+    out = []
+    for ti in theta_i:
+        mirror = np.array([-math.sin(ti), 0.0, math.cos(ti)])
+        f = 0.1 + np.exp(sharpness * (wo @ mirror - 1.0))
+        out.append(f[..., None] * np.array([1.0, 0.5, 0.25]))
+    return np.array(out)[:, None]
+
+
+def lobe_table(theta_i: list[float], bins: HemisphereBins, sh: dict | None = None
+               ) -> BRDFTable:
+    """An isotropic table of ``lobe_values`` in every component."""
+    a = len(theta_i)
+    values = {c: lobe_values(theta_i, bins) for c in components_for(2)}
+    errors = {c: np.full_like(v, 0.01) for c, v in values.items()}
+    flat = {c: np.ones((a, 1, 3)) for c in values}
+    return BRDFTable(bins, np.array(theta_i), np.zeros(1), True, values, errors,
+                     np.full((a, 1), 1000), flat, flat, np.zeros((a, 1, 3)), TableMeta(),
+                     sh=sh, sh_err=None if sh is None else {
+                         c: np.zeros_like(v) for c, v in sh.items()})
+
+
+@pytest.mark.parametrize("name", ["haar", "db2", "db4"])
+def test_every_coefficient_kept_gives_the_resampled_table(name: str) -> None:
+    """With all n² coefficients kept, the stored set's grid equals the table resampled onto
+    the square to round-off (1e-12 of its largest value)."""
+    bins = HemisphereBins(8, 16)
+    table = lobe_table([0.0, 0.6], bins)
+    stored = wavelets.encode(table.values, bins, 32, name, keep=32 * 32)
+    expected = wavelets.table_grids(table.values["total"], Resampling(32, bins))
+    got = stored.grids("total")
+    assert np.abs(got - expected).max() <= 1e-12 * expected.max()
+
+
+@pytest.mark.parametrize("name", ["haar", "db2", "sym4"])
+def test_dropped_energy_is_the_error_in_the_weighted_norm(name: str) -> None:
+    """Parseval on the equal-area grid: for every kept count, the squared error of the
+    reconstruction in the L2(dω) norm, Σ_p Ω_p (ĝ_p − g_p)² with Ω_p each pixel's solid
+    angle from the overlaps (the pixels' areas, not the transform), equals
+    (2π/n²) Σ_dropped c² to 1e-9 relative (or 1e-13 of the function's energy, round-off,
+once nearly all is kept); keeping the largest is no worse than keeping the coarsest;
+and the error never grows with the count."""
+    n, bins = 32, HemisphereBins(8, 16)
+    grid = wavelets.table_grids(lobe_values([0.5], bins), Resampling(n, bins))[0, 0, 0]
+    omega_p = np.asarray(overlaps(n, 8, 16, 2 * math.pi).sum(axis=1)).reshape(n, n)
+    c = wavelets.forward(grid, name)
+    rank = wavelets.ranks(c)
+    energy = float((omega_p * grid ** 2).sum())
+    errors = []
+    for k in compression.sweep(n * n, 4):
+        kept = compression.keep_largest(c, rank, k)
+        error2 = float((omega_p * (wavelets.inverse(kept, name) - grid) ** 2).sum())
+        dropped = pixel_solid_angle(n) * float(((c - kept) ** 2).sum())
+        assert error2 == pytest.approx(dropped, rel=1e-9, abs=1e-13 * energy)
+        # the best k-term choice in that norm: no worse than the k coarsest coefficients
+        coarsest = np.where(np.arange(n * n) < k, c, 0.0)
+        assert dropped <= pixel_solid_angle(n) * float(((c - coarsest) ** 2).sum()) * (
+            1 + 1e-12)
+        errors.append(error2)
+    assert all(later <= earlier * (1 + 1e-12) for earlier, later in zip(errors, errors[1:]))
+    assert errors[-1] < 1e-20 * errors[0]
+
+
+def test_kept_for_a_target_is_the_fewest_that_reach_it() -> None:
+    """``kept_for``: its count reaches the target relative L2 error, one fewer does not."""
+    c = np.random.default_rng(5).normal(size=(4, 256)) * np.geomspace(1, 1e-3, 256)
+    for target in (0.3, 0.05, 0.001):
+        k = wavelets.kept_for(c, target)
+        rank = wavelets.ranks(c)
+        for row in range(4):
+            def rel(count: int, row: int = row) -> float:
+                kept = compression.keep_largest(c[row], rank[row], count)
+                return math.sqrt(((c[row] - kept) ** 2).sum() / (c[row] ** 2).sum())
+            assert rel(k[row]) <= target < rel(k[row] - 1)
+
+
+def test_a_constant_brdf_evaluates_exactly_from_its_wavelets() -> None:
+    """A Lambertian table (f_r = 0.8/π in every bin) evaluated from its wavelets with every
+    coefficient kept gives 0.8/π at random direction pairs to 1e-10: the pixels' mean
+    cos θ is the bins' resampled like g."""
+    bins = HemisphereBins(8, 16)
+    a = 2
+    values = {c: np.full((a, 1, 8, 16, 3), 0.8 / math.pi) for c in components_for(2)}
+    flat = {c: np.ones((a, 1, 3)) for c in values}
+    table = BRDFTable(bins, np.array([0.0, 1.0]), np.zeros(1), True, values, values,
+                      np.full((a, 1), 10), flat, flat, np.zeros((a, 1, 3)), TableMeta())
+    table.wavelets = wavelets.encode(table.values, bins, 32, "db2", keep=1024)
+    rng = np.random.default_rng(2)
+    wi, wo = (to_hemisphere(*rng.uniform(-0.99, 0.99, (2, 500))) for _ in range(2))
+    np.testing.assert_allclose(table.eval(wi, wo, representation="wavelet"), 0.8 / math.pi,
+                               rtol=1e-10)
+
+
+# --- against the harmonics ---------------------------------------------------------------
+def test_exact_harmonics_have_no_error_and_the_curves_fall() -> None:
+    """A table whose f_r cos θo is c₀ Y₀₀ + c₁ Y₁₀ exactly, with its bins computed here in
+    closed form (∫ Y₀₀ dω = Δφ Δcos θ / √(4π), ∫ Y₁₀ dω = √(3/4π) Δφ Δcos²θ / 2): its two
+    stored harmonics reproduce every lobe bin to 1e-9, both curves end below where they
+    start, and the wavelets' last point (every coefficient) is their resampling floor,
+    below 5 % for this slowly varying lobe."""
+    bins = HemisphereBins(8, 16)
+    c0, c1 = 1.0, 0.8
+    x = np.cos(bins.theta_edges)
+    ring = (c0 * -np.diff(x) / math.sqrt(4 * math.pi)
+            + c1 * math.sqrt(3 / (4 * math.pi)) * -np.diff(x ** 2) / 2) * bins.phi_edges[1]
+    f = ring / bins.projected_solid_angle[:, 0]                    # per projected sr
+    values = np.broadcast_to(f[None, None, :, None, None], (1, 1, 8, 16, 3)).copy()
+    coefficients = np.zeros((1, 1, size(4), 3))
+    coefficients[..., 0, :], coefficients[..., 2, :] = c0, c1      # k = l² + l + m
+    table = lobe_table([0.0], bins, sh={c: coefficients for c in components_for(2)})
+    table.values = {c: values for c in table.components}
+    result = compression.curves(table, resolution=32, wavelet="haar")
+    by_count = dict(map(tuple, result["sh"]))
+    assert by_count[2] < 1e-9 and by_count[size(4)] < 1e-9
+    assert by_count[1] > 0.01
+    assert result["wavelet"][-1][0] == 32 * 32
+    assert result["wavelet"][-1][1] < 0.05 < result["wavelet"][0][1]
+    assert result["bytes"]["sh"][1] == 2 * 6 * 3                    # 2 kept, 3 colours
+
+
+def test_the_lobe_error_falls_with_the_largest_kept_first() -> None:
+    """The median relative error on the lobe bins is not monotone in the count (only the
+    L2 error is: at a few coefficients the coarse mean can sit closer to most lobe bins
+    than a partial lobe does), but with the largest coefficients kept first a smooth lobe
+    (64² pixels, 16 × 32 bins) is within 5 % at 1/16 of the coefficients, where the 256
+    smallest would leave almost all of it out, and at all of them the error is the
+    resampling floor, below 1 %."""
+    bins = HemisphereBins(16, 32)
+    table = lobe_table([0.0, 0.5, 1.0], bins, sh={c: np.zeros((3, 1, size(2), 3))
+                                                  for c in components_for(2)})
+    curve = dict(map(tuple, compression.curves(table, resolution=64, wavelet="haar",
+                                               steps_per_octave=2)["wavelet"]))
+    assert curve[256] < 0.05
+    assert curve[64 * 64] < 0.01
+
+
+def test_needed_ignores_a_first_crossing_that_does_not_last() -> None:
+    curve = [[1, 0.2], [2, 0.04], [4, 0.06], [8, 0.03], [16, 0.01]]
+    assert compression.needed(curve, 0.05) == 8
+    assert compression.needed(curve, 0.005) is None
+
+
+# --- the file and the commands ------------------------------------------------------------
+@pytest.fixture
+def lobe_file(tmp_path: Path) -> Path:
+    bins = HemisphereBins(8, 16)
+    sh = {c: np.zeros((2, 1, size(3), 3)) for c in components_for(2)}
+    for c in sh:
+        sh[c][..., 0, :] = 1.0
+    path = tmp_path / "lobe.exr"
+    microsim.write_table(lobe_table([0.0, 0.6], bins, sh=sh), path)
+    return path
+
+
+def test_stored_wavelets_survive_the_file_and_eval_reads_them(cli, lobe_file: Path,
+                                                              tmp_path: Path) -> None:
+    """--store writes every component's wavelets; read back, they evaluate as the ones
+    kept in memory (to float32 round-off), and eval --basis wavelet reads them."""
+    out = tmp_path / "stored.exr"
+    code, text, err = cli("wavelets", str(lobe_file), "--resolution", "32", "--store",
+                          str(out), "--target-error", "0.001", "--json")
+    assert code == 0, err
+    report = json.loads(text)
+    assert set(report) >= {"sh", "wavelet", "per_incidence", "bytes"}
+    assert all(len(point) == 2 for point in report["sh"] + report["wavelet"])
+    table = microsim.read_table(out)
+    assert table.wavelets is not None and table.wavelets.target_error == 0.001
+    original = microsim.read_table(lobe_file)
+    memory = wavelets.encode(original.values, original.bins, 32, "haar", target_error=0.001)
+    for c in table.components:
+        np.testing.assert_allclose(table.wavelets.grids(c), memory.grids(c), rtol=1e-6,
+                                   atol=1e-6 * memory.grids(c).max())
+    wi = np.array([math.sin(0.3), 0.0, math.cos(0.3)])
+    wo = np.array([-math.sin(0.3), 0.0, math.cos(0.3)])
+    code, text, err = cli("eval", str(out), "--wi", "17.19,0", "--wo", "17.19,180",
+                          "--basis", "wavelet", "--json")
+    assert code == 0, err
+    f = json.loads(text)["f_r"]
+    # the CLI's angles are rounded to 0.01°
+    np.testing.assert_allclose(f, table.eval(wi, wo, representation="wavelet"), rtol=1e-3)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["wavelets", "{t}", "--store", "{o}", "--target-error", "0"], "--target-error 0.0: must be > 0"),
+    (["wavelets", "{t}", "--store", "{o}", "--target-error", "-0.5"], "--target-error -0.5: must be > 0"),
+    (["wavelets", "{t}", "--target-error", "0.1"], "give --store EXR"),
+    (["wavelets", "{t}", "--wavelet", "bior2.2"], "--wavelet wavelet 'bior2.2' is not orthogonal"),
+    (["wavelets", "{t}", "--wavelet", "nope"], "--wavelet wavelet 'nope'"),
+    (["wavelets", "{t}", "--resolution", "100"], "--resolution resolution 100"),
+    (["eval", "{t}", "--wi", "0,0", "--wo", "10,0", "--basis", "wavelet"], "--basis wavelet: "),
+    (["eval", "{t}", "--wi", "0,0", "--wo", "10,0", "--basis", "haar"], "--basis"),
+])
+def test_bad_input_is_one_error_line(cli, lobe_file: Path, tmp_path: Path, argv: list[str],
+                                     message: str) -> None:
+    args = [a.format(t=lobe_file, o=tmp_path / "o.exr") for a in argv]
+    code, out, err = cli(*args)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:") and message in lines[0], err
+    assert not (tmp_path / "o.exr").exists()
+
+
+def test_eval_without_harmonics_is_an_error(cli, tmp_path: Path) -> None:
+    path = tmp_path / "plain.exr"
+    microsim.write_table(lobe_table([0.0], HemisphereBins(4, 8)), path)
+    code, _, err = cli("eval", str(path), "--wi", "0,0", "--wo", "10,0", "--basis", "sh")
+    assert code == 2 and err.startswith("error: --basis sh:")
+    code, _, err = cli("wavelets", str(path))
+    assert code == 2 and "holds no spherical harmonics" in err
