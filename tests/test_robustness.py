@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -429,12 +430,13 @@ def test_the_two_relative_errors_have_different_names(cli, small_table, tmp_path
 def test_verdict_follows_the_error_bars():
     """Tables of a model with Gaussian noise of 2% reported as their error agree with it
     (10 seeds; each check errs with probability about 2e-3); reported errors half the
-    real noise (z spread 2) or a model 5% off disagree. The spread bound equals the
+    real noise (z spread 2) or a model 5% off disagree, and the verdict line says which.
+    The spread bound equals the
     chi-square quantile: for N lobe bins it lies within 1% of Wilson-Hilferty's
     1 + z_(1-alpha) / sqrt(2N) (asymptotic; N > 500 here)."""
     from scipy.stats import norm
 
-    from microsim.agreement import agreement
+    from microsim.agreement import agreement, verdict_text
     from microsim.analytic.registry import parse_model_spec
     from microsim.compare import compare_table
     from microsim.compare import model_table as analytic_table
@@ -451,24 +453,55 @@ def test_verdict_follows_the_error_bars():
     assert n > 500
     approx = 1 + norm.ppf(1 - check.significance) / np.sqrt(2 * n)
     assert check.z_std_max == pytest.approx(approx, rel=0.01)
+    result = compare_table(table, model)
+    assert verdict_text(result, agreement(result)).startswith("verdict: agrees")
     half = analytic_table(model, theta, bins, 0.02, np.random.default_rng(0))
     for c in half.errors:
         half.errors[c] = half.errors[c] / 2
-    assert not agreement(compare_table(half, model)).agrees
+    result = compare_table(half, model)
+    assert not agreement(result).agrees
+    assert verdict_text(result, agreement(result), "x").startswith("verdict (x): differs")
     _, _, off = parse_model_spec("beckmann:alpha=0.315")
     assert not agreement(compare_table(analytic_table(model, theta, bins, 0.02,
                                                       np.random.default_rng(0)), off)).agrees
 
 
+VERDICT = re.compile(
+    r"^verdict \((?P<what>[^)]*)\): (?P<word>agrees|differs) .*has mean (?P<mean>-?[\d.]+) "
+    r"and spread (?P<std>[\d.]+) over (?P<n>\d+) lobe bins; noise alone gives a mean "
+    r"within ±(?P<mean_max>[\d.]+) and a spread up to (?P<std_max>[\d.]+) at "
+    r"significance 0.001")
+
+
 def test_demo_ends_with_a_verdict_line_per_model(cli, tmp_path):
     """One line per comparison (single scattering against Torrance-Sparrow, all orders
-    against the multiple-scattering model), each saying agrees or differs."""
-    code, out, err = cli("demo", "--rays", "3000", "-o", str(tmp_path / "d.exr"))
+    against the multiple-scattering model), each saying agrees or differs — and saying
+    it because of its numbers: "agrees" exactly when |z mean| and the spread it prints
+    are within the bounds it prints, and those numbers are the comparison of the table
+    it wrote (recomputed from the file, to the printed two decimals; the file holds
+    float32 values, so 0.006)."""
+    import microsim
+    from microsim.agreement import agreement
+    from microsim.commands.demo import comparison, total_comparison
+
+    out_table = tmp_path / "d.exr"
+    code, out, err = cli("demo", "--rays", "3000", "-o", str(out_table))
     assert code == 0, err
-    verdicts = [line for line in out.splitlines() if line.startswith("verdict (")]
-    assert len(verdicts) == 2, out
-    for line in verdicts:
-        assert ("agrees" in line or "differs" in line) and "significance 0.001" in line
+    verdicts = [VERDICT.match(line) for line in out.splitlines()
+                if line.startswith("verdict (")]
+    assert len(verdicts) == 2 and all(verdicts), out
+    table = microsim.read_table(out_table)
+    single, _ = comparison(table)
+    _, _, total, _ = total_comparison(table)
+    for m, result in zip(verdicts, (single, total), strict=True):
+        mean, std = float(m["mean"]), float(m["std"])
+        inside = abs(mean) <= float(m["mean_max"]) and std <= float(m["std_max"])
+        assert (m["word"] == "agrees") == inside, m.group(0)
+        check = agreement(result)
+        assert int(m["n"]) == check.lobe_bins
+        assert abs(result.z_mean - mean) < 0.006 and abs(result.z_std - std) < 0.006
+        assert abs(check.z_mean_max - float(m["mean_max"])) < 0.006
+        assert abs(check.z_std_max - float(m["std_max"])) < 0.006
 
 
 def test_fit_reports_progress_and_rounds_to_its_uncertainty(small_table):
