@@ -99,7 +99,7 @@ def curves(table: BRDFTable, component: str = "total",
         coefficients over every incidence and colour (a float32 value and an index each);
         ``bytes_per_coefficient``; ``coefficients``: each basis' total per incidence and
         colour; the ``component``, ``sh_order``, ``wavelet_name``, ``resolution`` and
-        ``levels``.
+        ``levels``; ``median_rel_stderr``, the table's own noise on the lobe bins.
 
     Raises
     ------
@@ -130,6 +130,7 @@ def curves(table: BRDFTable, component: str = "total",
             a, b, -1, 3) * cos_bin
 
     out: dict[str, Any] = {"component": component, "sh_order": table.sh_order,
+                           "median_rel_stderr": table.median_rel_stderr(component),
                            "wavelet_name": wavelet, "resolution": resolution,
                            "levels": wavelets.levels(resolution, wavelet)}
     per: list[dict[str, Any]] = [{"theta_i": math.degrees(t), "phi_i": math.degrees(p),
