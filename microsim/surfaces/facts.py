@@ -56,6 +56,11 @@ class Roughness:
                              "single alpha")
         return self.x
 
+    def __float__(self) -> float:
+        """``float(roughness)``: the isotropic value (``alpha``; an anisotropic roughness
+        raises ValueError)."""
+        return self.alpha
+
     @property
     def axes(self) -> tuple[float, float]:
         """(αx, αy), equal for an isotropic roughness."""
