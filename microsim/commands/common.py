@@ -38,6 +38,16 @@ def add_json_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
 
 
+def add_direction_args(p: argparse.ArgumentParser) -> None:
+    """Add the required ``--wi THETA,PHI`` and ``--wo THETA,PHI`` (degrees) of one
+    direction pair."""
+    pair = number_list(2, what="THETA,PHI in degrees")
+    p.add_argument("--wi", type=pair, required=True, metavar="THETA,PHI",
+                   help="incident direction, degrees")
+    p.add_argument("--wo", type=pair, required=True, metavar="THETA,PHI",
+                   help="outgoing direction, degrees")
+
+
 def add_seed_arg(p: argparse.ArgumentParser, what: str) -> None:
     """Add ``--seed N`` overriding the recipe's seed of ``what``."""
     p.add_argument("--seed", type=nonnegative_int, default=None,

@@ -7,8 +7,8 @@ import argparse
 
 from microsim.commands.common import (
     add_component_arg,
+    add_direction_args,
     add_json_arg,
-    number_list,
     print_json,
     readable,
     table_component,
@@ -18,7 +18,6 @@ from microsim.errors import InputError
 BASES = ("table", "sh", "wavelet")
 """``microsim.tables.table.REPRESENTATIONS``, spelled out so that ``--help`` does not
 import numpy."""
-angle_pair = number_list(2, what="THETA,PHI in degrees")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -31,10 +30,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "--store`. Directions are THETA,PHI in degrees, pointing away from "
                     "the surface: --wi towards the light, --wo towards the viewer.")
     p.add_argument("table", metavar="TABLE", help="table file (.exr)")
-    p.add_argument("--wi", type=angle_pair, required=True, metavar="THETA,PHI",
-                   help="incident direction, degrees")
-    p.add_argument("--wo", type=angle_pair, required=True, metavar="THETA,PHI",
-                   help="outgoing direction, degrees")
+    add_direction_args(p)
     p.add_argument("--basis", choices=BASES, default="table",
                    help="what to evaluate: table (the bins, default), sh (the spherical "
                         "harmonics) or wavelet (the stored wavelets)")

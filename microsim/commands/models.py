@@ -4,10 +4,14 @@ from __future__ import annotations
 
 import argparse
 
-from microsim.commands.common import Parser, add_json_arg, number_list, print_json, readable
+from microsim.commands.common import (
+    Parser,
+    add_direction_args,
+    add_json_arg,
+    print_json,
+    readable,
+)
 from microsim.errors import InputError
-
-angle_pair = number_list(2, what="THETA,PHI in degrees")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -29,10 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "are THETA,PHI in degrees, pointing away from the surface: --wi "
                     "towards the light, --wo towards the viewer.")
     e.add_argument("spec", metavar="SPEC", help="model name or NAME:key=value,...")
-    e.add_argument("--wi", type=angle_pair, required=True, metavar="THETA,PHI",
-                   help="incident direction, degrees")
-    e.add_argument("--wo", type=angle_pair, required=True, metavar="THETA,PHI",
-                   help="outgoing direction, degrees")
+    add_direction_args(e)
     e.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                    help="model parameter (repeatable), e.g. --param alpha=0.3")
     add_json_arg(e)
