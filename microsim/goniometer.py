@@ -297,14 +297,17 @@ class RunKey(NamedTuple):
 @dataclass(frozen=True)
 class Progress:
     """Where a measurement is, reported after every batch: the direction (degrees), the
-    realisation, the realisations planned so far and the rays traced of this direction
-    and realisation."""
+    realisation, the realisations planned so far, the rays traced of this direction
+    and realisation, and the batches of the whole measurement done and planned so far
+    (0 where the caller does not count them; an adaptive stop plans more as it goes)."""
 
     theta_i: float
     phi_i: float
     realisation: int
     realisations: int
     rays: int
+    batches_done: int = 0
+    batches_planned: int = 0
 
 
 @dataclass

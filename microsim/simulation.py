@@ -123,6 +123,7 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
     opener = Opener(tiles, threads, done)
     plan: dict[Direction, tuple[int, int]] = {}   # (realisations, rays of each new one)
     traced: dict[Direction, list[int]] = {}       # rays of each realisation traced
+    batches = [0, 0]                              # of the measurement: done, planned
     bins = HemisphereBins(table.theta_bins, table.phi_bins)
     try:
         while True:
@@ -142,7 +143,8 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
                     work.setdefault(0, {})[d] = n - sum(traced[d])
             held = _trace_round(held, opener, sorted(work), work, materials, simulation,
                                 table, done, plan, progress,
-                                fold=ensemble and not keep_runs, traced=traced)
+                                fold=ensemble and not keep_runs, traced=traced,
+                                batches=batches)
             if target is None:
                 break
             current = assemble_table([done], materials, simulation, table, thetas=chosen,
@@ -279,7 +281,7 @@ def _trace_round(held: tuple[int, Tile, PeriodicScene] | None, opener: Opener,
                  table: TableSettings, done: Measurement,
                  plan: Mapping[Direction, tuple[int, int]],
                  progress: Callable[[Progress], None] | None, *, fold: bool,
-                 traced: dict[Direction, list[int]]
+                 traced: dict[Direction, list[int]], batches: list[int]
                  ) -> tuple[int, Tile, PeriodicScene] | None:
     """Trace one round: realisations ``order`` with their ``work``, through one pipeline
     (``trace_realisations``), each realisation opened when its batches are first needed
@@ -287,6 +289,8 @@ def _trace_round(held: tuple[int, Tile, PeriodicScene] | None, opener: Opener,
     its scene handed back when its last batch has been added. The scenes in use are those
     of the realisations with batches under way (one or two; up to ``DEPTH`` when
     realisations have fewer batches than the pipeline holds) and the one prepared.
+    ``batches`` counts the measurement's batches done and planned (its two entries grow:
+    by the round's batches when it starts, by one after each batch).
 
     Returns
     -------
@@ -325,8 +329,12 @@ def _trace_round(held: tuple[int, Tile, PeriodicScene] | None, opener: Opener,
         if opened[r] is not keep:
             opener.release(opened.pop(r)[2])
 
+    batches[1] += sum(-(-n // BATCH) for w in work.values() for n in w.values())
+
     def report(state: Progress) -> None:
-        progress(replace(state, realisations=max(k for k, _ in plan.values())))
+        batches[0] += 1
+        progress(replace(state, realisations=max(k for k, _ in plan.values()),
+                         batches_done=batches[0], batches_planned=batches[1]))
 
     if held is not None and held[0] not in order:
         opener.release(held[2])

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -100,17 +101,37 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def progress_printer(enabled: bool) -> Callable[[Progress], None] | None:
-    """A goniometer progress callback printing one line per batch to stderr, or None."""
+@contextlib.contextmanager
+def progress_bar(enabled: bool) -> Iterator[Callable[[Progress], None] | None]:
+    """A rich progress bar on stderr and its goniometer callback, or None: the
+    realisation and incidence being traced, the share of the batches planned so far that
+    are done, the time spent and what remains at the rate so far (an adaptive stop plans
+    more batches as it goes, so its bar can step back)."""
     if not enabled:
-        return None
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        TaskProgressColumn,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+    from rich.progress import Progress as Bar
 
-    def show(state: Progress) -> None:
-        print(f"\rrealisation {state.realisation + 1:>3} of {state.realisations}, "
-              f"theta_i {state.theta_i:5.1f} deg: {state.rays:>11,} rays",
-              end="", file=sys.stderr, flush=True)
+    with Bar(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
+             TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+             console=Console(stderr=True)) as bar:
+        task = bar.add_task("simulating", total=None)
 
-    return show
+        def show(state: Progress) -> None:
+            bar.update(task, total=state.batches_planned or None,
+                       completed=state.batches_done,
+                       description=f"realisation {state.realisation + 1} of "
+                                   f"{state.realisations}, θi {state.theta_i:4.1f}°")
+
+        yield show
 
 
 def summary(table: Any, output: Path | None) -> dict[str, Any]:
@@ -196,10 +217,8 @@ def simulate_resolved(resolved: Recipe, threads: int | None, show_progress: bool
     for warning in first:
         print(f"warning: {warning}", file=sys.stderr)
     del tile
-    progress = progress_printer(show_progress)
-    table = simulate_recipe(resolved, progress, threads, memory_limit_gib)
-    if progress is not None:
-        print(file=sys.stderr)
+    with progress_bar(show_progress) as progress:
+        table = simulate_recipe(resolved, progress, threads, memory_limit_gib)
     later = [w for w in table.meta.tile_warnings if w not in first]
     for warning in [*later, *table.meta.warnings]:  # recorded in the table too
         print(f"warning: {warning}", file=sys.stderr)

@@ -1,0 +1,46 @@
+"""Progress of a simulation: every batch reported, counted against the batches planned,
+which an adaptive stop raises as it plans more."""
+
+from __future__ import annotations
+
+import math
+
+from microsim import load_recipe, simulate
+from microsim.commands.simulate import progress_bar
+from microsim.goniometer import BATCH
+
+RAW = {"surface": {"kind": "gaussian", "alpha": 0.3, "resolution": 32, "seed": 1},
+       "material": {"kind": "mirror"},
+       "simulation": {"theta_i": [0, 40], "rays": 3 * (BATCH + 1000), "realisations": 3,
+                      "seed": 1},
+       "table": {"theta_bins": 8, "phi_bins": 16, "sh_order": 0}}
+
+
+def test_every_batch_is_counted_against_the_plan():
+    """2 incidences × 3 realisations × ⌈(BATCH + 1000) / BATCH⌉ = 12 batches, each
+    reported once, in order, against a plan of 12 from the first report on."""
+    seen = []
+    simulate(load_recipe(RAW), threads=2, progress=seen.append)
+    planned = 2 * 3 * math.ceil((BATCH + 1000) / BATCH)
+    assert [s.batches_done for s in seen] == list(range(1, planned + 1))
+    assert {s.batches_planned for s in seen} == {planned}
+    assert {s.realisations for s in seen} == {3}
+
+
+def test_an_adaptive_plan_grows_and_ends_done():
+    """With a target error the plan grows round by round; done never passes planned and
+    equals it at the end."""
+    seen = []
+    simulate(load_recipe(RAW, ["simulation.target_error=0.03",
+                               "simulation.rays=40000"]), threads=2, progress=seen.append)
+    done = [s.batches_done for s in seen]
+    planned = [s.batches_planned for s in seen]
+    assert done == list(range(1, len(seen) + 1))
+    assert all(d <= p for d, p in zip(done, planned, strict=True))
+    assert planned == sorted(planned) and planned[-1] > planned[0]
+    assert done[-1] == planned[-1]
+
+
+def test_the_bar_is_off_without_a_terminal():
+    with progress_bar(False) as show:
+        assert show is None
