@@ -1,8 +1,8 @@
 """Directions and frames: the geometry every layer shares.
 
 The local frame's macro-surface normal is +z; θ is measured from +z, φ from +x towards +y,
-and directions point away from the surface (DESIGN.md). Nothing here knows of tables,
-models or the tracer.
+and directions point away from the surface (docs/conventions.md). Nothing here knows of
+tables, models or the tracer.
 """
 
 from __future__ import annotations

@@ -183,8 +183,8 @@ def test_lambertian_albedo_is_its_albedo():
 
 @pytest.mark.parametrize(("ndf", "expected"), [(Beckmann(0.5), 0.893), (Beckmann(1.0), 0.664),
                                                 (GGX(0.5), 0.700), (GGX(1.0), 0.409)])
-def test_hemispherical_average_albedo_matches_design_figures(ndf, expected):
-    """DESIGN.md's single-scattering albedos (F = 1, height-correlated Smith) are the
+def test_hemispherical_average_albedo_matches_the_reference_figures(ndf, expected):
+    """docs/conventions.md's single-scattering albedos (F = 1, height-correlated Smith) are the
     cosine-weighted hemispherical average (1/π) ∫ E(ωi) cos θi dωi = 2 ∫ E(μ) μ dμ; they
     are quoted to 3 decimals, so the tolerance is 0.0006."""
     model = TorranceSparrow(ndf)

@@ -321,8 +321,8 @@ def test_gaussian_g1_matches_smith_at_the_realised_alpha(alpha: float) -> None:
     Smith's G1 for Beckmann at the realised alpha pooled over them, at 30-89 deg.
 
     On one tile the test averaged four azimuths (a realisation is slightly anisotropic)
-    and allowed 0.005 (0.01 at 89 deg), DESIGN.md's figures for one tile. The ensemble's
-    standard error (batch means, 7 degrees of freedom) includes the tiles' spread, so the
+    and allowed 0.005 (0.01 at 89 deg), docs/conventions.md's figures for one tile. The
+    ensemble's standard error (batch means, 7 degrees of freedom) includes the tiles' spread, so the
     difference is tested against it: |z| < Z_MAX after mapping the Student-t score to a
     normal one (measured |z| <= 1.6, differences <= 0.0023 with errors 0.0003-0.003), and
     the absolute difference stays within 0.005 at every angle. Where no ray was occluded

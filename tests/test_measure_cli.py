@@ -15,8 +15,8 @@ RECIPE = str(ROOT / "surfaces" / "gaussian-0.3.toml")
 def test_g1_json_against_smith(cli):
     """G1 of 4 realisations of the default 256² α = 0.3 tile (32 correlation lengths) at
     80° with 40k rays: the ensemble's stderr ≈ 0.002 (3 degrees of freedom); such tiles
-    follow Smith to ~0.005 (DESIGN.md), so |G1 − Smith| < 0.005 + 4 stderr. (A 128² tile,
-    16 correlation lengths, misses by 0.012: too few independent slopes; the generator
+    follow Smith to ~0.005 (docs/conventions.md), so |G1 − Smith| < 0.005 + 4 stderr. (A
+    128² tile, 16 correlation lengths, misses by 0.012: too few independent slopes; the generator
     warns about it.)"""
     code, out, _ = cli("measure", "g1", RECIPE, "--theta", "0,80", "--rays", "40000",
                        "--realisations", "4", "--json")

@@ -1,7 +1,7 @@
 """Heitz et al. 2016's random walk, checked without the simulator: visible-normal sampling
 against its density (mpmath and quadrature), order 1 against Torrance-Sparrow with
 height-correlated Smith, the white furnace, reciprocity, the escape statistics against
-the next-event estimates, and the single-scattering albedos in DESIGN.md.
+the next-event estimates, and the single-scattering albedos in docs/conventions.md.
 
 Thresholds: a z-score |z| < Z_MAX = 3.5 per check (a fixed seed; each check has a 1 in
 2000 chance of failing under the null hypothesis, and there are fewer than 60 of them, so
@@ -175,12 +175,13 @@ def test_escapes_and_next_event_estimates_agree_per_order() -> None:
     assert white[3, 0] == pytest.approx(1.0, abs=1e-12) and white_err[3, 0] < 1e-7
 
 
-@pytest.mark.parametrize("ndf, design", [(Beckmann(0.5), 0.893), (Beckmann(1.0), 0.664),
+@pytest.mark.parametrize("ndf, reference", [(Beckmann(0.5), 0.893), (Beckmann(1.0), 0.664),
                                          (GGX(0.5), 0.700), (GGX(1.0), 0.409)],
                          ids=["beckmann-0.5", "beckmann-1", "ggx-0.5", "ggx-1"])
-def test_single_scattering_albedo_of_design_md(ndf: object, design: float) -> None:
-    """DESIGN.md: single-scattering albedo with F = 1 and height-correlated G2, averaged
-    over the hemisphere (cosine-weighted: 2 ∫ E(μ) μ dμ). The share of walks that leave
+def test_single_scattering_albedo_of_the_reference_figures(ndf: object,
+                                                           reference: float) -> None:
+    """docs/conventions.md: single-scattering albedo with F = 1 and height-correlated G2,
+    averaged over the hemisphere (cosine-weighted: 2 ∫ E(μ) μ dμ). The share of walks that leave
     after one event, from cosine-weighted ωi (60 000 walks: σ ≈ 0.002), within
     Z_MAX σ + 0.0005 (the figure's rounding); all orders together are 1 (no walk is cut)."""
     rng = np.random.default_rng(11)
@@ -189,7 +190,7 @@ def test_single_scattering_albedo_of_design_md(ndf: object, design: float) -> No
     walks = model.walk(wi, None, rows=2)
     single = walks.escaped[:, 0, 0]
     mean, err = single.mean(), single.std(ddof=1) / math.sqrt(len(single))
-    assert abs(mean - design) < Z_MAX * err + 5e-4, (mean, err)
+    assert abs(mean - reference) < Z_MAX * err + 5e-4, (mean, err)
     assert walks.cut == 0 and walks.escaped.sum() == len(wi)
 
 

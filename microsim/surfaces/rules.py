@@ -22,8 +22,8 @@ resolution a table has (its lobe is narrower than 0.06 degrees)."""
 
 
 DEFAULT_CELLS = 8
-"""Default correlation length in grid cells (DESIGN.md: τ = 8 cells gives G1 within 0.005
-of Smith)."""
+"""Default correlation length in grid cells (docs/conventions.md: τ = 8 cells gives G1
+within 0.005 of Smith)."""
 MICRO_RESOLUTION = 512
 """Default grid of a ``vgroove`` tile with micro-roughness (columns and rows)."""
 def check_span(s: dict[str, Any], keys: dict[str, Key], where: str = "surface.") -> None:
