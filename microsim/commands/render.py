@@ -21,8 +21,8 @@ from microsim.errors import InputError
 from microsim.files import writable_file
 
 DEFAULT_SPP = 64
-LIVE_LIGHTS = ("sun:elevation=50,azimuth=-40,irradiance=3,radius=10", "sky:radiance=0.25")
-"""``--live``'s default light: the default sun as a disc of 10° radius (a sampled-only
+LIVE_LIGHTS = ("sun:elevation=50,azimuth=-40,irradiance=3,radius=20", "sky:radiance=0.25")
+"""``--live``'s default light: the default sun as a disc of 20° radius (a sampled-only
 BSDF cannot see a directional light) and the sky."""
 
 

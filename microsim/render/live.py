@@ -57,9 +57,10 @@ from microsim.trace import PeriodicScene
 
 ESCAPED = ks.FATES.index("escaped")
 SCENE_BYTES_PER_FACE = 400
-"""Memory of one open realisation per face of its tile: the tile's arrays, the face
-table and Embree's BVH (measured: 45 MiB resident for the 131,072 faces of the shipped
-256² Gaussian tile, 360 bytes a face, rounded up)."""
+"""Memory the guard counts for one open realisation per face of its tile: the tile's
+arrays, the face table and Embree's BVH (measured: 29 MiB resident a realisation of the
+shipped 256² Gaussian tile's 131,072 faces, 235 bytes a face; the rest is a margin for
+the tracing buffers and for tiles whose faces cost more)."""
 
 
 def memory_bytes(faces: int, realisations: int) -> float:
