@@ -312,7 +312,9 @@ def model_table(model: Model, theta_i: np.ndarray, bins: HemisphereBins,
     sigma_rel : float
         Relative standard deviation of the noise added to each bin and channel (0: none);
         the bins' standard error is reported as ``sigma_rel`` × the bin average (with a
-        floor of 1e-12 so no error is zero).
+        floor of 1e-12 so no error is zero). A noisy value is clipped at 0: f_r is never
+        negative (``microsim.tables.validation``), and only bins whose average is within
+        the noise of 0 are clipped.
     rng : numpy.random.Generator or None
         Source of the noise (required when ``sigma_rel`` > 0).
     meta : TableMeta or None
@@ -332,7 +334,7 @@ def model_table(model: Model, theta_i: np.ndarray, bins: HemisphereBins,
     azimuths = np.zeros(1) if phi_i is None else np.asarray(phi_i, float)
     avg = bin_averages(model, Axes(bins, theta_i, azimuths, phi_i is None))
     err = sigma_rel * avg + 1e-12
-    values = avg + rng.standard_normal(avg.shape) * err if sigma_rel else avg
+    values = np.maximum(avg + rng.standard_normal(avg.shape) * err, 0.0) if sigma_rel else avg
     albedo = (values * bins.projected_solid_angle[None, None, :, :, None]).sum(axis=(2, 3))
     zeros = np.zeros_like(albedo)
     both = ("total", "single")

@@ -11,7 +11,7 @@ import pytest
 import microsim
 from microsim.errors import InputError
 from microsim.geometry import direction
-from microsim.tables import exr
+from microsim.tables import exr, validation
 from microsim.tables.assemble import from_sums, merge
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import write_table
@@ -199,7 +199,7 @@ def test_bad_files(tmp_path):
                  {"R": np.zeros((2, 2), np.float32)}).write(str(plain))
     with pytest.raises(InputError, match="not a microsim table"):
         microsim.read_table(plain)
-    assert exr.FORMAT_VERSION == 2 and exr.READ_VERSIONS == (1, 2)
+    assert exr.FORMAT_VERSION == 2 and validation.READ_VERSIONS == (1, 2)
 
 
 def test_eval_is_continuous_across_bins_and_the_azimuth_seam():

@@ -32,20 +32,16 @@ import numpy as np
 from microsim.errors import InputError, InputWarning
 from microsim.files import atomic_path
 from microsim.tables import wavelets
-from microsim.tables.binning import HemisphereBins
-from microsim.tables.estimator import RAYS
-from microsim.tables.meta import TableMeta
 from microsim.tables.table import BRDFTable
+from microsim.tables.validation import COLOURS, check_header, check_pixels, check_sh_header
 
 FORMAT_VERSION = 2
 """Written; 2 added the order components (1 held ``total`` and ``single``)."""
-READ_VERSIONS = (1, 2)
 ATTRIBUTE = "microsim"
 SH_ATTRIBUTE = "microsim_sh"
 SH_PART = "sh"
 WAVELET_ATTRIBUTE = "microsim_wavelet"
 WAVELET_PART = "wavelet"
-COLOURS = ("R", "G", "B")
 MAGIC = b"v/1\x01"
 """The first four bytes of every OpenEXR file."""
 MULTIPART = 0x1000
@@ -63,11 +59,6 @@ def _jsonable(x: Any) -> Any:
     if isinstance(x, float) and not math.isfinite(x):
         return None
     return x
-
-
-def _array(x: Any) -> np.ndarray:
-    """Inverse of ``_jsonable`` for numeric arrays: null becomes NaN."""
-    return np.array(x, dtype=float) if x is not None else np.nan
 
 
 def header_json(table: BRDFTable) -> dict[str, Any]:
@@ -147,22 +138,35 @@ def write_table(table: BRDFTable, path: str | Path) -> None:
     path : str or Path
         Target file; its folder is created if missing. A crash never leaves a partial
         file under this name, and an existing file is replaced only by a complete one.
+
+    Raises
+    ------
+    InputError
+        If ``read_table`` would refuse the file (``microsim.tables.validation``: e.g. a
+        value or albedo that is not finite); nothing is written.
     """
     import OpenEXR
 
     a, b = table.rays.shape
     nt, np_ = table.bins.shape
     channels = _channels(table.values, table.errors, a * b * nt)
+    info = header_json(table)
+    # what is written is what read_table reads: a table it would refuse is not written
+    refused = f"{path}: not written"
+    check_header(info, refused)
+    check_pixels(channels, table.components, a * b * nt, np_, refused)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
-              ATTRIBUTE: json.dumps(header_json(table))}
+              ATTRIBUTE: json.dumps(info)}
     # every part of a multi-part file shares the display window
     window = (np.array([0, 0], np.int32), np.array([np_ - 1, a * b * nt - 1], np.int32))
     parts = [OpenEXR.Part(header, channels, "table")]
     if table.sh is not None and table.sh_err is not None:
+        sh_channels = _channels(table.sh, table.sh_err, a * b)
+        check_pixels(sh_channels, table.components, a * b, (table.sh_order + 1) ** 2,
+                     refused, harmonics=True)
         sh_header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
                      SH_ATTRIBUTE: json.dumps(sh_header_json(table)), "displayWindow": window}
-        parts.append(OpenEXR.Part(sh_header, _channels(table.sh, table.sh_err, a * b),
-                                  SH_PART))
+        parts.append(OpenEXR.Part(sh_header, sh_channels, SH_PART))
     if table.wavelets is not None:
         wavelet_header = {"compression": OpenEXR.ZIP_COMPRESSION,
                           "type": OpenEXR.scanlineimage, "displayWindow": window,
@@ -216,7 +220,8 @@ def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
     Raises
     ------
     InputError
-        If the file is missing, not OpenEXR, damaged, or not a microsim table.
+        If the file is missing, not OpenEXR, damaged, not a microsim table, or its
+        header or pixels are not those of a valid table (``microsim.tables.validation``).
     """
     import OpenEXR
 
@@ -250,35 +255,23 @@ def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
         warnings.warn(f"{message}; reading the bins only", InputWarning, stacklevel=2)
     if ATTRIBUTE not in header:
         raise InputError(f"{path}: not a microsim table (no '{ATTRIBUTE}' attribute)")
-    try:
-        info = json.loads(header[ATTRIBUTE])
-    except (TypeError, json.JSONDecodeError):
-        raise InputError(f"{path}: the '{ATTRIBUTE}' attribute is not JSON") from None
-    if not isinstance(info, dict) or info.get("format_version") not in READ_VERSIONS:
-        version = info.get("format_version") if isinstance(info, dict) else None
-        raise InputError(f"{path}: table format version {version!r}; this microsim "
-                         f"reads versions {', '.join(map(str, READ_VERSIONS))}")
-    if info["format_version"] == 1:
-        # format 1: the components total and single; single is stored as order1 now
-        stored = ("total", "single")
-        albedo = {"total": info["albedo"], "single": info["single_albedo"]}
-        albedo_err = {"total": info["albedo_err"], "single": info["single_albedo_err"]}
-    else:
-        stored = tuple(info["components"])
-        albedo = {"total": info["albedo"], **info["order_albedo"]}
-        albedo_err = {"total": info["albedo_err"], **info["order_albedo_err"]}
-    axes = info["axes"]
-    bins = HemisphereBins.from_dict(axes)
-    shape = tuple(info["layout"]["shape"]) + (3,)
+    info = _parse_json(header[ATTRIBUTE], path, ATTRIBUTE)
+    checked = check_header(info, path)
+    stored, shape = checked["components"], checked["shape"]
+    a, b, nt, np_ = shape
+    check_pixels(pixels, stored, a * b * nt, np_, path)
 
     def load(name: str, source: dict[str, np.ndarray] = pixels,
              shape: tuple[int, ...] = shape) -> np.ndarray:
         return np.stack([source[f"{name}.{k}"] for k in COLOURS], axis=-1).astype(
-            float).reshape(shape)
+            float).reshape(shape + (3,))
 
     sh = sh_err = None
     if SH_ATTRIBUTE in sh_header:
-        sh_shape = tuple(shape[:2]) + (json.loads(sh_header[SH_ATTRIBUTE])["coefficients"], 3)
+        coefficients = check_sh_header(_parse_json(sh_header[SH_ATTRIBUTE], path,
+                                                   SH_ATTRIBUTE), path, shape)
+        check_pixels(sh_pixels, stored, a * b, coefficients, path, harmonics=True)
+        sh_shape = (a, b, coefficients)
         sh = {c: load(c, sh_pixels, sh_shape) for c in stored}
         sh_err = {c: load(f"{c}_err", sh_pixels, sh_shape) for c in stored}
     wavelet_header, wavelet_pixels = parts.get(WAVELET_PART, ({}, {}))
@@ -286,24 +279,32 @@ def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
     if WAVELET_ATTRIBUTE in wavelet_header:
         try:
             stored_wavelets = wavelets.from_part(
-                json.loads(wavelet_header[WAVELET_ATTRIBUTE]),
-                wavelet_pixels, stored, tuple(shape[:2]))
+                _parse_json(wavelet_header[WAVELET_ATTRIBUTE], path, WAVELET_ATTRIBUTE),
+                wavelet_pixels, stored, (a, b))
         except ValueError as exc:
             raise InputError(f"{path}: wavelet part: {exc}") from None
 
     return BRDFTable(
-        bins, _array(axes["theta_i"]["values"]), _array(axes["phi_i"]["values"]),
-        info["isotropic"],
+        checked["bins"], checked["theta_i"], checked["phi_i"], checked["isotropic"],
         {c: load(c) for c in stored}, {c: load(f"{c}_err") for c in stored},
-        np.array(info["rays"], np.int64),
-        {c: _array(albedo[c]) for c in stored}, {c: _array(albedo_err[c]) for c in stored},
-        _array(info["lost_energy"]), TableMeta.from_json(info["meta"]), sh=sh, sh_err=sh_err,
-        # tables written before realisations existed carry ray errors
-        error_model=info.get("error_model", RAYS), realisations=info.get("realisations"),
-        dof=_components(info.get("dof")), inflation=_components(info.get("inflation")),
-        wavelets=stored_wavelets)
+        checked["rays"], checked["albedo"], checked["albedo_err"], checked["lost_energy"],
+        checked["meta"], sh=sh, sh_err=sh_err, error_model=checked["error_model"],
+        realisations=checked["realisations"], dof=checked["dof"],
+        inflation=checked["inflation"], wavelets=stored_wavelets)
 
 
-def _components(x: Any) -> dict[str, np.ndarray] | None:
-    """A per-component JSON entry as arrays (None stays None)."""
-    return None if x is None else {c: _array(v) for c, v in x.items()}
+def _parse_json(text: Any, path: Path, attribute: str) -> Any:
+    """A JSON string attribute of a table file, parsed.
+
+    Raises
+    ------
+    InputError
+        If it is not JSON, nests too deeply or holds a number Python refuses to read
+        (an integer of more than 4300 digits).
+    """
+    try:
+        return json.loads(text)
+    except (TypeError, ValueError, RecursionError):
+        raise InputError(f"{path}: the '{attribute}' attribute is not JSON that this "
+                         "microsim reads (malformed, nested too deeply or with a number "
+                         "too long)") from None
