@@ -21,12 +21,13 @@ from __future__ import annotations
 
 import copy
 import tomllib
+import warnings
 from collections.abc import Iterable, Mapping
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from microsim.errors import InputError
+from microsim.errors import InputError, InputWarning
 from microsim.materials import MATERIALS, Material, parse_material
 from microsim.schema import (
     REQUIRED,
@@ -158,6 +159,7 @@ def _simulation(raw: Any, surface: Mapping[str, Any]) -> Simulation:
                          "(every realisation would be the same tile); raise "
                          "simulation.rays instead")
     sim["realisations"] = given if given is not None else (default or 1)
+    _check_rays_per_realisation(sim, given is None and default is not None)
     if sim.get("max_realisations", sim["realisations"]) < sim["realisations"]:
         raise InputError(f"simulation.max_realisations = {sim['max_realisations']!r}: must "
                          f"be >= simulation.realisations = {sim['realisations']}")
@@ -166,6 +168,35 @@ def _simulation(raw: Any, surface: Mapping[str, Any]) -> Simulation:
                          f"be 1 for this {surface['kind']} surface, whose geometry has "
                          "nothing random")
     return Simulation.from_json(sim)
+
+
+MIN_RAYS_PER_REALISATION = 2
+"""Rays each realisation traces at least: the ray variance of a bin within a realisation
+(the ray share of its error, and a table of one realisation's error) is estimated from
+them, with rays − 1 degrees of freedom; one ray per realisation would leave every error
+undefined (NaN)."""
+
+
+def _check_rays_per_realisation(sim: dict[str, Any], default: bool) -> None:
+    """Refuse ``simulation.rays`` below ``MIN_RAYS_PER_REALISATION`` per realisation; when
+    the realisations are the generator's default (``default``), lower them instead, with
+    a warning."""
+    rays, k = sim["rays"], sim["realisations"]
+    least = MIN_RAYS_PER_REALISATION * k
+    if rays >= least:
+        return
+    if default and rays >= MIN_RAYS_PER_REALISATION:
+        lowered = rays // MIN_RAYS_PER_REALISATION
+        warnings.warn(f"simulation.realisations: {lowered} instead of the generator's "
+                      f"default {k}, so that simulation.rays = {rays} gives each realisation "
+                      f"{MIN_RAYS_PER_REALISATION} rays or more (fewer leave its ray variance "
+                      "undefined)", InputWarning, stacklevel=2)
+        sim["realisations"] = lowered
+        return
+    raise InputError(f"simulation.rays = {rays}: must be >= {least} "
+                     f"({MIN_RAYS_PER_REALISATION} per realisation, simulation.realisations "
+                     f"= {k}; fewer leave the errors undefined)"
+                     + ("; raise the rays or lower the realisations" if k > 1 else ""))
 
 
 # --- loading and overrides --------------------------------------------------------------

@@ -46,6 +46,9 @@ class Key:
         Allowed values of a ``"str"`` key (empty: any string).
     length : int or None
         Required list length for ``"floats"`` (None: any non-empty length).
+    increasing : bool
+        A ``"floats"`` list must be strictly increasing (its values distinct), as the
+        axes of a table are.
     """
 
     kind: str
@@ -58,6 +61,7 @@ class Key:
     high_open: bool = False
     choices: tuple[str, ...] = ()
     length: int | None = None
+    increasing: bool = False
 
     def allowed(self) -> str:
         """Describe the allowed values in words, for error messages and docs."""
@@ -85,6 +89,8 @@ class Key:
             what += " " + " and ".join(bounds)
         if self.unit == "deg":
             what += " (degrees)"
+        if self.increasing:
+            what += ", distinct and increasing"
         return what
 
 
@@ -197,7 +203,10 @@ def check_value(value: Any, name: str, key: Key) -> Any:
     want = {"rgb": 3, "pair": 2}.get(key.kind, key.length)
     if want is not None and len(value) != want:
         raise bad
-    return [_number(v, f"{name}[{i}]", key) for i, v in enumerate(value)]
+    numbers = [_number(v, f"{name}[{i}]", key) for i, v in enumerate(value)]
+    if key.increasing and any(b <= a for a, b in zip(numbers, numbers[1:], strict=False)):
+        raise bad
+    return numbers
 
 
 def check_section(raw: Mapping[str, Any], keys: Mapping[str, Key], where: str) -> dict:

@@ -50,10 +50,10 @@ class Simulation:
 
     theta_i: tuple[float, ...] = key("floats", [0.0, 30.0, 60.0, 80.0],
                                      "Incident polar angles.", unit="deg", low=0.0,
-                                     high=90.0, high_open=True)
+                                     high=90.0, high_open=True, increasing=True)
     phi_i: tuple[float, ...] = key("floats", [0.0], "Incident azimuths (used for "
                                    "anisotropic surfaces).", unit="deg", low=0.0,
-                                   high=360.0, high_open=True)
+                                   high=360.0, high_open=True, increasing=True)
     rays: int = key("int", 200_000, "Rays launched per incident direction, over all "
                     "realisations (each traces rays / realisations, rounded up).", low=1,
                     high=10**10)

@@ -12,6 +12,11 @@ from microsim.materials.base import Material, kernel
 from microsim.materials.optics import fresnel_conductor, reflect
 from microsim.schema import key
 
+ETA_MAX = 100.0
+"""Largest η and k a conductor takes, as the analytic models' (``microsim.analytic.
+registry``): measured metals lie far below it in the visible and near infrared, and far
+above it the Fresnel terms overflow float64 (η = 1e100 gave NaN reflectance)."""
+
 
 @kernel
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
@@ -37,10 +42,10 @@ class Conductor(Material):
     eta: tuple[float, float, float] = key(
         "rgb", [0.2, 0.92, 1.1], "Real part of the complex index of refraction (R, G, B) "
         "relative to the medium in front of the faces (air, or a paint's binder: divide by "
-        "its eta, as for k); default gold in air.", low=0.0, low_open=True)
+        "its eta, as for k); default gold in air.", low=0.0, low_open=True, high=ETA_MAX)
     k: tuple[float, float, float] = key("rgb", [3.9, 2.45, 2.14],
                                         "Extinction coefficient (R, G, B); default gold.",
-                                        low=0.0)
+                                        low=0.0, high=ETA_MAX)
 
     def parameters(self) -> tuple[float, ...]:
         """η (R, G, B), then k (R, G, B)."""

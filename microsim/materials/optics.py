@@ -63,7 +63,9 @@ def fresnel_conductor(cos_i: float, eta: float, k: float) -> float:
     a = math.sqrt(max(0.5 * (a2b2 + t0), 0.0))
     t1 = a2b2 + c2
     t2 = 2.0 * c * a
-    r_s = (t1 - t2) / (t1 + t2)
+    # t1 + t2 = 0 only at grazing incidence on a non-interface (eta = 1, k = 0): F = 1 there
+    # as at every other grazing incidence
+    r_s = (t1 - t2) / (t1 + t2) if t1 + t2 > 0.0 else 1.0
     t3 = c2 * a2b2 + s2 * s2
     t4 = t2 * s2
     r_p = r_s * (t3 - t4) / (t3 + t4)
