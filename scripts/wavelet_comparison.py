@@ -79,20 +79,37 @@ def measure(path: Path, wavelet: str, steps: int) -> dict[str, Any]:
     return json.loads(out)
 
 
-def cell(result: dict[str, Any], basis: str, target: float) -> str:
-    """``kept / bytes`` to reach ``target``, or the floor where it is not reached."""
+def cost(result: dict[str, Any], basis: str, target: float) -> tuple[int, int] | None:
+    """Coefficients per incidence and colour, and bytes for the whole table, to reach
+    ``target`` (None where it is not reached)."""
     k = needed(result[basis], target)
     if k is None:
+        return None
+    return k, result["bytes"][basis][[c for c, _ in result[basis]].index(k)]
+
+
+def cell(result: dict[str, Any], basis: str, target: float) -> str:
+    """``kept / bytes`` to reach ``target``, or the floor where it is not reached."""
+    reached = cost(result, basis, target)
+    if reached is None:
         return f"— (floor {100 * result[basis][-1][1]:.1f} %)"
-    size = result["bytes"][basis][[c for c, _ in result[basis]].index(k)]
-    return f"{k} / {size / 1024:.1f} KiB"
+    return f"{reached[0]} / {reached[1] / 1024:.1f} KiB"
+
+
+def fewest_bytes(by_wavelet: dict[str, dict[str, Any]], target: float) -> str:
+    """The basis that reaches ``target`` in the fewest bytes ("none" if none does)."""
+    first = by_wavelet[WAVELETS[0]]
+    costs = {"harmonics": cost(first, "sh", target)} | {
+        w: cost(by_wavelet[w], "wavelet", target) for w in WAVELETS}
+    reached = {name: c[1] for name, c in costs.items() if c is not None}
+    return min(reached, key=reached.get) if reached else "none"
 
 
 def section(results: dict[str, dict[str, dict[str, Any]]], steps: int) -> str:
     """The Markdown comparison."""
     head = ("| case | θi (φi) | table noise | target | harmonics | "
-            + " | ".join(WAVELETS) + " |")
-    lines = [head, "|" + " --- |" * (5 + len(WAVELETS))]
+            + " | ".join(WAVELETS) + " | fewest bytes |")
+    lines = [head, "|" + " --- |" * (6 + len(WAVELETS))]
     for name, by_wavelet in results.items():
         first = by_wavelet[WAVELETS[0]]
         angles = ", ".join(sorted({f"{r['theta_i']:.0f}" for r in first["per_incidence"]},
@@ -106,7 +123,7 @@ def section(results: dict[str, dict[str, dict[str, Any]]], steps: int) -> str:
             cells = [cell(first, "sh", target)] + [cell(by_wavelet[w], "wavelet", target)
                                                    for w in WAVELETS]
             lines.append(f"| {' | '.join(label)} | {100 * target:g} % | "
-                         + " | ".join(cells) + " |")
+                         + " | ".join(cells) + f" | {fewest_bytes(by_wavelet, target)} |")
     first = next(iter(results.values()))[WAVELETS[0]]
     return "\n".join([
         f"Measured by `python scripts/wavelet_comparison.py --write` (each table made with "
