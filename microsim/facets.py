@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from microsim.memory import check_memory
 from microsim.settings import Recipe
 from microsim.surfaces import build_tile
 from microsim.surfaces.facts import SurfaceFacts
@@ -23,6 +24,11 @@ from microsim.tables.estimator import ENSEMBLE, combine
 
 SUB_TILES = 4
 """Sub-tiles per side of each realisation's own error estimate."""
+NDF_BYTES_PER_BIN = (240, 160)
+"""Memory of an NDF histogram per θh bin: a fixed part (one tile's sub-tile histograms
+and their shares) and a part per realisation (its histogram, kept until they are pooled);
+measured 216 B per bin for one realisation and 624 B for four (200 000 bins, tracemalloc
+peak), rounded up."""
 SUB_TILES_MODEL = "sub-tiles"
 """Error model of one realisation's histogram: the scatter of its sub-tiles."""
 
@@ -74,6 +80,10 @@ def measure_ndf_recipe(recipe: Recipe, bins: int, memory_limit_gib: float | None
     NdfMeasurement
     """
     k = recipe.simulation.realisations_or_one
+    fixed, per_realisation = NDF_BYTES_PER_BIN
+    check_memory(bins * (fixed + per_realisation * k), f"--bins {bins}: the NDF histograms "
+                 f"of {k} realisation{'s' if k > 1 else ''}", "use fewer bins (30 to 1000 "
+                 "resolve any lobe)", memory_limit_gib)
     histograms, facts, theta_max = [], [], None
     for r in range(k):
         tile = build_tile(realisation(recipe.surface, r), memory_limit_gib)

@@ -246,6 +246,9 @@ SWEEP = str(ROOT / "scripts" / "sweep-roughness.toml")
         (["measure", "g1", GAUSSIAN, "--memory-limit", "0.01"], "0.01 GiB limit"),
         (["measure", "ndf", GAUSSIAN, "--memory-limit", "0.01"], "0.01 GiB limit"),
         (["batch", SWEEP, "-o", "{tmp}/b", "--memory-limit", "0.01"], "point alpha=0.1_kind=mirror: surface: this tile"),
+        (["measure", "ndf", GAUSSIAN, "--set", "surface.resolution=32", "--bins", "100000000"], "--bins 100000000"),
+        (["view", GAUSSIAN, "--set", "surface.resolution=32", "--tiles", "1000", "--screenshot", "{tmp}/v.png"], "--tiles 1000"),
+        (["export", "{table}", "--format", "merl", "--memory-limit", "0.1", "-o", "{tmp}/x.binary"], "--format merl"),
     ],
 )
 def test_memory_guard_refuses_before_the_work(cli, capsys, small_table, tmp_path, monkeypatch,
@@ -256,7 +259,8 @@ def test_memory_guard_refuses_before_the_work(cli, capsys, small_table, tmp_path
     # own reference), the cluster and the exporter
     for trap in ("microsim.trace.PeriodicScene", "microsim.masking.PeriodicScene",
                  "microsim.simulation.PeriodicScene", "microsim.commands.batch.dask_client",
-                 "microsim.tables.export.write_rgl"):
+                 "microsim.tables.export.write_rgl", "microsim.tables.export.write_merl",
+                 "microsim.view.show_tile"):
         monkeypatch.setattr(trap, _no_work)
     code, _, err = cli(*[a.format(table=small_table, tmp=tmp_path) for a in argv])
     line = one_error_line(code, err, needle, "--memory-limit")
@@ -267,6 +271,15 @@ def test_memory_guard_refuses_before_the_work(cli, capsys, small_table, tmp_path
     with pytest.raises(SystemExit):
         cli(*command, "--help")
     assert "--memory-limit" in capsys.readouterr().out
+
+
+def test_memory_guard_bounds_the_walks_of_a_monte_carlo_model(cli, small_table):
+    """beckmann-ms with 10^8 walks per bin asked for 191 GiB; refused before a walk."""
+    code, _, err = cli("compare", str(small_table), "--model",
+                       "beckmann-ms:samples=100000000")
+    line = one_error_line(code, err, "samples = 100000000", "lower the model's samples",
+                          "$MICROSIM_MEMORY_LIMIT")
+    assert "needs about" in line
 
 
 def test_second_batch_on_a_locked_folder_stops_before_a_cluster(cli, tmp_path, monkeypatch):

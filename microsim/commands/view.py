@@ -24,6 +24,10 @@ PATH_BYTES = 128_000
 """Memory per drawn ray path (its tracing and its line in the 3D view): measured 105 kB
 (20 000 paths over a 64² tile, peak resident memory less the view without paths),
 rounded up. The memory guard bounds ``--rays`` with it before anything is traced."""
+FACE_BYTES = 200
+"""Memory per drawn triangle (the repeated tile's points, cells and cell arrays, and VTK's
+copies for drawing): measured 146 B (a 64² tile drawn 20 × 20 times, peak resident
+memory less that of one copy), rounded up. The memory guard bounds ``--tiles`` with it."""
 
 
 period_pair = number_list(2, low=0.0, low_open=True, what="LX,LY (two positive numbers)")
@@ -165,6 +169,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"{source}: must be a recipe (.toml), a mesh (.ply, .obj, .stl) "
                          "or a table (.exr)")
     tile = build_tile(surface, args.memory_limit)
+    check_memory(FACE_BYTES * len(tile.faces) * args.tiles**2, f"--tiles {args.tiles}: "
+                 f"drawing {args.tiles}² copies of the tile's {len(tile.faces):,} triangles",
+                 "draw fewer copies (3, the default, shows the periodicity)", args.memory_limit)
     paths = None
     if args.rays is not None:
         from microsim.view import ray_paths
