@@ -245,6 +245,10 @@ FLAGS = {
     "--resolution": ["1", "2", "16", "1e9", "x"],
     "--orders": ["0", "2,4", "99", "-1", "x"],
     "--window": ["none", "hanning", "boxcar"],
+    "--wavelet": ["haar", "db2", "bior2.2", "dmey", "x"],
+    "--keep": ["0", "1", "5", "1e9", "x"],
+    "--steps": ["0", "1", "3", "x"],
+    "--basis": ["table", "sh", "wavelet", "x"],
 }
 COMMANDS = {
     "simulate": (["--rays", "--seed", "--threads", "--target-error", "--max-rays",
@@ -257,6 +261,9 @@ COMMANDS = {
     "export": (["--format", "--component", "--resolution", "--memory-limit"], ".npz"),
     "sh": (["--orders", "--window", "--component"], None),
     "view": (["--theta-i", "--model", "--memory-limit"], ".png"),
+    "wavelets": (["--target-error", "--keep", "--component", "--resolution", "--wavelet",
+                  "--steps"], ".exr"),
+    "eval": (["--basis", "--component"], None),
 }
 
 
@@ -296,6 +303,8 @@ def test_flags_and_output_paths_exit_0_or_2(cli, fuzz_table, data, command, wher
             "export": ["export", str(fuzz_table), "-o", out],
             "sh": ["sh", str(fuzz_table), "--json"],
             "view": ["view", str(fuzz_table), "--screenshot", out],
+            "wavelets": ["wavelets", str(fuzz_table), "--json", "--store", out],
+            "eval": ["eval", str(fuzz_table), "--wi", "30,0", "--wo", "30,180", "--json"],
         }[command]
         if command in ("simulate", "measure g1") and "--rays" not in flags:
             argv += ["--rays", "100"]  # small work unless the rays are under test

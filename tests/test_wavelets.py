@@ -149,21 +149,24 @@ and the error never grows with the count."""
         assert dropped <= pixel_solid_angle(n) * float(((c - coarsest) ** 2).sum()) * (
             1 + 1e-12)
         errors.append(error2)
-    assert all(later <= earlier * (1 + 1e-12) for earlier, later in zip(errors, errors[1:]))
+    assert all(later <= earlier * (1 + 1e-12) for earlier, later in
+               zip(errors, errors[1:], strict=False))
     assert errors[-1] < 1e-20 * errors[0]
 
 
 def test_kept_for_a_target_is_the_fewest_that_reach_it() -> None:
     """``kept_for``: its count reaches the target relative L2 error, one fewer does not."""
     c = np.random.default_rng(5).normal(size=(4, 256)) * np.geomspace(1, 1e-3, 256)
+    rank = wavelets.ranks(c)
+
+    def rel(row: int, count: int) -> float:
+        kept = compression.keep_largest(c[row], rank[row], count)
+        return math.sqrt(((c[row] - kept) ** 2).sum() / (c[row] ** 2).sum())
+
     for target in (0.3, 0.05, 0.001):
         k = wavelets.kept_for(c, target)
-        rank = wavelets.ranks(c)
         for row in range(4):
-            def rel(count: int, row: int = row) -> float:
-                kept = compression.keep_largest(c[row], rank[row], count)
-                return math.sqrt(((c[row] - kept) ** 2).sum() / (c[row] ** 2).sum())
-            assert rel(k[row]) <= target < rel(k[row] - 1)
+            assert rel(row, k[row]) <= target < rel(row, k[row] - 1)
 
 
 def test_a_constant_brdf_evaluates_exactly_from_its_wavelets() -> None:
@@ -276,9 +279,9 @@ def test_stored_wavelets_survive_the_file_and_eval_reads_them(cli, lobe_file: Pa
     (["wavelets", "{t}", "--store", "{o}", "--target-error", "0"], "--target-error 0.0: must be > 0"),
     (["wavelets", "{t}", "--store", "{o}", "--target-error", "-0.5"], "--target-error -0.5: must be > 0"),
     (["wavelets", "{t}", "--target-error", "0.1"], "give --store EXR"),
-    (["wavelets", "{t}", "--wavelet", "bior2.2"], "--wavelet wavelet 'bior2.2' is not orthogonal"),
-    (["wavelets", "{t}", "--wavelet", "nope"], "--wavelet wavelet 'nope'"),
-    (["wavelets", "{t}", "--resolution", "100"], "--resolution resolution 100"),
+    (["wavelets", "{t}", "--wavelet", "bior2.2"], "--wavelet 'bior2.2': not of the orthogonal families"),
+    (["wavelets", "{t}", "--wavelet", "nope"], "--wavelet 'nope': not a discrete wavelet"),
+    (["wavelets", "{t}", "--resolution", "100"], "--resolution 100: must be a power of two"),
     (["eval", "{t}", "--wi", "0,0", "--wo", "10,0", "--basis", "wavelet"], "--basis wavelet: "),
     (["eval", "{t}", "--wi", "0,0", "--wo", "10,0", "--basis", "haar"], "--basis"),
 ])

@@ -80,9 +80,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         wavelets.wavelet_of(args.wavelet)
         wavelets.check_resolution(args.resolution)
-    except ValueError as exc:
-        flag = "--wavelet" if "wavelet" in str(exc) else "--resolution"
-        raise InputError(f"{flag} {exc}") from None
+    except ValueError as exc:  # "wavelet NAME: ..." or "resolution N: ..."
+        raise InputError(f"--{exc}") from None
     if args.store is not None:
         writable_file(args.store, "--store", (".exr",))
     table = microsim.read_table(args.table)

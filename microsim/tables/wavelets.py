@@ -67,8 +67,8 @@ def wavelet_of(name: str) -> Any:
                          "use an orthogonal one: haar, db1..db38, sym2..sym20, coif1..coif17")
     wavelet = pywt.Wavelet(name)
     if wavelet.short_family_name not in FAMILIES or not wavelet.orthogonal:
-        raise ValueError(f"wavelet {name!r} is not orthogonal (its transform is not "
-                         "orthonormal); use haar, db<N>, sym<N> or coif<N>")
+        raise ValueError(f"wavelet {name!r}: not of the orthogonal families haar, db<N>, "
+                         "sym<N>, coif<N> (a biorthogonal transform is not orthonormal)")
     return wavelet
 
 
