@@ -207,3 +207,25 @@ def test_live_refuses_what_does_not_fit_the_memory_guard(cli, recipe_file, tmp_p
     code, _, err = cli("render", str(recipe_file), "--live", "-o", str(tmp_path / "x.png"),
                        *LIGHTS)
     assert code == 2 and err.startswith("error: ") and "GiB" in err, err
+
+
+def test_a_render_reports_its_passes():
+    """A render of 40 samples per pixel is taken in passes of 16, 16 and 8, each reported
+    with the samples done; the image is their mean (its per-pixel error from all 40:
+    tests/test_render.py checks that error's calibration)."""
+    pytest.importorskip("mitsuba")
+    from microsim.render import backend, objects, scene
+
+    mi = backend.load("scalar_rgb")
+    white = mi.load_dict({"type": "diffuse", "reflectance": {"type": "rgb",
+                                                             "value": [1.0, 1.0, 1.0]}})
+    seen: list[tuple[int, int]] = []
+    image = scene.render(mi, objects.sphere(), white, scene.Camera(16, 12),
+                         [("sky", {"radiance": 0.25})], 40, 0,
+                         lambda done, total: seen.append((done, total)))
+    assert seen == [(16, 40), (32, 40), (40, 40)]
+    lit = image.alpha > 0.999
+    # a white diffuse convex object under a constant sky of radiance 0.25 reflects 0.25:
+    # the lit pixels' mean within 4 standard errors from their own errors
+    y, err = image.luminance[lit], image.luminance_err[lit]
+    assert abs(y.mean() - 0.25) < 4 * np.sqrt(np.sum(err**2)) / lit.sum(), y.mean()

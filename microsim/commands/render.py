@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import sys
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -137,12 +140,14 @@ def run(args: argparse.Namespace) -> int:
     camera = scene.Camera(args.size[0], args.size[1], args.camera[0], args.camera[1],
                           args.fov[0])
     rows, report = [], []
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, progress_bar(
+            sys.stderr.isatty() and not args.json) as track:
         for k, (path, table) in enumerate(zip(args.tables, tables, strict=True)):
             label = Path(path).stem
             bsdf = bsdfs.table_bsdf(mi, table, Path(tmp) / f"{k}.bsdf", components[k],
                                     args.rotate)
-            image = scene.render(mi, surface, bsdf, camera, lights, args.spp, args.seed)
+            image = scene.render(mi, surface, bsdf, camera, lights, args.spp, args.seed,
+                                 track(f"rendering {label}"))
             entry: dict[str, Any] = {"table": str(path), "seconds": image.seconds,
                                      "noise": _noise(image)}
             panels = [("table" if models else label, figure.display(image))]
@@ -154,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
                     "scalar") else None
                 bsdf, how = bsdfs.model_bsdf(mi, model, args.rotate, tabulate)
                 other = scene.render(mi, surface, bsdf, camera, lights, args.spp,
-                                     args.seed + 1)
+                                     args.seed + 1, track(f"rendering {name}"))
                 diff = figure.difference(image, other)
                 entry.update(model=name, params=params, mitsuba=how,
                              model_seconds=other.seconds, difference={
@@ -215,20 +220,23 @@ def run_live(args: argparse.Namespace) -> int:
     mi = backend.load(args.variant)
     k = int(resolved.simulation.realisations)
     threads = 1 if args.variant.startswith("scalar") else None
+    show = sys.stderr.isatty() and not args.json
     with live.LiveSurface(resolved, k, Tiles(resolved.surface), args.seed,
                           threads) as sampler:
-        if args.table is None:
-            table, table_name = simulate_resolved(resolved, None, False), "simulated"
+        if args.table is None:  # with its own progress bar
+            table, table_name = simulate_resolved(resolved, None, show), "simulated"
         else:
             table, table_name = microsim.read_table(args.table), str(args.table)
         camera = scene.Camera(args.size[0], args.size[1], args.camera[0], args.camera[1],
                               args.fov[0])
-        with tempfile.TemporaryDirectory() as tmp:
+        with tempfile.TemporaryDirectory() as tmp, progress_bar(show) as track:
             bsdf = bsdfs.table_bsdf(mi, table, Path(tmp) / "table.bsdf", "total",
                                     args.rotate)
-            tabled = scene.render(mi, surface, bsdf, camera, lights, args.spp, args.seed)
-        traced = scene.render(mi, surface, live.live_bsdf(mi, sampler, args.rotate),
-                              camera, lights, args.spp, args.seed + 1)
+            tabled = scene.render(mi, surface, bsdf, camera, lights, args.spp, args.seed,
+                                  track("rendering the table"))
+            traced = scene.render(mi, surface, live.live_bsdf(mi, sampler, args.rotate),
+                                  camera, lights, args.spp, args.seed + 1,
+                                  track("rendering the live surface"))
         samples, segments = sampler.samples, sampler.segments
     diff = figure.difference(traced, tabled)
     label = Path(args.tables[0]).stem
@@ -269,6 +277,43 @@ def run_live(args: argparse.Namespace) -> int:
     print(f"wrote {args.output} ({args.size[0]}x{args.size[1]}, {args.spp} spp, "
           f"{surface.name})")
     return 0
+
+
+class _Tracker:
+    """Callbacks of one rich progress bar per render (``scene.render``'s ``progress``)."""
+
+    def __init__(self, bar: Any) -> None:
+        self.bar = bar
+
+    def __call__(self, label: str) -> Any:
+        if self.bar is None:
+            return None
+        task = self.bar.add_task(label, total=None)
+        return lambda done, total: self.bar.update(task, completed=done, total=total)
+
+
+@contextlib.contextmanager
+def progress_bar(enabled: bool) -> Iterator[_Tracker]:
+    """A rich progress display on stderr (one bar per render: samples per pixel done,
+    elapsed time and ETA) where ``enabled``; its tracker gives each render's callback (None
+    without a display)."""
+    if not enabled:
+        yield _Tracker(None)
+        return
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        Progress,
+        TaskProgressColumn,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    with Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
+                  TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+                  console=Console(stderr=True)) as bar:
+        yield _Tracker(bar)
 
 
 def _z(value: float, err: float) -> float | None:

@@ -26,7 +26,7 @@ moment of every pixel's luminance, so each pixel carries its own standard error.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -41,6 +41,8 @@ from microsim.render.objects import RADIUS, Surface, corner_arrays
 from microsim.schema import Key, check_section, suggest
 
 MAX_DEPTH = 4
+PASS_SPP = 16
+"""Samples per pixel of one pass of a render (``render``): a progress report after each."""
 SUN_DISTANCE = 1000.0
 """Distance of a sun of finite size (``radius``), in units of the object (radius 1.45):
 its direction varies by under 0.1° over the object."""
@@ -217,13 +219,28 @@ class Image:
 
 
 def render(mi: Any, surface: Surface, bsdf: Any, camera: Camera,
-           lights: Sequence[tuple[str, dict[str, Any]]], spp: int, seed: int = 0) -> Image:
-    """Render ``surface`` with ``bsdf`` and return the image with per-pixel errors."""
+           lights: Sequence[tuple[str, dict[str, Any]]], spp: int, seed: int = 0,
+           progress: Callable[[int, int], None] | None = None) -> Image:
+    """Render ``surface`` with ``bsdf`` and return the image with per-pixel errors.
+
+    The samples are taken in passes of at most ``PASS_SPP`` per pixel, pass k seeded from
+    ``SeedSequence(seed, spawn_key=(k,))``; the image is their mean and its second moment
+    theirs, so it is one render of ``spp`` samples, the same whether or not anyone
+    watches. ``progress(done, spp)`` is called after every pass.
+    """
     import time
 
     sc = scene(mi, surface, bsdf, camera, lights, spp, seed)
     start = time.perf_counter()
-    data = np.array(mi.render(sc), dtype=float)
+    total = None
+    for k, first in enumerate(range(0, spp, PASS_SPP)):
+        n = min(PASS_SPP, spp - first)
+        pass_seed = int(np.random.SeedSequence(seed, spawn_key=(k,)).generate_state(1)[0])
+        data = np.array(mi.render(sc, seed=pass_seed, spp=n), dtype=float) * n
+        total = data if total is None else total + data
+        if progress is not None:
+            progress(first + n, spp)
+    data = total / spp
     seconds = time.perf_counter() - start
     # channels: R, G, B, A, nested.X, .Y, .Z, m2_nested.X, .Y, .Z (moments in CIE XYZ)
     y, y2 = data[..., 5], data[..., 8]
