@@ -179,8 +179,10 @@ def print_summary(s: dict[str, Any]) -> None:
               + "".join(f"{v[k].mean():9.5f}" for v in orders.values())
               + f" {s['lost_energy'][k].mean():9.2e} {_percent(s['ray_share'][k]):>9}  "
               f"{s['stop'][k]}")
-    print("(tiles: surface realisations averaged; ray share: the rays' part of the "
-          "variance of the lobe bins, the rest is the spread between tiles)")
+    print("(tiles: surface realisations averaged; albedo, orders and lost: means over R, "
+          "G and B, --json gives each; ray share: the rays' part of the variance of the "
+          "lobe bins, the rest is the spread between tiles, above 100% where the tiles "
+          "spread less than their rays' noise predicts, a ratio of two noisy variances)")
     roughness = roughness_text(SurfaceFacts.from_json(s["surface"]))
     if roughness:
         print(f"surface: {roughness}")
