@@ -16,11 +16,12 @@ import argparse
 import json
 import os
 import platform
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from microsim.bench import run_child
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "render.md"
@@ -39,11 +40,8 @@ def run(recipe: str, sets: list[str], folder: str) -> dict:
             "--live", "-o", str(Path(folder) / "live.png"), *RENDER]
     for s in sets:
         argv += ["--set", s]
-    start = time.perf_counter()
-    done = subprocess.run(argv, capture_output=True, text=True, check=True)
-    report = json.loads(done.stdout)
-    report["command_s"] = time.perf_counter() - start
-    return report
+    child = run_child(argv)
+    return {**json.loads(child.stdout), "command_s": child.wall}
 
 
 def row(name: str, incidences: str, r: dict) -> str:
