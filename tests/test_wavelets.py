@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -302,3 +303,25 @@ def test_eval_without_harmonics_is_an_error(cli, tmp_path: Path) -> None:
     assert code == 2 and err.startswith("error: --basis sh:")
     code, _, err = cli("wavelets", str(path))
     assert code == 2 and "holds no spherical harmonics" in err
+
+
+def test_a_damaged_wavelet_part_is_refused_by_name() -> None:
+    """``from_part`` (what ``read_table`` hands the part to) names what is wrong: an index
+    past n², a wavelet that is not orthogonal, levels or shape that do not match, a
+    missing channel."""
+    bins = HemisphereBins(4, 8)
+    stored = wavelets.encode({"total": lobe_values([0.0], bins)}, bins, 8, "haar", keep=4)
+    header = wavelets.part_header(stored, (1, 1))
+    pixels = wavelets.part_channels(stored)
+    assert wavelets.from_part(header, pixels, ("total",), (1, 1)).keep == 4
+    bad_index = dict(pixels, **{"total_index.G": pixels["total_index.G"] + 64})
+    cases = [
+        (header, bad_index, "must be below 64"),
+        (dict(header, wavelet="bior2.2"), pixels, "not of the orthogonal families"),
+        (dict(header, levels=1), pixels, "levels 1"),
+        (dict(header, shape=[2, 1]), pixels, "shape [2, 1]"),
+        (header, {k: v for k, v in pixels.items() if k != "total.B"}, "total.R/G/B"),
+    ]
+    for info, data, message in cases:
+        with pytest.raises(ValueError, match=re.escape(message)):
+            wavelets.from_part(info, data, ("total",), (1, 1))
