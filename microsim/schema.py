@@ -73,7 +73,7 @@ class Key:
             "bool": "true or false",
             "str": "a string",
             "path": "a file path (string)",
-            "floats": "a non-empty list of numbers",
+            "floats": "a number or a non-empty list of numbers",
             "rgb": "a number or a list of 3 numbers",
             "pair": "a list of 2 numbers",
         }[self.kind]
@@ -198,6 +198,9 @@ def check_value(value: Any, name: str, key: Key) -> Any:
         return value
     if key.kind == "rgb" and not isinstance(value, list):
         return [_number(value, name, key)] * 3
+    if key.kind == "floats" and key.length in (None, 1) and isinstance(value, int | float) \
+            and not isinstance(value, bool):
+        return [_number(value, name, key)]  # one number is a list of one
     if not isinstance(value, list) or not value:
         raise bad
     want = {"rgb": 3, "pair": 2}.get(key.kind, key.length)

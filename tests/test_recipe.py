@@ -177,3 +177,16 @@ def test_float_keys_accept_exactly_their_range(x):
 def test_non_numbers_are_refused(value):
     with pytest.raises(InputError):
         check_value(value, "k", FLOAT_KEY)
+
+
+def test_one_number_is_a_list_of_one():
+    """``--set simulation.theta_i=85`` means ``[85]``; a list key of fixed length above one
+    (``rgb`` of 3 is its own rule) and a boolean are still refused."""
+    load = recipe.load
+    root = Path(__file__).resolve().parent.parent / "surfaces"
+    assert load(root / "gaussian-0.3.toml", ["simulation.theta_i=85"]).simulation.theta_i \
+        == (85.0,)
+    with pytest.raises(InputError, match="theta_i"):
+        load(root / "gaussian-0.3.toml", ["simulation.theta_i=true"])
+    with pytest.raises(InputError, match="theta_i"):
+        load(root / "gaussian-0.3.toml", ["simulation.theta_i=95"])
