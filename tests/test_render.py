@@ -375,3 +375,32 @@ def test_render_tabulates_a_model_without_a_plugin(mi, tmp_path):
     assert bsdfs.model_bsdf(mi, correlated, 0.0, tmp_path / "a.bsdf")[1] == "tabulated"
     assert bsdfs.model_bsdf(mi, aniso, 30.0, tmp_path / "b.bsdf")[1] == "tabulated"
     assert bsdfs.model_bsdf(mi, Lambertian(0.5), 0.0, tmp_path / "c.bsdf")[1] == "diffuse"
+
+
+def test_display_tone_maps_without_clipping():
+    """Reinhard's global operator on luminance (docs/render.md, "Display"): the shown
+    luminance is exactly L / (1 + L) of the linear luminance L, so it stays below 1 and
+    keeps the order of any two pixels however bright (linear radiances from 1e-4 to 1e4);
+    no channel leaves [0, 1]; a colour that fits is only scaled (its channel ratios kept),
+    and one that would not is moved towards grey at the same luminance. A highlight at
+    50 and one at 100 stay apart on screen (clipping at 1 showed both white)."""
+    from microsim.tables.export import LUMINANCE
+
+    rng = np.random.default_rng(3)
+    rgb = rng.lognormal(0.0, 3.0, (4000, 3))
+    out = figure.tone_map(rgb)
+    y = rgb @ LUMINANCE
+    np.testing.assert_allclose(out @ LUMINANCE, y / (1 + y), rtol=1e-12)
+    assert out.min() >= 0.0 and out.max() <= 1.0 + 1e-12
+    order = np.argsort(y)
+    assert np.all(np.diff((out @ LUMINANCE)[order]) > 0)
+    fits = (rgb / (1 + y)[:, None]).max(axis=1) < 1.0
+    assert fits.sum() > 500 and (~fits).sum() > 500        # both cases are exercised
+    np.testing.assert_allclose(out[fits] * (1 + y[fits])[:, None], rgb[fits], rtol=1e-12)
+    grey = (y / (1 + y))[~fits, None]
+    chroma = (out[~fits] - grey) / (rgb[~fits] / (1 + y[~fits])[:, None] - grey)
+    np.testing.assert_allclose(chroma, chroma[:, :1] * np.ones((1, 3)), rtol=1e-9)
+    image = scene.Image(np.array([[[50.0] * 3, [100.0] * 3]]), np.ones((1, 2)),
+                        np.zeros((1, 2)), np.zeros((1, 2)), 0.0)
+    shown = figure.display(image)
+    assert shown[0, 0].max() < shown[0, 1].max() < 1.0

@@ -50,16 +50,19 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def title_of(table: Any, name: str, component: str) -> str:
-    """Surface, material, realised alpha and rays, for figure titles."""
+    """Surface, material, realised alpha, rays (their range where the directions differ)
+    and the component against the model ``name``, for figure titles."""
+    from microsim.plots.layout import component_text, rays_text
+
     meta = table.meta
     materials = set() if meta.recipe is None else {m.kind for m in meta.recipe.material.values()}
     alpha = None if meta.surface is None else meta.surface.alpha_realised
     kind = meta.surface.tile.kind if meta.surface is not None and meta.surface.tile.kind \
         else "surface"
     alpha_text = "" if alpha is None else f", α realised {readable(alpha.to_json(), 3)}"
-    return (f"{kind}, {'/'.join(sorted(materials))} facets"
-            f"{alpha_text}, {int(table.rays.max()):,} rays per direction; {component} "
-            f"vs {name}")
+    facets = f", {'/'.join(sorted(materials))} facets" if materials else ""
+    return (f"{kind}{facets}{alpha_text}, {rays_text(table)}; "
+            f"{component_text(component)} vs {name}")
 
 
 def model_albedo(row: IncidenceMetrics) -> str:

@@ -111,13 +111,11 @@ def run(args: argparse.Namespace) -> int:
               "comparison_total": {"model": spec, "params": params, **total.to_json(),
                                    "agreement": total_check.to_json()}}
     if args.plot is not None:
+        from microsim.commands.compare import title_of
         from microsim.plots import incidence_plane
 
         incidence_plane(table, single.model, args.plot,
-                        title=f"Gaussian surface, mirror facets, α realised "
-                              f"{roughness['alpha_realised']:.3f}, "
-                              f"{int(table.rays[0, 0]):,} rays per θi: single scattering "
-                              "vs Torrance-Sparrow + Smith")
+                        title=title_of(table, "Torrance-Sparrow + Smith", "single"))
         result["plot"] = str(args.plot)
     if args.json:
         print_json(result)

@@ -83,7 +83,8 @@ def run(args: argparse.Namespace) -> int:
         from microsim.plots import incidence_plane
 
         incidence_plane(table, result.model_bins, args.plot, args.component,
-                        f"{args.table}: {args.component} vs fitted {result.model}",
+                        f"{args.table}: " + title_of(table, f"fitted {result.model}",
+                                                     args.component),
                         model_label=f"fit: {result.model}")
         out["plot"] = str(args.plot)
     if args.json:
@@ -91,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"{result.model} fitted to the {args.component} of {args.table}:")
     for name, value in result.params.items():
+        from microsim.commands.compare import title_of
         print(f"  {name:>10} = {with_error(value, result.uncertainty[name])}")
     print(f"  chi^2/dof {result.chi2_dof:.3g}, median relative error against the fit "
           "over lobe bins "

@@ -1,7 +1,12 @@
 """Rendered images as a labelled PNG grid, and the relative difference of two renders.
 
-Display: linear radiance is shown as is (exposure 1) through the sRGB transfer curve
-(IEC 61966-2-1), clipped at 1, over a grey background where no ray hit the object.
+Display (docs/render.md, "Display"): the linear render over a grey background where no
+ray hit the object, at exposure ``EXPOSURE``, tone-mapped by Reinhard et al. 2002's global
+operator on luminance (eq. 3, L_d = L / (1 + L)), which never reaches 1, so no highlight
+clips; every channel is scaled by L_d / L, which keeps the hue, and a colour whose
+brightest channel would still exceed 1 is moved towards grey at the same luminance; then
+the sRGB transfer curve (IEC 61966-2-1). The operator uses no statistic of the image, so
+tables, models and separate runs are shown alike.
 The difference of a table's render T from a model's M is (T − M) / M in luminance, on
 pixels the object covers fully in both and where M is above ``DARK`` of its 99th
 percentile (elsewhere the ratio is noise over nothing); each pixel's noise is
@@ -16,26 +21,52 @@ from pathlib import Path
 
 import numpy as np
 
-from microsim.files import atomic_path
+from microsim.plots.layout import MAX_COLUMNS, grid_shape, pyplot, save, srgb
 from microsim.render.scene import Image
+from microsim.tables.export import LUMINANCE
 
 BACKGROUND = 0.2
 """Linear grey behind the object."""
+EXPOSURE = 1.0
+"""Scale of linear radiance before the tone curve: under the default sun and sky a white
+Lambertian face towards the sun (radiance 3/π + 0.25 ≈ 1.2) shows at L_d ≈ 0.55, leaving
+the upper half of the display range to highlights."""
 DARK = 0.02
 """Pixels darker than this fraction of the model's 99th percentile get no difference."""
 DIFF_RANGE = 0.5
 """The difference colour scale spans ±50%."""
 
 
-def srgb(linear: np.ndarray) -> np.ndarray:
-    """The sRGB transfer curve of linear values in [0, 1] (IEC 61966-2-1)."""
-    x = np.clip(linear, 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
+def tone_map(rgb: np.ndarray, exposure: float = EXPOSURE) -> np.ndarray:
+    """Reinhard et al. 2002's global operator (eq. 3) on luminance, hue kept.
+
+    Parameters
+    ----------
+    rgb : (..., 3) float
+        Linear radiance (negative values count as 0).
+    exposure : float
+
+    Returns
+    -------
+    (..., 3) float
+        Display-linear RGB in [0, 1): luminance L_d = L / (1 + L) of the exposed
+        luminance L, every channel scaled by L_d / L = 1 / (1 + L); where a channel would
+        still exceed 1 the colour is blended towards the grey L_d (same luminance) until
+        its brightest channel is 1.
+    """
+    x = np.maximum(np.asarray(rgb, float) * exposure, 0.0)
+    y = x @ LUMINANCE
+    out = x / (1.0 + y)[..., None]
+    grey = (y / (1.0 + y))[..., None]
+    top = out.max(axis=-1, keepdims=True)
+    t = np.where(top > 1.0, (1.0 - grey) / np.where(top > 1.0, top - grey, 1.0), 1.0)
+    return grey + t * (out - grey)
 
 
 def display(image: Image) -> np.ndarray:
-    """(h, w, 3) sRGB in [0, 1]: the render over the grey background."""
-    return srgb(image.rgb + (1.0 - image.alpha[..., None]) * BACKGROUND)
+    """(h, w, 3) sRGB in [0, 1]: the render over the grey background, tone-mapped
+    (``tone_map``) and through the sRGB curve."""
+    return srgb(tone_map(image.rgb + (1.0 - image.alpha[..., None]) * BACKGROUND))
 
 
 @dataclass(frozen=True)
@@ -114,51 +145,56 @@ def write_grid(rows: Sequence[Row], path: str | Path, columns: int | None = None
     """Write the grid as a PNG, atomically.
 
     Without a model every row has one panel, and the panels flow into ``columns`` columns
-    (default: up to 4) with the table names as titles. With a model each row is
-    (table, model, difference) with the row's name on the left; difference panels get a
-    shared colour bar of ±``DIFF_RANGE``, labelled ``difference``.
+    (default ``microsim.plots.layout.grid_shape``'s, at most 4) with the table names as
+    titles. With a model each table is a column (at most ``columns``, default 4) of its
+    panels (table, model, difference) top to bottom, titled with the table's name first;
+    more tables start another block of rows. Difference panels get a shared colour bar of
+    ±``DIFF_RANGE``, labelled ``difference``. Either way the figure stays within 3:1.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     h, w = next(p for _, p in rows[0].panels).shape[:2]
-    single = all(len(r.panels) == 1 for r in rows)
-    if single:
-        panels = [(r.label, r.panels[0][1]) for r in rows]
-        ncol = columns or min(4, len(panels))
-        grid = [panels[i:i + ncol] for i in range(0, len(panels), ncol)]
+    if all(len(r.panels) == 1 for r in rows):
+        ncol = columns or grid_shape(len(rows))[1]
+        cells = [(r.label, r.panels[0][1]) for r in rows]
     else:
-        ncol = max(len(r.panels) for r in rows)
-        grid = [list(r.panels) for r in rows]
+        ncol = min(columns or MAX_COLUMNS, len(rows))
+        cells = []
+        for start in range(0, len(rows), ncol):
+            block = list(rows[start:start + ncol])
+            for i in range(max(len(r.panels) for r in block)):
+                line: list[tuple[str, np.ndarray] | None] = [
+                    (_panel_title(r, i), r.panels[i][1]) if i < len(r.panels) else None
+                    for r in block]
+                cells += line + [None] * (ncol - len(line))
+    nrow = -(-len(cells) // ncol)
     scale = 2.6 / max(h, w) * max(w, 1)
-    fig, axes = plt.subplots(len(grid), ncol, squeeze=False,
-                             figsize=(scale * ncol, scale * h / w * len(grid) + 0.35),
+    plt = pyplot()
+    fig, axes = plt.subplots(nrow, ncol, squeeze=False,
+                             figsize=(scale * ncol + 0.6, (scale * h / w + 0.22) * nrow + 0.15),
                              layout="constrained")
     image = None
-    for i, line in enumerate(grid):
-        for j in range(ncol):
-            ax = axes[i, j]
-            ax.set_xticks([])
-            ax.set_yticks([])
-            if j >= len(line):
-                ax.set_axis_off()
-                continue
-            title, data = line[j]
-            if data.ndim == 2:
-                shown = np.ma.masked_invalid(data)
-                cmap = plt.get_cmap("RdBu_r").with_extremes(bad=(0.5, 0.5, 0.5))
-                image = ax.imshow(shown, cmap=cmap, vmin=-DIFF_RANGE, vmax=DIFF_RANGE)
-            else:
-                ax.imshow(data)
-            ax.set_title(title, fontsize=8)
-            if not single and j == 0:
-                ax.set_ylabel(rows[i].label, fontsize=9)
+    for ax, cell in zip(axes.ravel(), cells + [None] * (axes.size - len(cells)),
+                        strict=True):
+        ax.set_xticks([])
+        ax.set_yticks([])
+        if cell is None:
+            ax.set_axis_off()
+            continue
+        title, data = cell
+        if data.ndim == 2:
+            shown = np.ma.masked_invalid(data)
+            cmap = plt.get_cmap("RdBu_r").with_extremes(bad=(0.5, 0.5, 0.5))
+            image = ax.imshow(shown, cmap=cmap, vmin=-DIFF_RANGE, vmax=DIFF_RANGE)
+        else:
+            ax.imshow(data)
+        ax.set_title(title, fontsize=8)
     if image is not None:
-        bar = fig.colorbar(image, ax=axes[:, -1].tolist(), shrink=0.8,
+        bar = fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.6,
                            format=lambda x, _: f"{100 * x:+.0f}%")
         bar.set_label(difference, fontsize=8)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=150, format="png")
-    plt.close(fig)
+    save(fig, path, dpi=150)
+
+
+def _panel_title(row: Row, i: int) -> str:
+    """Panel ``i``'s title in a table's column: the first names the table."""
+    title = row.panels[i][0]
+    return (row.label if title == row.label else f"{row.label}: {title}") if i == 0 else title

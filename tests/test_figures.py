@@ -1,0 +1,166 @@
+"""Every figure a command draws, at 1, 4 and 18 incidences, passes the figure lint
+(tests/figurelint.py: no text clipped or on another text or panel, aspect within 3:1),
+and says what it shows (luminance, the component, the rays, backscatter and forward)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from figurelint import figure_layout_faults
+
+SURFACES = Path(__file__).resolve().parent.parent / "surfaces"
+INCIDENCES = (1, 4, 18)
+GOLD = "eta=[0.143,0.374,1.442],k=[3.983,2.385,1.603]"
+
+
+@pytest.fixture
+def figures(monkeypatch):
+    """The lint faults and the texts of every figure closed while the test runs, in
+    order (the figures' modules close each figure after writing it)."""
+    import matplotlib.pyplot as plt
+
+    drawn: list[dict] = []
+    close = plt.close
+
+    def inspect(fig=None):
+        texts = [t.get_text() for t in fig.findobj(lambda a: hasattr(a, "get_text"))
+                 if t.get_text()]
+        drawn.append({"faults": figure_layout_faults(fig), "texts": texts,
+                      "size": tuple(fig.get_size_inches())})
+        close(fig)
+
+    monkeypatch.setattr(plt, "close", inspect)
+    return drawn
+
+
+def synthetic_table(n: int, path: Path) -> Path:
+    """A gold Beckmann table (α = 0.3) of ``n`` incidences over 0–87°, 8 × 16 bins, 5%
+    noise, with harmonics to order 4 projected from its bins and rays that differ between
+    directions (as an adaptive run's do), written to ``path``."""
+    import microsim
+    from microsim.analytic.registry import parse_model_spec
+    from microsim.compare import model_table
+    from microsim.tables import sh
+    from microsim.tables.binning import HemisphereBins
+
+    _, _, model = parse_model_spec(f"beckmann:alpha=0.3,{GOLD}")
+    theta = np.radians(np.linspace(0.0, 87.0, n) if n > 1 else [30.0])
+    bins = HemisphereBins(8, 16)
+    table = model_table(model, theta, bins, 0.05, np.random.default_rng(n))
+    table.rays = np.arange(1, n + 1)[:, None] * 200_000
+    t, p = np.meshgrid(bins.theta_centers, bins.phi_centers, indexing="ij")
+    weights = bins.projected_solid_angle.ravel()
+    y = sh.basis(4, np.cos(t).ravel(), p.ravel()) * weights[:, None]  # (bins, 25)
+    table.sh = {c: np.einsum("bk,aqbc->aqkc", y, v.reshape(*v.shape[:2], -1, 3))
+                for c, v in table.values.items()}
+    table.sh_err = {c: 0.05 * np.abs(v) for c, v in table.sh.items()}
+    microsim.write_table(table, path)
+    return path
+
+
+def assert_clean(drawn: list[dict], count: int) -> None:
+    assert len(drawn) == count, len(drawn)
+    for figure in drawn:
+        assert not figure["faults"], figure["faults"]
+
+
+@pytest.mark.parametrize("n", INCIDENCES)
+def test_compare_figures(cli, tmp_path, figures, n):
+    """compare --out: plane of incidence, half-difference, z-maps, albedo. Titles name
+    the component, luminance, the range of rays, both sides of θo and keep a hyphenated
+    model name whole."""
+    table = synthetic_table(n, tmp_path / "t.exr")
+    code, _, err = cli("compare", str(table), "--model", "oren-nayar", "--out",
+                       str(tmp_path / "out"))
+    assert code == 0, err
+    assert_clean(figures, 4)
+    plane = " ".join(figures[0]["texts"])
+    assert "luminance" in plane and "all orders" in plane and "oren-nayar" in plane
+    assert "backscatter" in plane and "forward" in plane and "colour of the table" in plane
+    if n > 1:
+        assert f"200,000 to {200_000 * n:,} rays per direction" in plane
+    assert all("oren-\n" not in t for f in figures for t in f["texts"])
+
+
+@pytest.mark.parametrize("n", INCIDENCES)
+def test_fit_and_sh_figures(cli, tmp_path, figures, n):
+    """fit --plot (the plane of incidence against the fit) and sh --plot."""
+    table = synthetic_table(n, tmp_path / "t.exr")
+    code, _, err = cli("fit", str(table), "--model", "ggx", "--plot",
+                       str(tmp_path / "f.png"), "--json")
+    assert code == 0, err
+    code, _, err = cli("sh", str(table), "--plot", str(tmp_path / "s.png"), "--json")
+    assert code == 0, err
+    assert_clean(figures, 2)
+    assert "fit: ggx" in figures[0]["texts"]
+
+
+def test_measure_and_demo_figures(cli, tmp_path, figures):
+    """measure ndf --plot (no incidences) and demo --plot (the demo's own four)."""
+    code, _, err = cli("measure", "ndf", str(SURFACES / "gaussian-0.3.toml"), "--set",
+                       "surface.resolution=32", "--realisations", "1", "--plot",
+                       str(tmp_path / "n.png"), "--json")
+    assert code == 0, err
+    code, _, err = cli("demo", "--rays", "2000", "-o", str(tmp_path / "d.exr"), "--plot",
+                       str(tmp_path / "d.png"), "--json")
+    assert code == 0, err
+    assert_clean(figures, 2)
+
+
+def test_bench_figures(tmp_path, figures):
+    """bench's two figures, from rows shaped like its sweep's."""
+    from microsim.bench import plot
+
+    rows = [{"case": case, "tile_resolution": res, "table_bins": 512, "wall_s": t,
+             "error": 0.1 / np.sqrt(t), "stderr": 0.08 / np.sqrt(t), "rays": rays,
+             "cells_per_correlation": res // 32}
+            for case in ("ts", "ms", "g1") for res in (64, 128)
+            for t, rays in ((1.0, 1000), (4.0, 4000))]
+    plot(rows, tmp_path)
+    assert_clean(figures, 2)
+
+
+@pytest.mark.parametrize(("tables", "model"), [(1, False), (1, True), (4, False),
+                                               (4, True), (18, False), (18, True)])
+def test_render_grids(tmp_path, figures, tables, model):
+    """render's grid (a panel per table, or table | model | difference rows), from
+    synthetic images, with the titles the command gives."""
+    from microsim.render import figure
+
+    rng = np.random.default_rng(0)
+    image = rng.uniform(0, 1, (240, 320, 3))
+    diff = rng.normal(0, 0.1, (240, 320))
+    rows = [figure.Row(f"table-{k}", [("table", image), ("beckmann (roughconductor)", image),
+                                      ("median |Δ| 12.3% (noise 4.5%)", diff)]
+                       if model else [(f"table-{k}", image)]) for k in range(tables)]
+    figure.write_grid(rows, tmp_path / "g.png")
+    assert_clean(figures, 1)
+
+
+def test_the_lint_finds_what_it_is_for():
+    """A figure with clipped, overlapping and off-panel texts, and one 4:1 figure, are
+    each reported; a clean one is not."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(6, 3), layout="constrained")
+    assert figure_layout_faults(fig) == []
+    plt.close(fig)
+    fig, (a, b) = plt.subplots(1, 2, figsize=(6, 3))      # no layout engine to save it
+    a.set_title("a title far too long for its panel that runs over the next one " * 2)
+    a.text(1.6, 0.5, "on b", transform=a.transAxes)
+    faults = figure_layout_faults(fig)
+    assert any("'on b' lies on another panel" in f for f in faults)
+    assert any("clipped" in f for f in faults)
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(4, 3), layout="constrained")
+    ax.set_xticks(np.arange(0, 1.01, 0.02))
+    assert any("overlaps" in f for f in figure_layout_faults(fig))
+    plt.close(fig)
+    fig = plt.figure(figsize=(8, 2))
+    assert any("aspect" in f for f in figure_layout_faults(fig))
+    plt.close(fig)
