@@ -207,8 +207,9 @@ def test_eval_is_continuous_across_bins_and_the_azimuth_seam():
     differ by at most (largest jump between neighbouring nodes) × (step / node spacing):
     piecewise-linear interpolation is Lipschitz with that constant; a jump at a boundary
     would break it by orders of magnitude. The factor 2 absorbs the sin² stretch of u.
-    The path's end points are left out: at the pole the azimuth is undefined (the clamped
-    first ring keeps its φ dependence) and on the horizon f_r is 0 by definition."""
+    The path's end points are left out: at the pole the azimuth is undefined (f_r is the
+    first ring's mean there, test_eval_has_one_value_at_the_pole) and on the horizon f_r
+    is 0 by definition."""
     t = make_table()
     b = t.bins
     s = np.linspace(0.0, 1.0, 4001)
@@ -270,3 +271,28 @@ def test_lobe_of_is_the_fraction_of_each_incidences_peak():
     # the bin axes may be any: the same values along axis 0 give the transpose
     assert np.array_equal(lobe_of(f.T, 0), lobe.T)
     assert lobe_of(f, -1, threshold=0.05).tolist()[0] == [True, True, True]
+
+
+def test_eval_has_one_value_at_the_pole():
+    """Towards θo = 0, f_r tends to the mean of the first ring's bins from every azimuth
+    (at the pole all azimuths are one direction; clamping kept each bin's own value, the
+    star a render shows where it looks straight at a surface, docs/render.md); halfway
+    between the pole and the ring's centres in sin²θo it is halfway between that mean and
+    the bin; from the ring's centres outwards eval is the bilinear interpolation as before
+    (every bin centre returns its bin)."""
+    t = make_table(theta_i=(0.0, 0.5))
+    b = t.bins
+    v = t.values["total"][:, 0]                                    # (2, nt, np, 3)
+    assert np.ptp(v[:, 0], axis=1).min() > 0                        # the ring's bins differ
+    wi = direction(np.full(b.phi_bins, 0.25), 0.3)
+    mean = 0.5 * (v[0, 0] + v[1, 0]).mean(axis=0)                   # θi = 0.25: halfway
+    f = t.eval(wi, direction(np.full(b.phi_bins, 1e-6), 0.3 + b.phi_centers))
+    np.testing.assert_allclose(f, np.broadcast_to(mean, f.shape), rtol=1e-9)
+    half = np.arcsin(np.sqrt(0.5) * np.sin(b.theta_centers[0]))
+    f = t.eval(wi, direction(np.full(b.phi_bins, half), 0.3 + b.phi_centers))
+    ring = 0.5 * (v[0, 0] + v[1, 0])
+    np.testing.assert_allclose(f, 0.5 * ring + 0.5 * mean, rtol=1e-9)
+    it, ip = np.meshgrid(np.arange(b.theta_bins), np.arange(b.phi_bins), indexing="ij")
+    wo = direction(b.theta_centers[it.ravel()], b.phi_centers[ip.ravel()])
+    f = t.eval(direction(np.zeros(len(wo)), 0.0), wo)
+    np.testing.assert_allclose(f, v[0].reshape(-1, 3), rtol=1e-9)

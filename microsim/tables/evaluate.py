@@ -3,8 +3,10 @@ any direction pair, and f_r from a table's spherical harmonics.
 
 The table is a piecewise-linear function of its axes (``microsim.tables.interpolation``):
 linear in θi (and periodically in φi for anisotropic tables) between the incidences,
-clamped outside them; bilinear in (sin²θo, φo) between bin centres, periodic in φo and
-clamped at the pole and the horizon. ``BRDFTable.eval`` and ``BRDFTable.stderr`` are
+clamped outside them; bilinear in (sin²θo, φo) between bin centres, periodic in φo,
+clamped at the horizon, and between the first ring's centres and the pole blended
+linearly in sin²θo towards the ring's mean (``pole_share``), so f_r has one value at the
+pole. ``BRDFTable.eval`` and ``BRDFTable.stderr`` are
 these functions of its arrays.
 """
 
@@ -40,7 +42,7 @@ def stencil(axes: Axes, wi: np.ndarray, wo: np.ndarray
             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The 16 interpolation nodes of each direction pair: linear in θi and φi between
     incidences, bilinear in (sin²θo, φo) between bin centres (clamped at the pole and
-    the horizon, periodic in φo).
+    the horizon, periodic in φo; ``interpolate`` blends the pole's values).
 
     Parameters
     ----------
@@ -119,8 +121,48 @@ def interpolate(axes: Axes, values: np.ndarray, wi: np.ndarray, wo: np.ndarray
     (..., 3) float
         0 where either direction is at or below the horizon.
     """
-    data = values.reshape(-1, 3)
-    return per_pair(axes, lambda nodes, w: np.einsum("nk,nkc->nc", w, data[nodes]), wi, wo)
+    def at(data: np.ndarray) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+        return lambda nodes, w: np.einsum("nk,nkc->nc", w, data[nodes])
+
+    f = per_pair(axes, at(values.reshape(-1, 3)), wi, wo)
+    wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
+    q = pole_share(axes.bins, wo)
+    near = q > 0
+    if near.any():
+        # inside the first ring's centres every node is on the ring: subtract the share q
+        # of its departure from the ring's mean, so f → that mean at the pole
+        ring = values[:, :, 0]
+        delta = np.zeros_like(values)
+        delta[:, :, 0] = ring - ring.mean(axis=2, keepdims=True)
+        f[near] -= q[near][:, None] * per_pair(axes, at(delta.reshape(-1, 3)), wi[near],
+                                               wo[near])
+    return f
+
+
+def pole_share(bins: HemisphereBins, wo: np.ndarray) -> np.ndarray:
+    """How far inside the first θo ring's bin centres ``wo`` lies: 1 − sin²θo / sin²θ₁
+    there (θ₁ the ring's centre; 1 at the pole), 0 beyond.
+
+    Between the pole and the ring's centres ``interpolate`` blends the ring's bins
+    linearly in sin²θo towards their mean: at the pole every azimuth is the same
+    direction, so f_r has one value there (the mean of the ring, which covers it
+    symmetrically); clamping would keep each bin's own value up to the pole and make f_r
+    depend on the direction a path approaches the normal from (a star of the ring's
+    bins where a render looks straight at a surface, docs/render.md).
+
+    Parameters
+    ----------
+    bins : HemisphereBins
+    wo : (..., 3) float
+        Unit directions.
+
+    Returns
+    -------
+    (...,) float
+        In [0, 1].
+    """
+    s = np.clip(wo[..., 0] ** 2 + wo[..., 1] ** 2, 0.0, 1.0)
+    return np.clip(1.0 - s / np.sin(bins.theta_centers[0]) ** 2, 0.0, 1.0)
 
 
 def from_harmonics(axes: Axes, coefficients: np.ndarray, wi: np.ndarray, wo: np.ndarray

@@ -269,8 +269,10 @@ class BRDFTable:
 
         Linear in θi (and periodically in φi for anisotropic tables) between the table's
         incidences, clamped outside them; bilinear in (sin²θo, φo) between bin centres,
-        periodic in φo and clamped at the pole and the horizon. An empty bin's value is 0,
-        so the result is never NaN.
+        periodic in φo and clamped at the horizon; inside the first ring's centres blended
+        linearly in sin²θo towards the ring's mean, its value at the pole
+        (``microsim.tables.evaluate.pole_share``). An empty bin's value is 0, so the
+        result is never NaN.
 
         Parameters
         ----------
