@@ -37,6 +37,7 @@ from microsim.commands import (
 )
 from microsim.commands import eval as eval_table
 from microsim.commands.common import Parser
+from microsim.effort import note, scaled
 from microsim.errors import InputError, InputWarning
 
 COMMANDS = {module.__name__.rsplit(".", 1)[1]: module
@@ -98,6 +99,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             if args.command is None:
                 parser.print_help()
                 return 2
+            quick = note()
+            if quick is not None:
+                print(f"warning: {quick}", file=sys.stderr)
+                if getattr(args, "spp", None) is not None:
+                    args.spp = scaled(args.spp, least=2)  # 1 spp leaves the noise unknown
             return int(args.func(args) or 0)
     except InputError as exc:
         print(f"error: {one_line(str(exc))}", file=sys.stderr)

@@ -27,6 +27,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from microsim.effort import scaled_simulation
 from microsim.errors import InputError, InputWarning
 from microsim.materials import MATERIALS, Material, parse_material
 from microsim.schema import (
@@ -318,7 +319,8 @@ def resolve_in(raw: Mapping[str, Any], folder: str | Path, overrides: Iterable[s
     Returns
     -------
     Recipe
-        The resolved recipe, ``path`` keys absolute.
+        The resolved recipe, ``path`` keys absolute, its ``[simulation]`` at the effort
+        ``$MICROSIM_EFFORT`` asks for (``microsim.effort``; unchanged when unset).
 
     Raises
     ------
@@ -341,7 +343,8 @@ def resolve_in(raw: Mapping[str, Any], folder: str | Path, overrides: Iterable[s
     materials = {part: replace(m, **{k: absolute(getattr(m, k), f"material.{part}.", k)
                                      for k in m.keys() if _is_path(m.keys(), k)})
                  for part, m in recipe.material.items()}
-    return replace(recipe, surface=surface, material=materials)
+    return replace(recipe, surface=surface, material=materials,
+                   simulation=scaled_simulation(recipe.simulation, MIN_RAYS_PER_REALISATION))
 
 
 def _is_path(keys: Mapping[str, Key], name: str) -> bool:
