@@ -2,14 +2,15 @@
 
 Usage::
 
-    python scripts/vgroove_oren_nayar.py [--alpha 0.8] [--rays 200000]
+    python scripts/vgroove_oren_nayar.py [--alpha 0.8] [--rays 200000] [--write-docs]
 
 Grooves along y with slopes tan(s) drawn as |N(0, alpha^2 / 2)| (a Beckmann surface's
 slope distribution across the grooves), Lambertian facets of albedo 0.8, lit across the
 grooves (phi_i = 0). Oren-Nayar's full model (eq. 30 + 39) is evaluated with sigma = the
 RMS slope angle of the grooves, averaged over the table's bins. Prints, per theta_i, the
 median relative deviation over the lobe, the albedos, and the back/forward ratio at
-theta_o = theta_i of simulation and model.
+theta_o = theta_i of simulation and model. ``--write-docs`` puts the table in
+docs/goniometer.md (marked section ``vgroove-oren-nayar``).
 """
 
 from __future__ import annotations
@@ -17,21 +18,38 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 
 from microsim.analytic.brdf import OrenNayar
 from microsim.compare import bin_average, metrics
+from microsim.files import write_section
 from microsim.geometry import direction
 from microsim.recipe import resolve
 from microsim.simulation import simulate
 from microsim.surfaces import build_tile
+
+DOC = Path(__file__).resolve().parent.parent / "docs" / "goniometer.md"
+
+
+def markdown(rows: list[dict]) -> str:
+    """The table docs/goniometer.md shows, one row per incidence."""
+    lines = ["| θi | median relative deviation (lobe) | albedo sim / model | back/forward sim "
+             "/ model |", "| --- | --- | --- | --- |"]
+    lines += [f"| {r['theta_i']:g}° | {100 * r['median_rel_dev']:.1f} % | "
+              f"{r['albedo_sim']:.3f} / {r['albedo_model']:.3f} | "
+              f"{r['back_over_forward_sim']:.2f} / {r['back_over_forward_model']:.2f} |"
+              for r in rows]
+    return "\n".join(lines)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--alpha", type=float, default=0.8)
     parser.add_argument("--rays", type=int, default=200_000)
+    parser.add_argument("--write-docs", action="store_true",
+                        help="write the table into docs/goniometer.md")
     args = parser.parse_args()
     theta = [0.0, 30.0, 60.0, 75.0]
     recipe = resolve({"surface": {"kind": "vgroove", "alpha": args.alpha, "grooves": 256,
@@ -58,6 +76,8 @@ def main() -> None:
                      "back_over_forward_model": expected[it, [0, 15], 0].mean()
                      / expected[it, [7, 8], 0].mean()})
     print(json.dumps({"sigma_rad": sigma, "rows": rows}, indent=2))
+    if args.write_docs:
+        write_section(DOC, "vgroove-oren-nayar", markdown(rows))
 
 
 if __name__ == "__main__":
