@@ -28,6 +28,12 @@ LOBE_BAR = {"vertical": False, "position_x": 0.3, "position_y": 0.02, "width": 0
             "height": 0.12, "title_font_size": 16, "label_font_size": 14}
 """The lobe view's colour bar: along the bottom (titles end in a newline, as for
 ``TILE_BAR``)."""
+LOBE_OPACITY = 0.55
+"""Opacity of the simulated lobe when a model's wireframe is drawn with it."""
+WIRE_STEP = 4
+"""The model's wireframe draws every this many lines of the lobe's grid."""
+FONT = 14
+"""Font size of the 3D views' axis titles, tick labels and corner text (points)."""
 REL_ERROR = "(simulated - model) / model"
 """The lobe view's colour, the relative error against the model, clipped to ±50%."""
 THIN = 0.1
@@ -165,9 +171,9 @@ def show_tile(tile: Tile, screenshot: str | Path | None = None, tiles: int = 3,
                            bcolor="white", size=(0.18, 0.16), loc="lower left")
     plotter.show_bounds(xtitle="x (tile units)", ytitle="y (tile units)",
                         ztitle="z (drawn)" if z_scale > 1.0 else "z (tile units)",
-                        font_size=10)
+                        font_size=FONT, bold=False)
     if title:
-        plotter.add_text(title, font_size=10)
+        plotter.add_text(title, font_size=FONT - 2)
     plotter.camera_position = "iso"
     return finish(plotter, screenshot)
 
@@ -208,8 +214,9 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
     """A table's BRDF lobe for one incidence as a radial surface over the hemisphere.
 
     Colour is the relative error against ``model`` (clipped to ±50%) when one is given,
-    else f_r; the model's lobe is drawn as a wireframe over it and the incident direction
-    as an arrow pointing at the surface.
+    else f_r; the model's lobe is drawn as an opaque wireframe through the see-through
+    simulated lobe (``LOBE_OPACITY``), so it shows also where it lies inside, and the
+    incident direction as an arrow pointing at the surface.
 
     Parameters
     ----------
@@ -250,10 +257,15 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
         g = g.mean(axis=-1) if g.ndim == 3 else g
         rel = np.where(g > 0, (f - g) / np.where(g > 0, g, 1.0), 0.0)
         surf.point_data[REL_ERROR] = np.clip(rel, -0.5, 0.5).ravel(order="F")
+        # the simulated lobe see-through and the model's wireframe opaque (every
+        # WIRE_STEP-th grid line): where the model lies inside the lobe it still shows
         plotter.add_mesh(surf, scalars=REL_ERROR, cmap="RdBu_r", clim=(-0.5, 0.5),
+                         opacity=LOBE_OPACITY,
                          scalar_bar_args={"title": f"{REL_ERROR}\n", **LOBE_BAR})
-        plotter.add_mesh(lobe_surface(pv, g, theta, phi, radius, log), style="wireframe",
-                         color="black", opacity=0.35)
+        coarse = (slice(None, None, WIRE_STEP), slice(None, None, WIRE_STEP))
+        plotter.add_mesh(lobe_surface(pv, g[coarse], theta[coarse[0]], phi[coarse[1]],
+                                      radius, log), style="wireframe", color="black",
+                         line_width=1.0)
     else:
         surf.point_data["f_r (1/sr)"] = f.ravel(order="F")
         plotter.add_mesh(surf, scalars="f_r (1/sr)", cmap="viridis",
@@ -263,7 +275,7 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
                      color="orange")
     plotter.add_mesh(pv.Disc(inner=0.0, outer=size, c_res=48), color="lightgrey",
                      opacity=0.3)
-    plotter.add_text(title or f"theta_i = {np.degrees(theta_i):.0f} deg", font_size=10)
+    plotter.add_text(title or f"theta_i = {np.degrees(theta_i):.0f} deg", font_size=FONT - 2)
     plotter.camera_position = [(2.5 * size, -2.5 * size, 1.8 * size), (0, 0, 0.2 * size),
                                (0, 0, 1)]
     return finish(plotter, screenshot)

@@ -164,3 +164,33 @@ def test_the_lint_finds_what_it_is_for():
     fig = plt.figure(figsize=(8, 2))
     assert any("aspect" in f for f in figure_layout_faults(fig))
     plt.close(fig)
+
+
+def test_lobe_view_shows_the_model_inside_the_lobe(tmp_path, monkeypatch):
+    """view's lobe with a model: the simulated lobe is drawn see-through and the model's
+    wireframe opaque after it, so a model lobe inside the simulated one shows (an opaque
+    lobe hid it); the screenshot is written. (Pixels cannot tell: seen through the lobe
+    the black lines take its colour.)"""
+    import pyvista as pv
+
+    from microsim.analytic.registry import parse_model_spec
+    from microsim.compare import model_table
+    from microsim.tables.binning import HemisphereBins
+    from microsim.view import LOBE_OPACITY, show_lobe
+
+    _, _, model = parse_model_spec("beckmann:alpha=0.4")
+    table = model_table(model, np.radians([0.0, 30.0]), HemisphereBins(16, 32))
+    calls = []
+    add_mesh = pv.Plotter.add_mesh
+
+    def record(self, mesh, **kw):
+        calls.append(kw)
+        return add_mesh(self, mesh, **kw)
+
+    monkeypatch.setattr(pv.Plotter, "add_mesh", record)
+    show_lobe(table, np.radians(30.0), model, tmp_path / "l.png", n=16)
+    assert (tmp_path / "l.png").stat().st_size > 0
+    lobe = next(k for k, c in enumerate(calls) if c.get("scalars"))
+    wire = next(k for k, c in enumerate(calls) if c.get("style") == "wireframe")
+    assert calls[lobe]["opacity"] == LOBE_OPACITY < 0.7 and wire > lobe
+    assert calls[wire].get("opacity", 1.0) == 1.0
