@@ -22,6 +22,7 @@ what ``microsim fit --json`` prints, before the command's own keys.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -158,11 +159,14 @@ def _microfacet(ndf_name: str) -> Family:
 
 
 def _oren_nayar() -> Family:
-    def build(p: np.ndarray) -> Any:
-        return OrenNayar(p[0], p[1:4], "full")
+    """Oren-Nayar's slope deviation sigma in degrees, as the model spec takes it."""
 
-    return Family(("sigma", "albedo_R", "albedo_G", "albedo_B"), (0.3, 0.5, 0.5, 0.5),
-                  (0.0, 0.0, 0.0, 0.0), (1.5, 1.0, 1.0, 1.0), build)
+    def build(p: np.ndarray) -> Any:
+        return OrenNayar(np.radians(p[0]), p[1:4], "full")
+
+    return Family(("sigma", "albedo_R", "albedo_G", "albedo_B"),
+                  (math.degrees(0.3), 0.5, 0.5, 0.5), (0.0, 0.0, 0.0, 0.0),
+                  (math.degrees(1.5), 1.0, 1.0, 1.0), build)
 
 
 def _phong() -> Family:
@@ -217,23 +221,26 @@ def _kay_kajiya(defaults: Mapping[str, Any]) -> Family:
 
 def _microcylinder(defaults: Mapping[str, Any]) -> Family:
     """The microcylinder cloth model (``MicrocylinderCloth``): coverage a_1 (warp), a_2
-    (weft), η, γ_s, γ_v (radians), k_d, and the volume scale A per family and channel
-    (up to 5: not an albedo); the tangent curves are the table's weave (``slope``,
-    ``flat``)."""
+    (weft), η, γ_s, γ_v (degrees, as the model spec takes them), k_d, and the volume
+    scale A per family and channel (up to 5: not an albedo); the tangent curves are the
+    table's weave (``slope``, ``flat``)."""
 
     def build(p: np.ndarray) -> Any:
 
-        return MicrocylinderCloth(p[0:2], p[2], p[3], p[4], p[5], p[6:12].reshape(2, 3),
-                                  defaults.get("slope", 0.0), defaults.get("flat", 0.0))
+        return MicrocylinderCloth(p[0:2], p[2], np.radians(p[3]), np.radians(p[4]), p[5],
+                                  p[6:12].reshape(2, 3), defaults.get("slope", 0.0),
+                                  defaults.get("flat", 0.0))
 
     a = min(0.95, defaults.get("yarn_width", 0.8) / defaults.get("spacing", 1.0))
     albedo = [float(np.mean(defaults.get(f"albedo_{part}", 0.5))) for part in
               ("warp", "weft")]
     return Family(("a_warp", "a_weft", "eta", "gamma_s", "gamma_v", "kd", "A_warp_R",
                    "A_warp_G", "A_warp_B", "A_weft_R", "A_weft_G", "A_weft_B"),
-                  (a, a, 1.5, 0.2, 0.4, 0.5, *[albedo[0]] * 3, *[albedo[1]] * 3),
-                  (0.0, 0.0, 1.01, 0.005, 0.005, 0.0, *(0.0,) * 6),
-                  (1.0, 1.0, 3.0, 1.0, 1.5, 1.0, *(5.0,) * 6), build)
+                  (a, a, 1.5, math.degrees(0.2), math.degrees(0.4), 0.5, *[albedo[0]] * 3,
+                   *[albedo[1]] * 3),
+                  (0.0, 0.0, 1.01, math.degrees(0.005), math.degrees(0.005), 0.0, *(0.0,) * 6),
+                  (1.0, 1.0, 3.0, math.degrees(1.0), math.degrees(1.5), 1.0, *(5.0,) * 6),
+                  build)
 
 
 FAMILIES = "beckmann, ggx, oren-nayar, phong, lafortune[:K], kay-kajiya, microcylinder"

@@ -13,6 +13,7 @@ from microsim.analytic.brdf import TorranceSparrow
 from microsim.analytic.ndf import Beckmann
 from microsim.surfaces.facts import CylinderFacts, WeaveFacts
 from microsim.tables.meta import TableMeta
+from microsim.tables.table import BRDFTable
 
 
 def microfacet_model(meta: TableMeta) -> TorranceSparrow:
@@ -37,7 +38,30 @@ FIBRE_SURFACES = ("cylinders", "velvet", "weave")
 """Surfaces whose ``[surface]`` keys models of their geometry take as defaults."""
 
 
-def model_defaults(meta: TableMeta) -> dict[str, Any]:
+class ModelDefaults(dict):
+    """Model parameters a table implies, by key (a ``dict``), with where each came from.
+
+    Attributes
+    ----------
+    sources : dict of str to str
+        Per key, its source in words, e.g. ``"the table's realised alpha"``.
+    for_model : dict of str to dict
+        Keys that apply to one model only, by model name (the table's measured albedo is
+        a Lambertian model's albedo, not an Oren-Nayar facet albedo).
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.sources: dict[str, str] = {}
+        self.for_model: dict[str, dict[str, Any]] = {}
+
+    def put(self, key: str, value: Any, source: str) -> None:
+        """Set ``key`` to ``value``, from ``source``."""
+        self[key] = value
+        self.sources[key] = source
+
+
+def model_defaults(meta: TableMeta) -> ModelDefaults:
     """Model parameters a table's metadata implies. A spec's own values override these.
 
     - ``alpha`` (or ``alpha_x``/``alpha_y``): the realised roughness.
@@ -52,41 +76,76 @@ def model_defaults(meta: TableMeta) -> dict[str, Any]:
       fibres ``kd`` = albedo / π² (the energy-exact value: ``KayKajiya``).
     - Weaves: the yarns' tangent curves (``slope`` = π crimp amplitude / spacing, ``flat``
       = 1 − 2 / repeat) and Lambertian yarns' ``albedo_warp``, ``albedo_weft``.
+
+    Each value's source is in the result's ``sources``.
     """
-    out: dict[str, Any] = {}
+    out = ModelDefaults()
     recipe, facts = meta.recipe, meta.surface
     surface = None if recipe is None else recipe.surface
     if surface is not None and surface.kind in FIBRE_SURFACES:
-        out.update({k: v for k, v in surface.items() if k not in ("kind", "seed", "size")})
+        for k, v in surface.items():
+            if k not in ("kind", "seed", "size"):
+                out.put(k, v, f"the recipe's surface.{k}")
     if facts is not None and facts.alpha_realised is not None:
-        out.update(facts.alpha_realised.params())
+        for k, v in facts.alpha_realised.params().items():
+            out.put(k, v, "the table's realised alpha")
     materials = {} if recipe is None else dict(recipe.material)
     listed = list(materials.values())
     if listed and all(m == listed[0] for m in listed):
-        out.update(listed[0].model_defaults())
-    fibre = next((materials[p] for p in FIBRE_PARTS if p in materials), None)
-    if fibre is not None:
-        out.update(kind=fibre.kind, **fibre.model_defaults())
+        for k, v in listed[0].model_defaults().items():
+            out.put(k, v, f"the recipe's material {listed[0].kind}")
+    fibre_part = next((p for p in FIBRE_PARTS if p in materials), None)
+    if fibre_part is not None:
+        fibre = materials[fibre_part]
+        where = f"the recipe's material.{fibre_part}"
+        out.put("kind", fibre.kind, where)
+        for k, v in fibre.model_defaults().items():
+            out.put(k, v, where)
         base = materials.get("base")
         base_albedo = None if base is None else base.diffuse_albedo()
         if base_albedo is not None:
-            out["base_albedo"] = list(base_albedo)
+            out.put("base_albedo", list(base_albedo),
+                    f"the recipe's material.base ({base.kind})")
         fibre_albedo = fibre.diffuse_albedo()
         if fibre_albedo is not None:
-            out["kd"] = float(np.mean(fibre_albedo)) / np.pi**2
+            out.put("kd", float(np.mean(fibre_albedo)) / np.pi**2,
+                    f"albedo / pi^2 of {where}")
     tile = None if facts is None else facts.tile
     if isinstance(tile, WeaveFacts) and "spacing" in out:
         # the yarns' tangent curves (microsim.analytic.cloth.tangents)
-        out["slope"] = np.pi * tile.crimp_amplitude / out["spacing"]
-        out["flat"] = 1.0 - 2.0 / tile.repeat
+        out.put("slope", np.pi * tile.crimp_amplitude / out["spacing"],
+                "pi crimp amplitude / spacing of the weave")
+        out.put("flat", 1.0 - 2.0 / tile.repeat, "1 - 2 / repeat of the weave")
         for part in ("warp", "weft"):
             albedo = materials[part].diffuse_albedo() if part in materials else None
             if albedo is not None:
-                out[f"albedo_{part}"] = list(albedo)
+                out.put(f"albedo_{part}", list(albedo), f"the recipe's material.{part}")
     if isinstance(tile, CylinderFacts) and tile.axis is not None:
         t = np.asarray(tile.axis, float)
-        out["tangent_theta"] = float(np.degrees(np.arccos(np.clip(t[2], -1.0, 1.0))))
-        out["tangent_phi"] = float(np.degrees(np.arctan2(t[1], t[0])))
+        out.put("tangent_theta", float(np.degrees(np.arccos(np.clip(t[2], -1.0, 1.0)))),
+                "the cylinders' axis")
+        out.put("tangent_phi", float(np.degrees(np.arctan2(t[1], t[0]))),
+                "the cylinders' axis")
         if "radius" in out and "spacing" in out:
-            out["coverage"] = min(2.0 * out["radius"] / out["spacing"], 1.0)
+            out.put("coverage", min(2.0 * out["radius"] / out["spacing"], 1.0),
+                    "2 radius / spacing of the recipe's surface")
+    return out
+
+
+def table_defaults(table: BRDFTable, component: str = "total") -> ModelDefaults:
+    """``model_defaults`` of a table's metadata, and what the table itself measured: a
+    Lambertian model's ``albedo`` is the table's directional albedo of ``component``
+    (mean over its incidences, per colour, at most 1), not a facet material's.
+
+    Parameters
+    ----------
+    table : BRDFTable
+    component : str
+        A component the table holds.
+    """
+    out = model_defaults(table.meta)
+    albedo = np.clip(table.albedo_of[table.component(component)].mean(axis=(0, 1)), 0.0, 1.0)
+    out.for_model["lambertian"] = {"albedo": [float(a) for a in albedo]}
+    out.sources["lambertian.albedo"] = (f"the table's measured {component} albedo, mean "
+                                        "over its incidences")
     return out

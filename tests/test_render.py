@@ -306,6 +306,8 @@ def test_render_command_writes_the_grid(cli, mi, table_file, tmp_path):
     assert out.stat().st_size > 1000
     assert [t["mitsuba"] for t in result["tables"]] == ["roughconductor"] * 2
     assert result["tables"][0]["params"]["alpha"] == 0.3
+    assert result["tables"][0]["param_sources"] == {"alpha": "the table's realised alpha",
+                                                    "shadowing": "given"}
     assert result["tables"][0]["difference"]["pixels"] > 50
 
 

@@ -224,7 +224,7 @@ MODELS: dict[str, ModelSpec] = {
                      choices=("lambertian",)),
          "albedo": Key("rgb", 0.8, "The fibres' albedo.", low=0.0, high=1.0),
          "base_albedo": Key("rgb", 0.0, "The base's albedo: must be 0 (the model's base "
-                            "is black).", low=0.0, high=0.0)},
+                            "is black).", low=0.0, high=1.0)},
         lambda p: _velvet(p)),
     "microcylinder": ModelSpec(
         "Woven cloth: Sadeghi et al. 2013's microcylinder model (thread scattering with a "
@@ -262,6 +262,11 @@ def _cloth(p: Mapping[str, Any]) -> Any:
 
 def _velvet(p: Mapping[str, Any]) -> Any:
     from microsim.analytic.velvet import SparseVelvet
+
+    if any(a > 0 for a in p["base_albedo"]):
+        raise InputError(f"model velvet-sparse: base_albedo = {p['base_albedo']}: the model "
+                         "needs a black base (base_albedo = 0); simulate the velvet on one "
+                         "with --set material.base.kind=black")
 
     return SparseVelvet(p["fibre_radius"], p["fibre_length"], p["density"], p["tilt"],
                         p["tilt_spread"], p["azimuth"], p["azimuth_spread"], p["albedo"],
@@ -326,7 +331,9 @@ def parse_model_spec(spec: str, defaults: Mapping[str, Any] | None = None
     spec : str
         E.g. ``"beckmann:alpha=0.31"``, ``"oren-nayar:sigma=20,model=qualitative"``.
     defaults : mapping, optional
-        Values used for keys the spec does not give (e.g. a table's realised alpha).
+        Values used for keys the spec does not give (e.g. a table's realised alpha); a
+        ``microsim.table_models.ModelDefaults`` also holds keys for one model only
+        (``for_model``).
 
     Returns
     -------
@@ -342,6 +349,7 @@ def parse_model_spec(spec: str, defaults: Mapping[str, Any] | None = None
                          + ", ".join(MODELS))
     keys = MODELS[name].params
     merged = {k: v for k, v in (defaults or {}).items() if k in keys}
+    merged.update(getattr(defaults, "for_model", {}).get(name, {}))
     merged.update(given)
     if "alpha_x" in given or "alpha_y" in given:
         merged.pop("alpha", None)
@@ -351,3 +359,68 @@ def parse_model_spec(spec: str, defaults: Mapping[str, Any] | None = None
         if "alpha_x" in params:
             del params["alpha"]  # its default does not apply to an anisotropic model
     return name, params, MODELS[name].build(params)
+
+
+UNITS = {"deg": "°", "length": " (tile units)"}
+"""How a key's unit is printed after its value (dimensionless: nothing)."""
+
+
+def parameter_sources(spec: str, params: Mapping[str, Any],
+                      defaults: Mapping[str, Any] | None = None) -> dict[str, str]:
+    """Where each resolved parameter of a spec came from: ``"given"`` (the spec),
+    the source a ``ModelDefaults`` names (e.g. ``"the table's realised alpha"``), or
+    ``"default"`` (the model's own).
+
+    Parameters
+    ----------
+    spec : str
+        The spec ``parse_model_spec`` read.
+    params : mapping
+        Its resolved parameters.
+    defaults : mapping or None
+        The defaults it was given.
+    """
+    name, given = split_spec(spec, "model")
+    sources = getattr(defaults, "sources", {})
+    special = getattr(defaults, "for_model", {}).get(name, {})
+    out = {}
+    for key in params:
+        if key in given:
+            out[key] = "given"
+        elif key in special:
+            out[key] = sources.get(f"{name}.{key}", "from the table")
+        elif defaults is not None and key in defaults:
+            out[key] = sources.get(key, "from the table")
+        else:
+            out[key] = "default"
+    return out
+
+
+def parameters_text(name: str, params: Mapping[str, Any], sources: Mapping[str, str]
+                    ) -> str:
+    """The parameters of a model as a command prints them, each with its unit and
+    source: ``alpha 0.2983 (the table's realised alpha), sigma 20° (default)``.
+
+    Parameters
+    ----------
+    name : str
+        A model of ``MODELS``.
+    params : mapping
+        Its resolved parameters.
+    sources : mapping of str to str
+        ``parameter_sources``'s.
+    """
+    keys = MODELS[name].params
+
+    def value(key: str) -> str:
+        v = params[key]
+        unit = UNITS.get(keys[key].unit, "") if key in keys else ""
+        if isinstance(v, list | tuple):
+            text = "[" + ", ".join(f"{x:.4g}" for x in v) + "]"
+        elif isinstance(v, float):
+            text = f"{v:.4g}"
+        else:
+            text = str(v)
+        return text + unit
+
+    return ", ".join(f"{k} {value(k)} ({sources.get(k, 'default')})" for k in params)

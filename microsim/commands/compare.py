@@ -130,21 +130,24 @@ def run(args: argparse.Namespace) -> int:
     """Compare, print, and draw."""
     import microsim
     from microsim.agreement import agreement, verdict_text
-    from microsim.analytic.registry import parse_model_spec
+    from microsim.analytic.registry import parameter_sources, parameters_text, parse_model_spec
     from microsim.compare import compare_table, model_for
     from microsim.plots import albedo_plot, half_difference_slices, incidence_plane, z_maps
-    from microsim.table_models import model_defaults
+    from microsim.table_models import table_defaults
 
     table = microsim.read_table(args.table)
     for warning in table.meta.warnings:
         print(f"warning: {args.table}: {warning}", file=sys.stderr)
     args.component = table_component(table, args.component, args.table)
-    name, params, model = parse_model_spec(args.model, model_defaults(table.meta))
+    defaults = table_defaults(table, args.component)
+    name, params, model = parse_model_spec(args.model, defaults)
+    sources = parameter_sources(args.model, params, defaults)
     if args.out is not None:
         writable_folder(args.out, "--out")
     compared = compare_table(table, model, args.component)
     check = agreement(compared)
-    result = {"model": name, "params": params, "component": args.component,
+    result = {"model": name, "params": params, "param_sources": sources,
+              "component": args.component,
               "table": str(args.table), **compared.to_json(), "agreement": check.to_json()}
     if args.out is not None:
         title = title_of(table, name, args.component)
@@ -162,7 +165,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(result)
         return 0
-    print(f"{args.component} of {args.table} vs {name} ({readable(params)})")
+    print(f"{args.component} of {args.table} vs {name}: {parameters_text(name, params, sources)}")
     print(f"{'theta_i':>8} {'phi_i':>6} {'median err':>11} {'p90 err':>8} {'z mean':>7} "
           f"{'z std':>6} {'albedo sim':>11} {'model':>16} {'multiple':>9}")
     for r in compared.per_theta_i:

@@ -59,6 +59,16 @@ def progress_printer(enabled: bool) -> Callable[[FitProgress], None] | None:
     return show
 
 
+def fit_units(model: str) -> dict[str, str]:
+    """The unit of each fitted parameter that has one, as printed after its value: the
+    unit its model spec (``microsim.analytic.registry``) reads it in, so a fitted value
+    can be given back as it is (``--model oren-nayar:sigma=34.1``)."""
+    from microsim.analytic.registry import MODELS, UNITS
+
+    keys = MODELS[model].params if model in MODELS else {}
+    return {name: UNITS[key.unit] for name, key in keys.items() if key.unit in UNITS}
+
+
 def run(args: argparse.Namespace) -> int:
     """Fit and report."""
     import microsim
@@ -76,10 +86,12 @@ def run(args: argparse.Namespace) -> int:
         print(file=sys.stderr)
     surface = table.meta.surface
     alpha = None if surface is None else surface.alpha_realised
-    out: dict[str, Any] = {**result.to_json(), "error_model": table.error_model,
+    out: dict[str, Any] = {**result.to_json(), "units": fit_units(result.model),
+                           "error_model": table.error_model,
                            "realisations": int(table.realisations.max()),
                            "alpha_realised": None if alpha is None else alpha.to_json()}
     if args.plot is not None:
+        from microsim.commands.compare import title_of
         from microsim.plots import incidence_plane
 
         incidence_plane(table, result.model_bins, args.plot, args.component,
@@ -92,8 +104,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"{result.model} fitted to the {args.component} of {args.table}:")
     for name, value in result.params.items():
-        from microsim.commands.compare import title_of
-        print(f"  {name:>10} = {with_error(value, result.uncertainty[name])}")
+        print(f"  {name:>10} = {with_error(value, result.uncertainty[name])}"
+              f"{out['units'].get(name, '')}")
     print(f"  chi^2/dof {result.chi2_dof:.3g}, median relative error against the fit "
           "over lobe bins "
           f"{100 * result.median_rel_error:.2f}%")

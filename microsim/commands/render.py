@@ -110,10 +110,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Render every table (and model), write the grid, report times and differences."""
     import microsim
-    from microsim.analytic.registry import parse_model_spec
+    from microsim.analytic.registry import parameter_sources, parameters_text, parse_model_spec
     from microsim.commands.common import print_json
     from microsim.render import backend, bsdfs, figure, objects, scene
-    from microsim.table_models import model_defaults
+    from microsim.table_models import table_defaults
 
     writable_file(args.output, "--output", (".png",))
     if args.live:
@@ -134,8 +134,9 @@ def run(args: argparse.Namespace) -> int:
     if len(specs) not in (0, 1, len(tables)):
         raise InputError(f"--model: given {len(specs)} times; give it once, or once per "
                          f"table ({len(tables)})")
-    models = [parse_model_spec(specs[min(k, len(specs) - 1)], model_defaults(t.meta))
-              for k, t in enumerate(tables)] if specs else []
+    specs = [specs[min(k, len(specs) - 1)] for k in range(len(tables))] if specs else []
+    defaults = [table_defaults(t, c) for t, c in zip(tables, components, strict=True)]
+    models = [parse_model_spec(spec, d) for spec, d in zip(specs, defaults, strict=False)]
     mi = backend.load(args.variant)
     camera = scene.Camera(args.size[0], args.size[1], args.camera[0], args.camera[1],
                           args.fov[0])
@@ -161,7 +162,9 @@ def run(args: argparse.Namespace) -> int:
                 other = scene.render(mi, surface, bsdf, camera, lights, args.spp,
                                      args.seed + 1, track(f"rendering {name}"))
                 diff = figure.difference(image, other)
-                entry.update(model=name, params=params, mitsuba=how,
+                sources = parameter_sources(specs[k], params, defaults[k])
+                entry.update(model=name, params=params, param_sources=sources,
+                             params_text=parameters_text(name, params, sources), mitsuba=how,
                              model_seconds=other.seconds, difference={
                                  "median_abs": diff.median_abs,
                                  "median_abs_noise_alone": diff.median_noise,
@@ -183,7 +186,8 @@ def run(args: argparse.Namespace) -> int:
                 f"{100 * entry['noise']:.1f}% (median)")
         if "model" in entry:
             d = entry["difference"]
-            line += (f"; {entry['model']} via {entry['mitsuba']} {entry['model_seconds']:.2f}"
+            line += (f"; {entry['model']} ({entry['params_text']}) via {entry['mitsuba']} "
+                     f"{entry['model_seconds']:.2f}"
                      f" s; relative difference median {100 * d['median_abs']:.1f}% (noise "
                      f"alone {100 * d['median_abs_noise_alone']:.1f}%), mean "
                      f"{100 * d['mean']:+.1f}% over {d['pixels']} pixels")

@@ -1,0 +1,107 @@
+"""Every model parameter a command fills in is printed with its unit and where it came from,
+one unit per parameter wherever it is printed or read, and a table's own measured quantity
+is the default where one exists (docs/compare.md)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from test_robustness import GAUSSIAN, SMALL, one_error_line
+
+import microsim
+from microsim.analytic.brdf import OrenNayar
+from microsim.analytic.registry import parameter_sources, parameters_text, parse_model_spec
+from microsim.errors import InputError
+from microsim.table_models import ModelDefaults, table_defaults
+
+
+@pytest.fixture(scope="module")
+def table_file(tmp_path_factory):
+    from microsim.cli import main
+
+    path = tmp_path_factory.mktemp("table") / "small.exr"
+    assert main(["simulate", GAUSSIAN, *SMALL, "--rays", "2000", "-o", str(path)]) == 0
+    return path
+
+
+def test_compare_prints_each_parameter_with_its_unit_and_source(cli, table_file):
+    table = microsim.read_table(table_file)
+    alpha = table.meta.surface.alpha_realised.alpha
+    code, out, err = cli("compare", str(table_file), "--model", "oren-nayar:albedo=0.5")
+    assert code == 0, err
+    first = out.splitlines()[0]
+    assert "sigma 20° (default)" in first, first
+    assert "albedo [0.5, 0.5, 0.5] (given)" in first and "model full (default)" in first
+    code, out, err = cli("compare", str(table_file), "--model", "beckmann", "--json")
+    result = json.loads(out)
+    assert result["params"]["alpha"] == alpha
+    assert result["param_sources"] == {"alpha": "the table's realised alpha",
+                                       "shadowing": "default"}
+    code, out, err = cli("compare", str(table_file), "--model", "beckmann")
+    assert f"alpha {alpha:.4g} (the table's realised alpha)" in out.splitlines()[0]
+
+
+@pytest.mark.parametrize("component", ["total", "order2"])
+def test_a_lambertian_comparison_takes_the_tables_measured_albedo(cli, table_file, component):
+    """Not the facets' material (mirror facets here: F = 1, no albedo; on the velvet the
+    fibres' [0.6, 0.1, 0.1]): the table's own directional albedo of the component."""
+    table = microsim.read_table(table_file)
+    measured = table.albedo_of[component].mean(axis=(0, 1))
+    code, out, err = cli("compare", str(table_file), "--model", "lambertian", "--component",
+                         component, "--json")
+    assert code == 0, err
+    result = json.loads(out)
+    np.testing.assert_allclose(result["params"]["albedo"], np.clip(measured, 0, 1), rtol=1e-12)
+    assert result["param_sources"]["albedo"] == (f"the table's measured {component} albedo, "
+                                                 "mean over its incidences")
+    # only the Lambertian model takes it: Oren-Nayar's albedo is a facet albedo
+    _, params, _ = parse_model_spec("oren-nayar", table_defaults(table, component))
+    assert params["albedo"] == 0.8  # its default
+
+
+def test_velvet_sparse_on_a_base_that_is_not_black_says_how_to_simulate_one(cli, table_file):
+    defaults = ModelDefaults()
+    defaults.put("base_albedo", [0.3] * 3, "the recipe's material.base (lambertian)")
+    with pytest.raises(InputError, match="needs a black base.*material.base.kind=black"):
+        parse_model_spec("velvet-sparse", defaults)
+    code, _, err = cli("compare", str(table_file), "--model", "velvet-sparse:base_albedo=0.3")
+    one_error_line(code, err, "velvet-sparse", "black base", "--set material.base.kind=black")
+
+
+def test_fit_prints_angles_in_the_degrees_the_model_spec_reads(cli, tmp_path):
+    """A fitted Oren-Nayar sigma is printed in degrees with its unit, and given back to
+    the model spec it is the same model."""
+    from microsim.compare import model_table
+    from microsim.tables.binning import HemisphereBins
+    from microsim.tables.exr import write_table
+
+    truth = OrenNayar(math.radians(25.0), [0.7, 0.5, 0.3])
+    table = model_table(truth, np.radians([0.0, 40.0, 70.0]), HemisphereBins(16, 32))
+    path = tmp_path / "on.exr"
+    write_table(table, path)
+    code, out, err = cli("fit", str(path), "--model", "oren-nayar", "--json")
+    assert code == 0, err
+    fitted = json.loads(out)
+    assert fitted["units"] == {"sigma": "°"}
+    assert fitted["params"]["sigma"] == pytest.approx(25.0, rel=0.01)
+    code, out, err = cli("fit", str(path), "--model", "oren-nayar")
+    line = next(line for line in out.splitlines() if line.strip().startswith("sigma"))
+    assert line.rstrip().endswith("°"), line
+    _, _, model = parse_model_spec(f"oren-nayar:sigma={fitted['params']['sigma']},"
+                                   f"albedo=[0.7,0.5,0.3]")
+    wi = np.array([0.5, 0.0, math.sqrt(0.75)])
+    wo = np.array([-0.3, 0.2, math.sqrt(0.87)])
+    np.testing.assert_allclose(model.eval(wi, wo), truth.eval(wi, wo), rtol=0.02)
+
+
+def test_parameters_text_names_units_of_every_kind():
+    _, params, _ = parse_model_spec("cylinders:radius=0.4,spacing=1")
+    sources = parameter_sources("cylinders:radius=0.4,spacing=1", params)
+    text = parameters_text("cylinders", params, sources)
+    assert "radius 0.4 (tile units) (given)" in text and "kind mirror (default)" in text
+    _, params, _ = parse_model_spec("kay-kajiya")
+    assert "tangent_theta 90° (default)" in parameters_text(
+        "kay-kajiya", params, parameter_sources("kay-kajiya", params))
