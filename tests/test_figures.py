@@ -28,7 +28,8 @@ def figures(monkeypatch):
         texts = [t.get_text() for t in fig.findobj(lambda a: hasattr(a, "get_text"))
                  if t.get_text()]
         drawn.append({"faults": figure_layout_faults(fig), "texts": texts,
-                      "size": tuple(fig.get_size_inches())})
+                      "size": tuple(fig.get_size_inches()),
+                      "axes_lines": [line for ax in fig.axes for line in ax.get_lines()]})
         close(fig)
 
     monkeypatch.setattr(plt, "close", inspect)
@@ -194,3 +195,31 @@ def test_lobe_view_shows_the_model_inside_the_lobe(tmp_path, monkeypatch):
     wire = next(k for k, c in enumerate(calls) if c.get("style") == "wireframe")
     assert calls[lobe]["opacity"] == LOBE_OPACITY < 0.7 and wire > lobe
     assert calls[wire].get("opacity", 1.0) == 1.0
+
+
+def test_the_half_difference_band_is_the_last_theta_o_ring(tmp_path, figures):
+    """The bright band of the half-difference view at θd > 80° across all θh is the
+    table's last θo ring, not the surface: a noiseless table of the model's own bin
+    averages (gold Beckmann α = 0.3, 32 × 64 bins, incidences to 87° as a simulated gold
+    table has) is 10⁴ times the model at θh = 60°, θd = 87° (both directions in the last
+    ring, whose bins hold the grazing mirror peak), yet within 10% of it at θh = 10°,
+    θd = 40°. The figure marks the ring's edge with a dashed line and says so."""
+    from microsim.analytic.registry import parse_model_spec
+    from microsim.compare import model_table
+    from microsim.geometry import half_difference
+    from microsim.plots import half_difference_slices
+    from microsim.plots.layout import luminance
+    from microsim.tables.binning import HemisphereBins
+
+    _, _, model = parse_model_spec(f"beckmann:alpha=0.3,{GOLD}")
+    theta = np.radians([0, 15, 30, 45, 60, 70, 80, 87])
+    table = model_table(model, theta, HemisphereBins(32, 64))
+    th, td = np.radians([60.0, 10.0]), np.radians([87.0, 40.0])
+    wi, wo = half_difference(th, td, np.pi / 2)
+    ratio = luminance(table.eval(wi, wo)) / luminance(model.eval(wi, wo))
+    assert ratio[0] > 1e4 and abs(ratio[1] - 1) < 0.1, ratio
+    half_difference_slices(table, model, tmp_path / "h.png")
+    edge = np.degrees(table.bins.theta_edges[-2])
+    lines = [line.get_ydata()[0] for line in figures[0]["axes_lines"]]
+    assert lines == pytest.approx([edge] * 3)
+    assert any(f"θd = {edge:.1f}°" in t for t in figures[0]["texts"])

@@ -118,11 +118,14 @@ def half_difference_slices(table: BRDFTable, model: Model, path: str | Path,
     (``table.eval``), model, and log10 of their ratio; white where a direction is below
     the horizon.
 
-    Near θd = 90° both directions graze (cos θi = cos θo = cos θd cos θh at φd = 90°):
-    f_r of a microfacet lobe grows there as D G F / (4 cos θi cos θo), faster than
-    masking falls, and Fresnel rises towards 1 (a conductor whitens), so the band of
-    high f_r at θd > 80° is the model's too (docs/compare.md, "The half-difference
-    view"); f_r cos θ would not show it.
+    Near θd = 90° both directions graze (cos θi = cos θo = cos θd cos θh at φd = 90°).
+    At small θh f_r of a microfacet lobe grows there as D G F / (4 cos θi cos θo), faster
+    than masking falls, with Fresnel rising towards 1: the model's bright corner. Across
+    all θh the simulated image is bright above the dashed line, θd = the last θo ring's
+    lower edge: above it both directions lie in that ring, which holds the grazing mirror
+    peak, and a bin there spans half vectors from θh ≈ 0 to beyond 60° (the θh–θd map
+    stretches without bound as θd → 90°), so the table's value is that bin's average, not
+    the surface's f_r at (θh, θd) (docs/compare.md, "The half-difference view").
     """
     t = np.radians((np.arange(n) + 0.5) * 90.0 / n)
     th, td = np.meshgrid(t, t, indexing="ij")
@@ -143,6 +146,7 @@ def half_difference_slices(table: BRDFTable, model: Model, path: str | Path,
               np.log10(np.where(valid, np.maximum(mod, floor), np.nan)), ratio]
     names = ["simulated log10 f_r (Y)", "model log10 f_r (Y)",
              "log10(simulated / model),\nmodel ≥ 1% of its peak at that θd"]
+    ring = float(np.degrees(table.bins.theta_edges[-2]))
     fig, axes, strip = panel_grid(3, strip=True, panel=(3.6, 3.3), columns=3)
     colour_strip(strip, table, component)
     lo = np.nanmin(images[1])
@@ -152,11 +156,13 @@ def half_difference_slices(table: BRDFTable, model: Model, path: str | Path,
         im = ax.imshow(img.T, origin="lower", extent=(0, 90, 0, 90), aspect="auto",
                        cmap="RdBu_r" if ratio_panel else "viridis",
                        vmin=-0.5 if ratio_panel else lo, vmax=0.5 if ratio_panel else hi)
+        ax.axhline(ring, color="white", ls="--", lw=0.8)
         ax.set_title(name, fontsize=9)
         ax.tick_params(labelsize=8)
         fig.colorbar(im, ax=ax, shrink=0.8)
     outer_labels(axes, "θh (°)", "θd (°)")
-    suptitle(fig, title, f"{Y_NOTE}; φd = 90°")
+    suptitle(fig, title, f"{Y_NOTE}; φd = 90°; above the dashed line (θd = {ring:.1f}°) "
+             "both directions lie in the table's last θo ring")
     save(fig, path)
 
 
