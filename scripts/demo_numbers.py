@@ -132,8 +132,8 @@ def fit_text(m: dict[str, Any]) -> str:
     alpha = m["fit"]["params"]["alpha"]
     realised = m["demo"]["comparison"]["alpha_realised"]
     return wrap(f"Fitted to the demo's table (`microsim fit tables/demo.exr --model beckmann "
-            f"--component single`), α = {alpha:.4f} against the realised {realised:.4f}, "
-            f"{100 * (alpha / realised - 1):+.1f}% (`python scripts/demo_numbers.py`).")
+                f"--component single`), α = {alpha:.4f} against the realised {realised:.4f}, "
+                f"{100 * (alpha / realised - 1):+.1f}% (`python scripts/demo_numbers.py`).")
 
 
 def main() -> None:

@@ -166,3 +166,25 @@ def test_nothing_cites_notes_outside_the_repository():
     citing = [p.relative_to(ROOT).as_posix() for p in [*sources, ROOT / "README.md"]
               if "DESIGN" + ".md" in p.read_text(encoding="utf-8")]
     assert not citing
+
+
+WRITTEN = re.compile(r'write_section\(DOC, "([\w-]+)"')
+DOC_OF = re.compile(r'^DOC = .*"docs" / "([\w-]+\.md)"', re.M)
+
+
+def test_the_sections_scripts_write_are_in_their_pages():
+    """Each section a script writes by a literal name (``write_section(DOC, "name", ...)``)
+    is marked once, begin before end, in the page the script's ``DOC`` names, so the
+    numbers there are the script's and re-running it replaces them."""
+    checked = 0
+    for script in sorted((ROOT / "scripts").glob("*.py")):
+        text = script.read_text(encoding="utf-8")
+        doc = DOC_OF.search(text)
+        for name in WRITTEN.findall(text):
+            assert doc, f"{script.name}: writes {name!r} but names no DOC"
+            page = (ROOT / "docs" / doc.group(1)).read_text(encoding="utf-8")
+            begin, end = f"<!-- {name}: begin -->", f"<!-- {name}: end -->"
+            assert page.count(begin) == page.count(end) == 1, (script.name, name)
+            assert page.index(begin) < page.index(end), (script.name, name)
+            checked += 1
+    assert checked >= 4  # demo_numbers (2), hierarchy_consistency, vgroove_oren_nayar
