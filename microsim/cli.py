@@ -97,8 +97,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             parser = build_parser()
             args = parser.parse_args(argv)
             if args.command is None:
-                parser.print_help()
-                return 2
+                raise InputError("a command is required, one of: " + ", ".join(COMMANDS)
+                                 + " (microsim --help describes them)")
             quick = note()
             if quick is not None:
                 print(f"warning: {quick}", file=sys.stderr)

@@ -32,6 +32,7 @@ from microsim.errors import InputError, InputWarning
 from microsim.materials import MATERIALS, Material, parse_material
 from microsim.schema import (
     REQUIRED,
+    TOML_LIMITS,
     Key,
     check_section,
     parse_value,
@@ -226,7 +227,7 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     if not sep or len(path) < 2 or not all(path):
         raise InputError(f"--set {text!r}: must be section.key=value, e.g. "
                          "--set surface.alpha=0.3")
-    return path, parse_value(value)
+    return path, parse_value(value, f"--set {name}")
 
 
 def apply_overrides(raw: dict, overrides: Iterable[str]) -> dict:
@@ -275,6 +276,8 @@ def read_toml(path: str | Path) -> dict:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: not valid TOML: {exc}") from None
+    except (ValueError, RecursionError):
+        raise InputError(f"{path}: cannot be read: {TOML_LIMITS}") from None
 
 
 def load(path: str | Path, overrides: Iterable[str] = ()) -> Recipe:

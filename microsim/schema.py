@@ -153,7 +153,11 @@ def _number(value: Any, name: str, key: Key, integer: bool = False) -> float | i
         if not float(value).is_integer():
             raise bad
         value = int(value)
-    if not integer and not math.isfinite(value):
+    try:
+        finite = math.isfinite(value)
+    except OverflowError:  # an integer beyond float64
+        finite = False
+    if not integer and not finite:
         raise bad
     if key.low is not None and (value < key.low or (key.low_open and value == key.low)):
         raise bad
@@ -243,11 +247,24 @@ def check_section(raw: Mapping[str, Any], keys: Mapping[str, Key], where: str) -
     return out
 
 
-def parse_value(text: str) -> Any:
+TOML_LIMITS = ("nested too deeply or holding an integer of more than 4300 digits "
+               "(Python's limit)")
+"""Why TOML that parses as text still cannot be read."""
+
+
+def parse_value(text: str, name: str = "value") -> Any:
     """A command-line value read as TOML (``0.3``, ``[0, 45]``, ``"x"``, ``true``); a bare
-    word that is not valid TOML is taken as a string."""
+    word that is not valid TOML is taken as a string.
+
+    Raises
+    ------
+    InputError
+        Naming ``name``, for a value past Python's limits (``TOML_LIMITS``).
+    """
     text = text.strip()
     try:
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text
+    except (ValueError, RecursionError):
+        raise InputError(f"{name} = {text[:20]}…: cannot be read: {TOML_LIMITS}") from None

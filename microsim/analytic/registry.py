@@ -318,7 +318,9 @@ def split_spec(spec: str, what: str) -> tuple[str, dict[str, Any]]:
         key, eq, value = item.partition("=")
         if not eq:
             raise InputError(f"{what} {name}: {item!r} must be key=value")
-        given[key.strip()] = parse_value(value)
+        if key.strip() in given:
+            raise InputError(f"{what} {name}: {key.strip()} given twice; give each key once")
+        given[key.strip()] = parse_value(value, f"{what} {name}: {key.strip()}")
     return name, given
 
 

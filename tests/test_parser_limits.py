@@ -1,0 +1,46 @@
+"""Inputs past the parser's or Python's limits are one ``error:`` line (exit 2), never a
+traceback: TOML nested 5000 deep, integers of 5000 digits (in a recipe, a ``--set`` and a
+model spec), a model spec with a repeated key, and ``microsim`` without a command."""
+
+from __future__ import annotations
+
+import pytest
+from test_robustness import GAUSSIAN, one_error_line
+
+DIGITS = "9" * 5000
+
+
+@pytest.mark.parametrize(("text", "needle"), [
+    ("a = " + "[" * 5000 + "]" * 5000, "nested too deeply"),
+    ('[surface]\nkind = "gaussian"\nalpha = ' + DIGITS, "4300 digits"),
+])
+def test_a_recipe_past_the_toml_limits_is_one_error_line(cli, tmp_path, text, needle):
+    path = tmp_path / "r.toml"
+    path.write_text(text, encoding="utf-8")
+    code, _, err = cli("check", str(path))
+    one_error_line(code, err, str(path), needle)
+
+
+@pytest.mark.parametrize(("value", "needle"), [
+    (DIGITS, "--set surface.alpha = 9999"),
+    ("9" * 400, "surface.alpha = 9999"),  # an integer beyond float64, for a float key
+    ("[" * 3000 + "]" * 3000, "--set surface.alpha"),
+])
+def test_a_set_value_past_the_limits_is_one_error_line(cli, value, needle):
+    code, _, err = cli("check", GAUSSIAN, "--set", f"surface.alpha={value}")
+    one_error_line(code, err, needle)
+
+
+@pytest.mark.parametrize(("spec", "needle"), [
+    ("beckmann:alpha=0.3,alpha=0.5", "alpha given twice"),
+    (f"beckmann:alpha={DIGITS}", "model beckmann: alpha = 9999"),
+    ("beckmann:alpha=" + "9" * 400, "alpha = 9999"),
+])
+def test_a_model_spec_past_the_limits_is_one_error_line(cli, spec, needle):
+    code, _, err = cli("models", "eval", spec, "--wi", "0,0", "--wo", "30,180")
+    one_error_line(code, err, needle)
+
+
+def test_microsim_without_a_command_is_one_error_line(cli):
+    code, _, err = cli()
+    one_error_line(code, err, "a command is required", "simulate", "microsim --help")
