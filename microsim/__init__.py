@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from microsim.settings import Recipe
     from microsim.tables.table import BRDFTable
 
-__version__ = "0.1.0"
+from microsim.version import __version__  # noqa: F401 (the package's version)
 
 
 def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:

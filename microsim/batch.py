@@ -31,7 +31,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import microsim
 from microsim.errors import InputError
 from microsim.files import atomic_path, remove_stale_temporaries
 from microsim.goniometer import Measurement, measure_directions
@@ -43,6 +42,7 @@ from microsim.surfaces.tile import Tile
 from microsim.sweep import Point, Sweep, canonical
 from microsim.tables.exr import write_table
 from microsim.trace import PeriodicScene
+from microsim.version import __version__
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -202,7 +202,7 @@ class Manifest:
         self.head = {"sweep": str(sweep.path.resolve()), "description": sweep.description,
                      "seed": sweep.seed,
                      "thetas_per_job": sweep.thetas_per_job,
-                     "microsim_version": microsim.__version__}
+                     "microsim_version": __version__}
         self.tables = entries
 
     def update(self, name: str, **fields: Any) -> None:

@@ -17,7 +17,6 @@ import warnings
 from collections.abc import Sequence
 from typing import Any
 
-from microsim import __version__
 from microsim.commands import (
     batch,
     bench,
@@ -39,6 +38,7 @@ from microsim.commands import eval as eval_table
 from microsim.commands.common import Parser
 from microsim.effort import note, scaled
 from microsim.errors import InputError, InputWarning
+from microsim.version import __version__
 
 COMMANDS = {module.__name__.rsplit(".", 1)[1]: module
             for module in (check, models, generate, measure, view, simulate, compare, fit, sh,

@@ -20,7 +20,6 @@ from typing import Any
 
 import numpy as np
 
-import microsim
 from microsim.adaptive import direction_errors, next_plan
 from microsim.goniometer import (
     BATCH,
@@ -49,6 +48,7 @@ from microsim.tables.binning import HemisphereBins
 from microsim.tables.meta import DirectionRecord, TableInput, TableMeta, Timing
 from microsim.tables.table import BRDFTable
 from microsim.trace import PeriodicScene
+from microsim.version import __version__
 
 
 class Tiles:
@@ -445,7 +445,7 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
     result.meta = TableMeta(
         recipe=recipe if recipe is not None else Recipe("", None, dict(materials),
                                                         simulation, table),
-        microsim_version=microsim.__version__,
+        microsim_version=__version__,
         surface=SurfaceFacts.pool([surfaces[r] for r in sorted(surfaces)], seeds),
         inputs=tuple(first.inputs), seed=int(simulation.seed), isotropic=first.isotropic,
         error_model=result.error_model, realisations=int(result.realisations.max()),

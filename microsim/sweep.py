@@ -28,12 +28,12 @@ from typing import Any
 
 import numpy as np
 
-from microsim import __version__
 from microsim.errors import InputError
 from microsim.files import file_digest
 from microsim.recipe import SECTIONS, path_keys, read_toml, resolve_in
 from microsim.schema import Key, check_section, unknown_key
 from microsim.settings import Recipe
+from microsim.version import __version__
 
 OPTIONS: dict[str, Key] = {
     "description": Key("str", None, "What the sweep is for."),

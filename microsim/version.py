@@ -1,0 +1,3 @@
+"""The version of microsim, recorded in every table and batch state it writes."""
+
+__version__ = "0.1.0"
