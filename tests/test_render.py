@@ -406,3 +406,33 @@ def test_display_tone_maps_without_clipping():
                         np.zeros((1, 2)), np.zeros((1, 2)), 0.0)
     shown = figure.display(image)
     assert shown[0, 0].max() < shown[0, 1].max() < 1.0
+
+
+def test_the_star_where_a_sphere_faces_the_camera_is_the_bins_noise():
+    """The velvet sphere's star (docs/render.md, "Stars and notches"): around the point
+    that faces the camera, the pixels on a small circle see the surface from θo = 10° at
+    every azimuth, so the noise of the bins of the first θo rings (64 wedges of 5.6° each)
+    becomes wedges meeting at that point. Not a tangent frame: an isotropic table's value
+    does not change when both directions turn about the normal. A noiseless table of the
+    velvet's fibre colour as a Lambertian is the same all around the circle; with the
+    shipped velvet's ~20% noise per bin (its first rings' azimuthal spread is that noise:
+    χ²/dof 0.6–1.2 at θi ≤ 45°) it varies by more than 5%."""
+    from microsim.analytic.registry import parse_model_spec
+    from microsim.tables.export import LUMINANCE
+
+    _, _, model = parse_model_spec("lambertian:albedo=[0.6,0.1,0.1]")
+    theta, bins = np.radians([0.0, 15.0, 30.0, 45.0, 60.0]), HemisphereBins(32, 64)
+    clean = model_table(model, theta, bins)
+    noisy = model_table(model, theta, bins, 0.2, np.random.default_rng(5))
+    phi = np.linspace(0.0, 2 * np.pi, 256, endpoint=False)
+    light = direction(np.full(256, np.radians(40.0)), 0.0)
+    view = direction(np.full(256, np.radians(10.0)), phi)
+
+    def spread(t):
+        y = t.eval(light, view) @ LUMINANCE
+        return y.std() / y.mean()
+
+    assert spread(clean) < 1e-9 and spread(noisy) > 0.05, (spread(clean), spread(noisy))
+    turn = bsdfs.rotation_z(73.0)
+    np.testing.assert_allclose(noisy.eval(light @ turn.T, view @ turn.T),
+                               noisy.eval(light, view), rtol=1e-12)
