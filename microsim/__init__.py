@@ -130,16 +130,18 @@ def simulate(recipe: Recipe, threads: int | None = None,
     return simulate_recipe(recipe, progress, threads, memory_limit_gib)
 
 
-def model(spec: str, table: BRDFTable | None = None) -> Any:
+def model(spec: str, table: BRDFTable | None = None, component: str = "total") -> Any:
     """An analytic model from a spec (``microsim models`` lists them), the parameters it
     does not give filled in from ``table`` as ``compare`` fills them (its realised α, its
-    facets' Fresnel or albedo).
+    facets' Fresnel, a Lambertian's albedo from the table's measured ``component``).
 
     Parameters
     ----------
     spec : str
         ``NAME[:key=value,...]``, e.g. ``"beckmann"`` or ``"oren-nayar:sigma=20"``.
     table : BRDFTable or None
+    component : str
+        The table's component the model stands for.
 
     Returns
     -------
@@ -147,9 +149,10 @@ def model(spec: str, table: BRDFTable | None = None) -> Any:
         With ``eval(wi, wo) -> (..., 3)`` f_r in 1/sr for (..., 3) unit directions.
     """
     from microsim.analytic.registry import parse_model_spec
-    from microsim.table_models import model_defaults
+    from microsim.table_models import table_defaults
 
-    return parse_model_spec(spec, None if table is None else model_defaults(table.meta))[2]
+    defaults = None if table is None else table_defaults(table, component)
+    return parse_model_spec(spec, defaults)[2]
 
 
 def compare(table: BRDFTable, spec: str, component: str = "total") -> Comparison:
@@ -170,7 +173,7 @@ def compare(table: BRDFTable, spec: str, component: str = "total") -> Comparison
     """
     from microsim.compare import compare_table
 
-    return compare_table(table, model(spec, table), component)
+    return compare_table(table, model(spec, table, component), component)
 
 
 def fit(table: BRDFTable, spec: str, component: str = "total") -> FitResult:
