@@ -272,3 +272,22 @@ def print_json(data: Any) -> None:
         return x
 
     print(json.dumps(clean(data), indent=2))
+
+
+def progress_display() -> Any:
+    """A rich progress display on stderr whose bars show their description, the share
+    done, the time elapsed and the time remaining at the rate so far (``rich.progress``:
+    use it as a context manager, add a task per bar)."""
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        Progress,
+        TaskProgressColumn,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    return Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
+                    TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+                    console=Console(stderr=True))

@@ -18,6 +18,7 @@ from microsim.commands.common import (
     nonnegative_int,
     number_list,
     positive_int,
+    progress_display,
     table_component,
 )
 from microsim.errors import InputError
@@ -304,19 +305,7 @@ def progress_bar(enabled: bool) -> Iterator[_Tracker]:
     if not enabled:
         yield _Tracker(None)
         return
-    from rich.console import Console
-    from rich.progress import (
-        BarColumn,
-        Progress,
-        TaskProgressColumn,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
-    with Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
-                  TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
-                  console=Console(stderr=True)) as bar:
+    with progress_display() as bar:
         yield _Tracker(bar)
 
 

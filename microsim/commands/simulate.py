@@ -22,6 +22,7 @@ from microsim.commands.common import (
     flag_overrides,
     positive_int,
     print_json,
+    progress_display,
     roughness_text,
 )
 from microsim.files import writable_file
@@ -110,19 +111,7 @@ def progress_bar(enabled: bool) -> Iterator[Callable[[Progress], None] | None]:
     if not enabled:
         yield None
         return
-    from rich.console import Console
-    from rich.progress import (
-        BarColumn,
-        TaskProgressColumn,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-    from rich.progress import Progress as Bar
-
-    with Bar(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
-             TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
-             console=Console(stderr=True)) as bar:
+    with progress_display() as bar:
         task = bar.add_task("simulating", total=None)
 
         def show(state: Progress) -> None:
