@@ -125,7 +125,9 @@ def run_module(module: str, tests: list[str], work: Path) -> dict:
     tree.mkdir(parents=True)
     committed_tree(tree)
     configure(tree, module, tests)
-    env = {**os.environ, "PYTHONPATH": str(tree / "mutants")}
+    # mutmut puts <tree>/mutants first on sys.path itself; a PYTHONPATH naming it before
+    # it exists would leave a cached miss there, and the tests would import the original
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     while QUIET.exists():
         time.sleep(15)
     start = time.perf_counter()
