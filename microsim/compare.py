@@ -12,6 +12,7 @@ where f_r grows as 1/cos θo towards the horizon, as fibre layers seen edge-on d
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Protocol
 
@@ -351,7 +352,8 @@ def model_for(model: Model, component: str) -> Model:
         else model
 
 
-def compare_table(table: BRDFTable, model: Model, component: str = "total") -> Comparison:
+def compare_table(table: BRDFTable, model: Model, component: str = "total",
+                  progress: Callable[[int, int], None] | None = None) -> Comparison:
     """Every incidence of a table against a model: per-incidence and pooled metrics.
 
     Parameters
@@ -362,6 +364,8 @@ def compare_table(table: BRDFTable, model: Model, component: str = "total") -> C
         A component of the table (``"total"``, ``"single"``, ``"order2"``, …). A model
         that holds chosen scattering orders (``with_orders``: ``beckmann-ms``) is
         compared with the same orders.
+    progress : callable or None
+        ``progress(done, incidences)`` after each incidence's bin averages.
 
     Returns
     -------
@@ -396,6 +400,8 @@ def compare_table(table: BRDFTable, model: Model, component: str = "total") -> C
                                 phi_i=float(np.degrees(phi)),
                                 multiple_scattering_share=float((total - single) / total)
                                 if total > 0 else float("nan")))
+            if progress is not None:
+                progress(len(rows), len(table.theta_i) * len(table.phi_i))
     median, p90, z_mean, z_std = residual_statistics(np.concatenate(rels), np.concatenate(zs))
     return Comparison(
         median_rel_error=median, p90_rel_error=p90, z_mean=z_mean, z_std=z_std,

@@ -44,3 +44,18 @@ def test_an_adaptive_plan_grows_and_ends_done():
 def test_the_bar_is_off_without_a_terminal():
     with progress_bar(False) as show:
         assert show is None
+
+
+def test_compare_reports_every_incidence():
+    """``compare_table`` calls back once per incidence, counting up to all of them."""
+    import numpy as np
+
+    from microsim.analytic.brdf import Lambertian
+    from microsim.compare import compare_table, model_table
+    from microsim.tables.binning import HemisphereBins
+
+    model = Lambertian([0.5, 0.5, 0.5])
+    table = model_table(model, np.radians([0.0, 30.0, 60.0]), HemisphereBins(8, 16))
+    seen = []
+    compare_table(table, model, "total", lambda done, total: seen.append((done, total)))
+    assert seen == [(1, 3), (2, 3), (3, 3)]

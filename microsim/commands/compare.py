@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from collections.abc import Mapping
 from pathlib import Path
@@ -13,6 +14,7 @@ from microsim.commands.common import (
     add_json_arg,
     error_model_note,
     print_json,
+    progress_display,
     readable,
     table_component,
 )
@@ -144,7 +146,16 @@ def run(args: argparse.Namespace) -> int:
     sources = parameter_sources(args.model, params, defaults)
     if args.out is not None:
         writable_folder(args.out, "--out")
-    compared = compare_table(table, model, args.component)
+    with (progress_display() if sys.stderr.isatty() and not args.json
+          else contextlib.nullcontext()) as bar:
+        show = None
+        if bar is not None:
+            task = bar.add_task(f"{name}: bin averages per incidence", total=None)
+
+            def show(done: int, total: int) -> None:
+                bar.update(task, completed=done, total=total)
+
+        compared = compare_table(table, model, args.component, show)
     check = agreement(compared)
     result = {"model": name, "params": params, "param_sources": sources,
               "component": args.component,
