@@ -49,7 +49,7 @@ def test_particles_stay_inside_the_binder_apart_and_periodic(shape: str, keys: d
     rng = np.random.default_rng(surface["seed"])
     top = _Top(surface, rng)
     unit = disc(12) if shape == "flake" else uv_sphere(12)
-    centres, radii, axes, target, skipped = _place(surface, top,
+    centres, radii, axes, target, skipped, _ = _place(surface, top,
                                                    polyhedron_volume(*unit), rng)
     assert skipped == 0 and len(radii) > 20
     d = centres[:, None, :2] - centres[None, :, :2]
@@ -170,7 +170,8 @@ def test_aligned_mirror_flakes_give_a_lobe_that_follows_their_tilts() -> None:
     # which flakes are alone: the placement again (same seed), matched by normal
     rng = np.random.default_rng(surface["seed"])
     top = _Top(surface, rng)
-    centres, radii, axes, _, _ = _place(surface, top, polyhedron_volume(*disc(12)), rng)
+    centres, radii, axes, _, _, _ = _place(surface, top, polyhedron_volume(*disc(12)),
+                                           rng)
     order = np.argmin(np.linalg.norm(flake_normals[:, None] - axes[None], axis=2), axis=1)
     assert len(set(order)) == len(axes) == len(area)
     tilt = np.arccos(np.clip(flake_normals[:, 2], -1, 1))
@@ -301,3 +302,21 @@ def test_paint_tables_do_not_depend_on_threads_and_repeat_bit_for_bit() -> None:
     for run in runs[1:3]:
         assert np.array_equal(run.values["total"], runs[0].values["total"])
     assert not np.array_equal(runs[3].values["total"], runs[0].values["total"])
+
+
+def test_an_infeasible_pigment_fraction_is_refused_once_the_packing_jams(cli, tmp_path):
+    """Flakes at the documented maximum pigment_fraction = 0.4 jam near 6% of the binder:
+    the placement stops after JAMMED particles in a row find no room (it ran for minutes)
+    and says what fraction can be had; a fraction close to the jam still builds, with a
+    warning."""
+    import time
+
+    recipe = "surfaces/paint-metallic.toml"
+    start = time.perf_counter()
+    code, _, err = cli("generate", recipe, "--set", "surface.size=0.4", "--set",
+                       "surface.pigment_fraction=0.4", "-o", str(tmp_path / "p.ply"))
+    assert time.perf_counter() - start < 60  # bounded; about 7 s here
+    lines = [line for line in err.splitlines() if line.startswith("error:")]
+    assert code == 2 and len(lines) == 1, err
+    assert "surface.pigment_fraction = 0.4: the particles jam at" in lines[0]
+    assert not (tmp_path / "p.ply").exists()

@@ -15,7 +15,9 @@ distributions unbiased (skipping to a new one would favour small, flat particles
 goes on until the pigment volume reaches ``pigment_fraction`` of the binder's. Near
 jamming a particle may find no place in ``PER_PARTICLE`` tries: it is given up and the
 next one drawn (a warning says how many, since the placed ones then lean to small, flat
-shapes); when the positions run out, a warning gives the fraction reached. Spheres keep
+shapes); when the positions run out, a warning gives the fraction reached. When
+``JAMMED`` particles in a row are given up the packing has jammed and placement stops;
+short of ``INFEASIBLE`` of the target, the fraction cannot be had: an error. Spheres keep
 their centres ≥ r1 + r2 apart; flakes keep their vertical bounding cylinders disjoint,
 so they may stack as in metallic paint. Distances are minimum-image, and particles
 crossing a side are cut there and continue from the opposite side: the tile is periodic.
@@ -47,6 +49,14 @@ ATTEMPTS = 200
 """Positions drawn per particle the target fraction asks for (the most tried in all)."""
 PER_PARTICLE = 1000
 """Positions tried for one particle before it is given up (and the next one drawn)."""
+JAMMED = 10
+"""Particles given up in a row that end the placement: the packing has jammed (random
+sequential addition saturates; Feder 1980), and going on would try every remaining
+position against every placed particle for nothing (a flake paint at pigment_fraction
+0.4 ran for minutes)."""
+INFEASIBLE = 0.9
+"""A jammed placement short of this share of ``pigment_fraction`` is an error (the
+fraction cannot be had); closer to it, a warning gives the fraction reached."""
 
 
 def uv_sphere(sides: int) -> tuple[np.ndarray, np.ndarray]:
@@ -159,7 +169,8 @@ class _Top:
 
 
 def _place(surface: Mapping[str, Any], top: _Top, unit_volume: float,
-           rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, int]:
+           rng: np.random.Generator
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, int, bool]:
     """Random sequential addition of particles (see the module docstring).
 
     ``unit_volume`` is the volume of the particle mesh at radius (and thickness) 1, so
@@ -176,6 +187,8 @@ def _place(surface: Mapping[str, Any], top: _Top, unit_volume: float,
     skipped : int
         Particles given up after ``PER_PARTICLE`` positions (the placed ones are then
         biased towards small, flat shapes).
+    jammed : bool
+        ``JAMMED`` particles in a row were given up, which ended the placement.
     """
     size = top.size
     flakes = surface["pigment_shape"] == "flake"
@@ -205,12 +218,12 @@ def _place(surface: Mapping[str, Any], top: _Top, unit_volume: float,
     placed = 0.0
     xy = np.empty((0, 2))
     zs, halves, reaches = np.empty(0), np.empty(0), np.empty(0)
-    k = fails = skipped = 0  # the particle being placed (shape k), its failed positions
+    k = fails = skipped = streak = 0  # particle k, its failed positions, given up in a row
     for c in range(tries):  # position c
-        if placed >= target or k == tries:
+        if placed >= target or k == tries or streak == JAMMED:
             break
         if fails == PER_PARTICLE:  # no room for this one: the next, and say so
-            k, fails, skipped = k + 1, 0, skipped + 1
+            k, fails, skipped, streak = k + 1, 0, skipped + 1, streak + 1
             continue
         lo, hi = half[k] + gap[k], z_max - half[k] - gap[k]
         if hi <= lo:  # taller than the binder anywhere: the next particle
@@ -236,10 +249,10 @@ def _place(surface: Mapping[str, Any], top: _Top, unit_volume: float,
         xy = np.vstack([xy, (x, y)])
         zs, halves, reaches = np.append(zs, z), np.append(halves, half[k]), np.append(
             reaches, reach[k])
-        k, fails = k + 1, 0
+        k, fails, streak = k + 1, 0, 0
     idx = np.array(chosen, int)
     centres = np.column_stack([xy, zs]) if len(idx) else np.empty((0, 3))
-    return centres, radii[idx], axes[idx], target, skipped
+    return centres, radii[idx], axes[idx], target, skipped, streak == JAMMED
 
 
 def build(surface: Mapping[str, Any]) -> Tile:
@@ -272,7 +285,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
     flakes = surface["pigment_shape"] == "flake"
     sides = int(surface["sides"])
     unit_v, unit_f = disc(sides) if flakes else uv_sphere(sides)
-    centres, radii, axes, target, skipped = _place(surface, top, polyhedron_volume(
+    centres, radii, axes, target, skipped, jammed = _place(surface, top, polyhedron_volume(
         unit_v, unit_f), rng)
     thick = float(surface["flake_thickness"])
     u, v = orthonormal_basis(axes)
@@ -295,6 +308,14 @@ def build(surface: Mapping[str, Any]) -> Tile:
                              1 + np.repeat(np.arange(n_part), len(unit_f))])
     vertices, faces, material = wrap_into_box(vertices, faces, material, (size, size), groups)
     binder_volume = size * size * float(top.h.mean())
+    if jammed and pigment_volume < INFEASIBLE * target:
+        raise InputError(
+            f"surface.pigment_fraction = {surface['pigment_fraction']:g}: the particles "
+            f"jam at {100 * pigment_volume / binder_volume:.1f}% of the binder ({JAMMED} "
+            f"particles in a row found no room in {PER_PARTICLE} positions each); lower "
+            f"pigment_fraction to at most {pigment_volume / binder_volume:.3g}, or lower "
+            "pigment_radius" + (" or flake_tilt_spread" if flakes else "")
+            + ", or raise binder_thickness")
     facts = PaintFacts(
         isotropic=True, binder_thickness=float(surface["binder_thickness"]),
         binder_volume=binder_volume, particles=int(n_part),
