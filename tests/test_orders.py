@@ -50,6 +50,8 @@ def test_component_names() -> None:
     for bad in ("order0", "orders", "double", "order2++", "order-1"):
         with pytest.raises(ValueError, match="component"):
             canonical_component(bad)
+    with pytest.raises(ValueError, match="orders must be >= 1, got 0"):
+        components_for(0)
 
 
 def test_orders_add_up_to_the_total(four, tmp_path) -> None:
