@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from figurelint import figure_layout_faults
 
 ROOT = Path(__file__).resolve().parent.parent
 SURFACES = ROOT / "surfaces"
@@ -643,48 +644,7 @@ def test_the_system_packages_line_works_with_and_without_sudo(tmp_path, with_sud
     assert calls.count("sudo") == (2 if with_sudo else 0)
 
 
-# --- figures ------------------------------------------------------------------------------
-def drawn_texts(fig) -> list:
-    """(text, its panel or None) of what a figure shows: the suptitle, and per panel its
-    titles, axis labels, tick labels inside the axis range and legend."""
-    texts = [(fig._suptitle, None)] if fig._suptitle is not None else []
-    for ax in fig.axes:
-        own = [ax.title, ax._left_title, ax._right_title, ax.xaxis.label, ax.yaxis.label]
-        for axis, (lo, hi) in ((ax.xaxis, sorted(ax.get_xlim())),
-                               (ax.yaxis, sorted(ax.get_ylim()))):
-            own += [tick.label1 for tick in axis.get_major_ticks()
-                    if tick.label1.get_visible() and lo <= tick.get_loc() <= hi]
-        if ax.get_legend() is not None:
-            own += ax.get_legend().get_texts()
-        texts += [(t, ax) for t in own]
-    return [(t, ax) for t, ax in texts if t.get_visible() and t.get_text().strip()]
-
-
-def figure_layout_faults(fig) -> list[str]:
-    """Texts of a drawn figure that stick out of it, lie on another panel, or overlap a
-    text of another panel."""
-    fig.canvas.draw()
-    renderer = fig.canvas.get_renderer()
-    box = fig.bbox
-    panels = [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
-    texts = drawn_texts(fig)
-    extents = [t.get_window_extent(renderer) for t, _ in texts]
-    faults = []
-    for i, ((text, owner), ext) in enumerate(zip(texts, extents, strict=True)):
-        if ext.x0 < box.x0 - 1 or ext.x1 > box.x1 + 1 or ext.y0 < box.y0 - 1 or \
-                ext.y1 > box.y1 + 1:
-            faults.append(f"outside the figure: {text.get_text()!r}")
-        for ax in panels:
-            if owner is not None and ax is not owner and \
-                    ext.overlaps(ax.get_window_extent(renderer)):
-                faults.append(f"{text.get_text()!r} lies on another panel")
-        for (other, other_owner), other_ext in zip(texts[:i], extents[:i], strict=True):
-            if owner is not None and other_owner is not None and owner is not other_owner \
-                    and ext.overlaps(other_ext):
-                faults.append(f"{text.get_text()!r} overlaps {other.get_text()!r}")
-    return faults
-
-
+# --- figures (every figure command: tests/test_figures.py) ----------------------------------
 def test_comparison_figures_keep_their_texts_apart(small_table, tmp_path, monkeypatch):
     """Every figure of ``compare --out`` and ``fit --plot``: no title clipped by the edge,
     no axis label on a neighbouring panel; the fit's curve is labelled as the fit."""
