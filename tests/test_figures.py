@@ -223,3 +223,21 @@ def test_the_half_difference_band_is_the_last_theta_o_ring(tmp_path, figures):
     lines = [line.get_ydata()[0] for line in figures[0]["axes_lines"]]
     assert lines == pytest.approx([edge] * 3)
     assert any(f"θd = {edge:.1f}°" in t for t in figures[0]["texts"])
+
+
+def test_titles_wrap_at_spaces_only():
+    """A title that must wrap inside a hyphenated model name breaks before it, not at its
+    hyphen ("oren-/nayar" before)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from microsim.plots.layout import wrapped
+
+    fig = plt.figure(figsize=(2.0, 2.0))      # 24 characters a line at 10 pt
+    title = "a velvet table, oren-nayar fit"              # "…, oren-" fits a line
+    lines = wrapped(title, fig, 10).splitlines()
+    plt.close(fig)
+    assert len(lines) > 1 and not any(line.endswith("-") for line in lines), lines
+    assert any("oren-nayar" in line for line in lines)
