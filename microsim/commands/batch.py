@@ -7,6 +7,7 @@ import contextlib
 import logging
 import os
 import sys
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -17,6 +18,9 @@ from microsim.files import writable_folder
 
 CONNECT_TIMEOUT = 20
 """Seconds to wait for ``--scheduler`` before giving up."""
+CONNECT_GRACE = 5
+"""Seconds past ``CONNECT_TIMEOUT`` that Dask's own connect may take to report its
+failure before the wait ends without it."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -72,18 +76,64 @@ def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     if workers is not None:
         raise InputError("--workers: only for the local cluster; the cluster of "
                          "--scheduler has its own workers")
+    with connected_client(scheduler) as client:
+        yield client
+
+
+@contextlib.contextmanager
+def connected_client(scheduler: str) -> Iterator[Any]:
+    """A client of the Dask scheduler at ``scheduler`` (an address or a scheduler file),
+    or an ``InputError`` within ``CONNECT_TIMEOUT`` seconds and a few more.
+
+    The client connects on a thread of its own, waited for at most that long: a port that
+    accepts connections but never speaks Dask holds Dask's own connect past its timeout.
+    A client that connects after the wait is closed by that thread.
+    """
+    import json
+
+    from distributed import Client
+
+    where = f"--scheduler {scheduler!r}"
     if "://" in scheduler:
         target: dict[str, Any] = {"address": scheduler}
     elif Path(scheduler).is_file():
+        try:
+            info = json.loads(Path(scheduler).read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, ValueError, RecursionError):
+            info = None
+        if not isinstance(info, dict) or not isinstance(info.get("address"), str):
+            raise InputError(f"{where}: not a Dask scheduler file (JSON with an "
+                             "'address', as dask scheduler --scheduler-file writes it)")
         target = {"scheduler_file": scheduler}
     else:
-        raise InputError(f"--scheduler {scheduler!r}: neither an address "
-                         "(tcp://host:port) nor an existing scheduler file")
-    try:
-        client = Client(**target, timeout=CONNECT_TIMEOUT)
-    except (OSError, TimeoutError) as exc:
-        raise InputError(f"--scheduler {scheduler!r}: cannot connect: {exc}") from None
-    with client:
+        raise InputError(f"{where}: neither an address (tcp://host:port) nor an existing "
+                         "scheduler file")
+    outcome: dict[str, Any] = {}
+    abandoned = threading.Event()
+
+    def connect() -> None:
+        try:
+            client = Client(**target, timeout=CONNECT_TIMEOUT)
+        except Exception as exc:  # reported below, as the error line of this input
+            outcome["error"] = exc
+            return
+        if abandoned.is_set():
+            client.close()
+        outcome["client"] = client
+
+    thread = threading.Thread(target=connect, name="microsim-connect", daemon=True)
+    thread.start()
+    thread.join(CONNECT_TIMEOUT + CONNECT_GRACE)
+    if thread.is_alive():
+        abandoned.set()
+        raise InputError(f"{where}: no answer within {CONNECT_TIMEOUT:g} s (is it a Dask "
+                         "scheduler?)")
+    if "error" in outcome:
+        exc = outcome["error"]
+        raise InputError(f"{where}: cannot connect: {type(exc).__name__}: "
+                         f"{str(exc).splitlines()[0] if str(exc) else 'no reason given'}"
+                         ) from None
+    with outcome["client"] as client:
         yield client
 
 
