@@ -113,6 +113,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
     except BrokenPipeError:
         return 0
+    except OSError as exc:  # the device or stream the user chose (a full disk, /dev/full)
+        where = exc.filename or "output"
+        print(f"error: {one_line(str(where))}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
 
 
 def run() -> None:
@@ -128,6 +132,9 @@ def run() -> None:
         sys.stderr.flush()
     except BrokenPipeError:
         pass
+    except OSError as exc:  # buffered output that did not fit (stdout to a full device)
+        os.write(2, f"error: output: {exc.strerror or exc}\n".encode())
+        code = 2
     atexit._run_exitfuncs()  # the handlers the normal exit would call first
     os._exit(code)
 

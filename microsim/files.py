@@ -125,7 +125,27 @@ def writable_file(path: str | Path, flag: str, suffixes: tuple[str, ...] = ()) -
     if path.is_dir():
         raise InputError(f"{flag} {path}: is a folder; give a file name")
     _folder_ready(path.parent, flag, path)
+    longest = _name_max(path.parent) - (len(os.fsencode(_temporary_name(""))))
+    if len(os.fsencode(path.name)) > longest:
+        raise InputError(f"{flag} {path.name[:40]}…: a file name of "
+                         f"{len(os.fsencode(path.name))} bytes; this folder's file system "
+                         f"takes at most {longest} here (the file is written under a "
+                         "longer temporary name first)")
     return path
+
+
+def _name_max(folder: Path) -> int:
+    """The longest file name, in bytes, the file system of ``folder`` takes (255 where
+    it does not say)."""
+    try:
+        return os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        return 255
+
+
+def _temporary_name(name: str) -> str:
+    """The temporary file name ``atomic_path`` writes the file ``name`` under."""
+    return f".{name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
 
 
 @contextmanager
@@ -151,7 +171,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(path.parent, path.name)
-    tmp = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
+    tmp = path.parent / _temporary_name(path.name)
     # created like any new file (0666 less the umask), unlike mkstemp's private 0600
     os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
     try:

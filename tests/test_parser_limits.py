@@ -1,8 +1,13 @@
-"""Inputs past the parser's or Python's limits are one ``error:`` line (exit 2), never a
-traceback: TOML nested 5000 deep, integers of 5000 digits (in a recipe, a ``--set`` and a
-model spec), a model spec with a repeated key, and ``microsim`` without a command."""
+"""Inputs past the parser's, Python's or the OS's limits are one ``error:`` line (exit 2),
+never a traceback: TOML nested 5000 deep, integers of 5000 digits (in a recipe, a
+``--set`` and a model spec), a model spec with a repeated key, ``microsim`` without a
+command, an output name longer than the file system takes, stdout to a full device."""
 
 from __future__ import annotations
+
+import os
+import subprocess
+import sys
 
 import pytest
 from test_robustness import GAUSSIAN, one_error_line
@@ -44,3 +49,22 @@ def test_a_model_spec_past_the_limits_is_one_error_line(cli, spec, needle):
 def test_microsim_without_a_command_is_one_error_line(cli):
     code, _, err = cli()
     one_error_line(code, err, "a command is required", "simulate", "microsim --help")
+
+
+def test_an_output_name_too_long_for_the_file_system_is_refused_before_the_work(cli, tmp_path):
+    """255 bytes is the usual limit; the file is written under a temporary name about 25
+    bytes longer first, so 240 bytes is already too long (found after the work, at the
+    rename, before)."""
+    name = "a" * 240 + ".npz"
+    code, _, err = cli("export", str(tmp_path / "missing.exr"), "--format", "npz", "-o",
+                       str(tmp_path / name))
+    one_error_line(code, err, "--output", "a file name of 244 bytes")
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
+@pytest.mark.parametrize("argv", [["check", GAUSSIAN], ["check", GAUSSIAN, "--json"]])
+def test_stdout_to_a_full_device_is_one_error_line(argv):
+    with open("/dev/full", "w") as full:
+        done = subprocess.run([sys.executable, "-m", "microsim.cli", *argv], stdout=full,
+                              stderr=subprocess.PIPE, text=True, timeout=120)
+    one_error_line(done.returncode, done.stderr, "No space left on device")
