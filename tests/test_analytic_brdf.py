@@ -210,6 +210,12 @@ def test_fresnel_closed_forms():
     crit = math.sqrt(1 - (1 / 1.5) ** 2)  # cos of the critical angle
     assert fresnel_dielectric(crit - 1e-6, 1 / 1.5) == 1.0
     assert fresnel_dielectric(crit + 1e-3, 1 / 1.5) < 1.0
+    # grazing from inside glass (cos_i = 0, eta < 1: both denominators vanish) is total
+    # reflection, without a 0/0 (warnings are errors); cosines outside [0, 1] clamp
+    assert fresnel_dielectric(0.0, 1 / 1.5) == 1.0
+    for f, args in ((fresnel_dielectric, (eta,)), (fresnel_conductor, (e, k))):
+        np.testing.assert_array_equal(f(-0.3, *args), f(0.0, *args))
+        np.testing.assert_array_equal(f(1.2, *args), f(1.0, *args))
 
 
 def test_fresnel_reference_value():
