@@ -713,6 +713,7 @@ def test_half_difference_ratio_covers_the_lobe_at_every_theta_d(small_table, tmp
     [
         (["check", GAUSSIAN, "--set", "surface.kind=[]"], "surface.kind = []"),
         (["check", GAUSSIAN, "--set", "material.kind=[1]"], "material.kind = [1]"),
+        (["check", str(SURFACES / "mesh-example.toml"), "--set", "surface.path=gone.ply"], "surfaces/gone.ply': no such file"),
         (["compare", "{table}", "--model", "beckmann:alpha=1e-300"], "alpha = 1e-300"),
         (["view", "{table}", "--screenshot", "{tmp}/v.txt"], "--screenshot"),
         (["fit", "{table}", "--model", "ggx", "--plot", "{tmp}/f.txt"], "--plot"),

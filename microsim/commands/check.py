@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from microsim import recipe
 from microsim.commands.common import add_json_arg, add_recipe_args, print_json
+from microsim.errors import InputError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -23,8 +25,15 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print the resolved recipe as TOML (or JSON with ``--json``)."""
+    """Print the resolved recipe as TOML (or JSON with ``--json``); a surface file (a
+    mesh) that does not exist is an error here, as building the tile would find."""
+    from microsim.surfaces.params import SURFACE_KINDS
+
     resolved = recipe.load(args.recipe, args.overrides)
+    surface = resolved.surface
+    for name, key in SURFACE_KINDS[surface.kind].keys.items():
+        if key.kind == "path" and name in surface and not Path(surface[name]).is_file():
+            raise InputError(f"surface.{name} = {surface[name]!r}: no such file")
     if args.json:
         print_json(resolved.to_json())
     else:
