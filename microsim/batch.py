@@ -40,7 +40,7 @@ from microsim.surfaces import build_tile
 from microsim.surfaces.realisations import realisation as realisation_of
 from microsim.surfaces.tile import Tile
 from microsim.sweep import Point, Sweep, canonical
-from microsim.tables.exr import write_table
+from microsim.tables.exr import read_table, write_table
 from microsim.trace import PeriodicScene
 from microsim.version import __version__
 
@@ -223,6 +223,16 @@ def _finite(x: float) -> float | None:
     return x if x == x and abs(x) != float("inf") else None
 
 
+def _reads(path: Path) -> bool:
+    """Whether ``path`` is a table ``read_table`` reads whole (harmonics included): a
+    table the manifest calls done but whose file was truncated or edited is made again."""
+    try:
+        read_table(path, require_sh=True)
+    except InputError:
+        return False
+    return True
+
+
 def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool = True,
               threads: int = 1, progress: Callable[[dict[str, Any]], None] | None = None
               ) -> dict[str, Any]:
@@ -238,7 +248,7 @@ def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool 
         Where jobs run; workers must be able to import microsim.
     resume : bool
         Skip tables the manifest lists as done with the same recipe hash whose file
-        exists; False recomputes every table.
+        reads as a whole table; False recomputes every table.
     threads : int
         Tracing threads per job.
     progress : callable or None
@@ -261,7 +271,7 @@ def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool 
         keep = {p.name: old[p.name] for p in sweep.points
                 if p.name in old and old[p.name].get("status") == "done"
                 and old[p.name].get("recipe_hash") == p.hash
-                and (folder / f"{p.name}.exr").is_file()}
+                and _reads(folder / f"{p.name}.exr")}
         todo = [p for p in sweep.points if p.name not in keep]
         manifest = Manifest(folder, sweep, {
             p.name: keep.get(p.name) or {

@@ -166,6 +166,22 @@ def test_resume_skips_done_tables_and_redoes_changed_ones(tmp_path: Path, cli: C
     assert read_table(out / "alpha=0.5.exr").rays.sum() == 3 * 600
 
 
+def test_resume_redoes_a_done_table_whose_file_was_truncated(tmp_path: Path, cli: Callable
+                                                             ) -> None:
+    """The manifest says done, the file is cut to half its bytes: it is made again (it
+    was skipped, and the sweep's output was a file no command reads)."""
+    sweep = write_sweep(tmp_path, axes='[sweep]\n"surface.alpha" = [0.2, 0.5]\n', rays=500)
+    out = tmp_path / "out"
+    assert cli("batch", str(sweep), "-o", str(out), "--workers", "1")[0] == 0
+    whole = (out / "alpha=0.5.exr").read_bytes()
+    (out / "alpha=0.5.exr").write_bytes(whole[:len(whole) // 2])
+    code, text, _ = cli("batch", str(sweep), "-o", str(out), "--workers", "1", "--json")
+    result = json.loads(text)
+    assert code == 0 and result["skipped"] == ["alpha=0.2"], result
+    assert result["computed"] == ["alpha=0.5"]
+    assert read_table(out / "alpha=0.5.exr", require_sh=True).rays.sum() == 3 * 500
+
+
 def test_resume_redoes_a_table_whose_input_file_changed(tmp_path: Path, cli: Callable
                                                          ) -> None:
     """The recipe hash covers the contents of the files a recipe names: a mesh edited in
