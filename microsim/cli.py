@@ -69,12 +69,15 @@ def one_line(message: str) -> str:
 
 def _show_warning(message: Warning | str, category: type[Warning], filename: str,
                   lineno: int, file: Any = None, line: str | None = None) -> None:
-    """``warnings.showwarning`` of the CLI: an ``InputWarning`` is one ``warning:`` line on
-    stderr; other warnings as Python shows them."""
+    """``warnings.showwarning`` of the CLI: every warning is one ``warning:`` line on
+    stderr; an ``InputWarning`` says it all, another (numpy's, scipy's, a library's) names
+    its category and where it was raised, without the source line Python adds."""
     if issubclass(category, InputWarning):
         print(f"warning: {one_line(str(message))}", file=sys.stderr)
     else:
-        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+        where = f"{os.path.basename(filename)}:{lineno}"
+        print(f"warning: {category.__name__}: {one_line(str(message))} ({where})",
+              file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -68,3 +68,24 @@ def test_stdout_to_a_full_device_is_one_error_line(argv):
         done = subprocess.run([sys.executable, "-m", "microsim.cli", *argv], stdout=full,
                               stderr=subprocess.PIPE, text=True, timeout=120)
     one_error_line(done.returncode, done.stderr, "No space left on device")
+
+
+def test_a_library_warning_is_one_line(cli, monkeypatch):
+    """A warning of numpy, scipy or a library (here a UserWarning with a line break) is one
+    ``warning:`` line naming its category and where it was raised, not Python's two lines
+    with the source."""
+    import warnings
+
+    from microsim.commands import check
+
+    def warn_then_check(args):
+        warnings.warn("overflow in exp\nsecond line", UserWarning, stacklevel=1)
+        return 0
+
+    monkeypatch.setattr(check, "run", warn_then_check)
+    code, _, err = cli("check", GAUSSIAN)
+    assert code == 0
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("warning: UserWarning: overflow in exp"), err
+    assert "test_parser_limits.py:" in lines[0]
+
