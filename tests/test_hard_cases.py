@@ -36,17 +36,22 @@ def recipe(surface, material="mirror", theta=(0.0,), rays=20_000, bounces=64, bi
 
 LOST_MAX = 1e-4
 """Energy a closed tile of lossless facets may lose (leaks through the surface, paths cut
-at the bounce limit): the cases here lose none (measured 0 of every ray), so more than one
-ray in 10⁴ is a tracer fault, not noise; ``albedo + lost = 1`` alone would hold even if
-every ray leaked."""
+at the bounce limit): the cases here lose none, except α = 3.0 at normal incidence, where
+one path of 10⁴ hits a face from behind on some CPUs (Embree's float32 traversal differs
+with the SIMD width it picks: 0 on one machine, 1 on another), so more than one ray in
+10⁴ is a tracer fault, not noise; ``albedo + lost = 1`` alone would hold even if every
+ray leaked."""
 
 
 def assert_furnace_closes(table):
-    """Bookkeeping (escaped + lost = 1 to round-off) and the lost energy itself."""
+    """Bookkeeping (escaped + lost = 1 to round-off), the lost energy itself, and the
+    paths the tracer lost (leaked, through a back face, trapped) at most ``LOST_MAX`` of
+    each direction's rays."""
     np.testing.assert_allclose(table.albedo + table.lost_energy, 1.0, atol=1e-12)
     assert table.lost_energy.max() <= LOST_MAX
-    for d in table.meta.directions:
-        assert d.fates["leaked"] == d.fates["backface"] == d.fates["trapped"] == 0
+    for d, rays in zip(table.meta.directions, table.rays.ravel(), strict=True):
+        faults = d.fates["leaked"] + d.fates["backface"] + d.fates["trapped"]
+        assert faults <= LOST_MAX * rays, d.fates
 
 
 def run(r, tile=None):
