@@ -5,9 +5,11 @@ built as periodic triangle meshes, ray traced with Embree as a virtual goniophot
 and turned into BRDF tables with per-bin error bars, compared with analytic models.
 
 The Python API (docs/python.md) is the functions of this module: ``load_recipe``,
-``simulate``, ``read_table``, ``write_table``, ``model``, ``compare``, ``fit`` and
-``export``; a table evaluates itself (``BRDFTable.eval``). Each imports what it needs
-when first called, so ``import microsim`` stays light.
+``simulate``, ``read_table``, ``write_table``, ``model``, ``compare_model``,
+``fit_model`` and ``export``; a table evaluates itself (``BRDFTable.eval``). Each imports
+what it needs when first called, so ``import microsim`` stays light. (``compare`` and
+``fit`` are the names of the modules ``microsim.compare`` and ``microsim.fit``, which an
+import binds on the package, hence the longer names of the functions.)
 """
 
 from __future__ import annotations
@@ -155,8 +157,9 @@ def model(spec: str, table: BRDFTable | None = None, component: str = "total") -
     return parse_model_spec(spec, defaults)[2]
 
 
-def compare(table: BRDFTable, spec: str, component: str = "total") -> Comparison:
-    """A table against a model (``model(spec, table)``), as ``microsim compare`` does.
+def compare_model(table: BRDFTable, spec: str, component: str = "total") -> Comparison:
+    """A table against a model (``model(spec, table, component)``), as ``microsim
+    compare`` does.
 
     Parameters
     ----------
@@ -176,7 +179,7 @@ def compare(table: BRDFTable, spec: str, component: str = "total") -> Comparison
     return compare_table(table, model(spec, table, component), component)
 
 
-def fit(table: BRDFTable, spec: str, component: str = "total") -> FitResult:
+def fit_model(table: BRDFTable, spec: str, component: str = "total") -> FitResult:
     """Fit a model family to a table, as ``microsim fit`` does.
 
     Parameters

@@ -70,3 +70,19 @@ def test_model_is_the_registry_model_and_export_checks_the_format(tmp_path):
         microsim.export(table, tmp_path / "x.bsdf", format="bsdf")
     microsim.export(table, tmp_path / "x.npz", format="npz")
     assert (tmp_path / "x.npz").stat().st_size > 0
+
+
+def test_no_api_function_is_shadowed_by_a_module():
+    """Importing a submodule binds its name on the package: no API function may share a
+    name with a module of the package (``compare`` and ``fit`` are modules)."""
+    import importlib
+    import pkgutil
+
+    api = ["load_recipe", "simulate", "read_table", "write_table", "model", "compare_model",
+           "fit_model", "export"]
+    modules = {m.name for m in pkgutil.iter_modules(microsim.__path__)}
+    assert not set(api) & modules
+    for name in modules - {"__main__"}:
+        importlib.import_module(f"microsim.{name}")
+    assert all(callable(getattr(microsim, name)) and not isinstance(
+        getattr(microsim, name), type(microsim)) for name in api)

@@ -623,7 +623,8 @@ def test_ci_runs_the_readme_commands_word_for_word():
 def test_the_system_packages_line_works_with_and_without_sudo(tmp_path, with_sudo):
     """The README's first line, run by bash with stand-ins for apt-get (and sudo): in a
     root shell without sudo it calls apt-get directly; with sudo, through sudo. Both
-    update the package lists, then install the three EGL libraries."""
+    update the package lists, then install the three EGL libraries and the LLVM library
+    Mitsuba's vectorised variant needs."""
     import subprocess
 
     bin_dir = tmp_path / "bin"
@@ -640,7 +641,7 @@ def test_the_system_packages_line_works_with_and_without_sudo(tmp_path, with_sud
     calls = log.read_text().splitlines()
     apt = [c for c in calls if c.startswith("apt-get")]
     assert apt == ["apt-get update",
-                   "apt-get install -y libegl1 libegl-mesa0 libgl1-mesa-dri"]
+                   "apt-get install -y libegl1 libegl-mesa0 libgl1-mesa-dri libllvm19"]
     assert calls.count("sudo") == (2 if with_sudo else 0)
 
 
