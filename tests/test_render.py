@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -317,6 +318,8 @@ def test_render_command_writes_the_grid(cli, mi, table_file, tmp_path):
     (["-o", "x.png", "--light", "moon"], "--light 'moon'"),
     (["-o", "x.png", "--light", "sun:elevation=100"], "elevation"),
     (["-o", "x.png", "--light", "envmap"], "file=PATH"),
+    (["-o", "x.png", "--light", f"envmap:file={Path(__file__).parent.parent / 'README.md'}"],
+     "is not an image"),
     (["-o", "x.png", "--object", "cube"], "--object cube"),
     (["-o", "x.png", "--object", "nothere.ply"], "no such file"),
     (["-o", "x.png", "--model", "bekmann"], "model 'bekmann'"),

@@ -96,6 +96,12 @@ def _towards(elevation: float, azimuth: float) -> np.ndarray:
     return direction(math.radians(90.0 - elevation), math.radians(azimuth))
 
 
+IMAGE_MAGIC = (b"v/1\x01", b"#?RADIANCE", b"#?RGBE", b"PF\n", b"Pf\n", b"\x89PNG",
+               b"\xff\xd8\xff")
+"""The first bytes of the image files an environment map may be (OpenEXR, Radiance HDR,
+PFM, PNG, JPEG): anything else made Mitsuba's parser raise after the scene was built."""
+
+
 def parse_light(spec: str) -> tuple[str, dict[str, Any]]:
     """``KIND[:key=value,...]`` to a kind and its checked parameters (defaults filled)."""
     kind, given = split_spec(spec, "--light")
@@ -108,6 +114,11 @@ def parse_light(spec: str) -> tuple[str, dict[str, Any]]:
             raise InputError("--light envmap: give file=PATH (an EXR or HDR image)")
         if not Path(params["file"]).is_file():
             raise InputError(f"--light envmap: file {params['file']!r} does not exist")
+        with open(params["file"], "rb") as f:
+            start = f.read(16)
+        if not start.startswith(IMAGE_MAGIC):
+            raise InputError(f"--light envmap: file {params['file']!r} is not an image "
+                             "(an EXR or HDR environment map; PFM, PNG and JPEG read too)")
     return kind, params
 
 
