@@ -312,6 +312,10 @@ def fit_table(table: Any, spec: str, component: str = "total",
     if start is None and fam.names[0] == "alpha" and alpha is not None and alpha.isotropic:
         x0[0] = alpha.alpha
 
+    if keep.sum() <= len(x0):
+        raise InputError(f"fit {name}: the {component} of this table has {int(keep.sum())} "
+                         f"bins with light (a defined error), not more than the {len(x0)} "
+                         "parameters to fit: nothing escaped into it to fit a model to")
     dof = max(int(keep.sum()) - len(x0), 1)
     evaluations = 0
 
@@ -324,7 +328,11 @@ def fit_table(table: Any, spec: str, component: str = "total",
             progress(FitProgress(evaluations, float(r @ r) / dof))
         return r
 
-    result = least_squares(residuals, x0, bounds=(fam.lower, fam.upper), x_scale="jac")
+    try:
+        result = least_squares(residuals, x0, bounds=(fam.lower, fam.upper), x_scale="jac")
+    except ValueError as exc:  # scipy: residuals not finite (the model is NaN or inf there)
+        raise InputError(f"fit {name}: {exc} (the model's values over this table's bins "
+                         "are not finite at the start values or during the fit)") from None
     chi2 = float(np.sum(result.fun**2))
     try:
         cov = np.linalg.inv(result.jac.T @ result.jac) * max(chi2 / dof, 1.0)

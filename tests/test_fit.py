@@ -100,3 +100,20 @@ def test_simulated_gaussian_fits_beckmann_at_its_realised_alpha(cli, tmp_path):
 def test_bad_model_exits_2(cli, tmp_path, model, needle):
     code, _, err = cli("fit", str(tmp_path / "none.exr"), "--model", model)
     assert code == 2 and err.startswith("error: ") and needle in err
+
+
+def test_a_table_with_nothing_to_fit_is_an_error_line():
+    """No light in the component (a black surface): every error undefined, nothing to fit
+    (it printed parameters ± nan with exit 0); a model that is not finite over the bins
+    is an error too (scipy's 'residuals are not finite' was a traceback)."""
+    from microsim.errors import InputError
+
+    table = table_of(OrenNayar(0.35, [0.7, 0.5, 0.3]))
+    for c in table.components:
+        table.values[c][:] = 0.0
+        table.errors[c][:] = np.nan
+    with pytest.raises(InputError, match="has 0 bins with light"):
+        fit_table(table, "beckmann")
+    table = table_of(OrenNayar(0.35, [0.7, 0.5, 0.3]))
+    with pytest.raises(InputError, match="not finite"):
+        fit_table(table, "phong", start=[np.nan, 1.0, 1.0, 1.0])
