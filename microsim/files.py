@@ -57,13 +57,37 @@ def remove_stale_temporaries(folder: str | Path, name: str | None = None) -> lis
     return removed
 
 
-def _folder_ready(folder: Path, flag: str, given: Path) -> None:
-    """Create ``folder`` if missing and write a probe file in it; ``InputError`` naming
-    ``flag`` and the user's ``given`` path otherwise."""
+def _existing_ancestor(folder: Path, flag: str, given: Path) -> Path | None:
+    """The nearest of ``folder`` and its parents that exists; ``InputError`` naming
+    ``flag`` and the user's ``given`` path when it is a file."""
     ancestor = next((p for p in (folder, *folder.parents) if p.exists()), None)
     if ancestor is not None and not ancestor.is_dir():
         where = "is a file" if ancestor == given else f"{ancestor} is a file"
         raise InputError(f"{flag} {given}: {where}, not a folder")
+    return ancestor
+
+
+def folder_possible(folder: str | Path, flag: str) -> None:
+    """Check, without creating anything, that the output folder ``folder`` could be made
+    and written: the nearest existing folder on its path takes new entries. For commands
+    whose input takes long to check before ``writable_folder`` may create the folder (a
+    bad input must leave nothing behind).
+
+    Raises
+    ------
+    InputError
+    """
+    folder = Path(folder)
+    ancestor = _existing_ancestor(folder, flag, folder)
+    if ancestor is None or not os.access(ancestor, os.W_OK | os.X_OK) or (
+            os.statvfs(ancestor).f_flag & os.ST_RDONLY):
+        raise InputError(f"{flag} {folder}: cannot write in {ancestor}")
+
+
+def _folder_ready(folder: Path, flag: str, given: Path) -> None:
+    """Create ``folder`` if missing and write a probe file in it; ``InputError`` naming
+    ``flag`` and the user's ``given`` path otherwise."""
+    _existing_ancestor(folder, flag, given)
     try:
         folder.mkdir(parents=True, exist_ok=True)
         probe = folder / f".microsim-probe.{os.getpid()}.{secrets.token_hex(4)}"

@@ -166,6 +166,20 @@ def test_resume_skips_done_tables_and_redoes_changed_ones(tmp_path: Path, cli: C
     assert read_table(out / "alpha=0.5.exr").rays.sum() == 3 * 600
 
 
+def test_a_bad_output_is_refused_before_the_sweep_is_loaded(tmp_path: Path, cli: Callable,
+                                                           monkeypatch) -> None:
+    """Loading and checking a sweep of a million points took 110 s before a bad -o was
+    reported: the output is checked first (without creating it), the loading is a trap."""
+    def trap(path):
+        raise AssertionError("the sweep was loaded")
+
+    monkeypatch.setattr("microsim.sweep.load_sweep", trap)
+    (tmp_path / "a-file").write_text("x")
+    code, _, err = cli("batch", str(write_sweep(tmp_path)), "-o",
+                       str(tmp_path / "a-file" / "out"))
+    assert code == 2 and err.startswith("error: --output") and "is a file" in err, err
+
+
 def test_resume_redoes_a_done_table_whose_file_was_truncated(tmp_path: Path, cli: Callable
                                                              ) -> None:
     """The manifest says done, the file is cut to half its bytes: it is made again (it

@@ -14,7 +14,7 @@ from typing import Any
 
 from microsim.commands.common import add_json_arg, add_memory_arg, positive_int, print_json
 from microsim.errors import InputError
-from microsim.files import writable_folder
+from microsim.files import folder_possible, writable_folder
 
 CONNECT_TIMEOUT = 20
 """Seconds to wait for ``--scheduler`` before giving up."""
@@ -202,6 +202,7 @@ def run(args: argparse.Namespace) -> int:
     from microsim.surfaces import check_tile_memory
     from microsim.sweep import load_sweep
 
+    folder_possible(args.output, "--output")  # before the points, which may be many
     sweep = load_sweep(args.sweep)
     for point in sweep.points:  # before a cluster starts (isotropy unknown: every phi_i)
         check_tile_memory(point.recipe.surface, args.memory_limit, f"point {point.name}: ")
