@@ -6,9 +6,12 @@ from __future__ import annotations
 
 import json
 import math
+from datetime import timedelta
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from test_robustness import GAUSSIAN, SMALL, one_error_line
 
 import microsim
@@ -105,3 +108,53 @@ def test_parameters_text_names_units_of_every_kind():
     _, params, _ = parse_model_spec("kay-kajiya")
     assert "tangent_theta 90° (default)" in parameters_text(
         "kay-kajiya", params, parameter_sources("kay-kajiya", params))
+
+
+# --- model specs: property-based --------------------------------------------------------
+SPEC_VALUES = st.one_of(
+    st.sampled_from(["0", "-1", "1e-300", "1e300", "nan", "inf", "-inf", "0.5", "90", "1e6",
+                     "true", '"x"', "[0.1, 0.2, 0.3]", "[1, 2]", "[]", "9" * 400, "x",
+                     "[0.2,0.9,1.1]", "smith-separable", "qualitative", "black"]),
+    st.floats(allow_nan=False, allow_infinity=False).map(repr),
+    st.integers(-10**6, 10**9).map(str),
+)
+
+
+@st.composite
+def model_specs(draw) -> str:
+    """A model name (sometimes misspelt) and 0-4 of its keys (sometimes unknown or
+    repeated) with values of every kind: in range, extreme, of another type."""
+    from microsim.analytic.registry import MODELS
+
+    name = draw(st.sampled_from(sorted(MODELS) + ["bekmann", ""]))
+    keys = sorted(MODELS[name].params) + ["nosuchkey"] if name in MODELS else ["alpha"]
+    items = [f"{draw(st.sampled_from(keys))}={draw(SPEC_VALUES)}"
+             for _ in range(draw(st.integers(0, 4)))]
+    return name + (":" + ",".join(items) if items else "")
+
+
+@settings(max_examples=300, deadline=timedelta(seconds=30), derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(spec=model_specs())
+def test_any_model_spec_is_refused_in_one_line_or_evaluates_finite(spec):
+    """Whatever the spec, parse_model_spec raises InputError with one line, or builds a
+    model whose f_r at a few direction pairs is finite and >= 0 (Lafortune lobes and
+    truncated series aside, no model here is negative)."""
+    try:
+        name, params, model = parse_model_spec(spec)
+    except InputError as exc:
+        assert "\n" not in str(exc)
+        return
+    wi = np.array([[0.0, 0.0, 1.0], [0.5, 0.0, math.sqrt(0.75)], [0.1, 0.98, 0.17]])
+    wo = np.array([[0.3, -0.2, math.sqrt(0.87)], [-0.5, 0.0, math.sqrt(0.75)],
+                   [0.0, 0.0, 1.0]])
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
+    with np.errstate(invalid="raise", over="raise"):  # NaN or inf made, not underflow
+        try:
+            f = np.asarray(model.eval(wi, wo), float)
+        except FloatingPointError as exc:
+            raise AssertionError(f"{spec}: {exc}") from None
+    assert np.all(np.isfinite(f)), (spec, f)
+    text = parameters_text(name, params, parameter_sources(spec, params))
+    assert "\n" not in text

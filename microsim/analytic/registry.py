@@ -263,7 +263,7 @@ def _cloth(p: Mapping[str, Any]) -> Any:
 def _velvet(p: Mapping[str, Any]) -> Any:
     from microsim.analytic.velvet import SparseVelvet
 
-    if any(a > 0 for a in p["base_albedo"]):
+    if np.any(np.asarray(p["base_albedo"]) > 0):  # one value or three
         raise InputError(f"model velvet-sparse: base_albedo = {p['base_albedo']}: the model "
                          "needs a black base (base_albedo = 0); simulate the velvet on one "
                          "with --set material.base.kind=black")
