@@ -57,10 +57,12 @@ def parts_of(path: Path) -> list[tuple[str, dict, dict[str, np.ndarray]]]:
 
 def rewrite(source: Path, target: Path, edit_header: Callable[[dict], Any] | None = None,
             edit_pixels: Callable[[dict[str, np.ndarray]], None] | None = None,
-            attribute: str | None = None) -> Path:
+            attribute: str | None = None,
+            edit_sh_header: Callable[[dict], None] | None = None) -> Path:
     """``source`` written to ``target`` with its ``microsim`` JSON edited in place by
     ``edit_header`` (or replaced by its return value when not None, or by the raw text
-    ``attribute``) and the bins' channels by ``edit_pixels``."""
+    ``attribute``), the bins' channels by ``edit_pixels`` and the harmonics part's
+    ``microsim_sh`` JSON in place by ``edit_sh_header``."""
     import OpenEXR
 
     parts = parts_of(source)
@@ -76,6 +78,10 @@ def rewrite(source: Path, target: Path, edit_header: Callable[[dict], Any] | Non
             header["microsim"] = attribute if attribute is not None else json.dumps(info)
             if edit_pixels is not None:
                 edit_pixels(channels)
+        if "microsim_sh" in header and edit_sh_header is not None:
+            info = json.loads(header["microsim_sh"])
+            edit_sh_header(info)
+            header["microsim_sh"] = json.dumps(info)
         channels = {n: np.ascontiguousarray(c) for n, c in channels.items()}
         out.append(OpenEXR.Part(header, channels, name))
     OpenEXR.File(out).write(str(target))
@@ -223,21 +229,10 @@ def test_bad_pixels_are_one_error_line_in_read_table(table_file, tmp_path, case)
 
 
 def test_harmonics_of_another_order_than_their_header_are_refused(table_file, tmp_path):
-    import OpenEXR
-
-    parts = parts_of(table_file)
-    out = []
-    for name, header, channels in parts:
-        header = {k: v for k, v in header.items()
-                  if k in ("compression", "type", "displayWindow", "microsim", "microsim_sh")}
-        if "microsim_sh" in header:
-            info = json.loads(header["microsim_sh"])
-            info["order"], info["coefficients"] = 3, 16
-            header["microsim_sh"] = json.dumps(info)
-        out.append(OpenEXR.Part(header, channels, name))
-    OpenEXR.File(out).write(str(tmp_path / "sh.exr"))
+    path = rewrite(table_file, tmp_path / "sh.exr",
+                   edit_sh_header=lambda info: info.update(order=3, coefficients=16))
     with pytest.raises(InputError, match=r"harmonics channel total\.R has shape \(2, 25\)"):
-        microsim.read_table(tmp_path / "sh.exr")
+        microsim.read_table(path)
 
 
 READERS = {
