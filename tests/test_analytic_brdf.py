@@ -311,3 +311,39 @@ def test_hard_cases_no_nan_no_warning():
     assert ((g >= 0) & (g <= 1)).all()
     # exactly opposite directions have no half vector
     assert TorranceSparrow(Beckmann(0.3)).eval(direction(0.5, 0.0), -direction(0.5, 0.0)) == 0
+
+
+def test_masking_functions_vanish_below_the_horizon_and_broadcast():
+    """Smith's G2 defaults to the height-correlated form 1/(1 + Λi + Λo) (Heitz 2014,
+    eq. 99), not the separable product; G2, the V-groove G and the V-cavity G1 are 0 for a
+    direction at or below the horizon (either one), a facet seen edge-on (⟨ω, m⟩ = 0) or
+    from behind, without a 0/0; and they broadcast one direction against many."""
+    from microsim.analytic.shadowing import vcavity_G1
+
+    ndf = Beckmann(0.5)
+    wi, wo = direction(math.radians(70.0), 0.0), direction(math.radians(80.0), 2.0)
+    lam_i, lam_o = float(ndf.Lambda(wi)), float(ndf.Lambda(wo))
+    assert float(smith_g2(ndf, wi, wo)) == pytest.approx(1 / (1 + lam_i + lam_o), rel=1e-12)
+    assert float(smith_g2(ndf, wi, wo)) > float(smith_g2(ndf, wi, wo, correlated=False))
+    below, level = np.array([0.6, 0.0, -0.8]), np.array([1.0, 0.0, 0.0])
+    m = direction(0.4, 0.0)
+    edge_on = np.array([-math.cos(0.4), 0.0, math.sin(0.4)])  # ⟨ω, m⟩ = 0, above
+    for a, b in ((below, wo), (wi, below), (level, wo), (wi, level)):
+        assert float(smith_g2(ndf, a, b)) == 0.0
+        assert float(vgroove_G(a, b, m)) == 0.0
+    assert float(vgroove_G(edge_on, direction(0.4, 0.0), m)) == 0.0
+    for w, facet in ((below, m), (edge_on, m), (direction(0.3, 0.0), -m)):
+        assert float(vcavity_G1(w, facet)) == 0.0
+    many = direction(np.radians([10.0, 50.0, 85.0]), 0.0)
+    one = direction(math.radians(60.0), np.pi)
+    h = direction(0.2, 0.0)
+    g = vgroove_G(many, one, h)
+    assert g.shape == (3,)
+    np.testing.assert_array_equal(g, [vgroove_G(w, one, h) for w in many])
+    np.testing.assert_array_equal(vgroove_G(one, many, h), g)
+    facets = direction(np.radians([5.0, 15.0, 25.0]), 0.0)
+    np.testing.assert_array_equal(vgroove_G(one, one, facets),
+                                  [vgroove_G(one, one, f) for f in facets])
+    g1 = vcavity_G1(many, h)
+    assert g1.shape == (3,) and np.all(g1 > 0)
+    np.testing.assert_array_equal(g1, [vcavity_G1(w, h) for w in many])
