@@ -229,3 +229,26 @@ def test_a_render_reports_its_passes():
     # the lit pixels' mean within 4 standard errors from their own errors
     y, err = image.luminance[lit], image.luminance_err[lit]
     assert abs(y.mean() - 0.25) < 4 * np.sqrt(np.sum(err**2)) / lit.sum(), y.mean()
+
+
+def test_the_bsdf_turns_the_surface_as_render_rotate_does(recipe_file):
+    """The Mitsuba BSDF traces ``R(−ρ) ωi`` and returns ``R(ρ) ωo`` (ρ = ``--rotate``, the
+    material's +x turned towards the bitangent), as ``bsdfs.oriented`` turns a table: at
+    ρ = 90° a sample equals the surface's own for the turned direction, turned back, and
+    its weight is the path's throughput."""
+    pytest.importorskip("mitsuba")
+    from microsim.render import backend
+    from microsim.render.bsdfs import rotation_z
+
+    mi = backend.load("scalar_rgb")
+    recipe = load(recipe_file)
+    wi = np.array([0.6, 0.0, 0.8])
+    with live.LiveSurface(recipe, 2, Tiles(recipe.surface), seed=0) as surface:
+        bsdf = live.live_bsdf(mi, surface, 90.0)
+        si = mi.SurfaceInteraction3f()
+        si.wi = mi.Vector3f(*wi)
+        bs, weight = bsdf.sample(mi.BSDFContext(), si, 0.25, mi.Point2f(0.5, 0.75))
+        wo, w = surface.sample((rotation_z(-90.0) @ wi)[None], np.array([[0.25, 0.5, 0.75]]))
+    np.testing.assert_allclose(np.array(bs.wo), rotation_z(90.0) @ wo[0], atol=1e-6)
+    np.testing.assert_allclose(np.array(weight), w[0], rtol=1e-6)
+    assert bs.pdf == 1.0 and w[0].max() > 0
