@@ -749,3 +749,40 @@ def test_control_characters_stay_on_one_line(cli, tmp_path):
                        "material.kind=table", "--set", 'material.path="a\\u001eb\\nc"')
     line = one_error_line(code, err, "material.path")
     assert "\\x1e" in line and "\\n" in line
+
+
+def test_agreement_bounds_are_the_documented_quantiles():
+    """The bounds are z_{1−α/2}/√N and √(χ²_{1−α}(N − 1)/(N − 1)) at α = 0.001
+    (docs/compare.md; z_0.9995 = 3.2905 from the normal table), also for few bins: one
+    bin cannot agree (no spread) and reports no spread bound; two can. The verdict line
+    prints the numbers, and a differing one the median relative error in %; ``to_json``
+    holds the bounds under their documented keys."""
+    from types import SimpleNamespace
+
+    from scipy.stats import chi2
+
+    from microsim.agreement import agreement, verdict_text
+
+    def comparison(n: int, z_mean: float, z_std: float) -> SimpleNamespace:
+        return SimpleNamespace(per_theta_i=[SimpleNamespace(lobe_bins=n)], z_mean=z_mean,
+                               z_std=z_std, median_rel_error=0.1234)
+
+    for n in (2, 7, 900):
+        check = agreement(comparison(n, 0.0, 1.0))
+        assert check.z_mean_max == pytest.approx(3.2905267 / np.sqrt(n), rel=1e-7)
+        assert check.z_std_max == pytest.approx(np.sqrt(chi2.ppf(0.999, n - 1) / (n - 1)),
+                                                rel=1e-12)
+        assert check.agrees and check.lobe_bins == n and check.significance == 1e-3
+    one = agreement(comparison(1, 0.0, float("nan")))
+    assert not one.agrees and np.isnan(one.z_std_max)
+    assert one.z_mean_max == pytest.approx(3.2905267, rel=1e-7)
+    assert one.to_json() == {"agrees": False, "lobe_bins": 1,
+                             "z_mean_max": one.z_mean_max, "z_std_max": one.z_std_max,
+                             "significance": 1e-3}
+    result = comparison(900, 0.5, 1.0)
+    check = agreement(result)
+    text = verdict_text(result, check)
+    assert not check.agrees and text.startswith("verdict: differs")
+    assert "has mean 0.50 and spread 1.00 over 900 lobe bins" in text
+    assert f"within ±{check.z_mean_max:.2f} and a spread up to {check.z_std_max:.2f}" in text
+    assert text.endswith("the median relative error against the model is 12.3%")
