@@ -73,3 +73,51 @@ def test_sample_lands_in_its_bin_and_is_uniform_in_projected_solid_angle():
     u = 1 - wo[:, 2] ** 2
     lo, hi = bins.u_edges[2], bins.u_edges[3]
     assert stats.kstest((u - lo) / (hi - lo), "uniform").pvalue > 1e-3
+
+
+def test_bins_are_described_and_refused_as_documented():
+    """Edges and centres as the docstring writes them (φ centres mid-way between edges);
+    one bin each way is allowed, fewer refused with the message, as is a period other
+    than 2π or π; ``to_dict`` is the table file's description (docs/table-format.md) and
+    ``from_dict`` its inverse."""
+    one = HemisphereBins(1, 1)
+    assert one.size == 1 and one.index(np.array([[0.0, 0.0, 1.0]]))[0] == 0
+    for bad in ((0, 4), (4, 0)):
+        with pytest.raises(ValueError, match="^theta_bins and phi_bins must be >= 1$"):
+            HemisphereBins(*bad)
+    with pytest.raises(ValueError, match="^phi_period must be 2 pi or pi$"):
+        HemisphereBins(4, 4, 3.0)
+    bins = HemisphereBins(4, 6, np.pi)
+    edges = np.linspace(0.0, np.pi, 7)
+    np.testing.assert_allclose(bins.phi_centers, (edges[:-1] + edges[1:]) / 2, rtol=1e-15)
+    np.testing.assert_allclose(bins.theta_edges, np.arcsin(np.sqrt(np.arange(5) / 4)))
+    assert bins.to_dict() == {
+        "theta_o": {"edges": bins.theta_edges.tolist(), "unit": "rad",
+                    "spacing": "uniform in sin^2(theta_o)"},
+        "phi_o": {"edges": edges.tolist(), "unit": "rad", "folded": True}}
+    back = HemisphereBins.from_dict(bins.to_dict())
+    assert back.shape == (4, 6) and back.folded
+
+
+def test_index_takes_the_reference_azimuth_off_and_keeps_the_last_bin():
+    """``index(wo, phi_ref)`` bins the azimuth relative to ``phi_ref`` (a direction at
+    φref + 0.1 lands in the first φ bin, one at φref − 0.1 in the last); an azimuth a hair
+    below 2π, which wraps to 2π itself in floating point, stays in the last bin of its
+    row."""
+    bins = HemisphereBins(4, 16)
+    ref = 1.0
+    got = bins.index(direction(np.array([0.5, 0.5]), ref + np.array([0.1, -0.1])), ref)
+    it = int(np.sin(0.5) ** 2 * 4)
+    assert got.tolist() == [it * 16, it * 16 + 15]
+    assert bins.index(direction(np.array([0.5]), np.array([-1e-17])))[0] == it * 16 + 15
+
+
+def test_sample_is_uniform_in_azimuth_within_its_bin():
+    """u2 = 0, ½ and → 1 put the sampled azimuth at the bin's start, centre and end (the
+    azimuth is linear in u2 across the bin), for narrow bins too."""
+    bins = HemisphereBins(4, 16)
+    flat = np.full(3, 2 * 16 + 5)
+    wo = bins.sample(flat, np.full(3, 0.5), np.array([0.0, 0.5, 1 - 1e-12]))
+    phi = np.arctan2(wo[:, 1], wo[:, 0])
+    np.testing.assert_allclose(phi, bins.phi_edges[5] + np.array([0.0, 0.5, 1.0])
+                               * (bins.phi_edges[6] - bins.phi_edges[5]), atol=1e-9)
