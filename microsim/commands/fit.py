@@ -86,10 +86,10 @@ def run(args: argparse.Namespace) -> int:
         print(file=sys.stderr)
     surface = table.meta.surface
     alpha = None if surface is None else surface.alpha_realised
-    out: dict[str, Any] = {**result.to_json(), "units": fit_units(result.model),
-                           "error_model": table.error_model,
+    out: dict[str, Any] = {**result.to_json(), "error_model": table.error_model,
                            "realisations": int(table.realisations.max()),
-                           "alpha_realised": None if alpha is None else alpha.to_json()}
+                           "alpha_realised": None if alpha is None else alpha.to_json(),
+                           "units": fit_units(result.model)}
     if args.plot is not None:
         from microsim.commands.compare import title_of
         from microsim.plots import incidence_plane
