@@ -124,6 +124,8 @@ def test_cli_json_plots_and_report(cli, table_file, tmp_path):
                         "z_mean", "z_std", "albedo_sim", "albedo_model",
                         "albedo_difference", "multiple_scattering_share"}
     report = (out / "report.md").read_text()
+    assert "alpha 0.3 (the table's realised alpha), shadowing smith-correlated (default)" \
+        in report  # each parameter with its source, as compare prints them
     for name in ("incidence-plane.png", "half-difference.png", "z-maps.png", "albedo.png"):
         image = out / name
         assert image.stat().st_size > 20_000, name  # a drawn figure, not an empty canvas

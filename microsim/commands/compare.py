@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
-from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -73,7 +72,7 @@ def model_albedo(row: IncidenceMetrics) -> str:
     return f"{value:.4f} ± {err:.4f}" if err > 0 else f"{value:.4f}"
 
 
-def write_report(out: Path, title: str, model: str, params: Mapping[str, Any],
+def write_report(out: Path, title: str, model: str, params: str,
                  component: str, result: Comparison, check: Agreement) -> Path:
     """``report.md``: the metrics table and every plot, in one page.
 
@@ -84,8 +83,8 @@ def write_report(out: Path, title: str, model: str, params: Mapping[str, Any],
     title : str
     model : str
         The model's name.
-    params : mapping of str to value
-        Its parameters.
+    params : str
+        Its parameters with their units and sources (``parameters_text``).
     component : str
         The table's component compared.
     result : Comparison
@@ -100,7 +99,7 @@ def write_report(out: Path, title: str, model: str, params: Mapping[str, Any],
     from microsim.agreement import verdict_text
 
     lines = [f"# {title}", "", f"Model: `{model}` with parameters "
-             f"{readable(params)} (component: {component}).", "",
+             f"{params} (component: {component}).", "",
              f"Overall: median relative error against the model "
              f"{100 * result.median_rel_error:.2f}% (p90 {100 * result.p90_rel_error:.2f}%) "
              f"over lobe bins; {verdict_text(result, check)} (a Monte Carlo "
@@ -171,7 +170,9 @@ def run(args: argparse.Namespace) -> int:
         z_maps(table, compared.model, args.out / PLOTS["z_maps"], args.component, title,
                compared.model_err)
         albedo_plot(table, compared.model, args.out / PLOTS["albedo"], title, args.component)
-        result["report"] = str(write_report(args.out, title, name, params, args.component,
+        result["report"] = str(write_report(args.out, title, name,
+                                            parameters_text(name, params, sources),
+                                            args.component,
                                             compared, check))
     if args.json:
         print_json(result)
