@@ -129,6 +129,7 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
         while True:
             if not plan:  # the first round: the tile says whether it is isotropic
                 held = opener.open(0)
+                faces = len(held[1].faces)
                 azimuths = incident_azimuths(done.isotropic, simulation)
                 plan = {(l, k): (k0, n0) for l in chosen for k in range(len(azimuths))}
                 traced = {d: [] for d in plan}
@@ -150,7 +151,7 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
             current = assemble_table([done], materials, simulation, table, thetas=chosen,
                                      bins=bins)
             rel, share = direction_errors(current)
-            cost = _tile_cost(done, sum(d not in done.stops for d in plan))
+            cost = _tile_cost(done, sum(d not in done.stops for d in plan), faces)
             for d in plan:
                 if d in done.stops:
                     continue
@@ -173,12 +174,21 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
     return done
 
 
-def _tile_cost(done: Measurement, directions: int) -> float:
-    """What a new realisation costs a direction, in rays of that direction: the measured
-    seconds per tile (its generation, facts and scene) over the measured seconds per
-    traced ray, shared by the ``directions`` traced on each tile."""
-    rays_per_second = done.rays / max(done.trace_time, 1e-9)
-    return done.scene_time / max(done.tiles, 1) * rays_per_second / max(directions, 1)
+TILE_SEGMENTS_PER_FACE = 0.34
+"""The cost of opening a realisation (its tile's generation and facts, its scene's refit)
+per face of the tile, in Embree segments traced: 8.6 ms for the 131,072 faces of the
+shipped 256² Gaussian tile against 196 ns a segment of the kernel on the machine of
+docs/performance.md (65.6 ns a face / 196 ns). A fixed ratio instead of this run's
+seconds, so that the adaptive plan, and with it the table, does not depend on the
+machine's speed or load."""
+
+
+def _tile_cost(done: Measurement, directions: int, faces: int) -> float:
+    """What a new realisation costs a direction, in rays of that direction: its tile's
+    faces at ``TILE_SEGMENTS_PER_FACE`` over the segments a ray of this run has taken so
+    far (counted, not timed), shared by the ``directions`` traced on each tile."""
+    segments_per_ray = done.segments / max(done.rays, 1)
+    return TILE_SEGMENTS_PER_FACE * faces / max(segments_per_ray, 1e-9) / max(directions, 1)
 
 
 class Opener:

@@ -496,15 +496,13 @@ def assert_same_table(other, first) -> None:
         (d.stop, d.realisations, d.rays) for d in first.meta.directions]
 
 
-@pytest.mark.xfail(strict=True, reason="the rays of each new realisation, Cochran's "
-                   "n* = sqrt(R c / T), take the tile cost c from this run's measured "
-                   "seconds (simulation._tile_cost), so where n* is not clamped the plan, "
-                   "and with it the table, changes from run to run (measured: 18 "
-                   "realisations / 416 229 rays, then 21 / 332 736)")
 def test_adaptive_stop_with_cochrans_optimum_repeats_bit_for_bit() -> None:
     """docs/ensembles.md: "the stop is deterministic and its tables are bit-for-bit
     reproducible". With 20 000 rays per realisation on a 128² tile the optimum lies
-    inside its clamp [8192, 80 000]: two runs must give the same table."""
+    inside its clamp [8192, 80 000], so Cochran's n* = √(R c / T) sets the rays of each
+    new realisation: its tile cost c is counted (faces and segments,
+    ``simulation.TILE_SEGMENTS_PER_FACE``), not timed, so two runs give the same table
+    (with c timed they planned 18 realisations / 416 229 rays, then 21 / 332 736)."""
     recipe = resolve({"surface": {"kind": "gaussian", "alpha": 0.5, "resolution": 128,
                                   "correlation_length": 4 / 128, "seed": 1000},
                       "simulation": {"theta_i": [30.0], "rays": 60_000, "seed": 0,
