@@ -75,3 +75,65 @@ def fresnel_conductor(cos_i: np.ndarray | float, eta: np.ndarray | float,
     r_s = (cos_i - n * cos_t) / (cos_i + n * cos_t)
     r_p = (n * cos_i - cos_t) / (n * cos_i + cos_t)
     return np.clip(0.5 * (np.abs(r_s) ** 2 + np.abs(r_p) ** 2), 0.0, 1.0)
+
+
+def _normal_wavenumber(n_sq: np.ndarray, sin2_i: np.ndarray) -> np.ndarray:
+    """q = n cos θ = √(n² − sin²θi) on the branch Im q ≥ 0 (decaying, or evanescent beyond
+    a critical angle)."""
+    q = np.sqrt(n_sq - sin2_i)
+    return np.where(q.imag < 0, -q, q)
+
+
+def fresnel_thin_film(cos_i: np.ndarray | float, eta_film: np.ndarray | float,
+                      thickness_nm: np.ndarray | float, wavelength_nm: np.ndarray | float,
+                      eta_sub: np.ndarray | float, k_sub: np.ndarray | float) -> np.ndarray:
+    """Unpolarised reflectance of a substrate coated with one dielectric film, with
+    interference: the Airy sum of the film's multiple reflections, per polarisation,
+
+    r = (r01 + r12 e^{2iβ}) / (1 + r01 r12 e^{2iβ}), β = 2π d η_f cos θ_f / λ,
+
+    R = ½ (|r_s|² + |r_p|²) (Born & Wolf, Principles of Optics, 7th ed., sec. 1.6.4,
+    eqs. 57-58), with r_jk = (a_j − a_k)/(a_j + a_k) for admittances a = n cos θ (s) and
+    cos θ / n (p), n cos θ = √(n² − sin²θi) with Im ≥ 0 (sec. 1.5.2, eq. 21a-b, complex for
+    a conductor or beyond a critical angle). Light comes from index 1; all indices are
+    relative to it. With d = 0 this is ``fresnel_conductor`` of the substrate.
+
+    Parameters
+    ----------
+    cos_i : (...) float
+        Cosine of the angle of incidence, clamped to [0, 1]; R = 1 at 0 (grazing).
+    eta_film : (...) float
+        Real index of the film (> 0).
+    thickness_nm, wavelength_nm : (...) float
+        Film thickness (≥ 0) and vacuum wavelength (> 0), in the same unit (nm).
+    eta_sub, k_sub : (...) float
+        Real and imaginary parts of the substrate's index (k_sub = 0: a dielectric).
+        All arguments broadcast together.
+
+    Returns
+    -------
+    (...) float
+        Reflectance in [0, 1].
+    """
+    c, eta_f, d, lam, eta_s, k_s = np.broadcast_arrays(
+        *(np.asarray(a, float) for a in (cos_i, eta_film, thickness_nm, wavelength_nm,
+                                          eta_sub, k_sub)))
+    c = np.clip(c, 0.0, 1.0)
+    sin2_i = 1.0 - c**2
+    n1_sq, n2_sq = eta_f**2 + 0j, (eta_s + 1j * k_s) ** 2
+    q1, q2 = _normal_wavenumber(n1_sq, sin2_i), _normal_wavenumber(n2_sq, sin2_i)
+    k0d = 2.0 * np.pi * d / lam
+    phase = np.exp(2j * k0d * q1)  # e^{2iβ}
+    graze = c <= 0.0
+    a0 = np.where(graze, 1.0, c)  # any nonzero admittance: R = 1 is set below
+    reflectance = np.zeros(c.shape)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for a1, a2, g in ((q1, q2, k0d), (q1 / n1_sq, q2 / n2_sq, k0d * n1_sq)):
+            r01 = (a0 - a1) / (a0 + a1)
+            r12 = (a1 - a2) / (a1 + a2)
+            # a1 = 0 (η_f < 1 at its critical angle) makes r 0/0: the limit a1 → 0 of the
+            # film's characteristic matrix (sec. 1.6.2), sin β / a1 → g
+            limit = (a0 - a2 - 1j * g * a0 * a2) / (a0 + a2 - 1j * g * a0 * a2)
+            r = np.where(a1 == 0, limit, (r01 + r12 * phase) / (1.0 + r01 * r12 * phase))
+            reflectance += 0.5 * np.abs(r) ** 2
+    return np.where(graze, 1.0, np.clip(reflectance, 0.0, 1.0))
