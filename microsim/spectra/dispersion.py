@@ -49,7 +49,7 @@ class Dispersion:
     source: str
 
     def _index(self, um: np.ndarray) -> np.ndarray:
-        """n² (Sellmeier) or n (Cauchy) at wavelengths in µm; see ``at``."""
+        """n at wavelengths in µm (NaN where the formula gives no real index); see ``at``."""
         raise NotImplementedError
 
     def at(self, wavelengths: Any, *, where: str | None = None) -> np.ndarray:
