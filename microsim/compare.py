@@ -20,6 +20,7 @@ import numpy as np
 
 from microsim.analytic.brdf import as_rgb
 from microsim.comparison import Comparison, IncidenceMetrics
+from microsim.errors import InputError
 from microsim.geometry import direction
 from microsim.surfaces.facts import SurfaceFacts, TileFacts
 from microsim.table_models import microfacet_model, model_defaults
@@ -189,6 +190,25 @@ def bin_estimate(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
     if model.exact is not None:
         mean = mean + bin_average(model.exact, wi, theta_edges, phi_edges, phi_i, n)
     return mean, err
+
+
+def channels_of(values: np.ndarray, count: int) -> np.ndarray:
+    """A model's (..., C') bin averages as the table's C channels: as they are when
+    C' = C; a grey model's (its channels equal) repeated.
+
+    Raises
+    ------
+    InputError
+        For a model whose channels differ and are not the table's (RGB parameters against
+        a spectral table).
+    """
+    if values.shape[-1] == count:
+        return values
+    if np.array_equal(values, np.broadcast_to(values[..., :1], values.shape)):
+        return np.broadcast_to(values[..., :1], values.shape[:-1] + (count,))
+    raise InputError(f"the model has {values.shape[-1]} colour channels, the table "
+                     f"{count}: give the model's colour parameters (eta, k, albedo) as one "
+                     "number, or leave them out to take the table's own per channel")
 
 
 def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
@@ -386,8 +406,9 @@ def compare_table(table: BRDFTable, model: Model, component: str = "total",
             # isotropic tables hold azimuths relative to phi_i, anisotropic ones absolute;
             # a folded table's bins hold phi and -phi alike, which a model symmetric about
             # the plane of incidence fills equally
-            avg, avg_err = bin_estimate(model, direction(theta, phi), table.bins.theta_edges,
-                                        table.bins.phi_edges, phi if table.isotropic else 0.0)
+            avg, avg_err = (channels_of(x, table.channels.count) for x in bin_estimate(
+                model, direction(theta, phi), table.bins.theta_edges, table.bins.phi_edges,
+                phi if table.isotropic else 0.0))
             averages[a, b], errors[a, b] = avg, avg_err
             sim, err = table.values[component][a, b], table.errors[component][a, b]
             m, rel, z = _metrics(sim, err, avg, table.bins.projected_solid_angle, avg_err,

@@ -71,9 +71,11 @@ class Sums:
         Rays launched.
     orders : int
         N of the order components.
-    sums, sums_sq : (N + 1, b, 3) float
+    channels : int
+        C, the colour channels (3 for RGB, one per wavelength).
+    sums, sums_sq : (N + 1, b, C) float
         Per row and bin, the sum of exit weights w and of w**2.
-    lost, transmitted, absorbed : (3,) float
+    lost, transmitted, absorbed : (C,) float
         Summed weight of paths ended by the simulation (bounce limit, leaks), transmitted
         (1 - F at non-refracting dielectrics; refracted paths out through the bottom), and
         absorbed (by the other materials and inside absorbing media).
@@ -81,23 +83,25 @@ class Sums:
         Paths per ending.
     sh_order : int
         Order L of the spherical-harmonic moments (0: none).
-    sh_sums : (N + 1, (L + 1)², 3) float, or None
+    sh_sums : (N + 1, (L + 1)², C) float, or None
         Σ w Y_k(ωo) over the escaping rays the bins take, per row
         (``microsim.tables.sh``; ωo's azimuth relative to ``phi_ref`` of ``add``).
-    sh_sums_sq : (N + 1, (2L + 1)², 3) float, or None
+    sh_sums_sq : (N + 1, (2L + 1)², C) float, or None
         Σ w² Y_K(ωo) to order 2L, from which ``sh.second_moments`` gives Σ (w Y_k)².
     """
 
-    def __init__(self, bins: int, sh_order: int = 0, orders: int = DEFAULT_ORDERS) -> None:
+    def __init__(self, bins: int, sh_order: int = 0, orders: int = DEFAULT_ORDERS,
+                 channels: int = 3) -> None:
         self.rays = 0
         self.orders = int(orders)
+        self.channels = c = int(channels)
         rows = self.orders + 1
-        self.sums = np.zeros((rows, bins, 3))
-        self.sums_sq = np.zeros((rows, bins, 3))
+        self.sums = np.zeros((rows, bins, c))
+        self.sums_sq = np.zeros((rows, bins, c))
         self.sh_order = int(sh_order)
-        self.sh_sums = np.zeros((rows, sh.size(sh_order), 3)) if sh_order else None
-        self.sh_sums_sq = np.zeros((rows, sh.size(2 * sh_order), 3)) if sh_order else None
-        self.lost, self.transmitted, self.absorbed = np.zeros(3), np.zeros(3), np.zeros(3)
+        self.sh_sums = np.zeros((rows, sh.size(sh_order), c)) if sh_order else None
+        self.sh_sums_sq = np.zeros((rows, sh.size(2 * sh_order), c)) if sh_order else None
+        self.lost, self.transmitted, self.absorbed = np.zeros(c), np.zeros(c), np.zeros(c)
         self.fates: dict[str, int] = {}
 
     @property
@@ -123,7 +127,7 @@ class Sums:
 
         def block(a: int, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             sums = np.zeros_like(self.sums)
-            sums_sq, unbinned = np.zeros_like(sums), np.zeros(3)
+            sums_sq, unbinned = np.zeros_like(sums), np.zeros(self.channels)
             bin_escapes(paths.direction[a:b], paths.weight[a:b], paths.order[a:b], phi_ref,
                         bins.theta_bins, bins.phi_bins, bins.folded, self.orders, sums,
                         sums_sq, index[a:b], unbinned, loc[a:b])
@@ -159,7 +163,7 @@ class Sums:
         their sum). The rays are grouped by row in one compiled pass
         (``microsim.kernel.tally.gather_rows``); a row's rays are then one slice."""
         n = len(index)
-        loc_rows, w = np.empty((n, 2)), np.empty((n, 3))
+        loc_rows, w = np.empty((n, 2)), np.empty((n, self.channels))
         ends = np.empty(self.orders + 1, np.int64)
         gather_rows(loc, paths.weight, paths.order, index, self.orders, loc_rows, w, ends)
         out = []
@@ -171,7 +175,7 @@ class Sums:
 
     @property
     def lost_energy(self) -> np.ndarray:
-        """(3,) summed weight a table reports as lost: simulation ends and transmission."""
+        """(C,) summed weight a table reports as lost: simulation ends and transmission."""
         return self.lost + self.transmitted
 
 
@@ -314,14 +318,16 @@ class Progress:
 class Energies:
     """What the folded realisations of one incident direction leave for its record
     (``DirectionRecord``): Σ over realisations of each one's lost, transmitted and
-    absorbed weight per ray ((3, 3) float, rows in that order) and the paths per ending."""
+    absorbed weight per ray ((3, C) float, rows in that order; None before the first) and
+    the paths per ending."""
 
-    energy: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
+    energy: np.ndarray | None = None
     fates: dict[str, int] = field(default_factory=dict)
 
     def add(self, sums: Sums) -> None:
         """Add one realisation's run."""
-        self.energy += np.stack([sums.lost, sums.transmitted, sums.absorbed]) / sums.rays
+        energy = np.stack([sums.lost, sums.transmitted, sums.absorbed]) / sums.rays
+        self.energy = energy if self.energy is None else self.energy + energy
         for name, n in sums.fates.items():
             self.fates[name] = self.fates.get(name, 0) + n
 
@@ -407,7 +413,7 @@ def new_ensemble(simulation: Simulation, table: TableSettings, isotropic: bool
     """Empty running sums for every incident direction of a simulation's table."""
     return EnsembleSums((len(simulation.theta_i), len(incident_azimuths(isotropic, simulation))),
                         components_for(table.orders), table.theta_bins * table.phi_bins,
-                        table.sh_order)
+                        table.sh_order, table.channels.count)
 
 
 def incident_azimuths(isotropic: bool, simulation: Simulation) -> list[float]:
@@ -456,14 +462,14 @@ def trace_realisations(parts: Iterable[Part], materials: Mapping[str, Material],
     left: dict[int, list] = {}  # per realisation: batches not added, part, segments, inputs
 
     def new_run() -> Run:
-        return Run(Sums(bins.size, table.sh_order, table.orders))
+        return Run(Sums(bins.size, table.sh_order, table.orders, table.channels.count))
 
     def batches() -> Iterator[_Batch]:
         for part in parts:
             scene = part.scene
             tile = scene.tile
             facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
-                                    tile.curved)
+                                    tile.curved, table.channels)
             items = list(_batches(part.work, runs, new_run, int(simulation.seed), theta_deg,
                                   incident_azimuths(bool(tile.facts.isotropic), simulation),
                                   bool(tile.facts.isotropic), part.realisation, progress))

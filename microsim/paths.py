@@ -19,7 +19,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from microsim.kernel.packing import FacetMaterials
-from microsim.kernel.slots import FATES
+from microsim.kernel.slots import FATES, O_W
 from microsim.kernel.tally import in_blocks, summarise
 from microsim.trace import Outcomes, PeriodicScene, Tracing
 
@@ -34,19 +34,19 @@ class Paths:
     ----------
     direction : (n, 3) float
         Exit direction of escaped rays (zero rows for the others).
-    weight : (n, 3) float
-        RGB weight of escaped rays (zero for the others).
+    weight : (n, C) float
+        Weight per channel of escaped rays (zero for the others).
     order : (n,) int
         Scattering order of escaped rays (bounces before escaping; 0: not escaped, or
         escaped without touching the surface, which a closed surface does not allow).
-    lost : (3,) float
-        Summed RGB weight of paths ended by the simulation: alive after the last bounce,
+    lost : (C,) float
+        Summed weight per channel of paths ended by the simulation: alive after the last bounce,
         leaked (without having refracted), trapped, or through a back face.
-    transmitted : (3,) float
-        Summed RGB weight transmitted: 1 - F at non-refracting dielectric facets, and paths
+    transmitted : (C,) float
+        Summed weight per channel transmitted: 1 - F at non-refracting dielectric facets, and paths
         that left through the bottom of the slab after refracting.
-    absorbed : (3,) float
-        Summed RGB weight absorbed by conductor and lambertian facets and inside
+    absorbed : (C,) float
+        Summed weight per channel absorbed by conductor and lambertian facets and inside
         absorbing media (Beer-Lambert).
     fate_counts : dict of str to int
         Paths per ending (``"escaped"``, ``"bounces"``, ``"transmitted"``, ``"leaked"``,
@@ -129,11 +129,12 @@ def _summarise(out: Outcomes, mapper: Callable[..., list[Any]] | None) -> Paths:
     """The paths of traced outcomes, summarised in blocks (``in_blocks``: the same sums
     whatever ``mapper`` runs them)."""
     n = len(out.floats)
-    direction, weight = np.empty((n, 3)), np.empty((n, 3))
+    channels = (out.floats.shape[1] - O_W) // 3
+    direction, weight = np.empty((n, 3)), np.empty((n, channels))
     order = np.empty(n, np.int64)
 
     def block(a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
-        energy, counts = np.zeros((3, 3)), np.zeros(len(FATES), np.int64)
+        energy, counts = np.zeros((3, channels)), np.zeros(len(FATES), np.int64)
         summarise(out.floats[a:b], out.ints[a:b], direction[a:b], weight[a:b],
                   order[a:b], energy, counts)
         return energy, counts

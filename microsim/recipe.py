@@ -48,6 +48,7 @@ from microsim.settings import (
     SurfaceSection,
     TableSettings,
 )
+from microsim.spectra.channels import Channels
 from microsim.surfaces.params import SURFACE_KINDS
 from microsim.surfaces.rules import check_span
 
@@ -94,11 +95,11 @@ def _check_media(surface: Mapping[str, Any], materials: Mapping[str, Material]) 
     if surface["kind"] != "paint":
         return
     for part in ("pigment", "substrate"):
-        if materials[part].medium() is not None:
+        if materials[part].encloses_medium:
             raise InputError(f"material.{part}.refract = true: only the binder of a paint "
                              "may refract (nested media are not modelled)")
     binder = materials["binder"]
-    if binder.kind == "dielectric" and binder.medium() is None:
+    if binder.kind == "dielectric" and not binder.encloses_medium:
         raise InputError("material.binder.refract = false: a paint's dielectric binder "
                          "must refract (set refract = true), else no light enters it")
 
@@ -142,9 +143,21 @@ def resolve(raw: Mapping[str, Any]) -> Recipe:
     check_span(surf, spec.keys)
     materials = _materials(raw.get("material", {}), spec.parts)
     _check_media(surf, materials)
-    table = check_section(_table(raw.get("table", {}), "table"), TABLE, "table.")
+    table = TableSettings(**check_section(_table(raw.get("table", {}), "table"), TABLE,
+                                          "table."))
+    _check_channels(materials, table.channels)
     return Recipe(description, SurfaceSection.of(surf), materials,
-                  _simulation(raw.get("simulation", {}), surf), TableSettings(**table))
+                  _simulation(raw.get("simulation", {}), surf), table)
+
+
+def _check_channels(materials: Mapping[str, Material], channels: Channels) -> None:
+    """Every material's keys fit the table's channels: spectra (and shipped data) in a
+    spectral table sampled inside their ranges, RGB triples in an RGB one."""
+    shared = len({id(m) for m in materials.values()}) == 1
+    for part, material in materials.items():
+        where = "material." if shared else f"material.{part}."
+        material.parameters(channels, where)
+        material.medium(channels, where)
 
 
 def _simulation(raw: Any, surface: Mapping[str, Any]) -> Simulation:

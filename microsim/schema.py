@@ -31,7 +31,11 @@ class Key:
     ----------
     kind : str
         ``"float"``, ``"int"``, ``"bool"``, ``"str"``, ``"path"``, ``"floats"`` (a list of
-        numbers), ``"rgb"`` (a number or a list of three), ``"pair"`` (a list of two numbers).
+        numbers), ``"rgb"`` (a number or a list of three), ``"spectrum"`` (a number, a list
+        of three, or a table ``{ nm = [...], value = [...] }``: a spectrum, whose values
+        the bounds apply to; ``microsim.spectra.spectrum`` checks the rest), ``"pair"`` (a
+        list of two numbers), ``"channels"`` (a number, or a list of numbers, one per colour
+        channel: R, G, B or a spectral table's wavelengths).
     default : Any
         The default value; ``REQUIRED`` if the key must be given; ``None`` if the key is
         optional and has no default (it is then absent unless given).
@@ -75,7 +79,11 @@ class Key:
             "path": "a file path (string)",
             "floats": "a number or a non-empty list of numbers",
             "rgb": "a number or a list of 3 numbers",
+            "spectrum": "a number, a list of 3 numbers (R, G, B) or a spectrum "
+                        "{ nm = [...], value = [...] }",
             "pair": "a list of 2 numbers",
+            "channels": "a number or a list of numbers, one per colour channel (R, G, B, or "
+                        "the table's wavelengths)",
         }[self.kind]
         if self.kind == "floats" and self.length:
             what = f"a list of {self.length} numbers"
@@ -110,7 +118,7 @@ def key(kind: str, default: Any = REQUIRED, doc: str = "", **kw: Any) -> Any:
         return dataclasses.field(metadata=metadata)
     if isinstance(default, list):
         return dataclasses.field(default=tuple(default), metadata=metadata)
-    if kind == "rgb" and isinstance(default, int | float):
+    if kind in ("rgb", "spectrum", "channels") and isinstance(default, int | float):
         return dataclasses.field(default=(float(default),) * 3, metadata=metadata)
     return dataclasses.field(default=default, metadata=metadata)
 
@@ -200,14 +208,20 @@ def check_value(value: Any, name: str, key: Key) -> Any:
             raise InputError(f"{name} = {value!r}: must be {key.allowed()}"
                              f"{suggest(value, key.choices)}")
         return value
-    if key.kind == "rgb" and not isinstance(value, list):
+    if key.kind == "spectrum" and isinstance(value, dict):
+        values = value.get("value")
+        if isinstance(values, list):
+            for i, v in enumerate(values):
+                _number(v, f"{name}.value[{i}]", key)
+        return dict(value)
+    if key.kind in ("rgb", "spectrum", "channels") and not isinstance(value, list):
         return [_number(value, name, key)] * 3
     if key.kind == "floats" and key.length in (None, 1) and isinstance(value, int | float) \
             and not isinstance(value, bool):
         return [_number(value, name, key)]  # one number is a list of one
     if not isinstance(value, list) or not value:
         raise bad
-    want = {"rgb": 3, "pair": 2}.get(key.kind, key.length)
+    want = {"rgb": 3, "spectrum": 3, "pair": 2}.get(key.kind, key.length)
     if want is not None and len(value) != want:
         raise bad
     numbers = [_number(v, f"{name}[{i}]", key) for i, v in enumerate(value)]

@@ -20,6 +20,7 @@ from typing import Any
 
 from microsim.materials import Material, material_from_json
 from microsim.schema import key, schema_of
+from microsim.spectra.channels import Channels
 
 DEFAULT_ORDERS = 3
 """Order components a table holds by default (``table.orders``): orders 1, 2 and
@@ -112,6 +113,16 @@ class TableSettings:
                       "components order1, ..., order<N-1> and order<N>+ (N or more "
                       "scattering events) besides total, which they add up to "
                       "(docs/table-format.md).", low=2, high=32)
+    wavelengths: tuple[float, ...] | None = key(
+        "floats", None, "Wavelengths in nm (in vacuum) of a spectral table: one channel per "
+        "wavelength instead of R, G, B, each material key sampled from its spectrum there "
+        "(docs/spectral.md); absent: an RGB table.", low=200.0, high=5000.0,
+        increasing=True)
+
+    @property
+    def channels(self) -> Channels:
+        """The table's channels: RGB, or one per wavelength."""
+        return Channels(None if self.wavelengths is None else tuple(self.wavelengths))
 
     def to_json(self) -> dict[str, Any]:
         """The section as a recipe holds it."""

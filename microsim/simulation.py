@@ -436,7 +436,7 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
     raw = raw_sums(runs, chosen, len(phi_deg), ensemble.components) if single else None
     result = from_ensemble(bins, np.radians([theta_all[l] for l in chosen]),
                            np.radians(phi_deg), first.isotropic, ensemble.take(chosen),
-                           TableMeta(), raw)
+                           TableMeta(), raw, table.channels)
     surface = None if recipe is None else recipe.surface
     seeds = [None if surface is None else realisation_seed(surface.get("seed", 0), r)
              for r in sorted(surfaces)]
@@ -522,10 +522,9 @@ def _direction_record(rays: Sequence[int], energies: Energies, theta: float, phi
     mean over its realisations of each one's fraction per ray."""
     k = len(rays)
     lost, transmitted, absorbed = (tuple((row / k).tolist()) for row in energies.energy)
-    r, g, b = albedo.tolist()
     return DirectionRecord(theta, phi, int(sum(rays)), k, tuple(rays), lost, transmitted,
                            absorbed, dict(energies.fates), stop, float(rel), float(share),
-                           (r, g, b))
+                           tuple(albedo.tolist()))
 
 
 def simulate(tile: Tile, materials: Mapping[str, Material], simulation: Simulation,

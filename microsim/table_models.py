@@ -11,6 +11,7 @@ import numpy as np
 
 from microsim.analytic.brdf import TorranceSparrow
 from microsim.analytic.ndf import Beckmann
+from microsim.spectra.channels import RGB
 from microsim.surfaces.facts import CylinderFacts, WeaveFacts
 from microsim.tables.meta import TableMeta
 from microsim.tables.table import BRDFTable
@@ -29,7 +30,8 @@ def microfacet_model(meta: TableMeta) -> TorranceSparrow:
     """
     ndf = Beckmann(**meta.surface.alpha_realised.params())
     material = meta.recipe.material["base"]
-    return TorranceSparrow(ndf, fresnel=material.fresnel(), shadowing="smith-correlated")
+    return TorranceSparrow(ndf, fresnel=material.fresnel(meta.recipe.table.channels),
+                           shadowing="smith-correlated")
 
 
 FIBRE_PARTS = ("cylinder", "fibre")
@@ -90,23 +92,24 @@ def model_defaults(meta: TableMeta) -> ModelDefaults:
         for k, v in facts.alpha_realised.params().items():
             out.put(k, v, "the table's realised alpha")
     materials = {} if recipe is None else dict(recipe.material)
+    channels = RGB if recipe is None else recipe.table.channels
     listed = list(materials.values())
     if listed and all(m == listed[0] for m in listed):
-        for k, v in listed[0].model_defaults().items():
+        for k, v in listed[0].model_defaults(channels).items():
             out.put(k, v, f"the recipe's material {listed[0].kind}")
     fibre_part = next((p for p in FIBRE_PARTS if p in materials), None)
     if fibre_part is not None:
         fibre = materials[fibre_part]
         where = f"the recipe's material.{fibre_part}"
         out.put("kind", fibre.kind, where)
-        for k, v in fibre.model_defaults().items():
+        for k, v in fibre.model_defaults(channels).items():
             out.put(k, v, where)
         base = materials.get("base")
-        base_albedo = None if base is None else base.diffuse_albedo()
+        base_albedo = None if base is None else base.diffuse_albedo(channels)
         if base_albedo is not None:
             out.put("base_albedo", list(base_albedo),
                     f"the recipe's material.base ({base.kind})")
-        fibre_albedo = fibre.diffuse_albedo()
+        fibre_albedo = fibre.diffuse_albedo(channels)
         if fibre_albedo is not None:
             out.put("kd", float(np.mean(fibre_albedo)) / np.pi**2,
                     f"albedo / pi^2 of {where}")
@@ -117,7 +120,7 @@ def model_defaults(meta: TableMeta) -> ModelDefaults:
                 "pi crimp amplitude / spacing of the weave")
         out.put("flat", 1.0 - 2.0 / tile.repeat, "1 - 2 / repeat of the weave")
         for part in ("warp", "weft"):
-            albedo = materials[part].diffuse_albedo() if part in materials else None
+            albedo = materials[part].diffuse_albedo(channels) if part in materials else None
             if albedo is not None:
                 out.put(f"albedo_{part}", list(albedo), f"the recipe's material.{part}")
     if isinstance(tile, CylinderFacts) and tile.axis is not None:

@@ -79,9 +79,10 @@ class Outcomes:
 
     Attributes
     ----------
-    floats : (n, O_FLOATS) float
-        Per ray at its end (``microsim.kernel.slots``' ``S_*`` columns): position
-        (wrapped into the box), direction, weight, absorbed and transmitted weight (RGB).
+    floats : (n, out_floats(C)) float
+        Per ray at its end (``microsim.kernel.slots``' ``O_W`` layout): position (wrapped
+        into the box), direction, then per channel its weight, absorbed and transmitted
+        weight.
     ints : (n, OUT_INTS) int
         Its fate (``FATES``), bounces, and the last face it hit (-1: none).
     vertices : (n, v, 3) float
@@ -332,14 +333,15 @@ class PeriodicScene:
         dirs = np.ascontiguousarray(dirs, float)
         media = np.full(n, -1, np.int64) if media is None else np.ascontiguousarray(
             media, np.int64)
-        out_f = np.empty((n, ks.O_FLOATS))  # every ray ends once and fills its row
+        channels = params.shape[2]
+        out_f = np.empty((n, ks.out_floats(channels)))  # every ray ends once: fills its row
         out_i = np.full((n, ks.OUT_INTS), ks.NO_FACE, np.int64)
         path = np.full((n, vertices, 3), np.nan)
         c = self.chunk
 
         def chunk(a: int) -> int:
             b = min(a + c, n)
-            rayhit, slots_f, slots_i, live, near, prim = self._buffers()
+            rayhit, slots_f, slots_i, live, near, prim = self._buffers(channels)
             return trace_chunk(a, origins[a:b], dirs[a:b], media[a:b],
                                   self._scene.handle, self._scene.intersect, rayhit, slots_f,
                                   slots_i, live, near, prim, self.box, self._faces, kind,
@@ -348,13 +350,14 @@ class PeriodicScene:
 
         return Tracing(self, out_f, out_i, path, self.submit(chunk, range(0, n, c)))
 
-    def _buffers(self) -> tuple[np.ndarray, ...]:
-        """The calling thread's ``RTCRayHit`` record, path slots (``CHUNK`` rows), queries,
-        faces gathered and answers, made once per thread."""
+    def _buffers(self, channels: int) -> tuple[np.ndarray, ...]:
+        """The calling thread's ``RTCRayHit`` record, path slots (``CHUNK`` rows, for
+        ``channels`` channels), queries, faces gathered and answers, made once per thread
+        and channel count."""
         work = getattr(self._local, "work", None)
-        if work is None:
+        if work is None or work[1].shape[1] != ks.slot_floats(channels):
             c = self.chunk
-            work = (rayhit_buffer(), np.empty((c, ks.SLOT_FLOATS)),
+            work = (rayhit_buffer(), np.empty((c, ks.slot_floats(channels))),
                     np.empty((c, ks.SLOT_INTS), np.int64), np.empty(c, np.int64),
                     np.empty((c, 5)), np.empty(c, np.int64))
             self._local.work = work

@@ -29,11 +29,13 @@ def _arrays(wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def as_rgb(values: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """Broadcast a model's scalar or RGB output to ``shape + (3,)``."""
+    """Broadcast a model's output to ``shape + (C,)``: a scalar (grey) model's to three
+    equal channels, a per-channel one's (RGB, or one per wavelength) as it is."""
     values = np.asarray(values, float)
     if values.shape == shape:
         values = values[..., None]
-    return np.broadcast_to(values, shape + (3,))
+    channels = values.shape[-1] if values.ndim > len(shape) and values.shape[-1] > 1 else 3
+    return np.broadcast_to(values, shape + (channels,))
 
 
 def flat_pairs(wi: np.ndarray, wo: np.ndarray

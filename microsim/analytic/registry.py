@@ -87,11 +87,11 @@ MICROFACET = {
                    low=ALPHA_MIN, high=10.0),
     "shadowing": Key("str", "smith-correlated", "Masking-shadowing.",
                      choices=("smith-correlated", "smith-separable", "v-groove", "none")),
-    "eta": Key("rgb", None, "Fresnel: index of refraction, one or three (R, G, B) values "
-               "(dielectric, or conductor with k). Without eta and k, F = 1.", low=0.0,
+    "eta": Key("channels", None, "Fresnel: index of refraction, one value or one per colour "
+               "channel (dielectric, or conductor with k). Without eta and k, F = 1.", low=0.0,
                low_open=True, high=100.0),
-    "k": Key("rgb", None, "Fresnel: conductor extinction coefficient, one or three values.",
-             low=0.0, high=100.0),
+    "k": Key("channels", None, "Fresnel: conductor extinction coefficient, one value or "
+             "one per channel.", low=0.0, high=100.0),
 }
 
 MULTIPLE = {
@@ -137,13 +137,13 @@ MODELS: dict[str, ModelSpec] = {
                              {"n": Key("float", 10.0, "Exponent.", low=0.0, high=1e6)},
                              lambda p: _brdf("BlinnPhong")(p["n"])),
     "lambertian": ModelSpec("Lambert: albedo / pi.",
-                            {"albedo": Key("rgb", 0.8, "Albedo, one or three (R, G, B) "
-                                           "values.", low=0.0, high=1.0)},
+                            {"albedo": Key("channels", 0.8, "Albedo, one value or one per "
+                                           "colour channel.", low=0.0, high=1.0)},
                             lambda p: _brdf("Lambertian")(p["albedo"])),
     "coated-lambertian": ModelSpec(
         "Lambertian substrate under a smooth dielectric layer, internal reflections "
         "summed (diffuse part; the specular F(theta_i) is a Dirac peak not evaluated).",
-        {"albedo": Key("rgb", 0.8, "Substrate albedo, one or three values.", low=0.0,
+        {"albedo": Key("channels", 0.8, "Substrate albedo, one value or one per channel.", low=0.0,
                        high=1.0),
          "eta": Key("float", 1.5, "Index of the layer relative to air.", low=1.0,
                     low_open=True, high=10.0)},
@@ -153,7 +153,7 @@ MODELS: dict[str, ModelSpec] = {
         "qualitative A/B model).",
         {"sigma": Key("float", 20.0, "Slope standard deviation.", unit="deg", low=0.0,
                       high=90.0),
-         "albedo": Key("rgb", 0.8, "Facet albedo, one or three values.", low=0.0,
+         "albedo": Key("channels", 0.8, "Facet albedo, one value or one per channel.", low=0.0,
                        high=1.0),
          "model": Key("str", "full", "Variant.", choices=("full", "qualitative"))},
         lambda p: _brdf("OrenNayar")(math.radians(p["sigma"]), p["albedo"], p["model"])),
@@ -196,11 +196,11 @@ MODELS: dict[str, ModelSpec] = {
                      low=0.0),
          "kind": Key("str", "mirror", "The cylinders' facet material.",
                      choices=("mirror", "conductor", "dielectric", "lambertian")),
-         "eta": Key("rgb", None, "Index of refraction (conductor, dielectric).", low=0.0,
+         "eta": Key("channels", None, "Index of refraction (conductor, dielectric).", low=0.0,
                     low_open=True, high=100.0),
-         "k": Key("rgb", None, "Extinction coefficient (conductor).", low=0.0, high=100.0),
-         "albedo": Key("rgb", 0.8, "Albedo (lambertian).", low=0.0, high=1.0),
-         "base_albedo": Key("rgb", 0.0, "Albedo of a Lambertian base.", low=0.0, high=1.0)},
+         "k": Key("channels", None, "Extinction coefficient (conductor).", low=0.0, high=100.0),
+         "albedo": Key("channels", 0.8, "Albedo (lambertian).", low=0.0, high=1.0),
+         "base_albedo": Key("channels", 0.0, "Albedo of a Lambertian base.", low=0.0, high=1.0)},
         lambda p: _cylinders(p)),
     "velvet-sparse": ModelSpec(
         "Single scattering of sparse velvet: Lambertian fibres (smooth cylinders with the "
@@ -222,8 +222,8 @@ MODELS: dict[str, ModelSpec] = {
          "sides": Key("int", 6, "Faces of each fibre's tip.", low=3, high=64),
          "kind": Key("str", "lambertian", "The fibres' facet material.",
                      choices=("lambertian",)),
-         "albedo": Key("rgb", 0.8, "The fibres' albedo.", low=0.0, high=1.0),
-         "base_albedo": Key("rgb", 0.0, "The base's albedo: must be 0 (the model's base "
+         "albedo": Key("channels", 0.8, "The fibres' albedo.", low=0.0, high=1.0),
+         "base_albedo": Key("channels", 0.0, "The base's albedo: must be 0 (the model's base "
                             "is black).", low=0.0, high=1.0)},
         lambda p: _velvet(p)),
     "microcylinder": ModelSpec(
@@ -240,8 +240,8 @@ MODELS: dict[str, ModelSpec] = {
                         high=90.0),
          "kd": Key("float", 0.5, "Isotropic share of the volume scattering.", low=0.0,
                    high=1.0),
-         "albedo_warp": Key("rgb", 0.5, "Volume scale A of the warp.", low=0.0, high=5.0),
-         "albedo_weft": Key("rgb", 0.5, "Volume scale A of the weft.", low=0.0, high=5.0),
+         "albedo_warp": Key("channels", 0.5, "Volume scale A of the warp.", low=0.0, high=5.0),
+         "albedo_weft": Key("channels", 0.5, "Volume scale A of the weft.", low=0.0, high=5.0),
          "slope": Key("float", 0.0, "Largest slope of the yarns (pi crimp / spacing).",
                       low=0.0, high=100.0),
          "flat": Key("float", 0.0, "Share of the yarns' length that is flat.", low=0.0,

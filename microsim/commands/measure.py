@@ -108,7 +108,7 @@ def run_g1(args: argparse.Namespace) -> int:
         raise InputError(f"--phi {args.phi}: must be a finite angle in degrees")
     resolved = recipe.load(args.recipe, [*args.overrides, *flag_overrides(
         args, "simulation", "seed", "realisations")])
-    inside = [part for part, m in resolved.material.items() if m.medium() is not None]
+    inside = [part for part, m in resolved.material.items() if m.encloses_medium]
     if inside:
         print(f"warning: part {inside[0]!r} refracts: G1 samples every face, also those "
               "inside its medium (particles, substrate), so it is not the masking of the "

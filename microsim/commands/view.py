@@ -189,7 +189,7 @@ def run(args: argparse.Namespace) -> int:
                           sim.bounces, sim.seed, math.radians(phi))
     # refracting parts enclose a medium: drawn see-through so their contents show
     glass = () if resolved is None else tuple(
-        part for part, m in resolved.material.items() if m.medium() is not None)
+        part for part, m in resolved.material.items() if m.encloses_medium)
     show_tile(tile, args.screenshot, args.tiles, args.color, title, paths, glass)
     if args.screenshot is not None:
         print(f"wrote {args.screenshot}")

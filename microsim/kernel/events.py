@@ -44,10 +44,11 @@ def draws(blocks: int, key: np.ndarray, ray: int, event: int) -> tuple[float, ..
 @njit(**INLINE)
 def _no_kind(kind: int, params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray,
              part: int, dx: float, dy: float, dz: float, nx: float, ny: float, nz: float,
-             ex: float, ey: float, ez: float, key: np.ndarray, ray: int, event: int
-             ) -> tuple[float, ...]:
+             ex: float, ey: float, ez: float, key: np.ndarray, ray: int, event: int,
+             hero: int, fac: np.ndarray) -> tuple[float, float, float]:
     """The end of the chain, which no registered code reaches: everything absorbed."""
-    return dx, dy, dz, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    fac[:, :] = 0.0
+    return dx, dy, dz
 
 
 def _link(code: int, kind: type[Material], rest: Callable[..., Any]) -> Callable[..., Any]:
@@ -58,13 +59,13 @@ def _link(code: int, kind: type[Material], rest: Callable[..., Any]) -> Callable
     @njit(**INLINE)
     def link(k: int, params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
              dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
-             ey: float, ez: float, key: np.ndarray, ray: int, bounce: int
-             ) -> tuple[float, ...]:
+             ey: float, ez: float, key: np.ndarray, ray: int, bounce: int, hero: int,
+             fac: np.ndarray) -> tuple[float, float, float]:
         if k == code:
             return event(params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz, ex, ey, ez,
-                         draws(blocks, key, ray, bounce))
+                         draws(blocks, key, ray, bounce), hero, fac)
         return rest(k, params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz, ex, ey, ez,
-                    key, ray, bounce)
+                    key, ray, bounce, hero, fac)
 
     return link
 
@@ -78,7 +79,7 @@ for _code in reversed(range(len(KINDS))):
 def scatter_event(kind: int, params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray,
                   part: int, dx: float, dy: float, dz: float, nx: float, ny: float,
                   nz: float, ex: float, ey: float, ez: float, key: np.ndarray, ray: int,
-                  event: int) -> tuple[float, ...]:
+                  event: int, hero: int, fac: np.ndarray) -> tuple[float, float, float]:
     """One scattering event at a facet of unit normal n (``d·n < 0``, except at a
     refracting facet, which is hit from either side): kind ``kind``'s event.
 
@@ -86,8 +87,8 @@ def scatter_event(kind: int, params: np.ndarray, tab_int: np.ndarray, tab_f: np.
     ----------
     kind : int
         The material's kind code.
-    params : (p, PARAMS) float
-        Every part's parameter row (``microsim.materials.base``).
+    params : (p, PARAMS, C) float
+        Every part's parameter block (``microsim.materials.base``).
     tab_int : (p, TABLE_COLUMNS) int
         Every part's table layout (``table`` kinds).
     tab_f : (q,) float
@@ -104,28 +105,33 @@ def scatter_event(kind: int, params: np.ndarray, tab_int: np.ndarray, tab_f: np.
         The run's random key.
     ray, event : int
         The ray's index in its run and the event's number (its bounce, from 1).
+    hero : int
+        The path's hero channel (the one a dispersive event follows).
+    fac : (2, C) float
+        Filled with the factor per channel (row 0) and the transmitted fraction (row 1).
 
     Returns
     -------
-    tuple of 9 float
-        New unit direction (3), factor (RGB), transmitted fraction (RGB).
+    tuple of 3 float
+        New unit direction.
     """
     return _chain(kind, params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz, ex, ey, ez,
-                  key, ray, event)
+                  key, ray, event, hero, fac)
 
 
 @njit(**JIT)
 def scatter_all(faces: np.ndarray, d: np.ndarray, n: np.ndarray, face_material: np.ndarray,
                 tangents: np.ndarray, kind: np.ndarray, params: np.ndarray,
                 tab_int: np.ndarray, tab_f: np.ndarray, key: np.ndarray, event: int,
-                out: np.ndarray) -> None:
-    """``scatter_event`` for every ray r at face ``faces[r]``: rows of ``out`` (direction,
-    factor, transmitted), for tests and drawings."""
+                out: np.ndarray, fac: np.ndarray) -> None:
+    """``scatter_event`` for every ray r at face ``faces[r]``: its direction in row r of
+    ``out`` ((k, 3)), its factor and transmitted fraction in ``fac[r]`` ((k, 2, C); hero
+    channel r mod C), for tests and drawings."""
+    channels = fac.shape[2]
     for r in range(len(faces)):
         f = faces[r]
         part = face_material[f]
-        result = scatter_event(kind[part], params, tab_int, tab_f, part, d[r, 0], d[r, 1],
-                               d[r, 2], n[r, 0], n[r, 1], n[r, 2], tangents[f, 0],
-                               tangents[f, 1], tangents[f, 2], key, r, event)
-        for c in range(9):
-            out[r, c] = result[c]
+        out[r, 0], out[r, 1], out[r, 2] = scatter_event(
+            kind[part], params, tab_int, tab_f, part, d[r, 0], d[r, 1], d[r, 2], n[r, 0],
+            n[r, 1], n[r, 2], tangents[f, 0], tangents[f, 1], tangents[f, 2], key, r,
+            event, r % channels, fac[r])

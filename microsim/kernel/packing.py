@@ -17,8 +17,16 @@ from microsim.kernel.rng import key_of
 from microsim.kernel.shading import curved_table
 from microsim.kernel.tabulated import TabulatedMaterial
 from microsim.materials import Material, code_of
-from microsim.materials.base import KIND_COLUMNS, P_ABSORPTION, P_MEDIUM, P_MIRROR, PARAMS
+from microsim.materials.base import (
+    KIND_COLUMNS,
+    P_ABSORPTION,
+    P_DISPERSIVE,
+    P_MEDIUM,
+    P_MIRROR,
+    PARAMS,
+)
 from microsim.materials.table import TABLE_COLUMNS
+from microsim.spectra.channels import RGB, Channels
 from microsim.tables.meta import TableInput
 
 
@@ -38,6 +46,9 @@ class FacetMaterials:
         with ``axis = "tangent"``.
     curved : (m, 3, 3) float or None
         The tube each face approximates (``Tile.curved``), for shading normals.
+    channels : Channels
+        The run's channels (RGB, or one per wavelength): each part's parameters are
+        sampled there, and a table material must have the same channels.
 
     Attributes
     ----------
@@ -47,10 +58,10 @@ class FacetMaterials:
         Provenance of those tables.
     kind : (p,) int
         Kernel code per part (``microsim.materials.code_of``).
-    params : (p, PARAMS) float
-        Per part: its kind's ``parameters``, the absorption inside the medium its faces
-        enclose, whether they enclose one and whether its event is a perfect mirror's
-        (``microsim.materials.base``).
+    params : (p, PARAMS, C) float
+        Per part and channel: its kind's ``parameters``, the absorption inside the medium
+        its faces enclose, whether they enclose one, whether its event is a perfect
+        mirror's and whether it disperses (``microsim.materials.base``).
     tab_int : (p, TABLE_COLUMNS) int
         Per table part, its layout in ``tab_f`` (zeros for the others).
     tab_f : (q,) float
@@ -69,7 +80,7 @@ class FacetMaterials:
 
     def __init__(self, face_material: np.ndarray, parts: Sequence[str],
                  materials: Mapping[str, Material], tangents: np.ndarray | None = None,
-                 curved: np.ndarray | None = None) -> None:
+                 curved: np.ndarray | None = None, channels: Channels = RGB) -> None:
         self.face_material = np.ascontiguousarray(face_material, np.int64)
         specs = [materials[p] for p in parts]
         self.tables = {m: TabulatedMaterial.load(t.path, t.component,
@@ -82,18 +93,26 @@ class FacetMaterials:
         self.inputs = [TableInput(parts[m], **t.source) for m, t in self.tables.items()]
         self.tangents = np.zeros((len(self.face_material), 3)) if tangents is None else \
             np.ascontiguousarray(tangents, float)
+        for m, table in self.tables.items():
+            if table.table.channels != channels:
+                raise InputError(f"material.{parts[m]}.path: the table's channels "
+                                 f"({', '.join(table.table.channels.names)}) are not the "
+                                 f"run's ({', '.join(channels.names)})")
+        self.channels = channels
         self.kind = np.array([code_of(s) for s in specs], np.int64)
-        self.params = np.zeros((len(specs), PARAMS))
+        self.params = np.zeros((len(specs), PARAMS, channels.count))
         for m, spec in enumerate(specs):
-            own = spec.parameters()
+            own = spec.parameters(channels)
             if len(own) > KIND_COLUMNS:
                 raise ValueError(f"a {spec.kind} material has more than {KIND_COLUMNS} "
                                  "kernel parameters")
-            self.params[m, :len(own)] = own
+            if own:
+                self.params[m, :len(own)] = own
             self.params[m, P_MIRROR] = 1.0 if spec.mirror else 0.0
-            medium = spec.medium()
+            self.params[m, P_DISPERSIVE] = 1.0 if spec.dispersive(channels) else 0.0
+            medium = spec.medium(channels)
             if medium is not None:
-                self.params[m, P_ABSORPTION:P_ABSORPTION + 3] = medium
+                self.params[m, P_ABSORPTION] = medium
                 self.params[m, P_MEDIUM] = 1.0
         self.tab_int = np.zeros((len(specs), TABLE_COLUMNS), np.int64)
         chunks: list[np.ndarray] = [np.zeros(1)]
@@ -103,7 +122,8 @@ class FacetMaterials:
             chunks.append(data)
             used += len(data)
         self.tab_f = np.concatenate(chunks)
-        self.curved = curved_table(curved, self.params[self.face_material, P_MEDIUM] != 0.0)
+        self.curved = curved_table(curved,
+                                   self.params[self.face_material, P_MEDIUM, 0] != 0.0)
 
     def scatter(self, faces: np.ndarray, d: np.ndarray, n: np.ndarray,
                 seed: np.random.SeedSequence, event: int = 1
@@ -128,15 +148,18 @@ class FacetMaterials:
         -------
         out : (k, 3) float
             New unit directions.
-        factor : (k, 3) float
-            RGB weight factor, in [0, 1] (one ray's channel of a ``table`` may exceed 1;
-            its mean does not).
-        transmitted : (k, 3) float
+        factor : (k, C) float
+            Weight factor per channel, in [0, 1] (one ray's channel of a ``table`` may
+            exceed 1; its mean does not).
+        transmitted : (k, C) float
             Fraction of the weight refracted into the material (dielectrics), in [0, 1].
+
+        The hero channel of ray i is ``i mod C``, as in the transport.
         """
-        out = np.empty((len(faces), 9))
+        out = np.empty((len(faces), 3))
+        fac = np.empty((len(faces), 2, self.channels.count))
         events.scatter_all(np.ascontiguousarray(faces, np.int64),
                            np.ascontiguousarray(d, float), np.ascontiguousarray(n, float),
                            self.face_material, self.tangents, self.kind, self.params,
-                           self.tab_int, self.tab_f, key_of(seed), event, out)
-        return out[:, :3], out[:, 3:6], out[:, 6:]
+                           self.tab_int, self.tab_f, key_of(seed), event, out, fac)
+        return out, fac[:, 0], fac[:, 1]

@@ -148,18 +148,27 @@ def queue(slots_f: np.ndarray, slots_i: np.ndarray, live: np.ndarray, q: int, i:
 
 
 # the slots: float64 state (columns S_*) and integer state (columns I_*) per live path
-(S_PX, S_PY, S_PZ, S_DX, S_DY, S_DZ, S_W0, S_W1, S_W2, S_A0, S_A1, S_A2, S_T0, S_T1, S_T2,
- S_Z0, S_EXIT, S_UX, S_UY, S_SX, S_SY, S_SZ, S_IX, S_IY, S_IZ) = range(25)
-"""Float state of a slot: position (wrapped into the box), direction, weight, absorbed and
-transmitted weight so far (RGB), z where the straight segment began, distance to the box's
-side, the whole periods the path has been shifted by (for unwrapped path vertices), and
-the box sides its direction runs towards with 1 / direction (``aim``)."""
-SLOT_FLOATS = 25
-(I_RAY, I_MEDIUM, I_CROSSED, I_BOUNCE, I_SEG, I_BUDGET, I_AXIS) = range(7)
+(S_PX, S_PY, S_PZ, S_DX, S_DY, S_DZ, S_Z0, S_EXIT, S_UX, S_UY, S_SX, S_SY, S_SZ, S_IX, S_IY,
+ S_IZ, S_W) = range(17)
+"""Float state of a slot: position (wrapped into the box), direction, z where the straight
+segment began, distance to the box's side, the whole periods the path has been shifted by
+(for unwrapped path vertices), the box sides its direction runs towards with
+1 / direction (``aim``), and from ``S_W`` on, per channel c of C, the weight (column
+S_W + c), the weight absorbed so far (S_W + C + c) and transmitted so far
+(S_W + 2C + c)."""
+
+
+def slot_floats(channels: int) -> int:
+    """Float columns of a slot of a run of ``channels`` channels."""
+    return S_W + 3 * channels
+
+
+(I_RAY, I_MEDIUM, I_CROSSED, I_BOUNCE, I_SEG, I_BUDGET, I_AXIS, I_HERO) = range(8)
 """Integer state of a slot: the ray's index, its medium (a refracting part; -1: air),
-whether it has refracted, its bounces, queries of its straight segment, their budget, and
-the box side ``S_EXIT`` leads to."""
-SLOT_INTS = 7
+whether it has refracted, its bounces, queries of its straight segment, their budget, the
+box side ``S_EXIT`` leads to, and its hero channel once a dispersive event has left it
+only that one (-1 before: every channel follows the path)."""
+SLOT_INTS = 8
 
 
 @njit(**INLINE)
@@ -185,6 +194,7 @@ def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
         Slots filled (k).
     """
     k = len(origins)
+    channels = (slots_f.shape[1] - S_W) // 3
     for j in range(k):
         px, py = wrap(origins[j, 0], box[B_LX]), wrap(origins[j, 1], box[B_LY])
         slots_f[j, S_PX], slots_f[j, S_PY], slots_f[j, S_PZ] = px, py, origins[j, 2]
@@ -200,16 +210,17 @@ def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
         else:
             aim(slots_f, j, dx, dy, dz, box)
             slots_i[j, I_BUDGET] = budget(dx, dy, dz, box)
-        for c in range(3):
-            slots_f[j, S_W0 + c] = 1.0
-            slots_f[j, S_A0 + c] = 0.0
-            slots_f[j, S_T0 + c] = 0.0
+        for c in range(S_W, S_W + channels):
+            slots_f[j, c] = 1.0
+        for c in range(S_W + channels, S_W + 3 * channels):
+            slots_f[j, c] = 0.0
         slots_f[j, S_Z0] = origins[j, 2]
         slots_i[j, I_RAY] = first + j
         slots_i[j, I_MEDIUM] = media[j]
         slots_i[j, I_CROSSED] = 0
         slots_i[j, I_BOUNCE] = 0
         slots_i[j, I_SEG] = 0
+        slots_i[j, I_HERO] = -1
         queue(slots_f, slots_i, live, j, j)
     return k
 
@@ -219,16 +230,24 @@ def end(slots_f: np.ndarray, slots_i: np.ndarray, i: int, fate: int, out_f: np.n
          out_i: np.ndarray) -> None:
     """Record how slot i's path ended at its ray's row of the outcomes."""
     r = slots_i[i, I_RAY]
-    for c in range(O_FLOATS):
+    for c in range(O_W):
         out_f[r, c] = slots_f[i, c]
+    for c in range(out_f.shape[1] - O_W):
+        out_f[r, O_W + c] = slots_f[i, S_W + c]
     out_i[r, O_FATE] = fate
     out_i[r, O_ORDER] = slots_i[i, I_BOUNCE]
 
 
-# the outcomes: per ray, the first O_FLOATS float columns of its slot at its end, and
-O_FLOATS = S_T2 + 1
-"""Float columns of an outcome: the slot's position, direction, weight, absorbed and
-transmitted weight (``S_PX`` … ``S_T2``) when the path ended."""
+# the outcomes: per ray, its slot's position, direction and weights at its end, and
+O_W = S_DZ + 1
+"""Float columns of an outcome: the slot's position and direction (``S_PX`` … ``S_DZ``)
+when the path ended, then from ``O_W`` on its weights per channel as the slot's from
+``S_W`` on: weight (O_W + c), absorbed (O_W + C + c), transmitted (O_W + 2C + c)."""
+
+
+def out_floats(channels: int) -> int:
+    """Float columns of an outcome of a run of ``channels`` channels."""
+    return O_W + 3 * channels
 (O_FATE, O_ORDER, O_FACE) = range(3)
 """Integer columns of an outcome: its fate, its bounces, the last face it hit."""
 OUT_INTS = 3
@@ -241,5 +260,5 @@ def empty_tables(parts: int) -> tuple[np.ndarray, np.ndarray]:
 
 def empty_params(parts: int) -> tuple[np.ndarray, np.ndarray]:
     """``kind`` and ``params`` of ``parts`` materials of kind code 0 that enclose no
-    medium (for queries without scattering)."""
-    return np.zeros(parts, np.int64), np.zeros((parts, PARAMS))
+    medium, with three channels (for queries without scattering)."""
+    return np.zeros(parts, np.int64), np.zeros((parts, PARAMS, 3))

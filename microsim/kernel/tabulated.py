@@ -99,8 +99,9 @@ class TabulatedMaterial:
         # a folded bin stands for itself and its mirror image φ → −φ
         omega = bins.projected_solid_angle.ravel() * (2.0 if bins.folded else 1.0)
         a, b = len(table.theta_i), len(table.phi_i)
-        energy = values.reshape(a * b, bins.size, 3) * omega[:, None]  # f_b,c Ω_b
-        self.albedo = energy.sum(axis=1).reshape(a, b, 3)
+        channels = values.shape[-1]
+        energy = values.reshape(a * b, bins.size, channels) * omega[:, None]  # f_b,c Ω_b
+        self.albedo = energy.sum(axis=1).reshape(a, b, channels)
         g = energy.mean(axis=2)
         total = g.sum(axis=1, keepdims=True)
         empty = total[:, 0] <= 0
@@ -159,7 +160,7 @@ class TabulatedMaterial:
             The ``T_*`` columns, offsets counted from the start of ``tab_f``.
         data : (q,) float
             θi nodes, φi nodes, u = sin²θo edges, φo edges, cumulative probabilities
-            (node-major), weights (node-major, 3 per bin).
+            (node-major), weights (node-major, one per channel and bin).
         """
         table, bins = self.table, self.table.bins
         parts = [table.theta_i, table.phi_i, bins.u_edges, bins.phi_edges, self.cdf.ravel(),

@@ -16,16 +16,7 @@ import numpy as np
 from numba import njit
 
 from microsim.jit import INLINE, JIT
-from microsim.kernel.slots import (
-    ESCAPED,
-    O_FATE,
-    O_ORDER,
-    S_A0,
-    S_DX,
-    S_T0,
-    S_W0,
-    TRANSMITTED,
-)
+from microsim.kernel.slots import ESCAPED, O_FATE, O_ORDER, O_W, S_DX, TRANSMITTED
 from microsim.materials.optics import TWO_PI
 
 BLOCK = 32768
@@ -73,29 +64,32 @@ def summarise(out_f: np.ndarray, out_i: np.ndarray, direction: np.ndarray,
     ----------
     out_f, out_i
         The run's outcomes (``transport``).
-    direction, weight : (n, 3) float
-        Filled with each escaped ray's direction and weight (zero rows for the others).
+    direction : (n, 3) float
+        Filled with each escaped ray's direction (zero rows for the others).
+    weight : (n, C) float
+        Filled with each escaped ray's weight per channel (zero rows for the others).
     order : (n,) int
         Filled with each escaped ray's scattering order (0 for the others).
-    energy : (3, 3) float
-        Running summed RGB weight lost (paths ended by the simulation), transmitted
-        (1 − F at non-refracting dielectrics; paths out through the bottom after a
-        refraction) and absorbed.
+    energy : (3, C) float
+        Running summed weight per channel lost (paths ended by the simulation),
+        transmitted (1 − F at non-refracting dielectrics; paths out through the bottom
+        after a refraction) and absorbed.
     counts : (len(FATES),) int
         Running paths per fate.
     """
+    channels = weight.shape[1]
     for r in range(len(out_i)):
         fate = out_i[r, O_FATE]
         counts[fate] += 1
         for c in range(3):
-            w = out_f[r, S_W0 + c]
-            energy[1, c] += out_f[r, S_T0 + c]
-            energy[2, c] += out_f[r, S_A0 + c]
+            direction[r, c] = out_f[r, S_DX + c] if fate == ESCAPED else 0.0
+        for c in range(channels):
+            w = out_f[r, O_W + c]
+            energy[1, c] += out_f[r, O_W + 2 * channels + c]
+            energy[2, c] += out_f[r, O_W + channels + c]
             if fate == ESCAPED:
-                direction[r, c] = out_f[r, S_DX + c]
                 weight[r, c] = w
             else:
-                direction[r, c] = 0.0
                 weight[r, c] = 0.0
                 energy[1 if fate == TRANSMITTED else 0, c] += w
         order[r] = out_i[r, O_ORDER] if fate == ESCAPED else 0
@@ -138,7 +132,8 @@ def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
 
     Parameters
     ----------
-    direction, weight : (n, 3) float
+    direction : (n, 3) float
+    weight : (n, C) float
     order : (n,) int
         Scattering order (0: not escaped or never scattered, not binned).
     phi_ref : float
@@ -148,11 +143,11 @@ def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
     orders : int
         N ≥ 1: a ray of order k adds to component min(k, N) besides component 0 (all
         orders).
-    sums, sums_sq : (N + 1, theta_bins · phi_bins, 3) float
+    sums, sums_sq : (N + 1, theta_bins · phi_bins, C) float
         Running Σw and Σw² per component, bin and channel.
     index : (n,) int
         Filled with each ray's bin (-1: none).
-    unbinned : (3,) float
+    unbinned : (C,) float
         Running summed weight of scattered rays no bin takes (escaping on the horizon).
     loc : (n, 2) float, or (0, 2) for none
         Filled, for each binned ray, with its colatitude and its azimuth relative to
@@ -160,6 +155,7 @@ def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
         numpy's ``mod`` reduces it; φ_ref in [0, 2π)).
     """
     angles = len(loc) > 0
+    channels = weight.shape[1]
     for r in range(len(order)):
         k = order[r]
         b = -1
@@ -168,7 +164,7 @@ def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
             phi = math.atan2(y, x) - phi_ref
             b = bin_at(x, y, z, phi, theta_bins, phi_bins, folded)
             if b < 0:
-                for c in range(3):
+                for c in range(channels):
                     unbinned[c] += weight[r, c]
             elif angles:
                 # numpy's mod: fmod (exact), then + 2π if negative; the difference lies
@@ -183,7 +179,7 @@ def bin_escapes(direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
         if b < 0:
             continue
         slot = min(k, orders)
-        for c in range(3):
+        for c in range(channels):
             w = weight[r, c]
             sums[0, b, c] += w
             sums_sq[0, b, c] += w * w
@@ -202,13 +198,13 @@ def gather_rows(loc: np.ndarray, weight: np.ndarray, order: np.ndarray, index: n
     ----------
     loc : (n, 2) float
         The rays' angles (``bin_escapes``).
-    weight : (n, 3) float
+    weight : (n, C) float
     order : (n,) int
     index : (n,) int
         Each ray's bin (``bin_escapes``; -1: not binned, left out).
     orders : int
         N.
-    loc_rows, weight_rows : (n, 2) and (n, 3) float
+    loc_rows, weight_rows : (n, 2) and (n, C) float
         Filled, in their first rows, with the binned rays' angles and weights, row by
         row.
     ends : (N + 1,) int
@@ -237,6 +233,6 @@ def gather_rows(loc: np.ndarray, weight: np.ndarray, order: np.ndarray, index: n
         fill[row] += 1
         loc_rows[j, 0] = loc[r, 0]
         loc_rows[j, 1] = loc[r, 1]
-        for c in range(3):
+        for c in range(weight.shape[1]):
             weight_rows[j, c] = weight[r, c]
     return ends[orders]

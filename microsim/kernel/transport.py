@@ -70,14 +70,12 @@ from microsim.kernel.slots import (
     I_BOUNCE,
     I_BUDGET,
     I_CROSSED,
+    I_HERO,
     I_MEDIUM,
     I_RAY,
     I_SEG,
     LEAKED,
     O_FACE,
-    S_A0,
-    S_A1,
-    S_A2,
     S_DX,
     S_DY,
     S_DZ,
@@ -85,14 +83,9 @@ from microsim.kernel.slots import (
     S_PX,
     S_PY,
     S_PZ,
-    S_T0,
-    S_T1,
-    S_T2,
     S_UX,
     S_UY,
-    S_W0,
-    S_W1,
-    S_W2,
+    S_W,
     S_Z0,
     TRANSMITTED,
     TRAPPED,
@@ -103,7 +96,7 @@ from microsim.kernel.slots import (
     start,
     wrap_near,
 )
-from microsim.materials.base import P_ABSORPTION, P_MEDIUM, P_MIRROR
+from microsim.materials.base import P_ABSORPTION, P_DISPERSIVE, P_MEDIUM, P_MIRROR
 from microsim.materials.optics import reflect
 
 
@@ -112,7 +105,7 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
             live: np.ndarray, near: np.ndarray, box: np.ndarray, faces: np.ndarray,
             kind: np.ndarray, params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray,
             bounces: int, key: np.ndarray, out_f: np.ndarray, out_i: np.ndarray,
-            vertices: np.ndarray, curved: np.ndarray) -> int:
+            vertices: np.ndarray, curved: np.ndarray, fac: np.ndarray) -> int:
     """Move every live path on after one query; see the module's steps 1 to 7.
 
     Parameters
@@ -121,7 +114,7 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
         The face each of the m queries hit (-1: none).
     m : int
         Queries (live paths).
-    slots_f : (w, SLOT_FLOATS) float
+    slots_f : (w, slot_floats(C)) float
     slots_i : (w, SLOT_INTS) int
         The paths' state (a path keeps its slot).
     live : (w,) int
@@ -130,6 +123,8 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
         Scratch: the first five ``faces`` columns of each query's face.
     box, faces, kind, params, tab_int, tab_f, bounces, key, out_f, out_i, vertices, curved
         As for ``trace_chunk``.
+    fac : (2, C) float
+        Scratch: an event's factors (``scatter_event``).
 
     Returns
     -------
@@ -139,6 +134,7 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
     eps = box[B_EPS]
     lx, ly = box[B_LX], box[B_LY]
     keep = vertices.shape[1]
+    channels = fac.shape[1]
     # the faces hit, gathered first: independent loads the processor overlaps, where one
     # path at a time would wait for each (the face table rarely fits a core's cache)
     for q in range(m):
@@ -198,26 +194,25 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                     out_i[slots_i[i, I_RAY], O_FACE] = f
                     px, py, pz = hx, hy, hz
                     ox, oy, oz = dx, dy, dz
-                elif params[part, P_MIRROR] != 0.0:
+                elif params[part, P_MIRROR, 0] != 0.0:
                     # 4. scattering: a perfect mirror, the commonest event, keeps the weight
                     ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
                 else:
                     # 4. scattering: the weight takes the factor, the rest is absorbed or
                     # transmitted
-                    ox, oy, oz, f0, f1, f2, i0, i1, i2 = scatter_event(
+                    if params[part, P_DISPERSIVE, 0] != 0.0 and slots_i[i, I_HERO] < 0:
+                        _follow_hero(slots_f, slots_i, i, channels)
+                    hero = slots_i[i, I_HERO]
+                    ox, oy, oz = scatter_event(
                         kind[part], params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz,
                         faces[f, F_TX], faces[f, F_TY], faces[f, F_TZ], key,
-                        slots_i[i, I_RAY], bounce + 1)
-                    w0, w1, w2 = slots_f[i, S_W0], slots_f[i, S_W1], slots_f[i, S_W2]
-                    slots_f[i, S_T0] += w0 * i0
-                    slots_f[i, S_T1] += w1 * i1
-                    slots_f[i, S_T2] += w2 * i2
-                    slots_f[i, S_A0] += w0 * (1.0 - f0 - i0)
-                    slots_f[i, S_A1] += w1 * (1.0 - f1 - i1)
-                    slots_f[i, S_A2] += w2 * (1.0 - f2 - i2)
-                    slots_f[i, S_W0], slots_f[i, S_W1], slots_f[i, S_W2] = (w0 * f0, w1 * f1,
-                                                                            w2 * f2)
-                    if params[part, P_MEDIUM] != 0.0:
+                        slots_i[i, I_RAY], bounce + 1, max(hero, 0), fac)
+                    for c in range(channels):
+                        w = slots_f[i, S_W + c]
+                        slots_f[i, S_W + 2 * channels + c] += w * fac[1, c]
+                        slots_f[i, S_W + channels + c] += w * (1.0 - fac[0, c] - fac[1, c])
+                        slots_f[i, S_W + c] = w * fac[0, c]
+                    if params[part, P_MEDIUM, 0] != 0.0:
                         # through a refracting face (the direction kept the side of d·n):
                         # into the part's medium when it now goes behind the face, else out
                         # to air
@@ -286,7 +281,8 @@ def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.nda
                 params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, bounces: int,
                 key: np.ndarray, out_f: np.ndarray, out_i: np.ndarray,
                 vertices: np.ndarray, curved: np.ndarray) -> int:
-    """Trace rays ``first``, ``first + 1``, … (one per row of ``origins``) to their ends.
+    """Trace rays ``first``, ``first + 1``, … (one per row of ``origins``) to their ends,
+    each carrying a weight per channel (C of them: ``params``' last axis).
 
     Parameters
     ----------
@@ -300,7 +296,7 @@ def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.nda
         The ``RTCScene`` and the address of ``rtcIntersect1`` (``embree.Scene``).
     rayhit : (RAYHIT_WORDS,) float32
         A 16-byte-aligned ``RTCRayHit`` record of the calling thread (``embree``).
-    slots_f : (w, SLOT_FLOATS) float
+    slots_f : (w, slot_floats(C)) float
     slots_i : (w, SLOT_INTS) int
     live, prim : (w,) int
     near : (w, 5) float
@@ -312,8 +308,8 @@ def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.nda
         plane n·x = c, its part, its unit tangent (zeros when the tile gives none).
     kind : (p,) int
         Material kind per part.
-    params : (p, PARAMS) float
-        Material parameters per part.
+    params : (p, PARAMS, C) float
+        Material parameters per part and channel.
     tab_int : (p, TABLE_COLUMNS) int
         Table layout per part (table materials).
     tab_f : (q,) float
@@ -322,7 +318,7 @@ def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.nda
         Scattering events before a path is ended.
     key : (2,) uint64
         The run's random key.
-    out_f : (n, O_FLOATS) float
+    out_f : (n, out_floats(C)) float
     out_i : (n, OUT_INTS) int
         Outcomes per ray of the run.
     vertices : (n, v, 3) float
@@ -337,12 +333,13 @@ def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.nda
         Embree queries made.
     """
     segments = 0
+    fac = np.empty((2, params.shape[2]))
     m = start(first, origins, dirs, media, slots_f, slots_i, live, box)
     while m:
         _query(m, live, slots_f, rayhit, scene, intersect, prim, box[B_EPS])
         segments += m
         m = advance(prim, m, slots_f, slots_i, live, near, box, faces, kind, params,
-                    tab_int, tab_f, bounces, key, out_f, out_i, vertices, curved)
+                    tab_int, tab_f, bounces, key, out_f, out_i, vertices, curved, fac)
     return segments
 
 
@@ -376,10 +373,25 @@ def _absorb(slots_f: np.ndarray, i: int, params: np.ndarray, medium: int, z_end:
     the medium of part ``medium``, ℓ = |z_end − z_start| / |d_z| (a segment parallel to the
     slab never leaves: ℓ = ∞)."""
     length = abs(z_end - slots_f[i, S_Z0]) / abs(dz) if dz != 0.0 else math.inf
-    for c in range(3):
-        sigma = params[medium, P_ABSORPTION + c]
+    channels = params.shape[2]
+    for c in range(channels):
+        sigma = params[medium, P_ABSORPTION, c]
         if sigma > 0.0:
-            before = slots_f[i, S_W0 + c]
+            before = slots_f[i, S_W + c]
             after = before * math.exp(-sigma * length)
-            slots_f[i, S_W0 + c] = after
-            slots_f[i, S_A0 + c] += before - after
+            slots_f[i, S_W + c] = after
+            slots_f[i, S_W + channels + c] += before - after
+
+
+@njit(**INLINE)
+def _follow_hero(slots_f: np.ndarray, slots_i: np.ndarray, i: int, channels: int) -> None:
+    """Leave slot i's path one channel, its hero h = ray mod C, before its first event
+    whose direction depends on the wavelength: the other channels' weights end there and
+    the hero's is multiplied by C (hero-wavelength sampling, Wilkie et al. 2014, "Hero
+    wavelength spectral sampling", sec. 4; pbrt-v4's ``TerminateSecondary``). Each
+    channel is the hero of every C-th ray, so each channel's expected weight is unchanged;
+    the ended weights are neither absorbed nor transmitted."""
+    hero = slots_i[i, I_RAY] % channels
+    slots_i[i, I_HERO] = hero
+    for c in range(channels):
+        slots_f[i, S_W + c] = slots_f[i, S_W + c] * channels if c == hero else 0.0

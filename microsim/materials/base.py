@@ -13,14 +13,17 @@ type, default, range, meaning) and its class attributes say the rest:
 - ``fresnel``, ``diffuse_albedo``, ``model_defaults``: what the analytic models it is
   compared with take from it (``microsim.compare``).
 
-The kernel's per-part parameter row has ``PARAMS`` columns: the kind's own
-``parameters`` in the first ``KIND_COLUMNS``, then the Beer-Lambert absorption of the
-medium a refracting part's faces enclose (``P_ABSORPTION``, RGB) and whether they enclose
-one (``P_MEDIUM``), and whether its event is a perfect mirror's (``P_MIRROR``), which the
-transport reads. Kernel-language functions are marked with
-``kernel``, so the kernel can compile every one of them (numba's ``register_jitable``)
-while this package imports nothing heavy: ``microsim check`` reads the recipe keys of
-every kind.
+The kernel's per-part parameters are a (PARAMS, C) block: a column per quantity, an entry
+per channel of the run (C = 3 for an RGB table, one per wavelength for a spectral one;
+``Channels``). A kind's own ``parameters`` fill the first ``KIND_COLUMNS``; then the
+Beer-Lambert absorption of the medium a refracting part's faces enclose
+(``P_ABSORPTION``), whether they enclose one (``P_MEDIUM``), whether its event is a perfect
+mirror's (``P_MIRROR``) and whether it disperses (``P_DISPERSIVE``: its event's direction
+depends on the channel's wavelength, so a path that meets it follows one wavelength
+only, ``microsim.kernel.transport``), which the transport reads. Kernel-language functions
+are marked with ``kernel``, so the kernel can compile every one of them (numba's
+``register_jitable``) while this package imports nothing heavy: ``microsim check`` reads
+the recipe keys of every kind.
 """
 
 from __future__ import annotations
@@ -31,17 +34,22 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from microsim.schema import Key, check_section, schema_of
+from microsim.spectra.channels import RGB, Channels
+from microsim.spectra.spectrum import Spectrum, parse_spectrum
 
-KIND_COLUMNS = 9
-"""Columns of the kernel's parameter row that a kind's ``parameters`` fill."""
-P_ABSORPTION = 9
-"""Column of the absorption (RGB, per tile unit of path length) of a part's medium."""
-P_MEDIUM = 12
+KIND_COLUMNS = 4
+"""Columns of the kernel's parameter block that a kind's ``parameters`` fill."""
+P_ABSORPTION = 4
+"""Column of the absorption (per channel, per tile unit of path length) of a part's
+medium."""
+P_MEDIUM = 5
 """Column that is 1 where a part's faces enclose a medium (a refracting dielectric)."""
-P_MIRROR = 13
+P_MIRROR = 6
 """Column that is 1 where a part's event is a perfect mirror's (``mirror``)."""
-PARAMS = 14
-"""Columns of the kernel's parameter row of a part."""
+P_DISPERSIVE = 7
+"""Column that is 1 where a part's event direction depends on the wavelength."""
+PARAMS = 8
+"""Columns of the kernel's parameter block of a part."""
 
 KERNEL_FUNCTIONS: list[Callable[..., Any]] = []
 """Every kernel-language helper of the material kinds, in the order they were marked."""
@@ -69,14 +77,16 @@ class Material:
     kind: ClassVar[str]
     doc: ClassVar[str]
     scatter: ClassVar[Callable[..., tuple[float, ...]]]
-    """``scatter(params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz, ex, ey, ez, u)``:
-    one scattering event at a facet of unit normal n (d·n < 0, except at a refracting
-    facet) for a path of unit direction of travel d, with the part's ``params`` row, the
-    packed tables (``tab_int``, ``tab_f``: the ``table`` kind), the face's tangent e and
-    ``u``, eight uniform random numbers (the first ``4 · blocks`` of them drawn for this
-    ray and event). Returns the new unit direction, the factor (RGB) the path weight is
-    multiplied by, and the fraction (RGB) transmitted into a non-refracting dielectric;
-    the rest, 1 − factor − transmitted, is absorbed."""
+    """``scatter(params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz, ex, ey, ez, u,
+    hero, fac)``: one scattering event at a facet of unit normal n (d·n < 0, except at a
+    refracting facet) for a path of unit direction of travel d, with every part's
+    parameter block ``params`` ((p, PARAMS, C)), the packed tables (``tab_int``,
+    ``tab_f``: the ``table`` kind), the face's tangent e, ``u``, eight uniform random
+    numbers (the first ``4 · blocks`` of them drawn for this ray and event), and the
+    path's ``hero`` channel (the one whose wavelength decides a dispersive event). Fills
+    ``fac`` ((2, C)) with the factor each channel's weight is multiplied by (row 0) and the
+    fraction transmitted into a non-refracting dielectric (row 1); the rest,
+    1 − factor − transmitted, is absorbed. Returns the new unit direction."""
     blocks: ClassVar[int] = 0
     mirror: ClassVar[bool] = False
     """The event is a perfect mirror's: specular reflection, factor 1, nothing transmitted.
@@ -93,24 +103,34 @@ class Material:
         """Validate a section without ``kind`` against the kind's keys (errors name
         ``where`` + the key) and check the kind's cross-key rules."""
         values = check_section(raw, cls.keys(), where)
-        material = cls(**{k: cls.convert(k, v) for k, v in values.items()})
-        material.check(where)
+        material = cls(**{k: cls.convert(k, v, where + k) for k, v in values.items()})
+        material.check(where, frozenset(raw))
         return material
 
     @classmethod
-    def convert(cls, name: str, value: Any) -> Any:
-        """A validated key's value as the field holds it (RGB keys as triples)."""
-        return rgb(value) if cls.keys()[name].kind == "rgb" else value
+    def convert(cls, name: str, value: Any, where: str) -> Any:
+        """A validated key's value as the field holds it: RGB keys as triples, a spectrum
+        key's table as a ``Spectrum`` (``where`` names the key in its errors)."""
+        kind = cls.keys()[name].kind
+        if kind == "spectrum" and isinstance(value, Mapping):
+            return (Spectrum.from_json(value, where) if "source" in value
+                    else parse_spectrum(value, where))
+        return rgb(value) if kind in ("rgb", "spectrum") else value
 
-    def check(self, where: str) -> None:
-        """Rules between keys; raises ``InputError`` naming the key (none by default)."""
+    def check(self, where: str, given: frozenset[str]) -> None:
+        """Rules between keys (``given``: the keys the recipe gave); raises
+        ``InputError`` naming the key (none by default)."""
 
     def to_json(self) -> dict[str, Any]:
-        """The section as a recipe holds it: ``kind`` and every key (RGB as lists)."""
+        """The section as a recipe holds it: ``kind`` and every key given or defaulted
+        (RGB as lists, spectra as their ``to_json``)."""
         out: dict[str, Any] = {"kind": self.kind}
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            out[f.name] = list(value) if isinstance(value, tuple) else value
+            if value is None:
+                continue  # an optional key not given (``data``)
+            out[f.name] = (list(value) if isinstance(value, tuple) else
+                           value.to_json() if isinstance(value, Spectrum) else value)
         return out
 
     @classmethod
@@ -118,17 +138,38 @@ class Material:
         """Inverse of ``to_json`` (the keys a table file's recipe holds; keys it lacks
         take their defaults)."""
         names = {f.name for f in dataclasses.fields(cls)}
-        return cls(**{k: cls.convert(k, v) for k, v in data.items() if k in names})
+        return cls(**{k: cls.convert(k, v, f"material.{k}") for k, v in data.items()
+                      if k in names})
 
     # --- the transport kernel -----------------------------------------------------------
-    def parameters(self) -> tuple[float, ...]:
-        """The kind's columns of its kernel parameter row (at most ``KIND_COLUMNS``)."""
+    def parameters(self, channels: Channels, where: str = "material."
+                   ) -> tuple[tuple[float, ...], ...]:
+        """The kind's columns of its kernel parameter block (at most ``KIND_COLUMNS``),
+        each C floats, one per channel (an error names ``where`` + the key).
+
+        Raises
+        ------
+        InputError
+            For a key that does not fit the channels (a spectrum in an RGB table, three
+            numbers in a spectral one, wavelengths outside a spectrum's range).
+        """
         return ()
 
-    def medium(self) -> tuple[float, float, float] | None:
-        """The absorption (RGB) of the medium the part's faces enclose, or None when they
-        enclose none (rays reflect off them, or are absorbed)."""
+    def medium(self, channels: Channels, where: str = "material."
+               ) -> tuple[float, ...] | None:
+        """The absorption (C floats) of the medium the part's faces enclose, or None when
+        they enclose none (rays reflect off them, or are absorbed)."""
         return None
+
+    @property
+    def encloses_medium(self) -> bool:
+        """Whether the part's faces enclose a medium (``medium`` is not None)."""
+        return self.medium(RGB) is not None
+
+    def dispersive(self, channels: Channels) -> bool:
+        """Whether the event's direction depends on the channel (η varies with the
+        wavelength); False by default."""
+        return False
 
     def tabulated(self) -> Any:
         """The table the kernel samples for this material (the ``table`` kind: an object
@@ -136,7 +177,7 @@ class Material:
         return None
 
     # --- comparisons ----------------------------------------------------------------------
-    def fresnel(self) -> tuple | None:
+    def fresnel(self, channels: Channels = RGB) -> tuple | None:
         """The ``TorranceSparrow`` Fresnel argument of a specular facet: None for F = 1,
         ``("conductor", eta, k)`` or ``("dielectric", eta)``.
 
@@ -147,11 +188,13 @@ class Material:
         """
         raise ValueError(f"a {self.kind} facet has no microfacet model")
 
-    def diffuse_albedo(self) -> tuple[float, float, float] | None:
-        """The albedo of a diffusely reflecting facet (RGB), None for other kinds."""
+    def diffuse_albedo(self, channels: Channels = RGB) -> tuple[float, ...] | None:
+        """The albedo of a diffusely reflecting facet (per channel), None for other
+        kinds."""
         return None
 
-    def model_defaults(self) -> dict[str, Any]:
-        """Model parameters this material implies (``eta``, ``k``, ``albedo``)."""
+    def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
+        """Model parameters this material implies (``eta``, ``k``, ``albedo``), per
+        channel."""
         return {}
 

@@ -9,16 +9,18 @@ import numpy as np
 
 from microsim.materials.base import Material, kernel
 from microsim.materials.optics import reflect
+from microsim.spectra.channels import RGB, Channels
 
 
 @kernel
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
-            ey: float, ez: float, u: tuple) -> tuple[float, ...]:
+            ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
+            ) -> tuple[float, float, float]:
     """Factor 0: the whole weight is absorbed. The path goes on (mirrored, carrying
     nothing) to its end, as every path does, so its fate is counted as usual."""
-    ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
-    return ox, oy, oz, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    fac[:, :] = 0.0
+    return reflect(dx, dy, dz, nx, ny, nz)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -30,10 +32,10 @@ class Black(Material):
                           "the reference of single-scattering models.")
     scatter: ClassVar = scatter
 
-    def diffuse_albedo(self) -> tuple[float, float, float] | None:
+    def diffuse_albedo(self, channels: Channels = RGB) -> tuple[float, ...] | None:
         """Zero: a black facet is a diffuse facet that reflects nothing."""
-        return (0.0, 0.0, 0.0)
+        return (0.0,) * channels.count
 
-    def model_defaults(self) -> dict[str, Any]:
+    def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
         """``albedo`` 0."""
-        return {"albedo": [0.0, 0.0, 0.0]}
+        return {"albedo": [0.0] * channels.count}

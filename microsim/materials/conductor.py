@@ -8,9 +8,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from microsim.errors import InputError
 from microsim.materials.base import Material, kernel
 from microsim.materials.optics import fresnel_conductor, reflect
 from microsim.schema import key
+from microsim.spectra import measured
+from microsim.spectra.channels import RGB, Channels
+from microsim.spectra.measured import CONDUCTORS
+from microsim.spectra.spectrum import Spectrum
 
 ETA_MAX = 100.0
 """Largest η and k a conductor takes, as the analytic models' (``microsim.analytic.
@@ -21,14 +26,15 @@ above it the Fresnel terms overflow float64 (η = 1e100 gave NaN reflectance).""
 @kernel
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
-            ey: float, ez: float, u: tuple) -> tuple[float, ...]:
-    """Mirror reflection, the weight times F(θ) of η + ik per channel (columns 0-2: η,
-    3-5: k); the rest is absorbed."""
-    ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
+            ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
+            ) -> tuple[float, float, float]:
+    """Mirror reflection, the weight times F(θ) of η + ik per channel (column 0: η,
+    1: k); the rest is absorbed."""
     c = -(dx * nx + dy * ny + dz * nz)
-    return (ox, oy, oz, fresnel_conductor(c, params[part, 0], params[part, 3]),
-            fresnel_conductor(c, params[part, 1], params[part, 4]),
-            fresnel_conductor(c, params[part, 2], params[part, 5]), 0.0, 0.0, 0.0)
+    for j in range(fac.shape[1]):
+        fac[0, j] = fresnel_conductor(c, params[part, 0, j], params[part, 1, j])
+        fac[1, j] = 0.0
+    return reflect(dx, dy, dz, nx, ny, nz)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -39,22 +45,42 @@ class Conductor(Material):
     doc: ClassVar[str] = ("Specular reflection with exact conductor Fresnel per colour "
                           "channel.")
     scatter: ClassVar = scatter
-    eta: tuple[float, float, float] = key(
-        "rgb", [0.2, 0.92, 1.1], "Real part of the complex index of refraction (R, G, B) "
-        "relative to the medium in front of the faces (air, or a paint's binder: divide by "
-        "its eta, as for k); default gold in air.", low=0.0, low_open=True, high=ETA_MAX)
-    k: tuple[float, float, float] = key("rgb", [3.9, 2.45, 2.14],
-                                        "Extinction coefficient (R, G, B); default gold.",
-                                        low=0.0, high=ETA_MAX)
+    eta: tuple[float, float, float] | Spectrum = key(
+        "spectrum", [0.2, 0.92, 1.1], "Real part of the complex index of refraction (R, G, "
+        "B, or a spectrum in a spectral table) relative to the medium in front of the faces "
+        "(air, or a paint's binder: divide by its eta, as for k); default gold in air.",
+        low=0.0, low_open=True, high=ETA_MAX)
+    k: tuple[float, float, float] | Spectrum = key(
+        "spectrum", [3.9, 2.45, 2.14], "Extinction coefficient (R, G, B, or a spectrum); "
+        "default gold.", low=0.0, high=ETA_MAX)
+    data: str | None = key(
+        "str", None, "A shipped metal's measured eta and k, in place of those keys (a "
+        "spectral table only; docs/spectral.md gives the sources).", choices=CONDUCTORS)
 
-    def parameters(self) -> tuple[float, ...]:
-        """η (R, G, B), then k (R, G, B)."""
-        return (*self.eta, *self.k)
+    def check(self, where: str, given: frozenset[str]) -> None:
+        """``data`` replaces ``eta`` and ``k``: not both."""
+        if self.data is not None and given & {"eta", "k"}:
+            raise InputError(f"{where}data = {self.data!r}: gives eta and k; leave out "
+                             f"{' and '.join(sorted(given & {'eta', 'k'}))}")
 
-    def fresnel(self) -> tuple | None:
-        """``("conductor", eta, k)``."""
-        return ("conductor", np.asarray(self.eta), np.asarray(self.k))
+    def indices(self) -> tuple[Any, Any]:
+        """η and k as given: triples, numbers or spectra (``data``'s measurements)."""
+        return (self.eta, self.k) if self.data is None else measured.conductor(self.data)
 
-    def model_defaults(self) -> dict[str, Any]:
-        """``eta`` and ``k``."""
-        return {"eta": list(self.eta), "k": list(self.k)}
+    def parameters(self, channels: Channels, where: str = "material."
+                   ) -> tuple[tuple[float, ...], ...]:
+        """η, then k, per channel."""
+        name = "data" if self.data is not None else None
+        eta, k = self.indices()
+        return (channels.sample(eta, where + (name or "eta")),
+                channels.sample(k, where + (name or "k")))
+
+    def fresnel(self, channels: Channels = RGB) -> tuple | None:
+        """``("conductor", eta, k)``, per channel."""
+        eta, k = self.parameters(channels)
+        return ("conductor", np.asarray(eta), np.asarray(k))
+
+    def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
+        """``eta`` and ``k``, per channel."""
+        eta, k = self.parameters(channels)
+        return {"eta": list(eta), "k": list(k)}

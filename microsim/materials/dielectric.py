@@ -13,33 +13,43 @@ from microsim.errors import InputError
 from microsim.materials.base import Material, kernel
 from microsim.materials.optics import fresnel_dielectric, reflect, refract
 from microsim.schema import key
+from microsim.spectra import measured
+from microsim.spectra.channels import RGB, Channels
 
 
 @kernel
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
-            ey: float, ez: float, u: tuple) -> tuple[float, ...]:
-    """Column 0: η; column 3: 1 to refract.
+            ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
+            ) -> tuple[float, float, float]:
+    """Column 0: η per channel; column 1: 1 to refract.
 
     Refracting: a Fresnel-weighted choice between reflection and refraction with u[0],
     weight 1 either way: an unbiased estimate of both (PBR 4th ed., sec. 9.5); from inside
     the medium the ray sees 1 / η about the flipped normal. No 1/η² on crossing: a path
-    carries power (importance), not radiance (Veach 1997, thesis, sec. 5.2). Otherwise a
-    mirror reflection with weight F; 1 − F is transmitted (reported as lost)."""
-    eta = params[part, 0]
-    if params[part, 3] != 0.0:
+    carries power (importance), not radiance (Veach 1997, thesis, sec. 5.2). The choice
+    and the refracted direction are the ``hero`` channel's: where η depends on the
+    wavelength the transport has left the path only that channel (``P_DISPERSIVE``).
+    Otherwise a mirror reflection with weight F per channel; 1 − F is transmitted
+    (reported as lost)."""
+    if params[part, 1, 0] != 0.0:
+        fac[0, :] = 1.0
+        fac[1, :] = 0.0
+        eta = params[part, 0, hero]
         if dx * nx + dy * ny + dz * nz >= 0.0:
             nx, ny, nz, eta = -nx, -ny, -nz, 1.0 / eta
         f = fresnel_dielectric(-(dx * nx + dy * ny + dz * nz), eta)
         if u[0] >= f:
             tx, ty, tz, tir = refract(dx, dy, dz, nx, ny, nz, eta)
             if not tir:
-                return tx, ty, tz, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0
-        ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
-        return ox, oy, oz, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0
-    ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
-    f = fresnel_dielectric(-(dx * nx + dy * ny + dz * nz), eta)
-    return ox, oy, oz, f, f, f, 1.0 - f, 1.0 - f, 1.0 - f
+                return tx, ty, tz
+        return reflect(dx, dy, dz, nx, ny, nz)
+    c = -(dx * nx + dy * ny + dz * nz)
+    for j in range(fac.shape[1]):
+        f = fresnel_dielectric(c, params[part, 0, j])
+        fac[0, j] = f
+        fac[1, j] = 1.0 - f
+    return reflect(dx, dy, dz, nx, ny, nz)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -61,28 +71,45 @@ class Dielectric(Material):
                         "choice, Snell's law, total internal reflection; the part's faces "
                         "enclose a medium behind them (docs/materials.md). false: reflect "
                         "with weight F, report 1 - F as transmitted.")
+    data: str | None = key(
+        "str", None, "A shipped glass's dispersion formula in place of eta (a spectral "
+        "table only; docs/spectral.md gives the sources).",
+        choices=measured.names("dielectric"))
     absorption: tuple[float, float, float] = key(
         "rgb", 0.0, "Beer-Lambert absorption coefficient inside the medium, per tile unit "
         "of path length (R, G, B); needs refract = true.", low=0.0)
 
-    def check(self, where: str) -> None:
-        """Absorption needs a medium: ``refract = true``."""
+    def check(self, where: str, given: frozenset[str]) -> None:
+        """Absorption needs a medium: ``refract = true``; ``data`` replaces ``eta``."""
+        if self.data is not None and "eta" in given:
+            raise InputError(f"{where}data = {self.data!r}: gives eta; leave out eta")
         if not self.refract and any(a > 0 for a in self.absorption):
             raise InputError(f"{where}absorption = {list(self.absorption)!r}: needs refract "
                              "= true (without refraction no light enters the medium)")
 
-    def parameters(self) -> tuple[float, ...]:
-        """η (R, G, B: the same), then 1 to refract."""
-        return (self.eta, self.eta, self.eta, 1.0 if self.refract else 0.0)
+    def parameters(self, channels: Channels, where: str = "material."
+                   ) -> tuple[tuple[float, ...], ...]:
+        """η per channel, then 1 to refract."""
+        eta = self.eta if self.data is None else measured.dielectric(self.data)
+        return (channels.sample(eta, where + ("eta" if self.data is None else "data")),
+                channels.sample(1.0 if self.refract else 0.0, where + "refract"))
 
-    def medium(self) -> tuple[float, float, float] | None:
+    def medium(self, channels: Channels, where: str = "material."
+               ) -> tuple[float, ...] | None:
         """The absorption inside a refracting part, None for a reflecting one."""
-        return self.absorption if self.refract else None
+        return channels.sample(self.absorption, where + "absorption") if self.refract \
+            else None
 
-    def fresnel(self) -> tuple | None:
-        """``("dielectric", eta)``."""
-        return ("dielectric", float(self.eta))
+    def dispersive(self, channels: Channels) -> bool:
+        """A refracting part whose η differs between channels."""
+        return self.refract and len(set(self.parameters(channels)[0])) > 1
 
-    def model_defaults(self) -> dict[str, Any]:
-        """``eta``."""
-        return {"eta": self.eta}
+    def fresnel(self, channels: Channels = RGB) -> tuple | None:
+        """``("dielectric", eta)``: a number, or η per channel where it varies."""
+        eta = self.parameters(channels)[0]
+        return ("dielectric", eta[0] if len(set(eta)) == 1 else np.asarray(eta))
+
+    def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
+        """``eta``: a number, or per channel where it varies."""
+        eta = self.parameters(channels)[0]
+        return {"eta": eta[0] if len(set(eta)) == 1 else list(eta)}

@@ -7,20 +7,27 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from microsim.errors import InputError
 from microsim.materials.base import Material, kernel
 from microsim.materials.optics import cosine_about
 from microsim.schema import key
+from microsim.spectra import measured
+from microsim.spectra.channels import RGB, Channels
+from microsim.spectra.spectrum import Spectrum
 
 
 @kernel
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
-            ey: float, ez: float, u: tuple) -> tuple[float, ...]:
+            ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
+            ) -> tuple[float, float, float]:
     """A cosine-distributed direction about n (u[0], u[1]); the cosine pdf cancels the
-    BRDF's cosine, so the weight is the albedo (columns 0-2; PBR 4th ed., sec. 13.6.3
+    BRDF's cosine, so the weight is the albedo (column 0; PBR 4th ed., sec. 13.6.3
     and 4.5.1)."""
-    ox, oy, oz = cosine_about(nx, ny, nz, u[0], u[1])
-    return (ox, oy, oz, params[part, 0], params[part, 1], params[part, 2], 0.0, 0.0, 0.0)
+    for j in range(fac.shape[1]):
+        fac[0, j] = params[part, 0, j]
+        fac[1, j] = 0.0
+    return cosine_about(nx, ny, nz, u[0], u[1])
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -31,17 +38,31 @@ class Lambertian(Material):
     doc: ClassVar[str] = "Cosine-weighted diffuse reflection with the given albedo."
     scatter: ClassVar = scatter
     blocks: ClassVar[int] = 1
-    albedo: tuple[float, float, float] = key("rgb", 0.8, "Diffuse reflectance (R, G, B).",
-                                             low=0.0, high=1.0)
+    albedo: tuple[float, float, float] | Spectrum = key(
+        "spectrum", 0.8, "Diffuse reflectance (R, G, B, or a spectrum in a spectral table).",
+        low=0.0, high=1.0)
+    data: str | None = key(
+        "str", None, "A shipped measured reflectance spectrum in place of albedo (a "
+        "spectral table only; docs/spectral.md lists them).",
+        choices=measured.names("reflectance"))
 
-    def parameters(self) -> tuple[float, ...]:
-        """The albedo (R, G, B)."""
-        return self.albedo
+    def check(self, where: str, given: frozenset[str]) -> None:
+        """``data`` replaces ``albedo``: not both."""
+        if self.data is not None and "albedo" in given:
+            raise InputError(f"{where}data = {self.data!r}: gives the albedo; leave out "
+                             "albedo")
 
-    def diffuse_albedo(self) -> tuple[float, float, float] | None:
-        """The albedo."""
-        return self.albedo
+    def parameters(self, channels: Channels, where: str = "material."
+                   ) -> tuple[tuple[float, ...], ...]:
+        """The albedo per channel."""
+        if self.data is not None:
+            return (channels.sample(measured.reflectance(self.data), where + "data"),)
+        return (channels.sample(self.albedo, where + "albedo"),)
 
-    def model_defaults(self) -> dict[str, Any]:
-        """``albedo``."""
-        return {"albedo": list(self.albedo)}
+    def diffuse_albedo(self, channels: Channels = RGB) -> tuple[float, ...] | None:
+        """The albedo per channel."""
+        return self.parameters(channels)[0]
+
+    def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
+        """``albedo``, per channel."""
+        return {"albedo": list(self.parameters(channels)[0])}

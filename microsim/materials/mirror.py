@@ -9,15 +9,18 @@ import numpy as np
 
 from microsim.materials.base import Material, kernel
 from microsim.materials.optics import reflect
+from microsim.spectra.channels import RGB, Channels
 
 
 @kernel
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
-            ey: float, ez: float, u: tuple) -> tuple[float, ...]:
+            ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
+            ) -> tuple[float, float, float]:
     """Mirror reflection about n; the weight is kept."""
-    ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
-    return ox, oy, oz, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0
+    fac[0, :] = 1.0
+    fac[1, :] = 0.0
+    return reflect(dx, dy, dz, nx, ny, nz)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -29,10 +32,10 @@ class Mirror(Material):
     scatter: ClassVar = scatter
     mirror: ClassVar[bool] = True
 
-    def fresnel(self) -> tuple | None:
+    def fresnel(self, channels: Channels = RGB) -> tuple | None:
         """F = 1: no Fresnel factor."""
         return None
 
-    def model_defaults(self) -> dict[str, Any]:
+    def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
         """A mirror implies no model parameter."""
         return {}

@@ -30,8 +30,8 @@ generator gives (``Tile.tangents``: a velvet fibre's axis)."""
 """Columns of a table material's ``tab_int`` row: incidence nodes θi (count, offset in
 ``tab_f``), φi (count, offset), isotropic, folded, outgoing bins (θo, φo), offsets of the
 u = sin²θo edges, of the φo edges, of the cumulative probabilities (node-major, one row of
-θo·φo bins per node) and of the weights (3 per bin), the world axis of the frame (0: x,
-1: y) and whether the face's tangent replaces it."""
+θo·φo bins per node) and of the weights (one per channel and bin), the world axis of the
+frame (0: x, 1: y) and whether the face's tangent replaces it."""
 TABLE_COLUMNS = 14
 ALONG = 1e-6
 """A frame axis within this of the normal (1 − |n·e|) is replaced (``facet_frame``)."""
@@ -108,9 +108,10 @@ def _pick_node(x: float, nodes: np.ndarray, at: int, m: int, periodic: bool, u: 
 @kernel
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
-            ey: float, ez: float, u: tuple) -> tuple[float, ...]:
-    """A direction importance-sampled from a BRDF table in the facet's frame, and its RGB
-    weight f_r cos θo / pdf (``microsim.kernel.tabulated`` derives both); nothing is
+            ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
+            ) -> tuple[float, float, float]:
+    """A direction importance-sampled from a BRDF table in the facet's frame, and its
+    per-channel weight f_r cos θo / pdf (``microsim.kernel.tabulated`` derives both); nothing is
     transmitted.
 
     The incidence node is picked with the linear-interpolation weights in θi (and in φi,
@@ -147,10 +148,13 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
     if isotropic:
         c, sn = math.cos(phi), math.sin(phi)
         lx, ly = c * lx - sn * ly, sn * lx + c * ly
-    at = row[T_WEIGHT_AT] + 3 * (node * size + flat)
+    channels = fac.shape[1]
+    at = row[T_WEIGHT_AT] + channels * (node * size + flat)
+    for j in range(channels):
+        fac[0, j] = tab_f[at + j]
+        fac[1, j] = 0.0
     return (lx * tx + ly * bx + lz * nx, lx * ty + ly * by + lz * ny,
-            lx * tz + ly * bz + lz * nz, tab_f[at], tab_f[at + 1], tab_f[at + 2], 0.0, 0.0,
-            0.0)
+            lx * tz + ly * bz + lz * nz)
 
 
 @dataclass(frozen=True, kw_only=True)

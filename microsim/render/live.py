@@ -172,7 +172,7 @@ class LiveSurface:
             escaped = (out.ints[:, ks.O_FATE] == ESCAPED) & (out.ints[:, ks.O_ORDER] > 0)
             hit = rows[escaped]
             wo[hit] = out.floats[escaped, ks.S_DX:ks.S_DZ + 1]
-            weight[hit] = out.floats[escaped, ks.S_W0:ks.S_W2 + 1]
+            weight[hit] = out.floats[escaped, ks.O_W:ks.O_W + 3]
         self.samples += n
         return wo, weight
 

@@ -2,7 +2,7 @@
 and the checks every spectral record shares (``microsim.spectra.dispersion`` holds the
 dispersion formulas of dielectrics, with the same ``at``).
 
-Wavelengths are in nm, in vacuum (DESIGN.md, "Spectra"). A spectrum is defined over its
+Wavelengths are in nm, in vacuum (docs/conventions.md, "Spectra"). A spectrum is defined over its
 tabulated wavelengths and nowhere else: asking outside them is an ``InputError`` that names
 the range and the source, never an extrapolation. Every record carries its source (a
 citation) and round-trips through JSON (``to_json`` / ``from_json``) so that a table's

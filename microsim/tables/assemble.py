@@ -14,6 +14,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from microsim.spectra.channels import RGB, Channels
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.estimator import (
@@ -61,34 +62,37 @@ class EnsembleSums:
         Outgoing bins m.
     sh_order : int
         Order L of the harmonics added (0: none).
+    channels : int
+        C, the colour channels (3: RGB; one per wavelength).
 
     Attributes
     ----------
     bins, albedo, sh : RunningEstimate
-        Per direction and component: the bins' Σw / N ((a, b, rows, m, 3); their errors
-        moderated), the albedo's ((a, b, rows, 1, 3)) and the harmonics' ((a, b, rows,
-        (L + 1)², 3), or None).
+        Per direction and component: the bins' Σw / N ((a, b, rows, m, C); their errors
+        moderated), the albedo's ((a, b, rows, 1, C)) and the harmonics' ((a, b, rows,
+        (L + 1)², C), or None).
     rays : (a, b) int
         Rays added per direction.
-    lost : (a, b, 3) float
+    lost : (a, b, C) float
         Σ over realisations of each one's lost weight per ray.
     realisation_rays : dict of (int, int) to list of int
         Per direction, each added realisation's rays, in the order added.
-    realisation_albedo : dict of (int, int) to list of (rows, 3) float
+    realisation_albedo : dict of (int, int) to list of (rows, C) float
         Per direction, each added realisation's albedo per component (a few numbers a
         realisation, for studies of the spread between tiles).
     """
 
     def __init__(self, directions: tuple[int, int], components: tuple[str, ...],
-                 bins: int, sh_order: int = 0) -> None:
+                 bins: int, sh_order: int = 0, channels: int = 3) -> None:
         a, b = directions
         rows = len(components)
         self.components, self.sh_order = tuple(components), int(sh_order)
-        self.bins = RunningEstimate((a, b, rows, bins, 3), GROUPS)
-        self.albedo = RunningEstimate((a, b, rows, 1, 3))
-        self.sh = RunningEstimate((a, b, rows, sh.size(sh_order), 3)) if sh_order else None
+        c = int(channels)
+        self.bins = RunningEstimate((a, b, rows, bins, c), GROUPS)
+        self.albedo = RunningEstimate((a, b, rows, 1, c))
+        self.sh = RunningEstimate((a, b, rows, sh.size(sh_order), c)) if sh_order else None
         self.rays = np.zeros((a, b), np.int64)
-        self.lost = np.zeros((a, b, 3))
+        self.lost = np.zeros((a, b, c))
         self.realisation_rays: dict[tuple[int, int], list[int]] = {}
         self.realisation_albedo: dict[tuple[int, int], list[np.ndarray]] = {}
 
@@ -96,9 +100,9 @@ class EnsembleSums:
             sums_sq: np.ndarray, lost: np.ndarray, sh_sums: np.ndarray | None = None,
             sh_sums_sq: np.ndarray | None = None) -> None:
         """Add realisation ``r`` of direction ``at``: its ``rays`` (≥ 1), per component
-        row its sums Σw and Σw² per bin ((rows, m, 3)), its lost weight (3,) and, with
-        harmonics, Σ w Y_k ((rows, (L + 1)², 3)) and Σ w² Y_K to order 2L ((rows,
-        (2L + 1)², 3)). Realisations are added in index order (the sums then do not
+        row its sums Σw and Σw² per bin ((rows, m, C)), its lost weight (C,) and, with
+        harmonics, Σ w Y_k ((rows, (L + 1)², C)) and Σ w² Y_K to order 2L ((rows,
+        (2L + 1)², C)). Realisations are added in index order (the sums then do not
         depend on how the work was split)."""
         m, v = realisation_moments(sums, sums_sq, np.int64(rays))
         self.bins.add(r, m, v, rays, at)
@@ -120,7 +124,7 @@ class EnsembleSums:
         rows = list(rows)
         if rows == list(range(len(self.rays))):
             return self
-        out = EnsembleSums((0, 0), self.components, 0)
+        out = EnsembleSums((0, 0), self.components, 0, 0, self.lost.shape[-1])
         out.sh_order = self.sh_order
         out.bins, out.albedo = self.bins.take(rows), self.albedo.take(rows)
         out.sh = None if self.sh is None else self.sh.take(rows)
@@ -153,7 +157,8 @@ class EnsembleSums:
 
 def from_ensemble(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
                   isotropic: bool, ensemble: EnsembleSums, meta: TableMeta,
-                  raw: Mapping[str, object] | None = None) -> BRDFTable:
+                  raw: Mapping[str, object] | None = None, channels: Channels = RGB
+                  ) -> BRDFTable:
     """The goniophotometer's estimator from running sums over realisations.
 
     Each launched ray contributes its exit weight w to at most one bin, so per bin the
@@ -180,6 +185,8 @@ def from_ensemble(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
     raw : mapping or None
         The raw per-realisation sums (``BRDFTable``'s ``realisation_rays``, ``sums``,
         ``sums_sq``, ``lost``, ``sh_sums``, ``sh_sums_sq``) when the caller has them.
+    channels : Channels
+        The channels of the sums' last axis (RGB, or one per wavelength).
 
     Returns
     -------
@@ -197,7 +204,10 @@ def from_ensemble(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
         raise ValueError(f"every one of the ({a}, {b}) incident directions needs rays, got "
                          f"{ensemble.rays.tolist()}")
     omega = bins.projected_solid_angle.reshape(1, 1, -1, 1)
-    shape = (a, b) + bins.shape + (3,)
+    count = ensemble.lost.shape[-1]
+    if count != channels.count:
+        raise ValueError(f"the sums have {count} channels, the table {channels.count}")
+    shape = (a, b) + bins.shape + (count,)
     lobe = lobe_of(ensemble.bins.mean.mean(axis=-1), -1)
     e = ensemble.bins.estimate(np.broadcast_to(lobe[..., None], ensemble.bins.shape))
     w = ensemble.albedo.estimate()
@@ -214,7 +224,7 @@ def from_ensemble(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
         if s is not None:
             sh_values[c], sh_errors[c] = s.mean[:, :, j], s.stderr[:, :, j]
     realisations = e.realisations[:, :, 0]
-    per = np.full((int(realisations.max()), a, b, len(ensemble.components), 3), np.nan)
+    per = np.full((int(realisations.max()), a, b, len(ensemble.components), count), np.nan)
     for (l, k), albedos in ensemble.realisation_albedo.items():
         per[:len(albedos), l, k] = albedos
     raw = {**(raw or {}), "realisation_albedo": {
@@ -223,7 +233,8 @@ def from_ensemble(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
                      albedo, albedo_err, ensemble.lost / realisations[..., None], meta,
                      error_model=ENSEMBLE if realisations.max() > 1 else RAYS,
                      realisations=realisations, dof=dof, inflation=inflation,
-                     ray_errors=ray_errors, sh=sh_values, sh_err=sh_errors, **raw)
+                     ray_errors=ray_errors, sh=sh_values, sh_err=sh_errors,
+                     channels=channels, **raw)
 
 
 def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
@@ -269,7 +280,8 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
                          f">= 0, each direction traced, got shape {rays.shape}")
     components = components_of(sums)
     sums, sums_sq = by_component(sums, components), by_component(sums_sq, components)
-    expected = rays.shape + (bins.size, 3)
+    channels = np.shape(sums["total"])[-1]
+    expected = rays.shape + (bins.size, channels)
     for c in components:
         if not np.shape(sums[c]) == np.shape(sums_sq[c]) == expected:
             raise ValueError(f"sums[{c!r}] and sums_sq[{c!r}] must have shape {expected}")
@@ -279,13 +291,13 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
         sh_sums_sq = by_component(sh_sums_sq, components)
         order = sh.order_of(np.shape(sh_sums["total"])[-2])
         for c in components:
-            if np.shape(sh_sums[c]) != rays.shape + (sh.size(order), 3) or np.shape(
-                    sh_sums_sq[c]) != rays.shape + (sh.size(2 * order), 3):
+            if np.shape(sh_sums[c]) != rays.shape + (sh.size(order), channels) or np.shape(
+                    sh_sums_sq[c]) != rays.shape + (sh.size(2 * order), channels):
                 raise ValueError(f"sh_sums[{c!r}] and sh_sums_sq[{c!r}] must have shapes "
-                                 f"(K, a, b, (L+1)^2, 3) and (K, a, b, (2L+1)^2, 3)")
+                                 f"(K, a, b, (L+1)^2, C) and (K, a, b, (2L+1)^2, C)")
     else:
         sh_sums = sh_sums_sq = None
-    ensemble = EnsembleSums((a, b), components, bins.size, order)
+    ensemble = EnsembleSums((a, b), components, bins.size, order, channels)
     lost = np.asarray(lost, float)
 
     def rows(x: Mapping[str, np.ndarray] | None, r: int, at: tuple[int, int]

@@ -22,7 +22,7 @@ import math
 import os
 import sys
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager, redirect_stderr, redirect_stdout
 from pathlib import Path
 from typing import Any
@@ -33,7 +33,7 @@ from microsim.errors import InputError, InputWarning
 from microsim.files import atomic_path
 from microsim.tables import wavelets
 from microsim.tables.table import BRDFTable
-from microsim.tables.validation import COLOURS, check_header, check_pixels, check_sh_header
+from microsim.tables.validation import check_header, check_pixels, check_sh_header
 
 FORMAT_VERSION = 2
 """Written; 2 added the order components (1 held ``total`` and ``single``)."""
@@ -81,6 +81,7 @@ def header_json(table: BRDFTable) -> dict[str, Any]:
                             "NaN where undefined (no ray landed in the bin)"},
         "components": table.components,
         "orders": table.orders,
+        **({"wavelengths": table.channels.to_json()} if table.channels.spectral else {}),
         "rays": table.rays,
         "albedo": table.albedo_of["total"], "albedo_err": table.albedo_err_of["total"],
         "order_albedo": {c: table.albedo_of[c] for c in table.components[1:]},
@@ -111,19 +112,21 @@ def sh_header_json(table: BRDFTable) -> dict[str, Any]:
 
 
 def _channel_names(table: BRDFTable) -> list[str]:
-    """``{component}{,_err}.{R,G,B}`` for every component of the table."""
-    return [f"{c}{s}.{k}" for c in table.components for s in ("", "_err") for k in COLOURS]
+    """``{component}{,_err}.{R,G,B}`` (or ``.{wavelength}nm``) for every component of the
+    table."""
+    return [f"{c}{s}.{k}" for c in table.components for s in ("", "_err")
+            for k in table.channels.names]
 
 
-def _channels(values: dict[str, np.ndarray], errors: dict[str, np.ndarray], rows: int
-              ) -> dict[str, np.ndarray]:
-    """float32 channels ``{c}{,_err}.{R,G,B}`` of (..., columns, 3) arrays, one pair per
-    component ``c``, as images of ``rows`` rows."""
+def _channels(values: dict[str, np.ndarray], errors: dict[str, np.ndarray], rows: int,
+              names: Sequence[str]) -> dict[str, np.ndarray]:
+    """float32 channels ``{c}{,_err}.{name}`` of (..., columns, C) arrays, one pair per
+    component ``c``, as images of ``rows`` rows, a channel per name."""
     channels = {}
     for c in values:
         for suffix, data in (("", values[c]), ("_err", errors[c])):
-            image = data.reshape(rows, -1, 3)
-            for k, colour in enumerate(COLOURS):
+            image = data.reshape(rows, -1, len(names))
+            for k, colour in enumerate(names):
                 channels[f"{c}{suffix}.{colour}"] = np.ascontiguousarray(image[..., k],
                                                                          np.float32)
     return channels
@@ -149,21 +152,22 @@ def write_table(table: BRDFTable, path: str | Path) -> None:
 
     a, b = table.rays.shape
     nt, np_ = table.bins.shape
-    channels = _channels(table.values, table.errors, a * b * nt)
+    names = table.channels.names
+    channels = _channels(table.values, table.errors, a * b * nt, names)
     info = header_json(table)
     # what is written is what read_table reads: a table it would refuse is not written
     refused = f"{path}: not written"
     check_header(info, refused)
-    check_pixels(channels, table.components, a * b * nt, np_, refused)
+    check_pixels(channels, table.components, a * b * nt, np_, refused, names=names)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
               ATTRIBUTE: json.dumps(info)}
     # every part of a multi-part file shares the display window
     window = (np.array([0, 0], np.int32), np.array([np_ - 1, a * b * nt - 1], np.int32))
     parts = [OpenEXR.Part(header, channels, "table")]
     if table.sh is not None and table.sh_err is not None:
-        sh_channels = _channels(table.sh, table.sh_err, a * b)
+        sh_channels = _channels(table.sh, table.sh_err, a * b, names)
         check_pixels(sh_channels, table.components, a * b, (table.sh_order + 1) ** 2,
-                     refused, harmonics=True)
+                     refused, harmonics=True, names=names)
         sh_header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
                      SH_ATTRIBUTE: json.dumps(sh_header_json(table)), "displayWindow": window}
         parts.append(OpenEXR.Part(sh_header, sh_channels, SH_PART))
@@ -258,19 +262,21 @@ def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
     info = _parse_json(header[ATTRIBUTE], path, ATTRIBUTE)
     checked = check_header(info, path)
     stored, shape = checked["components"], checked["shape"]
+    names = checked["channels"].names
     a, b, nt, np_ = shape
-    check_pixels(pixels, stored, a * b * nt, np_, path)
+    check_pixels(pixels, stored, a * b * nt, np_, path, names=names)
 
     def load(name: str, source: dict[str, np.ndarray] = pixels,
              shape: tuple[int, ...] = shape) -> np.ndarray:
-        return np.stack([source[f"{name}.{k}"] for k in COLOURS], axis=-1).astype(
-            float).reshape(shape + (3,))
+        return np.stack([source[f"{name}.{k}"] for k in names], axis=-1).astype(
+            float).reshape(shape + (len(names),))
 
     sh = sh_err = None
     if SH_ATTRIBUTE in sh_header:
         coefficients = check_sh_header(_parse_json(sh_header[SH_ATTRIBUTE], path,
                                                    SH_ATTRIBUTE), path, shape)
-        check_pixels(sh_pixels, stored, a * b, coefficients, path, harmonics=True)
+        check_pixels(sh_pixels, stored, a * b, coefficients, path, harmonics=True,
+                     names=names)
         sh_shape = (a, b, coefficients)
         sh = {c: load(c, sh_pixels, sh_shape) for c in stored}
         sh_err = {c: load(f"{c}_err", sh_pixels, sh_shape) for c in stored}
@@ -290,7 +296,8 @@ def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
         checked["rays"], checked["albedo"], checked["albedo_err"], checked["lost_energy"],
         checked["meta"], sh=sh, sh_err=sh_err, error_model=checked["error_model"],
         realisations=checked["realisations"], dof=checked["dof"],
-        inflation=checked["inflation"], wavelets=stored_wavelets)
+        inflation=checked["inflation"], wavelets=stored_wavelets,
+        channels=checked["channels"])
 
 
 def _parse_json(text: Any, path: Path, attribute: str) -> Any:

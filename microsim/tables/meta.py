@@ -20,9 +20,9 @@ from microsim.settings import Recipe
 from microsim.surfaces.facts import SurfaceFacts
 
 
-def _triple(value: Any) -> tuple[float, float, float]:
-    r, g, b = (float("nan") if v is None else float(v) for v in value)
-    return r, g, b
+def _per_channel(value: Any) -> tuple[float, ...]:
+    """A per-channel list of a table file (null: NaN) as floats."""
+    return tuple(float("nan") if v is None else float(v) for v in value)
 
 
 @dataclass(frozen=True)
@@ -57,9 +57,9 @@ class DirectionRecord:
         Rays launched, over its realisations.
     realisations : int
     rays_per_realisation : tuple of int
-    lost, transmitted, absorbed : (3,) float
-        Mean over the realisations of each one's fraction of the incident energy (RGB)
-        lost (paths ended by the simulation), transmitted, absorbed.
+    lost, transmitted, absorbed : (C,) float
+        Mean over the realisations of each one's fraction of the incident energy (per
+        channel) lost (paths ended by the simulation), transmitted, absorbed.
     fates : mapping of str to int
         Paths per ending (``microsim.kernel.slots.FATES``).
     stop : str
@@ -69,7 +69,7 @@ class DirectionRecord:
         Median relative standard error over its lobe bins.
     ray_share : float
         Median share of the ray noise in the variance of those bins.
-    albedo : (3,) float
+    albedo : (C,) float
         Its directional albedo (all orders).
     """
 
@@ -78,14 +78,14 @@ class DirectionRecord:
     rays: int
     realisations: int
     rays_per_realisation: tuple[int, ...]
-    lost: tuple[float, float, float]
-    transmitted: tuple[float, float, float]
-    absorbed: tuple[float, float, float]
+    lost: tuple[float, ...]
+    transmitted: tuple[float, ...]
+    absorbed: tuple[float, ...]
     fates: Mapping[str, int]
     stop: str
     rel_stderr: float
     ray_share: float
-    albedo: tuple[float, float, float]
+    albedo: tuple[float, ...]
 
     def to_json(self) -> dict[str, Any]:
         """As a table file holds it."""
@@ -110,12 +110,12 @@ class DirectionRecord:
         return cls(number("theta_i"), number("phi_i"), rays,
                    int(data.get("realisations", 1)),
                    tuple(data.get("rays_per_realisation", [rays])),
-                   _triple(data.get("lost", [nan] * 3)),
-                   _triple(data.get("transmitted", [nan] * 3)),
-                   _triple(data.get("absorbed", [nan] * 3)), dict(data.get("fates", {})),
+                   _per_channel(data.get("lost", [nan] * 3)),
+                   _per_channel(data.get("transmitted", [nan] * 3)),
+                   _per_channel(data.get("absorbed", [nan] * 3)), dict(data.get("fates", {})),
                    data.get("stop", "rays"),
                    number("rel_stderr") if "rel_stderr" in data else number("rel_error"),
-                   number("ray_share"), _triple(data.get("albedo", [nan] * 3)))
+                   number("ray_share"), _per_channel(data.get("albedo", [nan] * 3)))
 
 
 @dataclass(frozen=True)

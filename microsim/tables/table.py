@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from microsim.spectra.channels import RGB, Channels
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import (
@@ -153,8 +154,9 @@ class BRDFTable:
                  sh_sums: Mapping[str, np.ndarray] | None = None,
                  sh_sums_sq: Mapping[str, np.ndarray] | None = None,
                  realisation_albedo: Mapping[str, np.ndarray] | None = None,
-                 wavelets: Wavelets | None = None) -> None:
+                 wavelets: Wavelets | None = None, channels: Channels = RGB) -> None:
         self.bins = bins
+        self.channels = channels
         self.theta_i = np.asarray(theta_i, float)
         self.phi_i = np.asarray(phi_i, float)
         self.isotropic = bool(isotropic)
@@ -169,7 +171,8 @@ class BRDFTable:
         self.error_model = error_model
         self.realisations = (np.ones(self.rays.shape, np.int64) if realisations is None
                              else np.asarray(realisations, np.int64))
-        fallback = np.broadcast_to((self.rays - 1.0)[..., None], self.rays.shape + (3,))
+        fallback = np.broadcast_to((self.rays - 1.0)[..., None],
+                                   self.rays.shape + (channels.count,))
         self.dof = by_component(dof if dof is not None else dict.fromkeys(
             self.components, fallback), self.components, float)
         self.inflation = None if inflation is None else by_component(

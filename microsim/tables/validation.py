@@ -19,8 +19,12 @@ What a valid table is:
   (n_theta_i, n_phi_i, 3), finite and non-negative (errors, ``dof`` and ``inflation``
   may be null); ``error_model`` ``"rays"`` or ``"ensemble"``; ``meta`` an object that
   ``TableMeta.from_json`` reads; the harmonics' ``order`` and ``coefficients``
-  consistent with each other and with their part's pixels.
-- pixels: every channel ``{component}{,_err}.{R,G,B}`` present, of shape
+  consistent with each other and with their part's pixels; ``wavelengths`` absent or
+  null (an RGB table) or a non-empty list of distinct increasing wavelengths in
+  [``WAVELENGTH_MIN``, ``WAVELENGTH_MAX``] nm (a spectral table: its per-channel arrays
+  have one entry per wavelength instead of three).
+- pixels: every channel ``{component}{,_err}.{R,G,B}`` (a spectral table:
+  ``.{wavelength}nm``, ``microsim.spectra.channels``) present, of shape
   (n_theta_i · n_phi_i · theta_bins, phi_bins); values finite and >= 0; errors finite
   and >= 0, NaN only where the bin is empty (value 0). Harmonic coefficients finite,
   their errors finite and >= 0, or NaN where undefined (the batch means of a component
@@ -36,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from microsim.errors import InputError
+from microsim.spectra.channels import RGB_NAMES, Channels
 from microsim.tables.binning import TWO_PI, HemisphereBins
 from microsim.tables.components import canonical_component, order_components
 from microsim.tables.estimator import ENSEMBLE, RAYS
@@ -50,7 +55,9 @@ MAX_BINS_PER_AXIS = 1 << 16
 """Most θo or φo bins a header may claim (the recipe allows 2048 and 4096)."""
 ANGLE_TOLERANCE = 1e-9
 """Radians: how far a header's bin edge may be from ``HemisphereBins``'s."""
-COLOURS = ("R", "G", "B")
+COLOURS = RGB_NAMES
+WAVELENGTH_MIN, WAVELENGTH_MAX = 200.0, 5000.0
+"""nm: the wavelengths a spectral table may have (those ``[table] wavelengths`` allows)."""
 SHOWN = 60
 """Characters of a bad value an error message shows."""
 
@@ -211,6 +218,21 @@ def _per_component(where: _Where, data: Any, name: str, components: Sequence[str
             for c in components}
 
 
+def _channels(where: _Where, info: Mapping[str, Any]) -> Channels:
+    """The table's channels: RGB without ``wavelengths``, else one per wavelength."""
+    values = info.get("wavelengths")
+    if values is None:
+        return Channels()
+    allowed = (f"null (RGB) or a non-empty list of distinct increasing wavelengths in "
+               f"[{WAVELENGTH_MIN:g}, {WAVELENGTH_MAX:g}] nm")
+    if not isinstance(values, list) or not values or not all(map(_is_number, values)):
+        raise where.bad("wavelengths", values, allowed)
+    x = np.array(values, float)
+    if x[0] < WAVELENGTH_MIN or x[-1] > WAVELENGTH_MAX or (np.diff(x) <= 0).any():
+        raise where.bad("wavelengths", values, allowed)
+    return Channels(tuple(float(v) for v in values))
+
+
 def check_header(info: Any, path: Any) -> dict[str, Any]:
     """Check a table's ``microsim`` attribute (parsed JSON) and gather what it says.
 
@@ -227,9 +249,10 @@ def check_header(info: Any, path: Any) -> dict[str, Any]:
         ``components`` (stored names), ``bins`` (``HemisphereBins``), ``theta_i``,
         ``phi_i`` ((a,), (b,) float, radians), ``isotropic``, ``shape``
         (a, b, nt, np), ``rays`` and ``realisations`` ((a, b) int; realisations None
-        when absent), ``albedo`` and ``albedo_err`` (dicts of (a, b, 3) float per
-        stored component), ``lost_energy`` ((a, b, 3)), ``error_model``, ``dof`` and
-        ``inflation`` (dicts, or None), ``meta`` (``TableMeta``).
+        when absent), ``channels`` (``Channels``: C of them), ``albedo`` and
+        ``albedo_err`` (dicts of (a, b, C) float per stored component), ``lost_energy``
+        ((a, b, C)), ``error_model``, ``dof`` and ``inflation`` (dicts, or None),
+        ``meta`` (``TableMeta``).
 
     Raises
     ------
@@ -257,7 +280,8 @@ def check_header(info: Any, path: Any) -> dict[str, Any]:
     if stated != list(shape):
         raise where.bad("layout.shape", stated, f"{list(shape)} (n_theta_i, n_phi_i, "
                         "theta_bins, phi_bins of the axes)")
-    rgb = (a, b, 3)
+    channels = _channels(where, info)
+    rgb = (a, b, channels.count)
     rays = numbers(where, where.get(info, "", "rays"), "rays", (a, b), integer=True)
     realisations = where.get(info, "", "realisations", None)
     if realisations is not None:
@@ -298,7 +322,8 @@ def check_header(info: Any, path: Any) -> dict[str, Any]:
                          f"{_shown(str(exc))[1:-1]})") from None
     return {"components": components, "bins": bins, "theta_i": np.array(theta_i),
             "phi_i": np.array(phi_i), "isotropic": isotropic, "shape": shape,
-            "rays": rays, "realisations": realisations, "albedo": albedo,
+            "rays": rays, "realisations": realisations, "channels": channels,
+            "albedo": albedo,
             "albedo_err": albedo_err,
             "lost_energy": numbers(where, where.get(info, "", "lost_energy"), "lost_energy",
                                    rgb),
@@ -335,7 +360,8 @@ def check_sh_header(sh_info: Any, path: Any, shape: Sequence[int]) -> int:
 
 
 def check_pixels(pixels: Mapping[str, np.ndarray], components: Sequence[str],
-                 rows: int, columns: int, path: Any, harmonics: bool = False) -> None:
+                 rows: int, columns: int, path: Any, harmonics: bool = False,
+                 names: Sequence[str] = COLOURS) -> None:
     """Check a table's channels: present, of their shape, and of allowed values.
 
     Parameters
@@ -351,6 +377,8 @@ def check_pixels(pixels: Mapping[str, np.ndarray], components: Sequence[str],
     harmonics : bool
         The channels are harmonic coefficients (any sign, errors NaN where undefined),
         not bin values (>= 0, errors NaN only where the bin is empty).
+    names : sequence of str
+        The colour channels' names (``Channels.names``: R, G, B by default).
 
     Raises
     ------
@@ -360,7 +388,7 @@ def check_pixels(pixels: Mapping[str, np.ndarray], components: Sequence[str],
     """
     part = "harmonics channel" if harmonics else "channel"
     for c in components:
-        for colour in COLOURS:
+        for colour in names:
             channel = {}
             for suffix in ("", "_err"):
                 name = f"{c}{suffix}.{colour}"
