@@ -35,7 +35,8 @@ class Key:
         of three, or a table ``{ nm = [...], value = [...] }``: a spectrum, whose values
         the bounds apply to; ``microsim.spectra.spectrum`` checks the rest), ``"pair"`` (a
         list of two numbers), ``"channels"`` (a number, or a list of numbers, one per colour
-        channel: R, G, B or a spectral table's wavelengths).
+        channel: R, G, B or a spectral table's wavelengths), ``"coating"`` (a table
+        ``{ thickness, eta }``, which ``microsim.materials.coating`` checks).
     default : Any
         The default value; ``REQUIRED`` if the key must be given; ``None`` if the key is
         optional and has no default (it is then absent unless given).
@@ -84,6 +85,7 @@ class Key:
             "pair": "a list of 2 numbers",
             "channels": "a number or a list of numbers, one per colour channel (R, G, B, or "
                         "the table's wavelengths)",
+            "coating": "a table { thickness = <nm>, eta = <index or spectrum> }",
         }[self.kind]
         if self.kind == "floats" and self.length:
             what = f"a list of {self.length} numbers"
@@ -208,6 +210,10 @@ def check_value(value: Any, name: str, key: Key) -> Any:
             raise InputError(f"{name} = {value!r}: must be {key.allowed()}"
                              f"{suggest(value, key.choices)}")
         return value
+    if key.kind == "coating":
+        if not isinstance(value, dict):
+            raise bad
+        return dict(value)
     if key.kind == "spectrum" and isinstance(value, dict):
         values = value.get("value")
         if isinstance(values, list):

@@ -9,7 +9,7 @@ from scipy.stats import chi2
 
 import microsim
 from microsim.agreement import agreement
-from microsim.analytic.fresnel import fresnel_conductor
+from microsim.analytic.fresnel import fresnel_conductor, fresnel_thin_film
 from microsim.compare import compare_table
 from microsim.errors import InputError
 from microsim.spectra import measured
@@ -206,3 +206,102 @@ def test_bad_spectral_input_exits_2_with_one_error_line(cli, tmp_path) -> None:
     assert code == 2
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: table.wavelengths[0] = 100")
+
+
+@pytest.mark.parametrize("thickness", [0.0, 120.0, 350.0, 2000.0])
+@pytest.mark.parametrize("material", [
+    {"kind": "conductor", "data": "Ag"},
+    {"kind": "conductor", "eta": 0.2, "k": 3.4},
+    {"kind": "dielectric", "eta": 1.5},
+])
+def test_coated_flat_facets_reflect_the_films_airy_reflectance(material: dict,
+                                                              thickness: float) -> None:
+    """A flat coated facet reflects every ray once with the film's reflectance at the
+    channel's wavelength: the albedo equals ``analytic.fresnel_thin_film`` (a vectorised
+    implementation independent of the kernel's, itself checked against a characteristic-
+    matrix stack in tests/test_thin_film.py) to 1e-6, over θi 0-85° and 16 wavelengths;
+    a film of 0 nm is the bare facet."""
+    film = {"thickness": thickness, "eta": {"nm": [380.0, 720.0], "value": [2.45, 2.25]}}
+    table = _flat({**material, "coating": film}, NM16)
+    nm = np.asarray(NM16)
+    film_eta = np.interp(nm, [380.0, 720.0], [2.45, 2.25])
+    if material.get("data"):
+        eta, k = (s.at(NM16) for s in measured.conductor(material["data"]))
+    else:
+        eta, k = material["eta"], material.get("k", 0.0)
+    cos = np.cos(np.radians(FLAT_THETA))[:, None]
+    exact = fresnel_thin_film(cos, film_eta, thickness, nm, eta, k)
+    np.testing.assert_allclose(table.albedo[:, 0], exact, rtol=0, atol=1e-6)
+    if thickness == 0.0:
+        bare = _flat(material, NM16)
+        np.testing.assert_allclose(table.albedo, bare.albedo, rtol=0, atol=1e-12)
+
+
+def test_coated_refracting_dielectric_reflects_the_film_on_average() -> None:
+    """A flat refracting glass under a 350 nm film: each path's choice between reflection
+    and refraction is its hero wavelength's (the film makes it wavelength-dependent), so
+    each channel's albedo is a binomial estimate, C × (hero paths reflected) / N, of the
+    film's reflectance: within 4.5 binomial standard errors of ``fresnel_thin_film`` at
+    every wavelength and incidence (two-sided, about 1e-5 per comparison), and the
+    estimates differ from it (they are not exact)."""
+    nm = [420.0, 500.0, 580.0, 660.0]
+    film = {"thickness": 350.0, "eta": 2.0}
+    rays = 40_000
+    table = microsim.simulate(microsim.load_recipe({
+        "surface": {"kind": "flat"},
+        "material": {"kind": "dielectric", "eta": 1.5, "refract": True, "coating": film},
+        "table": {"wavelengths": nm, "theta_bins": 4, "phi_bins": 4, "sh_order": 0},
+        "simulation": {"theta_i": [0.0, 45.0, 70.0], "rays": rays}}), threads=1)
+    cos = np.cos(np.radians([0.0, 45.0, 70.0]))[:, None]
+    exact = fresnel_thin_film(cos, 2.0, 350.0, np.asarray(nm), 1.5, 0.0)
+    per_channel = rays / len(nm)
+    se = len(nm) * np.sqrt(per_channel * exact * (1 - exact)) / rays
+    z = (table.albedo[:, 0] - exact) / se
+    assert np.all(np.abs(z) < 4.5), z
+    assert np.any(np.abs(table.albedo[:, 0] - exact) > 1e-6)
+
+
+@pytest.mark.parametrize(("coating", "table", "message"), [
+    ({"thickness": 100.0, "eta": 2.0}, {}, "material.coating: a coating needs a spectral "
+     "table"),
+    ({"thickness": -1.0, "eta": 2.0}, {"wavelengths": [500.0]},
+     "material.coating.thickness = -1.0: must be a number of nm >= 0"),
+    ({"thickness": 100.0}, {"wavelengths": [500.0]}, "material.coating.eta: missing"),
+    ({"thickness": 100.0, "eta": 2.0, "n": 1}, {"wavelengths": [500.0]},
+     "material.coating.n: unknown key"),
+    ({"thickness": 100.0, "eta": 0.0}, {"wavelengths": [500.0]},
+     "material.coating.eta = 0.0: must be a number > 0"),
+    ({"thickness": 100.0, "eta": {"nm": [400.0, 600.0], "value": [2.0, 2.1]}},
+     {"wavelengths": [500.0, 700.0]}, "material.coating.eta: 700 nm asked for"),
+    (350.0, {"wavelengths": [500.0]}, "material.coating = 350.0: must be a table"),
+])
+def test_bad_coating_is_one_clear_error(coating: object, table: dict, message: str) -> None:
+    """Each mistake in a coating is an ``InputError`` naming its key."""
+    with pytest.raises(InputError) as caught:
+        microsim.load_recipe({**GAUSSIAN, "material": {"kind": "conductor",
+                                                       "coating": coating},
+                              "table": table})
+    assert message in str(caught.value)
+
+
+def test_a_lossless_coated_interface_reflects_alike_from_both_sides() -> None:
+    """From inside a coated glass the kernel takes every index and the wavelength relative
+    to the glass. Stokes' relations for a lossless stack (Born & Wolf, sec. 1.6.4):
+    |r| is the same from both sides at angles related by Snell's law, so the reflectance
+    seen from inside at θs equals that from air at θ0, sin θ0 = η sin θs, at every
+    wavelength and thickness (to round-off, 1e-12)."""
+    from microsim.materials.base import P_WAVELENGTH, PARAMS
+    from microsim.materials.dielectric import _reflectance
+
+    eta, film = 1.5, 2.1
+    for thickness in (0.0, 90.0, 350.0, 1500.0):
+        for nm in (420.0, 555.0, 690.0):
+            params = np.zeros((1, PARAMS, 1))
+            params[0, 0], params[0, 2], params[0, 3] = eta, film, thickness
+            params[0, P_WAVELENGTH] = nm
+            for theta_s in np.radians([0.0, 15.0, 30.0, 41.0]):
+                sin_0 = eta * np.sin(theta_s)
+                outside = _reflectance(params, 0, 0, np.sqrt(1 - sin_0**2), eta, False)
+                inside = _reflectance(params, 0, 0, np.cos(theta_s), 1.0 / eta, True)
+                assert abs(inside[0] - outside[0]) < 1e-12, (thickness, nm, theta_s)
+                assert abs(inside[0] + inside[1] - 1.0) < 1e-12

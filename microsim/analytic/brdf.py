@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
+from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric, fresnel_thin_film
 from microsim.analytic.shadowing import smith_g2, vgroove_G
 
 SHADOWING = ("smith-correlated", "smith-separable", "v-groove", "none")
@@ -65,7 +65,8 @@ class TorranceSparrow:
     fresnel : None or tuple
         None: F = 1 (a mirror facet); ``("conductor", eta, k)`` (RGB-able);
         ``("dielectric", eta)``; ``("schlick", f0)`` (Schlick's approximation, RGB-able:
-        what model fits use).
+        what model fits use); ``("coated", eta_film, thickness_nm, wavelength_nm, eta, k)``
+        (a thin dielectric film on the facets, per wavelength: ``fresnel_thin_film``).
     shadowing : str
         ``"smith-correlated"`` (default, Heitz 2014 eq. 99), ``"smith-separable"``,
         ``"v-groove"`` (Torrance-Sparrow's), or ``"none"`` (G = 1).
@@ -75,9 +76,11 @@ class TorranceSparrow:
                  shadowing: str = "smith-correlated") -> None:
         if shadowing not in SHADOWING:
             raise ValueError(f"shadowing must be one of {SHADOWING}")
-        if fresnel is not None and fresnel[0] not in ("conductor", "dielectric", "schlick"):
+        if fresnel is not None and fresnel[0] not in ("conductor", "dielectric", "schlick",
+                                                      "coated"):
             raise ValueError("fresnel must be None, ('conductor', eta, k), "
-                             "('dielectric', eta) or ('schlick', f0)")
+                             "('dielectric', eta), ('schlick', f0) or ('coated', eta_film, "
+                             "thickness_nm, wavelength_nm, eta, k)")
         self.ndf, self.fresnel, self.shadowing = ndf, fresnel, shadowing
 
     def F(self, cos_d: np.ndarray) -> np.ndarray:  # noqa: N802
@@ -90,6 +93,9 @@ class TorranceSparrow:
             f0 = np.asarray(self.fresnel[1], float)
             c = cos_d[..., None] if f0.ndim else cos_d
             return f0 + (1.0 - f0) * (1.0 - c) ** 5
+        if self.fresnel[0] == "coated":
+            _, film, thickness, nm, eta, k = self.fresnel
+            return fresnel_thin_film(cos_d[..., None], film, thickness, nm, eta, k)
         if self.fresnel[0] == "conductor":
             _, eta, k = self.fresnel
             if np.ndim(eta) or np.ndim(k):

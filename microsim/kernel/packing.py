@@ -23,6 +23,7 @@ from microsim.materials.base import (
     P_DISPERSIVE,
     P_MEDIUM,
     P_MIRROR,
+    P_WAVELENGTH,
     PARAMS,
 )
 from microsim.materials.table import TABLE_COLUMNS
@@ -110,6 +111,7 @@ class FacetMaterials:
                 self.params[m, :len(own)] = own
             self.params[m, P_MIRROR] = 1.0 if spec.mirror else 0.0
             self.params[m, P_DISPERSIVE] = 1.0 if spec.dispersive(channels) else 0.0
+            self.params[m, P_WAVELENGTH] = channels.wavelengths or 0.0
             medium = spec.medium(channels)
             if medium is not None:
                 self.params[m, P_ABSORPTION] = medium

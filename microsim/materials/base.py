@@ -18,9 +18,10 @@ per channel of the run (C = 3 for an RGB table, one per wavelength for a spectra
 ``Channels``). A kind's own ``parameters`` fill the first ``KIND_COLUMNS``; then the
 Beer-Lambert absorption of the medium a refracting part's faces enclose
 (``P_ABSORPTION``), whether they enclose one (``P_MEDIUM``), whether its event is a perfect
-mirror's (``P_MIRROR``) and whether it disperses (``P_DISPERSIVE``: its event's direction
+mirror's (``P_MIRROR``), whether it disperses (``P_DISPERSIVE``: its event's direction
 depends on the channel's wavelength, so a path that meets it follows one wavelength
-only, ``microsim.kernel.transport``), which the transport reads. Kernel-language functions
+only, ``microsim.kernel.transport``), which the transport reads, and each channel's
+wavelength (``P_WAVELENGTH``, for coatings). Kernel-language functions
 are marked with ``kernel``, so the kernel can compile every one of them (numba's
 ``register_jitable``) while this package imports nothing heavy: ``microsim check`` reads
 the recipe keys of every kind.
@@ -33,6 +34,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+from microsim.materials.coating import Coating
 from microsim.schema import Key, check_section, schema_of
 from microsim.spectra.channels import RGB, Channels
 from microsim.spectra.spectrum import Spectrum, parse_spectrum
@@ -48,7 +50,9 @@ P_MIRROR = 6
 """Column that is 1 where a part's event is a perfect mirror's (``mirror``)."""
 P_DISPERSIVE = 7
 """Column that is 1 where a part's event direction depends on the wavelength."""
-PARAMS = 8
+P_WAVELENGTH = 8
+"""Column of each channel's wavelength, nm (0 in an RGB table)."""
+PARAMS = 9
 """Columns of the kernel's parameter block of a part."""
 
 KERNEL_FUNCTIONS: list[Callable[..., Any]] = []
@@ -112,6 +116,8 @@ class Material:
         """A validated key's value as the field holds it: RGB keys as triples, a spectrum
         key's table as a ``Spectrum`` (``where`` names the key in its errors)."""
         kind = cls.keys()[name].kind
+        if kind == "coating":
+            return Coating.parse(value, where)
         if kind == "spectrum" and isinstance(value, Mapping):
             return (Spectrum.from_json(value, where) if "source" in value
                     else parse_spectrum(value, where))
@@ -130,7 +136,7 @@ class Material:
             if value is None:
                 continue  # an optional key not given (``data``)
             out[f.name] = (list(value) if isinstance(value, tuple) else
-                           value.to_json() if isinstance(value, Spectrum) else value)
+                           value.to_json() if isinstance(value, Spectrum | Coating) else value)
         return out
 
     @classmethod

@@ -9,14 +9,18 @@ from typing import Any, ClassVar
 import numpy as np
 
 from microsim.errors import InputError
-from microsim.materials.base import Material, kernel
+from microsim.materials.base import P_WAVELENGTH, Material, kernel
+from microsim.materials.coating import Coating
 from microsim.materials.optics import fresnel_conductor, reflect
+from microsim.materials.thin_film import film_reflectance
 from microsim.schema import key
 from microsim.spectra import measured
 from microsim.spectra.channels import RGB, Channels
 from microsim.spectra.measured import CONDUCTORS
 from microsim.spectra.spectrum import Spectrum
 
+GOLD_RGB = ((0.2, 0.92, 1.1), (3.9, 2.45, 2.14))
+"""The default η and k of an RGB table (R, G, B): gold in air."""
 ETA_MAX = 100.0
 """Largest η and k a conductor takes, as the analytic models' (``microsim.analytic.
 registry``): measured metals lie far below it in the visible and near infrared, and far
@@ -29,10 +33,16 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
             ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
             ) -> tuple[float, float, float]:
     """Mirror reflection, the weight times F(θ) of η + ik per channel (column 0: η,
-    1: k); the rest is absorbed."""
+    1: k), or, under a coating (column 3: its thickness, > 0; 2: its index), the film's
+    reflectance at the channel's wavelength; the rest is absorbed."""
     c = -(dx * nx + dy * ny + dz * nz)
     for j in range(fac.shape[1]):
-        fac[0, j] = fresnel_conductor(c, params[part, 0, j], params[part, 1, j])
+        if params[part, 3, j] > 0.0:
+            fac[0, j] = film_reflectance(c, params[part, 2, j], params[part, 3, j],
+                                         params[part, P_WAVELENGTH, j], params[part, 0, j],
+                                         params[part, 1, j])[0]
+        else:
+            fac[0, j] = fresnel_conductor(c, params[part, 0, j], params[part, 1, j])
         fac[1, j] = 0.0
     return reflect(dx, dy, dz, nx, ny, nz)
 
@@ -46,16 +56,21 @@ class Conductor(Material):
                           "channel.")
     scatter: ClassVar = scatter
     eta: tuple[float, float, float] | Spectrum = key(
-        "spectrum", [0.2, 0.92, 1.1], "Real part of the complex index of refraction (R, G, "
+        "spectrum", list(GOLD_RGB[0]), "Real part of the complex index of refraction (R, G, "
         "B, or a spectrum in a spectral table) relative to the medium in front of the faces "
-        "(air, or a paint's binder: divide by its eta, as for k); default gold in air.",
-        low=0.0, low_open=True, high=ETA_MAX)
+        "(air, or a paint's binder: divide by its eta, as for k); default gold in air (in "
+        "a spectral table, the shipped measured gold, data = \"Au\").", low=0.0,
+        low_open=True, high=ETA_MAX)
     k: tuple[float, float, float] | Spectrum = key(
-        "spectrum", [3.9, 2.45, 2.14], "Extinction coefficient (R, G, B, or a spectrum); "
+        "spectrum", list(GOLD_RGB[1]), "Extinction coefficient (R, G, B, or a spectrum); "
         "default gold.", low=0.0, high=ETA_MAX)
     data: str | None = key(
         "str", None, "A shipped metal's measured eta and k, in place of those keys (a "
         "spectral table only; docs/spectral.md gives the sources).", choices=CONDUCTORS)
+    coating: Coating | None = key(
+        "coating", None, "A thin dielectric film on the facets, thickness in nm and its "
+        "index (a number or a spectrum) relative to the medium in front: reflectance by "
+        "the Airy summation per wavelength (a spectral table only; docs/spectral.md).")
 
     def check(self, where: str, given: frozenset[str]) -> None:
         """``data`` replaces ``eta`` and ``k``: not both."""
@@ -63,24 +78,34 @@ class Conductor(Material):
             raise InputError(f"{where}data = {self.data!r}: gives eta and k; leave out "
                              f"{' and '.join(sorted(given & {'eta', 'k'}))}")
 
-    def indices(self) -> tuple[Any, Any]:
-        """η and k as given: triples, numbers or spectra (``data``'s measurements)."""
+    def indices(self, channels: Channels) -> tuple[Any, Any]:
+        """η and k as given: triples, numbers or spectra (``data``'s measurements); the
+        default gold's in a spectral table is the measured gold's."""
+        if self.data is None and channels.spectral and (self.eta, self.k) == GOLD_RGB:
+            return measured.conductor("Au")
         return (self.eta, self.k) if self.data is None else measured.conductor(self.data)
 
     def parameters(self, channels: Channels, where: str = "material."
                    ) -> tuple[tuple[float, ...], ...]:
         """η, then k, per channel."""
         name = "data" if self.data is not None else None
-        eta, k = self.indices()
-        return (channels.sample(eta, where + (name or "eta")),
-                channels.sample(k, where + (name or "k")))
+        eta, k = self.indices(channels)
+        columns = (channels.sample(eta, where + (name or "eta")),
+                   channels.sample(k, where + (name or "k")))
+        if self.coating is None:
+            return columns
+        return columns + self.coating.columns(channels, where + "coating")
 
     def fresnel(self, channels: Channels = RGB) -> tuple | None:
-        """``("conductor", eta, k)``, per channel."""
-        eta, k = self.parameters(channels)
-        return ("conductor", np.asarray(eta), np.asarray(k))
+        """``("conductor", eta, k)`` per channel; coated, ``("coated", eta_film,
+        thickness, wavelength, eta, k)``."""
+        eta, k, *film = (np.asarray(x) for x in self.parameters(channels))
+        if film:
+            return ("coated", film[0], film[1], np.asarray(channels.wavelengths), eta, k)
+        return ("conductor", eta, k)
 
     def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
-        """``eta`` and ``k``, per channel."""
-        eta, k = self.parameters(channels)
+        """``eta`` and ``k``, per channel (a coated conductor has no model parameters of
+        its own: its Fresnel is the film's)."""
+        eta, k = self.parameters(channels)[:2]
         return {"eta": list(eta), "k": list(k)}

@@ -10,8 +10,10 @@ from typing import Any, ClassVar
 import numpy as np
 
 from microsim.errors import InputError
-from microsim.materials.base import Material, kernel
+from microsim.materials.base import P_WAVELENGTH, Material, kernel
+from microsim.materials.coating import Coating
 from microsim.materials.optics import fresnel_dielectric, reflect, refract
+from microsim.materials.thin_film import film_reflectance
 from microsim.schema import key
 from microsim.spectra import measured
 from microsim.spectra.channels import RGB, Channels
@@ -22,7 +24,10 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
             ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
             ) -> tuple[float, float, float]:
-    """Column 0: η per channel; column 1: 1 to refract.
+    """Column 0: η per channel; column 1: 1 to refract; columns 2 and 3: a coating's index
+    and thickness (nm; 0: none), whose reflectance and transmittance at the channel's
+    wavelength replace the bare interface's (``thin_film``; from inside the medium every
+    index relative to the medium's, and the wavelength in it, λ / η).
 
     Refracting: a Fresnel-weighted choice between reflection and refraction with u[0],
     weight 1 either way: an unbiased estimate of both (PBR 4th ed., sec. 9.5); from inside
@@ -36,9 +41,11 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
         fac[0, :] = 1.0
         fac[1, :] = 0.0
         eta = params[part, 0, hero]
-        if dx * nx + dy * ny + dz * nz >= 0.0:
+        inside = dx * nx + dy * ny + dz * nz >= 0.0
+        if inside:
             nx, ny, nz, eta = -nx, -ny, -nz, 1.0 / eta
-        f = fresnel_dielectric(-(dx * nx + dy * ny + dz * nz), eta)
+        c = -(dx * nx + dy * ny + dz * nz)
+        f = _reflectance(params, part, hero, c, eta, inside)[0]
         if u[0] >= f:
             tx, ty, tz, tir = refract(dx, dy, dz, nx, ny, nz, eta)
             if not tir:
@@ -46,10 +53,25 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
         return reflect(dx, dy, dz, nx, ny, nz)
     c = -(dx * nx + dy * ny + dz * nz)
     for j in range(fac.shape[1]):
-        f = fresnel_dielectric(c, params[part, 0, j])
+        f, t = _reflectance(params, part, j, c, params[part, 0, j], False)
         fac[0, j] = f
-        fac[1, j] = 1.0 - f
+        fac[1, j] = t
     return reflect(dx, dy, dz, nx, ny, nz)
+
+
+@kernel
+def _reflectance(params: np.ndarray, part: int, j: int, c: float, eta: float,
+                 inside: bool) -> tuple[float, float]:
+    """Channel j's reflectance and transmittance of the interface at incidence cosine c,
+    relative index ``eta`` (1 / η from inside): a coating's film (thin_film, every index
+    and the wavelength relative to the incident medium's) or the bare Fresnel's."""
+    thickness = params[part, 3, j]
+    if thickness > 0.0:
+        scale = eta if inside else 1.0  # 1 / η inside: indices relative to the medium
+        return film_reflectance(c, params[part, 2, j] * scale, thickness,
+                                params[part, P_WAVELENGTH, j] * scale, eta, 0.0)
+    f = fresnel_dielectric(c, eta)
+    return f, 1.0 - f
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -75,6 +97,11 @@ class Dielectric(Material):
         "str", None, "A shipped glass's dispersion formula in place of eta (a spectral "
         "table only; docs/spectral.md gives the sources).",
         choices=measured.names("dielectric"))
+    coating: Coating | None = key(
+        "coating", None, "A thin dielectric film on the faces, thickness in nm and its "
+        "index (a number or a spectrum) relative to the medium in front: reflectance and "
+        "transmittance by the Airy summation per wavelength (a spectral table only; "
+        "docs/spectral.md).")
     absorption: tuple[float, float, float] = key(
         "rgb", 0.0, "Beer-Lambert absorption coefficient inside the medium, per tile unit "
         "of path length (R, G, B); needs refract = true.", low=0.0)
@@ -91,8 +118,11 @@ class Dielectric(Material):
                    ) -> tuple[tuple[float, ...], ...]:
         """η per channel, then 1 to refract."""
         eta = self.eta if self.data is None else measured.dielectric(self.data)
-        return (channels.sample(eta, where + ("eta" if self.data is None else "data")),
-                channels.sample(1.0 if self.refract else 0.0, where + "refract"))
+        columns = (channels.sample(eta, where + ("eta" if self.data is None else "data")),
+                   channels.sample(1.0 if self.refract else 0.0, where + "refract"))
+        if self.coating is None:
+            return columns
+        return columns + self.coating.columns(channels, where + "coating")
 
     def medium(self, channels: Channels, where: str = "material."
                ) -> tuple[float, ...] | None:
@@ -101,13 +131,19 @@ class Dielectric(Material):
             else None
 
     def dispersive(self, channels: Channels) -> bool:
-        """A refracting part whose η differs between channels."""
-        return self.refract and len(set(self.parameters(channels)[0])) > 1
+        """A refracting part whose η differs between channels, or that is coated (the
+        choice between reflection and refraction is then the hero's)."""
+        return self.refract and (self.coating is not None and channels.count > 1
+                                 or len(set(self.parameters(channels)[0])) > 1)
 
     def fresnel(self, channels: Channels = RGB) -> tuple | None:
-        """``("dielectric", eta)``: a number, or η per channel where it varies."""
-        eta = self.parameters(channels)[0]
-        return ("dielectric", eta[0] if len(set(eta)) == 1 else np.asarray(eta))
+        """``("dielectric", eta)``: a number, or η per channel where it varies; coated,
+        ``("coated", eta_film, thickness, wavelength, eta, 0)``."""
+        eta, _, *film = (np.asarray(x) for x in self.parameters(channels))
+        if film:
+            return ("coated", film[0], film[1], np.asarray(channels.wavelengths), eta,
+                    np.zeros_like(eta))
+        return ("dielectric", eta[0] if len(set(eta)) == 1 else eta)
 
     def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
         """``eta``: a number, or per channel where it varies."""

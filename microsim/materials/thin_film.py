@@ -122,3 +122,4 @@ def film_reflectance(cos_i: float, eta_film: float, thickness_nm: float,
     r_s, r_p, t_s, t_p = film_reflectance_polarised(cos_i, eta_film, thickness_nm,
                                                     wavelength_nm, eta_sub, k_sub)
     return 0.5 * (r_s + r_p), 0.5 * (t_s + t_p)
+
