@@ -1,17 +1,18 @@
 """Error against kept coefficients: a table's spherical harmonics and its wavelets, each
 kept by magnitude, measured on the table's lobe bins.
 
-Both bases expand g = f_r cos θo over ωo per incidence, component and colour, and both are
+Both bases expand g = f_r cos θo over ωo per incidence, component and channel (R, G, B, or
+one per wavelength), and both are
 orthonormal in L2(dω) (the harmonics on the sphere, ``microsim.tables.sh``; the wavelets
 on the equal-area grid of the hemisphere, ``microsim.tables.wavelets``), so keeping the k
 largest |c| is the best k-term choice in that norm for either. A count k means k
-coefficients per incidence and colour.
+coefficients per incidence and channel.
 
 Each truncation is read back as bin averages of g and compared with the table's: the
 harmonics' bin average is Σ_k c_k ∫_bin Y_k dω / Ω_bin (``sh_error.bin_integrals``), the
 wavelets' is the area-weighted mean of the pixels over the bin
-(``equal_area.Resampling.to_bins``). The error of a bin and colour is |ĝ − g| / g, and a
-curve gives its median over the lobe bins (``BRDFTable.lobe_mask``) and colours where
+(``equal_area.Resampling.to_bins``). The error of a bin and channel is |ĝ − g| / g, and a
+curve gives its median over the lobe bins (``BRDFTable.lobe_mask``) and channels where
 g > 0, per incidence and pooled over all of them. With every coefficient kept the
 harmonics still differ from the bins by the rays' noise above their order (they were
 projected from the rays, not from the bins) and the wavelets by the resampling between
@@ -50,12 +51,12 @@ def keep_largest(coefficients: np.ndarray, rank: np.ndarray, k: int) -> np.ndarr
 
 def median_errors(g: np.ndarray, g_table: np.ndarray, lobe: np.ndarray
                   ) -> tuple[np.ndarray, float]:
-    """Median relative error of ``g`` against ``g_table`` over the lobe bins and colours
+    """Median relative error of ``g`` against ``g_table`` over the lobe bins and channels
     where g_table > 0.
 
     Parameters
     ----------
-    g, g_table : (a, b, m, 3) float
+    g, g_table : (a, b, m, C) float
     lobe : (a, b, m) bool
 
     Returns
@@ -96,9 +97,9 @@ def curves(table: BRDFTable, component: str = "total",
         ``sh`` and ``wavelet``: [[kept, median relative error], …] pooled over the
         incidences; ``per_incidence``: per incidence its ``theta_i``, ``phi_i`` (degrees)
         and the same two curves; ``bytes``: per basis the bytes of each count's kept
-        coefficients over every incidence and colour (a float32 value and an index each);
-        ``bytes_per_coefficient``; ``coefficients``: each basis' total per incidence and
-        colour; the ``component``, ``sh_order``, ``wavelet_name``, ``resolution`` and
+        coefficients over every incidence and channel (a float32 value and an index
+        each); ``bytes_per_coefficient``; ``coefficients``: each basis' total per incidence
+        and channel; the ``component``, ``sh_order``, ``wavelet_name``, ``resolution`` and
         ``levels``; ``median_rel_stderr``, the table's own noise on the lobe bins.
 
     Raises
@@ -110,24 +111,25 @@ def curves(table: BRDFTable, component: str = "total",
         raise ValueError("the table holds no spherical harmonics")
     component = table.component(component)
     a, b = table.rays.shape
+    count = table.channels.count
     cos_bin = wavelets.bin_cos(table.bins)[:, None]
-    g_table = table.values[component].reshape(a, b, -1, 3) * cos_bin
+    g_table = table.values[component].reshape(a, b, -1, count) * cos_bin
     lobe = table.lobe_mask(component).reshape(a, b, -1)
 
     integrals, omega = bin_integrals(table.sh_order, table.bins)
-    c_sh = np.moveaxis(table.sh[component], -2, -1)                   # (a, b, 3, n_sh)
+    c_sh = np.moveaxis(table.sh[component], -2, -1)                   # (a, b, C, n_sh)
 
     def sh_bins(c: np.ndarray) -> np.ndarray:
         g = (c.reshape(-1, c.shape[-1]) @ integrals.T) / omega
-        return np.moveaxis(g.reshape(a, b, 3, -1), -2, -1)
+        return np.moveaxis(g.reshape(a, b, count, -1), -2, -1)
 
     resampling = Resampling(wavelets.check_resolution(resolution), table.bins)
     c_wv = wavelets.forward(wavelets.table_grids(table.values[component], resampling),
-                            wavelet)                                   # (a, b, 3, n²)
+                            wavelet)                                   # (a, b, C, n²)
 
     def wv_bins(c: np.ndarray) -> np.ndarray:
         return wavelets.grid_bins(wavelets.inverse(c, wavelet), resampling).reshape(
-            a, b, -1, 3) * cos_bin
+            a, b, -1, count) * cos_bin
 
     out: dict[str, Any] = {"component": component, "sh_order": table.sh_order,
                            "median_rel_stderr": table.median_rel_stderr(component),
@@ -144,7 +146,7 @@ def curves(table: BRDFTable, component: str = "total",
         for k in sweep(total, steps_per_octave):
             each, over = median_errors(to_bins(keep_largest(c, rank, k)), g_table, lobe)
             pooled.append([k, over])
-            sizes.append(k * width * 3 * a * b)
+            sizes.append(k * width * count * a * b)
             for row, e in zip(per, each.ravel(), strict=True):
                 row[name].append([k, float(e)])
         out[name] = pooled

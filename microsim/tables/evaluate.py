@@ -52,7 +52,7 @@ def stencil(axes: Axes, wi: np.ndarray, wo: np.ndarray
     Returns
     -------
     nodes : (n, 16) int
-        Flat indices into an (a·b·nt·np, 3) view of a table array.
+        Flat indices into an (a·b·nt·np, C) view of a table array.
     weights : (n, 16) float
         Interpolation weights, summing to 1; the node with the largest weight is the
         nearest one (the nearest incidence and the bin holding ωo).
@@ -84,24 +84,34 @@ def stencil(axes: Axes, wi: np.ndarray, wo: np.ndarray
 
 
 def per_pair(axes: Axes, kernel: Callable[[np.ndarray, np.ndarray], np.ndarray],
-             wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+             wi: np.ndarray, wo: np.ndarray, channels: int = 3) -> np.ndarray:
     """``kernel(nodes, weights)`` over the direction pairs in chunks of ``CHUNK`` (the
     16-node gathers stay a few tens of MB however many pairs), 0 where either direction
     is at or below the horizon.
 
+    Parameters
+    ----------
+    axes : Axes
+    kernel : callable
+        ``kernel(nodes (n, 16) int, weights (n, 16) float) -> (n, C) float``.
+    wi, wo : (..., 3) float
+        Unit directions, local frame.
+    channels : int
+        C, the channels the kernel gives (3: RGB; one per wavelength).
+
     Returns
     -------
-    (..., 3) float
+    (..., C) float
     """
     wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
     shape = wi.shape[:-1]
     wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
-    out = np.zeros((len(wi), 3))
+    out = np.zeros((len(wi), channels))
     for start in range(0, len(wi), CHUNK):
         sl = slice(start, start + CHUNK)
         nodes, weights, above = stencil(axes, wi[sl], wo[sl])
         out[sl] = np.where(above[:, None], kernel(nodes, weights), 0.0)
-    return out.reshape(shape + (3,))
+    return out.reshape(shape + (channels,))
 
 
 def interpolate(axes: Axes, values: np.ndarray, wi: np.ndarray, wo: np.ndarray
@@ -112,19 +122,21 @@ def interpolate(axes: Axes, values: np.ndarray, wi: np.ndarray, wo: np.ndarray
     Parameters
     ----------
     axes : Axes
-    values : (a, b, nt, np, 3) float
+    values : (a, b, nt, np, C) float
+        C channels: R, G, B or one per wavelength.
     wi, wo : (..., 3) float
         Unit directions towards the light and the viewer, local frame.
 
     Returns
     -------
-    (..., 3) float
+    (..., C) float
         0 where either direction is at or below the horizon.
     """
     def at(data: np.ndarray) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
         return lambda nodes, w: np.einsum("nk,nkc->nc", w, data[nodes])
 
-    f = per_pair(axes, at(values.reshape(-1, 3)), wi, wo)
+    count = values.shape[-1]
+    f = per_pair(axes, at(values.reshape(-1, count)), wi, wo, count)
     wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
     q = pole_share(axes.bins, wo)
     near = q > 0
@@ -134,8 +146,8 @@ def interpolate(axes: Axes, values: np.ndarray, wi: np.ndarray, wo: np.ndarray
         ring = values[:, :, 0]
         delta = np.zeros_like(values)
         delta[:, :, 0] = ring - ring.mean(axis=2, keepdims=True)
-        f[near] -= q[near][:, None] * per_pair(axes, at(delta.reshape(-1, 3)), wi[near],
-                                               wo[near])
+        f[near] -= q[near][:, None] * per_pair(axes, at(delta.reshape(-1, count)),
+                                               wi[near], wo[near], count)
     return f
 
 
@@ -174,31 +186,32 @@ def from_harmonics(axes: Axes, coefficients: np.ndarray, wi: np.ndarray, wo: np.
     Parameters
     ----------
     axes : Axes
-    coefficients : (a, b, (L + 1)², 3) float
+    coefficients : (a, b, (L + 1)², C) float
     wi, wo : (..., 3) float
 
     Returns
     -------
-    (..., 3) float
+    (..., C) float
         0 where either direction is at or below the horizon.
     """
-    a, b, n, _ = coefficients.shape
-    coef = np.moveaxis(coefficients, 2, 0).reshape(n, a * b * 3)
+    a, b, n, count = coefficients.shape
+    coef = np.moveaxis(coefficients, 2, 0).reshape(n, a * b * count)
     wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
     shape = wi.shape[:-1]
     wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
-    out = np.zeros((len(wi), 3))
+    out = np.zeros((len(wi), count))
     step = max(1, SH_CHUNK // n)
     for start in range(0, len(wi), step):
         i, o = wi[start:start + step], wo[start:start + step]
         phi_in = np.arctan2(i[:, 1], i[:, 0])
         phi_out = np.arctan2(o[:, 1], o[:, 0]) - (phi_in if axes.isotropic else 0.0)
-        g = (sh.basis(sh.order_of(n), o[:, 2], phi_out) @ coef).reshape(len(i), a * b, 3)
+        g = (sh.basis(sh.order_of(n), o[:, 2], phi_out) @ coef).reshape(len(i), a * b,
+                                                                        count)
         total = blend_incidences(axes, i, g)
         above = (i[:, 2] > 0) & (o[:, 2] > 0)
         out[start:start + step] = np.where(
             above[:, None], total / np.where(above, o[:, 2], 1.0)[:, None], 0.0)
-    return out.reshape(shape + (3,))
+    return out.reshape(shape + (count,))
 
 
 def blend_incidences(axes: Axes, wi: np.ndarray, g: np.ndarray) -> np.ndarray:
@@ -210,19 +223,19 @@ def blend_incidences(axes: Axes, wi: np.ndarray, g: np.ndarray) -> np.ndarray:
     axes : Axes
     wi : (n, 3) float
         Unit directions towards the light.
-    g : (n, a·b, 3) float
+    g : (n, a·b, C) float
         Each pair's value at every incidence, rows ``i_theta_i * n_phi_i + i_phi_i``.
 
     Returns
     -------
-    (n, 3) float
+    (n, C) float
     """
     b = len(axes.phi_i)
     t0, t1, wt = linear_weights(np.arccos(np.clip(wi[:, 2], -1.0, 1.0)), axes.theta_i)
     p0, p1, wp = linear_weights(np.mod(np.arctan2(wi[:, 1], wi[:, 0]), TWO_PI), axes.phi_i,
                                 TWO_PI)
     rows = np.arange(len(wi))
-    total = np.zeros((len(wi), 3))
+    total = np.zeros((len(wi), g.shape[-1]))
     for t, w_t in ((t0, 1.0 - wt), (t1, wt)):
         for p, w_p in ((p0, 1.0 - wp), (p1, wp)):
             total += (w_t * w_p)[:, None] * g[rows, t * b + p]
@@ -237,19 +250,20 @@ def interpolate_error(axes: Axes, errors: np.ndarray, wi: np.ndarray, wo: np.nda
     Parameters
     ----------
     axes : Axes
-    errors : (a, b, nt, np, 3) float
+    errors : (a, b, nt, np, C) float
         The table's standard errors (NaN where undefined).
     wi, wo : (..., 3) float
         Unit directions, local frame.
 
     Returns
     -------
-    (..., 3) float
+    (..., C) float
     """
-    err = errors.reshape(-1, 3)
+    count = errors.shape[-1]
+    err = errors.reshape(-1, count)
 
     def kernel(nodes: np.ndarray, weights: np.ndarray) -> np.ndarray:
-        known = np.isfinite(err[nodes])                               # (n, 16, 3)
+        known = np.isfinite(err[nodes])                               # (n, 16, C)
         w = np.where(known, weights[..., None], 0.0)
         nearest = np.argmax(weights, axis=1)
         undefined = ~np.take_along_axis(known, nearest[:, None, None], axis=1)[:, 0]
@@ -257,4 +271,4 @@ def interpolate_error(axes: Axes, errors: np.ndarray, wi: np.ndarray, wo: np.nda
             undefined, 1.0, w.sum(axis=1))
         return np.where(undefined, np.nan, out)
 
-    return per_pair(axes, kernel, wi, wo)
+    return per_pair(axes, kernel, wi, wo, count)

@@ -286,7 +286,7 @@ def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
         try:
             stored_wavelets = wavelets.from_part(
                 _parse_json(wavelet_header[WAVELET_ATTRIBUTE], path, WAVELET_ATTRIBUTE),
-                wavelet_pixels, stored, (a, b))
+                wavelet_pixels, stored, (a, b), names)
         except ValueError as exc:
             raise InputError(f"{path}: wavelet part: {exc}") from None
 

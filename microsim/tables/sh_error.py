@@ -9,9 +9,10 @@ The relative L2 error is then
     ‖G_sh − G_table‖ / ‖G_table‖,   ‖G‖² = Σ_bins Ω_bin G²  (G = ∫_bin g dω / Ω_bin),
 
 the discrete form of the L2(dω) norm of g, over every bin (the hemisphere) or over the
-lobe bins (``BRDFTable.lobe_mask``), pooled over incidences and colours. Both sides carry
-Monte Carlo noise; the report gives each side's expected share (``table_noise``,
-``sh_noise``), below which the error cannot fall.
+lobe bins (``BRDFTable.lobe_mask``), pooled over incidences and channels (R, G, B, or one
+per wavelength), and per channel (``rel_l2_error_per_channel``). Both sides carry Monte
+Carlo noise; the report gives each side's expected share (``table_noise``, ``sh_noise``),
+below which the error cannot fall.
 """
 
 from __future__ import annotations
@@ -82,7 +83,7 @@ def _grid(bins: HemisphereBins) -> tuple[np.ndarray, np.ndarray]:
 
 def _extremes(order: int, cos_theta: np.ndarray, phi: np.ndarray, c: np.ndarray
               ) -> tuple[float, float]:
-    """Smallest and largest value of the series ``c`` (a, b, (L + 1)², 3) at the points,
+    """Smallest and largest value of the series ``c`` (a, b, (L + 1)², C) at the points,
     with the basis evaluated ``SH_CHUNK`` values at a time."""
     step = max(1, SH_CHUNK // sh.size(order))
     low, high = np.inf, -np.inf
@@ -115,13 +116,16 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
         Per order: ``order``, ``window``, ``coefficients``; ``rel_l2_error`` (over the
         hemisphere) and ``rel_l2_error_lobe`` (over the lobe bins), with the window;
         ``rel_l2_error_unwindowed`` and ``rel_l2_error_lobe_unwindowed`` without it (the
-        window's cost); ``table_noise`` and ``sh_noise``, the relative L2 size of each
-        side's standard errors (the noise floor of the error: ``sh_noise`` by Parseval
-        over the sphere, an upper bound); ``min_value``, the most negative f_r cos θo
-        (1/sr) at ``GRID``² points per bin over every incidence and colour (0 if none),
-        and ``min_relative``, it over the largest value (ratios are NaN for a table
-        without reflected light); ``bytes``, the float32 size of
-        the coefficients of one component (all incidences, RGB).
+        window's cost); for a spectral table also its ``channels`` (names) and
+        ``rel_l2_error_per_channel`` and ``rel_l2_error_lobe_per_channel``, the two
+        windowed errors of each channel alone (C of them); ``table_noise`` and
+        ``sh_noise``, the relative L2 size of each side's standard errors (the noise
+        floor of the error: ``sh_noise`` by Parseval over the sphere, an upper bound);
+        ``min_value``, the most negative f_r cos θo (1/sr) at ``GRID``² points per bin
+        over every incidence and channel (0 if none), and ``min_relative``, it over the
+        largest value (ratios are NaN for a table without reflected light); ``bytes``,
+        the float32 size of the coefficients of one component (all incidences and
+        channels).
 
     Raises
     ------
@@ -132,11 +136,12 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
         raise ValueError("the table holds no spherical harmonics")
     component = table.component(component)
     a, b = table.rays.shape
+    count = table.channels.count
     omega_proj = table.bins.projected_solid_angle.ravel()
     integrals, omega = bin_integrals(max(orders), table.bins)
     scale = (omega_proj / omega)[None, None, :, None]
-    g_table = table.values[component].reshape(a, b, -1, 3) * scale
-    e_table = np.nan_to_num(table.errors[component].reshape(a, b, -1, 3)) * scale
+    g_table = table.values[component].reshape(a, b, -1, count) * scale
+    e_table = np.nan_to_num(table.errors[component].reshape(a, b, -1, count)) * scale
     lobe = np.broadcast_to(table.lobe_mask(component).reshape(a, b, -1, 1), g_table.shape)
     w = np.broadcast_to(omega[None, None, :, None], g_table.shape)
     cos_theta, phi = _grid(table.bins)
@@ -149,6 +154,13 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
         sel = np.ones(g.shape, bool) if where is None else where
         return math.sqrt(ratio(float((w * (g - g_table) ** 2)[sel].sum()),
                                float((w * g_table ** 2)[sel].sum())))
+
+    def rel_per_channel(g: np.ndarray, where: np.ndarray | None = None) -> list[float]:
+        """``rel`` of each channel alone (the last axis)."""
+        sel = np.ones(g.shape, bool) if where is None else where
+        num = np.where(sel, w * (g - g_table) ** 2, 0.0).sum(axis=(0, 1, 2))
+        den = np.where(sel, w * g_table ** 2, 0.0).sum(axis=(0, 1, 2))
+        return [math.sqrt(ratio(float(n), float(d))) for n, d in zip(num, den, strict=True)]
 
     norm = float((w * g_table ** 2).sum())
     rows = []
@@ -165,16 +177,20 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
         g = bins_of(windowed)
         low, high = _extremes(order, cos_theta, phi, windowed)
         g_plain = bins_of(plain)
+        per_channel = {} if not table.channels.spectral else {
+            "channels": list(table.channels.names),
+            "rel_l2_error_per_channel": rel_per_channel(g),
+            "rel_l2_error_lobe_per_channel": rel_per_channel(g, lobe)}
         rows.append({
             "order": order, "window": window, "coefficients": n,
             "rel_l2_error": rel(g), "rel_l2_error_lobe": rel(g, lobe),
             "rel_l2_error_unwindowed": rel(g_plain),
-            "rel_l2_error_lobe_unwindowed": rel(g_plain, lobe),
+            "rel_l2_error_lobe_unwindowed": rel(g_plain, lobe), **per_channel,
             "table_noise": math.sqrt(ratio(float((w * e_table ** 2).sum()), norm)),
             "sh_noise": math.sqrt(ratio(float((np.nan_to_num(errors * factors) ** 2).sum()),
                                         norm)),
             "min_value": min(low, 0.0),
             "min_relative": ratio(min(low, 0.0), high),
-            "bytes": n * a * b * 3 * 4,
+            "bytes": n * a * b * count * 4,
         })
     return rows

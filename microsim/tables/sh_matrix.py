@@ -40,7 +40,8 @@ from microsim.tables.interpolation import linear_weights
 from microsim.tables.table import BRDFTable
 
 MAX_ORDER = 32
-"""Highest order of the (dense) matrix: (L + 1)⁴ × 3 float64, 28 MB at 32, 430 MB at 64."""
+"""Highest order of the (dense) matrix: (L + 1)⁴ × C float64 (C channels), 28 MB at 32 for
+RGB (150 MB for 16 wavelengths), 430 MB at 64."""
 
 
 def _theta_quadrature(theta_i: np.ndarray, nodes: int) -> tuple[np.ndarray, np.ndarray]:
@@ -71,9 +72,9 @@ def brdf_matrix(table: BRDFTable, order: int | None = None, component: str = "to
 
     Returns
     -------
-    matrix : ((L + 1)², (L + 1)², 3) float
-        b_ij per colour (rows: incident harmonic i, columns: outgoing j), symmetric.
-    asymmetry : (3,) float
+    matrix : ((L + 1)², (L + 1)², C) float
+        b_ij per channel (rows: incident harmonic i, columns: outgoing j), symmetric.
+    asymmetry : (C,) float
         ‖B − Bᵀ‖_F / ‖B‖_F before symmetrisation (0 for an exactly reciprocal estimate).
 
     Raises
@@ -89,7 +90,7 @@ def brdf_matrix(table: BRDFTable, order: int | None = None, component: str = "to
     order = min(table.sh_order, MAX_ORDER) if order is None else order
     if order > MAX_ORDER:
         raise ValueError(f"order {order}: the dense matrix is built up to order {MAX_ORDER}")
-    a = sh.truncate(table.sh[table.component(component)], order)[:, 0]   # (n_theta_i, n, 3)
+    a = sh.truncate(table.sh[table.component(component)], order)[:, 0]   # (n_theta_i, n, C)
     theta, w = _theta_quadrature(table.theta_i, order + 8 if nodes is None else nodes)
     i0, i1, w1 = linear_weights(theta, table.theta_i)
     interp = np.zeros((len(theta), len(table.theta_i)))
@@ -119,13 +120,13 @@ def matrix_eval(matrix: np.ndarray, wi: np.ndarray, wo: np.ndarray) -> np.ndarra
 
     Parameters
     ----------
-    matrix : (n, n, 3) float
+    matrix : (n, n, C) float
     wi, wo : (k, 3) float
         Unit directions, local frame, above the horizon.
 
     Returns
     -------
-    (k, 3) float
+    (k, C) float
         f_r in 1/sr; 0 where either direction is at or below the horizon.
     """
     order = sh.order_of(matrix.shape[0])
@@ -137,17 +138,20 @@ def matrix_eval(matrix: np.ndarray, wi: np.ndarray, wo: np.ndarray) -> np.ndarra
     return np.where(above[:, None], h / cos[:, None], 0.0)
 
 
-def write_matrix(path: str | Path, matrix: np.ndarray, asymmetry: np.ndarray) -> None:
+def write_matrix(path: str | Path, matrix: np.ndarray, asymmetry: np.ndarray,
+                 wavelengths: tuple[float, ...] | None = None) -> None:
     """Write Westin's matrix as ``.npz``, atomically.
 
-    Keys: ``matrix`` ((L + 1)², (L + 1)², 3) b_ij (rows: incident harmonic), ``order``,
-    ``asymmetry`` (3,) before symmetrisation, and ``convention`` (a string: the function,
-    the basis and the index).
+    Keys: ``matrix`` ((L + 1)², (L + 1)², C) b_ij (rows: incident harmonic), ``order``,
+    ``asymmetry`` (C,) before symmetrisation, and ``convention`` (a string: the function,
+    the basis and the index); for a spectral table also ``wavelengths`` (C,) nm, the
+    channels of the last axis (without it they are R, G, B).
     """
 
     convention = ("f_r cos(theta_i) cos(theta_o) = sum_ij b_ij Y_i(wi) Y_j(wo); real "
                   "orthonormal spherical harmonics, Condon-Shortley phase, index l*l + l + m "
                   "(docs/table-format.md)")
     with atomic_path(path) as tmp, tmp.open("wb") as f:
+        extra = {} if wavelengths is None else {"wavelengths": np.asarray(wavelengths, float)}
         np.savez(f, matrix=matrix, order=np.array(sh.order_of(matrix.shape[0])),
-                 asymmetry=asymmetry, convention=np.array(convention))
+                 asymmetry=asymmetry, convention=np.array(convention), **extra)

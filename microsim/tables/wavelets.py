@@ -1,7 +1,8 @@
 """Wavelets of a table's outgoing hemisphere: an orthonormal basis on the equal-area
 square, coefficients kept by magnitude.
 
-Per incidence, component and colour, the function g(ωo) = f_r(ωi, ωo) cos θo (the one
+Per incidence, component and channel (R, G, B, or one per wavelength of a spectral
+table), the function g(ωo) = f_r(ωi, ωo) cos θo (the one
 the table's spherical harmonics expand, ``microsim.tables.sh``) is resampled from the bins
 onto an n × n grid of the equal-area square (``microsim.tables.equal_area``: Shirley-Chiu
 concentric map and the equal-area lift, every pixel 2π / n² sr; the bins' overlaps with
@@ -17,7 +18,7 @@ changes that norm of g by exactly the energy Ω_p Σ_dropped c_k², which keepin
 
 Coefficients are ordered as ``pywt.coeffs_to_array`` lays out ``wavedec2``'s list (the
 coarse approximation in the top left corner), flattened row by row; a stored set keeps,
-per incidence and colour, the fewest largest coefficients whose dropped energy is at most
+per incidence and channel, the fewest largest coefficients whose dropped energy is at most
 target² of the total (the relative L2 error on the hemisphere), or a fixed count.
 """
 
@@ -30,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from microsim.spectra.channels import RGB_NAMES
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.equal_area import Resampling, to_square
 from microsim.tables.evaluate import CHUNK, Axes, blend_incidences
@@ -192,49 +194,52 @@ def bin_cos(bins: HemisphereBins) -> np.ndarray:
 
 
 def table_grids(values: np.ndarray, resampling: Resampling) -> np.ndarray:
-    """g on the equal-area grid of every incidence and colour of a table component.
+    """g on the equal-area grid of every incidence and channel of a table component.
 
     Parameters
     ----------
-    values : (a, b, nt, np, 3) float
+    values : (a, b, nt, np, C) float
         The component's f_r.
     resampling : Resampling
 
     Returns
     -------
-    (a, b, 3, n, n) float
+    (a, b, C, n, n) float
     """
     a, b = values.shape[:2]
-    g = values.reshape(a, b, -1, 3) * bin_cos(resampling.bins)[:, None]
+    g = values.reshape(a, b, -1, values.shape[-1]) * bin_cos(resampling.bins)[:, None]
     return resampling.to_grid(np.moveaxis(g, -1, -2))
 
 
 def grid_bins(grids: np.ndarray, resampling: Resampling) -> np.ndarray:
-    """f_r per bin, (a, b, nt, np, 3), of g on the grid, (a, b, 3, n, n): the inverse of
+    """f_r per bin, (a, b, nt, np, C), of g on the grid, (a, b, C, n, n): the inverse of
     ``table_grids`` where the grid is constant over each bin."""
     g = np.moveaxis(resampling.to_bins(grids), -2, -1)
     f = g / bin_cos(resampling.bins)[:, None]
-    return f.reshape(grids.shape[:2] + resampling.bins.shape + (3,))
+    return f.reshape(grids.shape[:2] + resampling.bins.shape + (grids.shape[2],))
 
 
 @dataclass(frozen=True)
 class Wavelets:
-    """Wavelet coefficients kept per incidence and colour, for every component.
+    """Wavelet coefficients kept per incidence and channel, for every component.
 
     Parameters
     ----------
     wavelet : str
     resolution : int
         n, pixels per side of the square.
-    values : dict of str to (a, b, K, 3) float
-        Kept coefficients per component (K the most kept at any incidence and colour;
+    values : dict of str to (a, b, K, C) float
+        Kept coefficients per component (K the most kept at any incidence and channel;
         the rest of a row is padding of value 0).
-    indices : dict of str to (a, b, K, 3) int
+    indices : dict of str to (a, b, K, C) int
         Their flat indices in [0, n²).
     target_error : float or None
         The relative L2 error they were kept to (None: a fixed count).
     keep : int or None
         The fixed count they were kept to (None: a target error).
+    channels : tuple of str
+        The names of the C channels (``Channels.names``: R, G, B, or ``550nm`` …), the
+        suffixes of the file's channels.
     """
 
     wavelet: str
@@ -243,10 +248,11 @@ class Wavelets:
     indices: Mapping[str, np.ndarray]
     target_error: float | None = None
     keep: int | None = None
+    channels: tuple[str, ...] = RGB_NAMES
 
     def coefficients(self, component: str) -> np.ndarray:
-        """(a, b, 3, n²) dense coefficients of a component (dropped ones 0)."""
-        values = np.moveaxis(self.values[component], -1, -2)          # (a, b, 3, K)
+        """(a, b, C, n²) dense coefficients of a component (dropped ones 0)."""
+        values = np.moveaxis(self.values[component], -1, -2)          # (a, b, C, K)
         indices = np.moveaxis(self.indices[component], -1, -2).astype(np.int64)
         out = np.zeros(values.shape[:-1] + (self.resolution ** 2,))
         rows = np.arange(out[..., 0].size).reshape(out.shape[:-1] + (1,))
@@ -256,22 +262,22 @@ class Wavelets:
         return out
 
     def grids(self, component: str) -> np.ndarray:
-        """(a, b, 3, n, n) g = f_r cos θo on the grid, from the kept coefficients."""
+        """(a, b, C, n, n) g = f_r cos θo on the grid, from the kept coefficients."""
         return inverse(self.coefficients(component), self.wavelet)
 
     def kept(self, component: str) -> np.ndarray:
-        """(a, b, 3) coefficients kept per incidence and colour (non-zero values)."""
+        """(a, b, C) coefficients kept per incidence and channel (non-zero values)."""
         return np.count_nonzero(self.values[component], axis=-2)
 
 
 def encode(values: Mapping[str, np.ndarray], bins: HemisphereBins, resolution: int,
-           wavelet: str, target_error: float | None = None, keep: int | None = None
-           ) -> Wavelets:
+           wavelet: str, target_error: float | None = None, keep: int | None = None,
+           channels: tuple[str, ...] = RGB_NAMES) -> Wavelets:
     """The wavelets of every component of a table, kept to a target error or a count.
 
     Parameters
     ----------
-    values : dict of str to (a, b, nt, np, 3) float
+    values : dict of str to (a, b, nt, np, C) float
         f_r per component (``BRDFTable.values``).
     bins : HemisphereBins
     resolution : int
@@ -280,13 +286,20 @@ def encode(values: Mapping[str, np.ndarray], bins: HemisphereBins, resolution: i
         An orthogonal wavelet (``wavelet_of``).
     target_error : float or None
         Keep the fewest largest coefficients with relative L2 error ≤ this (> 0), per
-        incidence and colour.
+        incidence and channel.
     keep : int or None
-        Or keep this many (≥ 1) per incidence and colour. Exactly one of the two.
+        Or keep this many (≥ 1) per incidence and channel. Exactly one of the two.
+    channels : tuple of str
+        The names of the C channels (``BRDFTable.channels.names``).
 
     Returns
     -------
     Wavelets
+
+    Raises
+    ------
+    ValueError
+        For a bad target or count, or values whose last axis is not one per channel.
     """
     if (target_error is None) == (keep is None):
         raise ValueError("give one of target_error and keep")
@@ -298,6 +311,9 @@ def encode(values: Mapping[str, np.ndarray], bins: HemisphereBins, resolution: i
     wavelet_of(wavelet)
     kept_values, kept_indices = {}, {}
     for c, v in values.items():
+        if np.shape(v)[-1] != len(channels):
+            raise ValueError(f"values[{c!r}] have {np.shape(v)[-1]} channels, the names "
+                             f"{len(channels)}")
         coeffs = forward(table_grids(np.asarray(v, float), resampling), wavelet)
         count = (kept_for(coeffs, target_error) if target_error is not None
                  else np.full(coeffs.shape[:-1], min(keep, coeffs.shape[-1])))
@@ -307,7 +323,8 @@ def encode(values: Mapping[str, np.ndarray], bins: HemisphereBins, resolution: i
         top = np.where(np.arange(width) < count[..., None], top, 0.0)
         kept_values[c] = np.moveaxis(top, -2, -1)
         kept_indices[c] = np.moveaxis(np.where(top != 0, order, 0), -2, -1)
-    return Wavelets(wavelet, resolution, kept_values, kept_indices, target_error, keep)
+    return Wavelets(wavelet, resolution, kept_values, kept_indices, target_error, keep,
+                    tuple(channels))
 
 
 def evaluate(axes: Axes, wavelets: Wavelets, component: str, wi: np.ndarray,
@@ -331,18 +348,18 @@ def evaluate(axes: Axes, wavelets: Wavelets, component: str, wi: np.ndarray,
 
     Returns
     -------
-    (..., 3) float
+    (..., C) float
         0 where either direction is at or below the horizon.
     """
     n = wavelets.resolution
     cos = Resampling(n, axes.bins).to_grid(bin_cos(axes.bins))     # (n, n)
-    f = wavelets.grids(component) / cos                           # (a, b, 3, n, n)
-    a, b = f.shape[:2]
-    pixels = np.moveaxis(f, 2, -1).reshape(a * b, n * n, 3)
+    f = wavelets.grids(component) / cos                           # (a, b, C, n, n)
+    a, b, count = f.shape[:3]
+    pixels = np.moveaxis(f, 2, -1).reshape(a * b, n * n, count)
     wi, wo = np.broadcast_arrays(np.asarray(wi, float), np.asarray(wo, float))
     shape = wi.shape[:-1]
     wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
-    out = np.zeros((len(wi), 3))
+    out = np.zeros((len(wi), count))
     centres = np.arange(n, dtype=float)
     for start in range(0, len(wi), CHUNK):
         i, o = wi[start:start + CHUNK], wo[start:start + CHUNK]
@@ -350,7 +367,7 @@ def evaluate(axes: Axes, wavelets: Wavelets, component: str, wi: np.ndarray,
         x, y = to_square(o, phi_in)
         j0, j1, wx = linear_weights(0.5 * (x + 1.0) * n - 0.5, centres)
         i0, i1, wy = linear_weights(0.5 * (y + 1.0) * n - 0.5, centres)
-        g = np.zeros((len(i), a * b, 3))
+        g = np.zeros((len(i), a * b, count))
         for row, w_row in ((i0, 1.0 - wy), (i1, wy)):
             for col, w_col in ((j0, 1.0 - wx), (j1, wx)):
                 g += (w_row * w_col)[:, None, None] * np.moveaxis(
@@ -358,11 +375,12 @@ def evaluate(axes: Axes, wavelets: Wavelets, component: str, wi: np.ndarray,
         above = (i[:, 2] > 0) & (o[:, 2] > 0)
         out[start:start + CHUNK] = np.where(above[:, None], blend_incidences(axes, i, g),
                                             0.0)
-    return out.reshape(shape + (3,))
+    return out.reshape(shape + (count,))
 
 
-COLOURS = ("R", "G", "B")
-"""The table file's colour channel suffixes."""
+COLOURS = RGB_NAMES
+"""The channel suffixes of an RGB table's file (a spectral table's are its wavelengths',
+``Wavelets.channels``)."""
 
 
 def part_header(wavelets: Wavelets, shape: tuple[int, int]) -> dict[str, Any]:
@@ -388,20 +406,21 @@ def part_header(wavelets: Wavelets, shape: tuple[int, int]) -> dict[str, Any]:
             "rows": "i_theta_i * n_phi_i + i_phi_i", "shape": list(shape),
             "columns": "kept coefficients, largest first; value 0 (index 0) pads a row",
             "channels": [f"{c}{s}.{k}" for c in wavelets.values for s in ("", "_index")
-                         for k in COLOURS]}
+                         for k in wavelets.channels]}
 
 
 def part_channels(wavelets: Wavelets) -> dict[str, np.ndarray]:
     """The ``wavelet`` part's channels: float32 ``{c}.{R,G,B}`` (values) and uint32
-    ``{c}_index.{R,G,B}`` of every component, rows over incidences, columns over kept
-    coefficients (padded to the widest component: a part's channels share one size)."""
+    ``{c}_index.{R,G,B}`` of every component (a spectral table's: ``{c}.550nm`` …, one per
+    wavelength), rows over incidences, columns over kept coefficients (padded to the
+    widest component: a part's channels share one size)."""
     width = max(v.shape[2] for v in wavelets.values.values())
     out = {}
     for c, values in wavelets.values.items():
         a, b, k, _ = values.shape
         pad = ((0, 0), (0, 0), (0, width - k), (0, 0))
         padded = np.pad(values, pad), np.pad(wavelets.indices[c], pad)
-        for j, colour in enumerate(COLOURS):
+        for j, colour in enumerate(wavelets.channels):
             out[f"{c}.{colour}"] = np.ascontiguousarray(
                 padded[0][..., j].reshape(a * b, width), np.float32)
             out[f"{c}_index.{colour}"] = np.ascontiguousarray(
@@ -410,7 +429,7 @@ def part_channels(wavelets: Wavelets) -> dict[str, np.ndarray]:
 
 
 def from_part(info: Any, pixels: Mapping[str, np.ndarray], components: tuple[str, ...],
-              shape: tuple[int, int]) -> Wavelets:
+              shape: tuple[int, int], channels: tuple[str, ...] = RGB_NAMES) -> Wavelets:
     """A table file's ``wavelet`` part, checked (the file is untrusted input).
 
     Parameters
@@ -421,6 +440,8 @@ def from_part(info: Any, pixels: Mapping[str, np.ndarray], components: tuple[str
     components : tuple of str
         The table's components.
     shape : (int, int)
+    channels : tuple of str
+        The table's channel names (``Channels.names``).
 
     Raises
     ------
@@ -444,24 +465,25 @@ def from_part(info: Any, pixels: Mapping[str, np.ndarray], components: tuple[str
         raise ValueError(f"shape {info.get('shape')!r}: must be the table's incidences "
                          f"{list(shape)}")
     target, keep = info.get("target_error"), info.get("keep")
+    names = "/".join(channels)
     values, indices = {}, {}
     for c in components:
         stack = []
         for suffix in ("", "_index"):
-            planes = [pixels.get(f"{c}{suffix}.{k}") for k in COLOURS]
+            planes = [pixels.get(f"{c}{suffix}.{k}") for k in channels]
             if any(p is None or p.ndim != 2 or p.shape[0] != shape[0] * shape[1]
                    or p.shape != planes[0].shape for p in planes):
-                raise ValueError(f"channels {c}{suffix}.R/G/B: missing, or not "
+                raise ValueError(f"channels {c}{suffix}.{names}: missing, or not "
                                  f"{shape[0] * shape[1]} rows of one width")
-            stack.append(np.stack(planes, axis=-1).reshape(shape + (-1, 3)))
+            stack.append(np.stack(planes, axis=-1).reshape(shape + (-1, len(channels))))
         value, index = stack
         if index.dtype.kind not in "ui" or not np.isfinite(value).all():
-            raise ValueError(f"channels {c}.R/G/B must be finite floats and "
-                             f"{c}_index.R/G/B unsigned integers")
+            raise ValueError(f"channels {c}.{names} must be finite floats and "
+                             f"{c}_index.{names} unsigned integers")
         if index.size and int(index.max()) >= n * n:
             raise ValueError(f"channel {c}_index: holds {int(index.max())}, must be below "
                              f"{n * n} (n² coefficients)")
         values[c], indices[c] = value.astype(float), index.astype(np.int64)
     return Wavelets(name, n, values, indices,
                     float(target) if isinstance(target, int | float) else None,
-                    int(keep) if isinstance(keep, int) else None)
+                    int(keep) if isinstance(keep, int) else None, tuple(channels))
