@@ -213,6 +213,8 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
               n: int = 64, phi_i: float = 0.0) -> np.ndarray | None:
     """A table's BRDF lobe for one incidence as a radial surface over the hemisphere.
 
+    The lobe is of one number per direction: the mean of an RGB table's channels, the
+    luminance (CIE Y under D65, ``microsim.tables.luminance``) of a spectral table's.
     Colour is the relative error against ``model`` (clipped to ±50%) when one is given,
     else f_r; the model's lobe is drawn as an opaque wireframe through the see-through
     simulated lobe (``LOBE_OPACITY``), so it shows also where it lies inside, and the
@@ -249,12 +251,16 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
     t, p = np.meshgrid(theta, phi, indexing="ij")
     wi = direction(theta_i, phi_i)
     wo = direction(t, p)
-    f = table.eval(wi, wo, component).mean(axis=-1)
+    channels = table.channels
+    f = one_value(table.eval(wi, wo, component), channels)
     surf = lobe_surface(pv, f, theta, phi, radius, log)
     plotter = pv.Plotter(off_screen=off, window_size=WINDOW)
     if model is not None:
         g = np.asarray(model.eval(np.broadcast_to(wi, wo.shape), wo), float)
-        g = g.mean(axis=-1) if g.ndim == 3 else g
+        if g.ndim == 3:
+            from microsim.compare import channels_of
+
+            g = one_value(channels_of(g, channels.count), channels)
         rel = np.where(g > 0, (f - g) / np.where(g > 0, g, 1.0), 0.0)
         surf.point_data[REL_ERROR] = np.clip(rel, -0.5, 0.5).ravel(order="F")
         # the simulated lobe see-through and the model's wireframe opaque (every
@@ -267,9 +273,10 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
                                       radius, log), style="wireframe", color="black",
                          line_width=1.0)
     else:
-        surf.point_data["f_r (1/sr)"] = f.ravel(order="F")
-        plotter.add_mesh(surf, scalars="f_r (1/sr)", cmap="viridis",
-                         scalar_bar_args={"title": "f_r (1/sr)\n", **LOBE_BAR})
+        name = "f_r (1/sr), CIE Y" if channels.spectral else "f_r (1/sr)"
+        surf.point_data[name] = f.ravel(order="F")
+        plotter.add_mesh(surf, scalars=name, cmap="viridis",
+                         scalar_bar_args={"title": f"{name}\n", **LOBE_BAR})
     size = max(float(np.abs(surf.points).max()), 1e-9)
     plotter.add_mesh(pv.Arrow(start=wi * 1.3 * size, direction=-wi, scale=0.5 * size),
                      color="orange")
@@ -279,6 +286,16 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
     plotter.camera_position = [(2.5 * size, -2.5 * size, 1.8 * size), (0, 0, 0.2 * size),
                                (0, 0, 1)]
     return finish(plotter, screenshot)
+
+
+def one_value(values: np.ndarray, channels: Any) -> np.ndarray:
+    """A lobe's one number per direction of per-channel values (..., C): the mean over an
+    RGB table's channels, CIE Y (D65) of a spectral table's."""
+    if not channels.spectral:
+        return values.mean(axis=-1)
+    from microsim.tables.luminance import luminance
+
+    return luminance(values, channels)
 
 
 def ray_paths(tile: Tile, materials: Any, theta_i: float, rays: int, bounces: int,

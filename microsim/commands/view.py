@@ -119,6 +119,10 @@ def view_table(args: argparse.Namespace, source: Path) -> int:
     title = f"{source.name}: theta_i = {theta:g} deg"
     if not table.isotropic:
         title += f", phi_i = {phi:g} deg"
+    if table.channels.spectral:
+        nm = table.channels.wavelengths
+        title += (f" (luminance, CIE Y under D65, of {len(nm)} wavelengths "
+                  f"{nm[0]:g}-{nm[-1]:g} nm)")
     note = incidence_note([math.degrees(t) for t in table.theta_i], theta)
     if note:
         title += f" ({note})"

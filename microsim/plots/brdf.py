@@ -8,11 +8,10 @@ from typing import Any
 
 import numpy as np
 
-from microsim.compare import Model
+from microsim.compare import Model, channels_of
 from microsim.geometry import half_difference
 from microsim.plots.layout import (
     THETA_O_LABEL,
-    Y_NOTE,
     colour_strip,
     component_text,
     luminance,
@@ -20,8 +19,10 @@ from microsim.plots.layout import (
     outer_labels,
     panel_grid,
     panel_title,
+    pyplot,
     save,
     suptitle,
+    y_note,
 )
 from microsim.tables import sh
 from microsim.tables.table import BRDFTable
@@ -53,7 +54,8 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
                     component: str = "single", title: str = "",
                     model_label: str = "model", incidences: list[int] | None = None
                     ) -> None:
-    """Plot f_r cos θo of luminance Y in the plane of incidence, simulation against model:
+    """Plot f_r cos θo of luminance Y (``layout.luminance``: BT.709's of RGB, CIE Y of a
+    spectral table) in the plane of incidence, simulation against model:
     one panel per incident direction, in a grid of at most four columns (``layout``),
     under a strip of the table's colour.
 
@@ -66,8 +68,8 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
     Parameters
     ----------
     table : BRDFTable
-    model_bins : (a, b, nt, np, 3) float
-        The model's bin averages.
+    model_bins : (a, b, nt, np, C) float
+        The model's bin averages, in the table's C channels.
     path : str or Path
         Image file to write (its suffix names the format), atomically.
     component : str
@@ -83,14 +85,15 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
     cos_o = np.cos(table.bins.theta_centers)
     chosen = list(range(len(table.theta_i))) if incidences is None else list(incidences)
     directions = [(k, j) for j in range(len(table.phi_i)) for k in chosen]
+    ch = table.channels
     fig, axes, strip = panel_grid(len(directions), strip=True)
     colour_strip(strip, table, component)
     for (k, j), ax in zip(directions, axes, strict=True):
         back, forward = incidence_plane_bins(table, 0.0 if table.isotropic
                                              else float(table.phi_i[j]))
-        avg = luminance(model_bins[k, j])
-        values = luminance(table.values[component][k, j])
-        errors = luminance_err(np.nan_to_num(table.errors[component][k, j]))
+        avg = luminance(model_bins[k, j], ch)
+        values = luminance(table.values[component][k, j], ch)
+        errors = luminance_err(np.nan_to_num(table.errors[component][k, j]), ch)
         for side, sign in ((back, -1), (forward, 1)):
             x = sign * theta
             sim = values[:, side].mean(axis=1)
@@ -108,7 +111,7 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
         ax.grid(alpha=0.3)
     outer_labels(axes, THETA_O_LABEL, "f_r cos θo (1/sr), Y")
     axes[0].legend(loc="best", fontsize=7)
-    suptitle(fig, title, f"{Y_NOTE}; simulated ±1 standard error")
+    suptitle(fig, title, f"{y_note(table)}; simulated ±1 standard error")
     save(fig, path)
 
 
@@ -130,9 +133,10 @@ def half_difference_slices(table: BRDFTable, model: Model, path: str | Path,
     t = np.radians((np.arange(n) + 0.5) * 90.0 / n)
     th, td = np.meshgrid(t, t, indexing="ij")
     wi, wo = half_difference(th, td, np.pi / 2)
-    sim = luminance(table.eval(wi, wo, component))
+    ch = table.channels
+    sim = luminance(table.eval(wi, wo, component), ch)
     mod = np.asarray(model.eval(wi, wo), float)
-    mod = luminance(mod) if mod.ndim == 3 else mod
+    mod = luminance(channels_of(mod, ch.count), ch) if mod.ndim == 3 else mod
     valid = (wi[..., 2] > 0) & (wo[..., 2] > 0)
     ratio = np.full(sim.shape, np.nan)
     # the ratio only where the model holds at least 1% of its peak at the same θd: further
@@ -161,7 +165,7 @@ def half_difference_slices(table: BRDFTable, model: Model, path: str | Path,
         ax.tick_params(labelsize=8)
         fig.colorbar(im, ax=ax, shrink=0.8)
     outer_labels(axes, "θh (°)", "θd (°)")
-    suptitle(fig, title, f"{Y_NOTE}; φd = 90°; above the dashed line (θd = {ring:.1f}°) "
+    suptitle(fig, title, f"{y_note(table)}; φd = 90°; above the dashed line (θd = {ring:.1f}°) "
              "both directions lie in the table's last θo ring")
     save(fig, path)
 
@@ -173,7 +177,8 @@ def z_maps(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
     over the (φo, θo) bins, clipped to ±4; grey where the error is undefined. Y's error is
     Σ_c w_c σ_c (``microsim.plots.layout``: never smaller than the channels' correlated
     error allows, so |z| is never overstated). With ``model_err`` (a Monte Carlo model's
-    (a, b, nt, np, 3) standard errors) both errors combine per channel first."""
+    (a, b, nt, np, C) standard errors) both errors combine per channel first."""
+    ch = table.channels
     directions = [(k, j) for j in range(len(table.phi_i)) for k in range(len(table.theta_i))]
     fig, axes, _ = panel_grid(len(directions), extra_width=0.9)
     te, pe = np.degrees(table.bins.theta_edges), np.degrees(table.bins.phi_edges)
@@ -182,8 +187,8 @@ def z_maps(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
         err = table.errors[component][k, j]
         if model_err is not None:
             err = np.hypot(err, model_err[k, j])
-        z = (luminance(table.values[component][k, j]) - luminance(model_bins[k, j])) \
-            / luminance_err(err)
+        z = (luminance(table.values[component][k, j], ch)
+             - luminance(model_bins[k, j], ch)) / luminance_err(err, ch)
         ax.set_facecolor("0.8")
         image = ax.pcolormesh(pe, te, np.ma.masked_invalid(z), cmap="RdBu_r", vmin=-4,
                               vmax=4)
@@ -192,7 +197,7 @@ def z_maps(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
         ax.tick_params(labelsize=8)
     outer_labels(axes, "φo (°)" if not table.isotropic else "φo − φi (°)", "θo (°)")
     fig.colorbar(image, ax=axes, shrink=0.6, label="z of Y")
-    suptitle(fig, title, f"z of {Y_NOTE}, clipped to ±4; grey: no error")
+    suptitle(fig, title, f"z of {y_note(table)}, clipped to ±4; grey: no error")
     save(fig, path)
 
 
@@ -200,23 +205,103 @@ def albedo_plot(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
                 title: str = "", component: str = "total") -> None:
     """Directional albedo of luminance Y against θi (φi = the first): every simulated
     component (±1 standard error) and the model of ``component`` (Σ bin average ×
-    projected solid angle), under a strip of the table's colour."""
+    projected solid angle), under a strip of the table's colour.
+
+    A spectral table's figure has a panel before that one: the albedo of ``component``
+    against wavelength, one curve per incidence with its ±1 standard error band and the
+    model's dashed in the same colour, each θi of the colour strip above (its swatch)
+    labelled in its curve's colour (``spectral_albedo``).
+    """
     theta = np.degrees(table.theta_i)
+    ch = table.channels
     proj = table.bins.projected_solid_angle[None, :, :, None]
-    model = luminance((model_bins[:, 0] * proj).sum(axis=(1, 2)))
-    fig, (ax,), strip = panel_grid(1, strip=True, panel=(6.0, 4.0))
-    colour_strip(strip, table, component)
+    model_albedo = (model_bins[:, 0] * proj).sum(axis=(1, 2))              # (a, C)
+    model = luminance(model_albedo, ch)
+    if ch.spectral:
+        fig, (spectra, ax), strip = panel_grid(2, strip=True, panel=(5.0, 4.0), columns=2)
+        colours = spectral_albedo(spectra, table, model_albedo, component)
+        colour_strip(strip, table, component, colours)
+    else:
+        fig, (ax,), strip = panel_grid(1, strip=True, panel=(6.0, 4.0))
+        colour_strip(strip, table, component)
     for comp in table.components:
-        ax.errorbar(theta, luminance(table.albedo_of[comp][:, 0]),
-                    yerr=luminance_err(np.nan_to_num(table.albedo_err_of[comp][:, 0])),
+        ax.errorbar(theta, luminance(table.albedo_of[comp][:, 0], ch),
+                    yerr=luminance_err(np.nan_to_num(table.albedo_err_of[comp][:, 0]), ch),
                     fmt="o-", ms=4, label=f"simulated, {component_text(comp)}")
     ax.plot(theta, model, "s--", color="black", label=f"model ({component_text(component)})")
     ax.set_xlabel("θi (°)")
     ax.set_ylabel("albedo ∫ f_r cos θo dωo, Y")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    suptitle(fig, title, f"{Y_NOTE}; ±1 standard error")
+    if ch.spectral:
+        ax.set_title(f"{y_note(table)} against θi", fontsize=9)
+        note = (f"left: albedo per wavelength, {component_text(component)} (band: ±1 "
+                f"standard error; dashed: model); right: {y_note(table)}; ±1 standard "
+                "error")
+    else:
+        note = f"{y_note(table)}; ±1 standard error"
+    suptitle(fig, title, note)
     save(fig, path)
+
+
+LEGEND_CURVES = 6
+"""``spectral_albedo`` names each incidence's curve in a legend up to this many curves,
+and gives a θi colour bar beyond."""
+CURVE_RANGE = 0.75
+"""The curves' colours run over viridis from 0 to this (its yellow end is faint on white,
+on the curves and on the colour strip's labels)."""
+
+
+def spectral_albedo(ax: Any, table: BRDFTable, model_albedo: np.ndarray,
+                    component: str) -> list[Any]:
+    """A spectral table's directional albedo of ``component`` against wavelength at each
+    θi (φi = the first): a solid curve with a ±1 standard error band per incidence, the
+    model's albedo (``model_albedo``) dashed in the same colour.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+    table : BRDFTable
+        Spectral.
+    model_albedo : (a, C) float
+        The model's albedo per incidence and wavelength.
+    component : str
+
+    Returns
+    -------
+    list
+        The curves' colours, one per θi (for the labels of the colour strip).
+    """
+    plt = pyplot()
+    nm = np.asarray(table.channels.wavelengths)
+    theta = np.degrees(table.theta_i)
+    albedo = table.albedo_of[component][:, 0]
+    err = np.nan_to_num(table.albedo_err_of[component][:, 0])
+    cmap = plt.get_cmap("viridis")
+    span = max(float(theta.max() - theta.min()), 1e-9)
+    colours = [cmap(CURVE_RANGE * (t - theta.min()) / span) for t in theta]
+    for k, colour in enumerate(colours):
+        ax.fill_between(nm, albedo[k] - err[k], albedo[k] + err[k], color=colour,
+                        alpha=0.3, lw=0)
+        ax.plot(nm, albedo[k], "-", marker="o" if len(nm) == 1 else None, ms=3,
+                color=colour, label=f"θi = {theta[k]:.0f}°")
+        ax.plot(nm, model_albedo[k], "--", color=colour)
+    if len(theta) <= LEGEND_CURVES:
+        handles, labels = ax.get_legend_handles_labels()
+        model = plt.Line2D([], [], ls="--", color="black")
+        ax.legend([*handles, model], [*labels, "model"], fontsize=7)
+    else:
+        from matplotlib.colors import LinearSegmentedColormap, Normalize
+
+        shown = LinearSegmentedColormap.from_list(
+            "curves", [cmap(x) for x in np.linspace(0, CURVE_RANGE, 64)])
+        bar = plt.cm.ScalarMappable(Normalize(theta.min(), theta.max()), shown)
+        ax.figure.colorbar(bar, ax=ax, label="θi (°)", shrink=0.8)
+    ax.set_xlabel("wavelength (nm)")
+    ax.set_ylabel("albedo ∫ f_r cos θo dωo")
+    ax.set_title(f"albedo per wavelength, {component_text(component)}", fontsize=9)
+    ax.grid(alpha=0.3)
+    return colours
 
 
 def ndf_plot(theta_deg: np.ndarray, measured: np.ndarray, stderr: np.ndarray,
@@ -253,7 +338,8 @@ def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path
     """Two panels, written atomically in the format of the suffix. Left: relative L2
     error of truncated spherical harmonics against the table per order
     (``microsim.tables.sh_error.order_errors`` rows): hemisphere and lobe, with and
-    without the window, and the two noise floors. Right: f_r cos θo of luminance Y in the
+    without the window, and the two noise floors. Right: f_r cos θo of luminance Y
+    (``layout.luminance``: BT.709's of RGB, CIE Y of a spectral table) in the
     plane of incidence at the last (most grazing) incidence, the table's bins (±1
     standard error) against the series at each order, with the window."""
     order = [r["order"] for r in rows]
@@ -279,8 +365,9 @@ def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path
     back, forward = incidence_plane_bins(table)
     theta = np.degrees(table.bins.theta_centers)
     cos_o = np.cos(table.bins.theta_centers)
-    values = luminance(table.values[component][k, 0])
-    errors = luminance_err(np.nan_to_num(table.errors[component][k, 0]))
+    ch = table.channels
+    values = luminance(table.values[component][k, 0], ch)
+    errors = luminance_err(np.nan_to_num(table.errors[component][k, 0]), ch)
     for side, sign in ((back, -1), (forward, 1)):
         lobe.errorbar(sign * theta, values[:, side].mean(axis=1) * cos_o,
                       yerr=np.sqrt((errors[:, side] ** 2).sum(axis=1)) / len(side) * cos_o,
@@ -288,7 +375,7 @@ def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path
     signed = np.linspace(-89.5, 89.5, 359)
     phi = np.where(signed < 0, 0.0, np.pi)                # the azimuths of the bins drawn
     for row in rows:
-        c = luminance(sh.truncate(table.sh[component][k, 0], row["order"])) * sh.window(
+        c = luminance(sh.truncate(table.sh[component][k, 0], row["order"]), ch) * sh.window(
             row["order"], window)
         lobe.plot(signed, sh.basis(row["order"], np.cos(np.radians(signed)), phi) @ c,
                   label=f"L = {row['order']}")
@@ -299,5 +386,5 @@ def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path
     lobe.set_title(f"θi = {np.degrees(table.theta_i[k]):.0f}°, window {window}", fontsize=9)
     lobe.grid(alpha=0.3)
     lobe.legend(fontsize=7)
-    suptitle(fig, title, f"right: {Y_NOTE}")
+    suptitle(fig, title, f"right: {y_note(table)}")
     save(fig, path)

@@ -6,9 +6,12 @@ Decisions (docs/compare.md, "Figures"):
 - Panels flow into a grid of at most ``MAX_COLUMNS`` columns, ``ceil(sqrt(n))`` of them
   for n panels, so that 1, 4 and 18 incidences give 1 × 1, 2 × 2 and 5 × 4 grids whose
   width and height stay within 3:1 of each other.
-- Curves and maps show luminance Y = 0.2126 R + 0.7152 G + 0.0722 B (ITU-R BT.709, the
-  tables' linear sRGB primaries), not one channel; a strip above the panels shows the
-  colour that luminance collapses: the directional albedo per θi as sRGB.
+- Curves and maps show luminance, not one channel (``microsim.tables.luminance``): of an
+  RGB table Y = 0.2126 R + 0.7152 G + 0.0722 B (ITU-R BT.709, the tables' linear sRGB
+  primaries), of a spectral table CIE 1931 Y under D65 of its wavelengths; a strip above
+  the panels shows the colour that luminance collapses: the directional albedo per θi as
+  sRGB (of a spectral table, its spectrum's sRGB under D65,
+  ``microsim.spectra.colour.to_srgb_display``).
 - Y's standard error is Σ_c w_c σ_c: the channels of a bin are estimated from the same
   rays, so their errors are positively correlated; the sum is exact when the channels are
   proportional (grey facets) and an upper bound otherwise, so a z-score of Y never
@@ -25,8 +28,9 @@ from typing import Any
 import numpy as np
 
 from microsim.files import atomic_path
+from microsim.spectra.channels import RGB, Channels
+from microsim.tables import luminance as lum
 from microsim.tables.components import canonical_component, order_range
-from microsim.tables.export import LUMINANCE
 from microsim.tables.table import BRDFTable
 
 MAX_COLUMNS = 4
@@ -39,7 +43,8 @@ STRIP_HEIGHT = 0.75
 DPI = 110
 THETA_O_LABEL = "← backscatter    θo (°)    forward →"
 """The signed θo axis of the plane of incidence: negative towards the light."""
-Y_NOTE = "luminance Y (Rec. 709)"
+Y_NOTE = lum.RGB_NOTE
+"""What the luminance of an RGB table's figures is; ``y_note`` gives any table's."""
 
 
 def pyplot() -> Any:
@@ -54,19 +59,25 @@ def pyplot() -> Any:
 
 def srgb(linear: np.ndarray) -> np.ndarray:
     """The sRGB transfer curve of linear values in [0, 1] (IEC 61966-2-1), clipped."""
-    x = np.clip(linear, 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
+    return lum.encode_srgb(linear)
 
 
-def luminance(rgb: np.ndarray) -> np.ndarray:
-    """Y of linear RGB values (..., 3) → (...)."""
-    return np.asarray(rgb, float) @ LUMINANCE
+def luminance(values: np.ndarray, channels: Channels = RGB) -> np.ndarray:
+    """Y of a table's per-channel values (..., C) → (...): BT.709's of linear RGB, CIE Y
+    (D65) of wavelengths (``microsim.tables.luminance``)."""
+    return lum.luminance(values, channels)
 
 
-def luminance_err(err: np.ndarray) -> np.ndarray:
-    """Standard error of Y from the channels' (..., 3) → (...): Σ w_c σ_c (module
+def luminance_err(err: np.ndarray, channels: Channels = RGB) -> np.ndarray:
+    """Standard error of Y from the channels' (..., C) → (...): Σ w_c σ_c (module
     docstring; NaN where a channel's error is undefined)."""
-    return np.asarray(err, float) @ LUMINANCE
+    return lum.luminance_err(err, channels)
+
+
+def y_note(table: BRDFTable) -> str:
+    """What a figure's luminance of ``table`` is, in words: ``luminance Y (Rec. 709)``
+    or ``luminance (CIE Y, D65)``."""
+    return lum.note(table.channels)
 
 
 def grid_shape(n: int) -> tuple[int, int]:
@@ -130,19 +141,33 @@ def outer_labels(axes: list[Any], xlabel: str, ylabel: str, fontsize: float = 8)
             ax.set_ylabel(ylabel, fontsize=fontsize)
 
 
-def colour_strip(ax: Any, table: BRDFTable, component: str) -> None:
-    """The table's colour: its directional albedo of ``component`` per θi (mean over φi),
-    linear RGB through the sRGB curve, one patch per incidence, labelled with θi."""
-    albedo = np.asarray(table.albedo_of[component], float).mean(axis=1)   # (a, 3)
-    ax.imshow(srgb(albedo)[None], aspect="auto", interpolation="nearest")
+def strip_colours(table: BRDFTable, component: str) -> np.ndarray:
+    """(a, 3) display sRGB in [0, 1] of the table's directional albedo of ``component``
+    per θi (mean over φi): linear RGB through the sRGB curve, or a spectral table's
+    spectrum through ``microsim.spectra.colour.to_srgb_display`` (D65)."""
+    albedo = np.asarray(table.albedo_of[component], float).mean(axis=1)   # (a, C)
+    return lum.display_srgb(albedo, table.channels)
+
+
+def colour_strip(ax: Any, table: BRDFTable, component: str,
+                 label_colours: list[Any] | None = None) -> None:
+    """The table's colour: its directional albedo of ``component`` per θi
+    (``strip_colours``), one patch per incidence, labelled with θi (each label in its
+    colour of ``label_colours``, the curves' of a figure that draws one per incidence)."""
+    ax.imshow(strip_colours(table, component)[None], aspect="auto",
+              interpolation="nearest")
     theta = np.degrees(table.theta_i)
     step = max(1, math.ceil(len(theta) / 10))
     ax.set_xticks(np.arange(len(theta))[::step],
                   [f"{t:.0f}°" for t in theta[::step]], fontsize=7)
+    if label_colours is not None:
+        for label, colour in zip(ax.get_xticklabels(), label_colours[::step], strict=True):
+            label.set_color(colour)
     ax.set_yticks([])
     ax.tick_params(axis="x", length=0, pad=1)
+    how = "sRGB of its spectrum under D65" if table.channels.spectral else "sRGB"
     ax.set_title(f"colour of the table ({component_text(component)}): directional "
-                 "albedo per θi, sRGB", fontsize=8)
+                 f"albedo per θi, {how}", fontsize=8)
 
 
 def component_text(component: str) -> str:
