@@ -178,13 +178,14 @@ def bin_estimate(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
 
     Returns
     -------
-    mean, stderr : (nt, np, 3) float
-        1/sr.
+    mean, stderr : (nt, np, C) float
+        1/sr, in the model's channels (3 for a grey one).
     """
     shape = (len(theta_edges) - 1, len(phi_edges) - 1)
     random_part = getattr(model, "random_bin_average", None)
     if random_part is None:
-        return bin_average(model, wi, theta_edges, phi_edges, phi_i, n), np.zeros(shape + (3,))
+        mean = bin_average(model, wi, theta_edges, phi_edges, phi_i, n)
+        return mean, np.zeros_like(mean)
     mean, err = (as_rgb(x[..., 0] if x.shape[-1] == 1 else x, shape)
                  for x in random_part(wi, theta_edges, phi_edges, phi_i))
     if model.exact is not None:
@@ -306,7 +307,7 @@ def _metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray, proj: np.ndarr
     median, p90, z_mean, z_std = residual_statistics(rel, z)
     albedo_sim = (sim * proj[..., None]).sum(axis=(0, 1))
     albedo_model = (model * proj[..., None]).sum(axis=(0, 1))
-    albedo_model_err = np.zeros(3) if model_err is None else np.sqrt(
+    albedo_model_err = np.zeros(sim.shape[-1]) if model_err is None else np.sqrt(
         ((model_err * proj[..., None]) ** 2).sum(axis=(0, 1)))
     return IncidenceMetrics(
         median_rel_error=median, p90_rel_error=p90,

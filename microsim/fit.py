@@ -15,6 +15,11 @@ and near-zero bins finite, and the floor ρ stops bins with tiny errors from dom
 minimises Σ r²; parameter uncertainties are √diag((JᵀJ)⁻¹) scaled by χ²/dof when that
 exceeds 1 (the model does not explain the noise: the uncertainty widens accordingly).
 
+Colour parameters (a Fresnel F0, an albedo, a specular scale) are one per channel of the
+table: ``F0_R``, ``F0_G``, ``F0_B`` of an RGB table, ``F0_400nm``, … (``Channels.names``)
+of a spectral one, fitted together with the shape parameters; a model without colour
+parameters (Lafortune) is grey, the same in every channel.
+
 The result is a ``FitResult`` (one ``IncidenceFit`` per incidence), and the progress
 callback receives a ``FitProgress``; their JSON form (``to_json``) is made here only: it is
 what ``microsim fit --json`` prints, before the command's own keys.
@@ -33,8 +38,9 @@ from scipy.optimize import least_squares
 from microsim.analytic.brdf import KayKajiya, Lafortune, OrenNayar, Phong, TorranceSparrow
 from microsim.analytic.cloth import MicrocylinderCloth
 from microsim.analytic.ndf import GGX, Beckmann
-from microsim.compare import Model, bin_averages, compare_table
+from microsim.compare import Model, bin_averages, channels_of, compare_table
 from microsim.errors import InputError
+from microsim.spectra.channels import RGB_NAMES
 from microsim.table_models import model_defaults
 
 EPS_FRACTION = 1e-3
@@ -73,7 +79,7 @@ class IncidenceFit:
     ----------
     theta_i, phi_i : float
         The incident direction, degrees.
-    albedo_fit, albedo_table : (3,) float
+    albedo_fit, albedo_table : (C,) float
         Σ f_r Ω_proj over every bin, per channel: of the fitted model and of the table's
         fitted component.
     """
@@ -112,8 +118,8 @@ class FitResult:
         Evaluations of the residuals by ``scipy.optimize.least_squares``.
     fitted : Model
         The model at the fitted parameters.
-    model_bins : (a, b, nt, np, 3) float
-        The fitted model's bin averages per incidence (a θi, b φi), bin and colour, 1/sr:
+    model_bins : (a, b, nt, np, C) float
+        The fitted model's bin averages per incidence (a θi, b φi), bin and channel, 1/sr:
         for plots.
     """
 
@@ -140,7 +146,8 @@ class FitResult:
 
 @dataclass(frozen=True)
 class Family:
-    """A fittable model: parameter names, start values, bounds, and a builder."""
+    """A fittable model: parameter names, start values, bounds, and a builder (of the
+    parameter vector, in the order of the names)."""
 
     names: tuple[str, ...]
     start: tuple[float, ...]
@@ -149,36 +156,46 @@ class Family:
     build: Callable[[np.ndarray], Any]
 
 
-def _microfacet(ndf_name: str) -> Family:
+def _per_channel(name: str, channels: Sequence[str]) -> tuple[str, ...]:
+    """A colour parameter's names, one per channel: ``F0_R``, …, or ``F0_550nm``, …"""
+    return tuple(f"{name}_{c}" for c in channels)
+
+
+def _microfacet(ndf_name: str, channels: Sequence[str]) -> Family:
+    count = len(channels)
+
     def build(p: np.ndarray) -> Any:
         cls = Beckmann if ndf_name == "beckmann" else GGX
-        return TorranceSparrow(cls(p[0]), fresnel=("schlick", p[1:4]))
+        return TorranceSparrow(cls(p[0]), fresnel=("schlick", p[1:1 + count]))
 
-    return Family(("alpha", "F0_R", "F0_G", "F0_B"), (0.3, 0.9, 0.9, 0.9),
-                  (1e-3, 0.0, 0.0, 0.0), (5.0, 1.0, 1.0, 1.0), build)
+    return Family(("alpha", *_per_channel("F0", channels)), (0.3, *(0.9,) * count),
+                  (1e-3, *(0.0,) * count), (5.0, *(1.0,) * count), build)
 
 
-def _oren_nayar() -> Family:
+def _oren_nayar(channels: Sequence[str]) -> Family:
     """Oren-Nayar's slope deviation sigma in degrees, as the model spec takes it."""
+    count = len(channels)
 
     def build(p: np.ndarray) -> Any:
-        return OrenNayar(np.radians(p[0]), p[1:4], "full")
+        return OrenNayar(np.radians(p[0]), p[1:1 + count], "full")
 
-    return Family(("sigma", "albedo_R", "albedo_G", "albedo_B"),
-                  (math.degrees(0.3), 0.5, 0.5, 0.5), (0.0, 0.0, 0.0, 0.0),
-                  (math.degrees(1.5), 1.0, 1.0, 1.0), build)
+    return Family(("sigma", *_per_channel("albedo", channels)),
+                  (math.degrees(0.3), *(0.5,) * count), (0.0, *(0.0,) * count),
+                  (math.degrees(1.5), *(1.0,) * count), build)
 
 
-def _phong() -> Family:
+def _phong(channels: Sequence[str]) -> Family:
+    count = len(channels)
+
     def build(p: np.ndarray) -> Any:
         class Scaled:
             def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-                return Phong(p[0], normalized=True).eval(wi, wo)[..., None] * p[1:4]
+                return Phong(p[0], normalized=True).eval(wi, wo)[..., None] * p[1:1 + count]
 
         return Scaled()
 
-    return Family(("n", "ks_R", "ks_G", "ks_B"), (20.0, 0.8, 0.8, 0.8),
-                  (0.0, 0.0, 0.0, 0.0), (1e5, 5.0, 5.0, 5.0), build)
+    return Family(("n", *_per_channel("ks", channels)), (20.0, *(0.8,) * count),
+                  (0.0, *(0.0,) * count), (1e5, *(5.0,) * count), build)
 
 
 def _lafortune(lobes: int) -> Family:
@@ -195,75 +212,106 @@ def _lafortune(lobes: int) -> Family:
                   tuple(v for _ in range(lobes) for v in (50.0, 50.0, 1e4)), build)
 
 
-def _kay_kajiya(defaults: Mapping[str, Any]) -> Family:
+def _kay_kajiya(defaults: Mapping[str, Any], channels: Sequence[str]) -> Family:
     """Kay-Kajiya as a fibre-layer BRDF (``KayKajiya`` with ``coverage``): kd and ks per
     channel and the exponent n; the tangent and coverage are the table's (its surface's
     axis, 2 radius / spacing), 1 and +y without them."""
+    count = len(channels)
 
     def build(p: np.ndarray) -> Any:
         theta = np.radians(defaults.get("tangent_theta", 90.0))
         phi = np.radians(defaults.get("tangent_phi", 90.0))
         t = [np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)]
-        models = [KayKajiya(t, p[c], p[3 + c], p[6], defaults.get("coverage", 1.0))
-                  for c in range(3)]
+        models = [KayKajiya(t, p[c], p[count + c], p[2 * count],
+                            defaults.get("coverage", 1.0)) for c in range(count)]
 
-        class Rgb:
+        class PerChannel:
             def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
                 return np.stack([m.eval(wi, wo) for m in models], axis=-1)
 
-        return Rgb()
+        return PerChannel()
 
     kd = defaults.get("kd", 0.05)
-    return Family(("kd_R", "kd_G", "kd_B", "ks_R", "ks_G", "ks_B", "n"),
-                  (kd, kd, kd, 0.5, 0.5, 0.5, 20.0), (0.0,) * 7,
-                  (10.0, 10.0, 10.0, 1e3, 1e3, 1e3, 1e4), build)
+    return Family((*_per_channel("kd", channels), *_per_channel("ks", channels), "n"),
+                  (*(kd,) * count, *(0.5,) * count, 20.0), (0.0,) * (2 * count + 1),
+                  (*(10.0,) * count, *(1e3,) * count, 1e4), build)
 
 
-def _microcylinder(defaults: Mapping[str, Any]) -> Family:
+class _ClothPerChannel:
+    """The microcylinder cloth model in any number of channels, from RGB
+    ``MicrocylinderCloth`` evaluations: f_r is affine in the volume scales, f = S +
+    Σ_families a V A (Sadeghi et al. 2013, eq. 12 of the volume term; ``cloth.eval``), so
+    with grey scales 0 (S), and 1 for one family and 0 for the other (S + a V of that
+    family), the channels' f_r are S + Σ (S + a V − S) A_c."""
+
+    def __init__(self, parts: np.ndarray, albedo: np.ndarray, slope: float,
+                 flat: float) -> None:
+        coverage, eta, gamma_s, gamma_v, kd = parts[0:2], parts[2], parts[3], parts[4], parts[5]
+        self.albedo = np.asarray(albedo, float)                          # (2, C)
+        self.models = [MicrocylinderCloth(coverage, eta, gamma_s, gamma_v, kd, grey,
+                                          slope, flat)
+                       for grey in (np.zeros((2, 1)), [[1.0], [0.0]], [[0.0], [1.0]])]
+
+    def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """f_r, 1/sr: (..., C)."""
+        base, warp, weft = (m.eval(wi, wo)[..., :1] for m in self.models)
+        return base + (warp - base) * self.albedo[0] + (weft - base) * self.albedo[1]
+
+
+def _microcylinder(defaults: Mapping[str, Any], channels: Sequence[str]) -> Family:
     """The microcylinder cloth model (``MicrocylinderCloth``): coverage a_1 (warp), a_2
     (weft), η, γ_s, γ_v (degrees, as the model spec takes them), k_d, and the volume
     scale A per family and channel (up to 5: not an albedo); the tangent curves are the
-    table's weave (``slope``, ``flat``)."""
+    table's weave (``slope``, ``flat``). An RGB table's model is ``MicrocylinderCloth``
+    itself; any other channels' is ``_ClothPerChannel`` (the same f_r, from three RGB
+    evaluations)."""
+    count = len(channels)
 
     def build(p: np.ndarray) -> Any:
-
-        return MicrocylinderCloth(p[0:2], p[2], np.radians(p[3]), np.radians(p[4]), p[5],
-                                  p[6:12].reshape(2, 3), defaults.get("slope", 0.0),
-                                  defaults.get("flat", 0.0))
+        parts = np.array([p[0], p[1], p[2], np.radians(p[3]), np.radians(p[4]), p[5]])
+        albedo = p[6:6 + 2 * count].reshape(2, count)
+        slope, flat = defaults.get("slope", 0.0), defaults.get("flat", 0.0)
+        if tuple(channels) == RGB_NAMES:
+            return MicrocylinderCloth(parts[0:2], *parts[2:6], albedo, slope, flat)
+        return _ClothPerChannel(parts, albedo, slope, flat)
 
     a = min(0.95, defaults.get("yarn_width", 0.8) / defaults.get("spacing", 1.0))
     albedo = [float(np.mean(defaults.get(f"albedo_{part}", 0.5))) for part in
               ("warp", "weft")]
-    return Family(("a_warp", "a_weft", "eta", "gamma_s", "gamma_v", "kd", "A_warp_R",
-                   "A_warp_G", "A_warp_B", "A_weft_R", "A_weft_G", "A_weft_B"),
-                  (a, a, 1.5, math.degrees(0.2), math.degrees(0.4), 0.5, *[albedo[0]] * 3,
-                   *[albedo[1]] * 3),
-                  (0.0, 0.0, 1.01, math.degrees(0.005), math.degrees(0.005), 0.0, *(0.0,) * 6),
-                  (1.0, 1.0, 3.0, math.degrees(1.0), math.degrees(1.5), 1.0, *(5.0,) * 6),
+    return Family(("a_warp", "a_weft", "eta", "gamma_s", "gamma_v", "kd",
+                   *_per_channel("A_warp", channels), *_per_channel("A_weft", channels)),
+                  (a, a, 1.5, math.degrees(0.2), math.degrees(0.4), 0.5,
+                   *[albedo[0]] * count, *[albedo[1]] * count),
+                  (0.0, 0.0, 1.01, math.degrees(0.005), math.degrees(0.005), 0.0,
+                   *(0.0,) * (2 * count)),
+                  (1.0, 1.0, 3.0, math.degrees(1.0), math.degrees(1.5), 1.0,
+                   *(5.0,) * (2 * count)),
                   build)
 
 
 FAMILIES = "beckmann, ggx, oren-nayar, phong, lafortune[:K], kay-kajiya, microcylinder"
 
 
-def family(spec: str, defaults: Mapping[str, Any] | None = None) -> tuple[str, Family]:
+def family(spec: str, defaults: Mapping[str, Any] | None = None,
+           channels: Sequence[str] = RGB_NAMES) -> tuple[str, Family]:
     """``beckmann``, ``ggx``, ``oren-nayar``, ``phong``, ``lafortune[:K]`` (K lobes,
     default 1), ``kay-kajiya`` or ``microcylinder``; ``defaults`` are the table's
     (``compare.model_defaults``: the fibre tangent and coverage, the weave's tangent
-    curves)."""
+    curves), ``channels`` its channel names (``Channels.names``: one colour parameter
+    per channel)."""
 
     defaults = defaults or {}
     name, _, k = spec.partition(":")
     if name in ("beckmann", "ggx"):
-        return name, _microfacet(name)
+        return name, _microfacet(name, channels)
     if name == "oren-nayar":
-        return name, _oren_nayar()
+        return name, _oren_nayar(channels)
     if name == "phong":
-        return name, _phong()
+        return name, _phong(channels)
     if name == "kay-kajiya":
-        return name, _kay_kajiya(defaults)
+        return name, _kay_kajiya(defaults, channels)
     if name == "microcylinder":
-        return name, _microcylinder(defaults)
+        return name, _microcylinder(defaults, channels)
     if name == "lafortune":
         if k and not (k.isdigit() and 1 <= int(k) <= 4):
             raise InputError(f"--model {spec}: lafortune takes 1 to 4 lobes, e.g. "
@@ -297,9 +345,9 @@ def fit_table(table: Any, spec: str, component: str = "total",
     FitResult
         The parameters and their 1σ uncertainties, χ²/dof, the median relative error
         over lobe bins, per incidence the albedo of fit and table, the fitted model and
-        its bin averages (a, b, nt, np, 3).
+        its bin averages (a, b, nt, np, C).
     """
-    name, fam = family(spec, model_defaults(table.meta))
+    name, fam = family(spec, model_defaults(table.meta), table.channels.names)
     component = table.component(component)
     sim, err = table.values[component], table.errors[component]
     eps = EPS_FRACTION * float(np.nanmax(sim))
@@ -321,7 +369,8 @@ def fit_table(table: Any, spec: str, component: str = "total",
 
     def residuals(p: np.ndarray) -> np.ndarray:
         nonlocal evaluations
-        m = bin_averages(fam.build(p), table.axes, SUBSAMPLES)[keep]
+        m = channels_of(bin_averages(fam.build(p), table.axes, SUBSAMPLES),
+                        table.channels.count)[keep]
         r = (np.log(np.maximum(m, 0.0) + eps) - target) / sigma
         evaluations += 1
         if progress is not None:
@@ -347,7 +396,7 @@ def fit_table(table: Any, spec: str, component: str = "total",
                               table.albedo_of[component][k, j].copy())
                  for k, t in enumerate(table.theta_i) for j, p in enumerate(table.phi_i))
     return FitResult(
-        model=spec if name != "lafortune" else f"lafortune:{len(x0) // 3}",
+        model=spec if name != "lafortune" else f"lafortune:{len(x0) // 3}",  # 3 per lobe
         params=dict(zip(fam.names, result.x.tolist(), strict=True)),
         uncertainty=dict(zip(fam.names, unc.tolist(), strict=True)),
         chi2_dof=chi2 / dof, median_rel_error=compared.median_rel_error, per_theta_i=rows,

@@ -125,6 +125,39 @@ def table_component(table: Any, name: str, path: Any) -> str:
                          + ", ".join(table.components)) from None
 
 
+def channels_json(table: Any) -> dict[str, Any]:
+    """What a command's JSON adds about a table's channels: nothing for an RGB table (its
+    per-channel lists are R, G, B), ``channels`` (``Channels.names``: ``400nm``, …) and
+    ``wavelengths`` (nm) for a spectral one, naming the entries of every per-channel
+    list."""
+    channels = table.channels
+    if not channels.spectral:
+        return {}
+    return {"channels": list(channels.names), "wavelengths": list(channels.wavelengths)}
+
+
+def channel_mean(values: Any) -> float:
+    """A per-channel quantity as the one number text reports give: the mean over the
+    channels (R, G, B, or the wavelengths)."""
+    values = list(values)
+    return sum(values) / len(values)
+
+
+def channels_words(table: Any) -> str:
+    """The channels a text report's means are over: ``R, G and B`` or ``the 16
+    wavelengths (400-700 nm)``."""
+    return wavelengths_words(table.channels.wavelengths)
+
+
+def wavelengths_words(nm: Any) -> str:
+    """``channels_words`` of a table's wavelengths (None: RGB)."""
+    if nm is None:
+        return "R, G and B"
+    if len(nm) == 1:
+        return f"the one wavelength ({nm[0]:g} nm)"
+    return f"the {len(nm)} wavelengths ({nm[0]:g}-{nm[-1]:g} nm)"
+
+
 def flag_overrides(args: argparse.Namespace, section: str, *flags: str) -> list[str]:
     """``--set`` strings ``section.<flag>=<value>`` for each of ``flags`` that was given
     (argparse destinations named as the section's recipe keys, e.g. ``--seed N`` gives

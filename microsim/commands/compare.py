@@ -11,6 +11,9 @@ from typing import TYPE_CHECKING, Any
 from microsim.commands.common import (
     add_component_arg,
     add_json_arg,
+    channel_mean,
+    channels_json,
+    channels_words,
     error_model_note,
     print_json,
     progress_display,
@@ -67,13 +70,27 @@ def title_of(table: Any, name: str, component: str) -> str:
 
 
 def model_albedo(row: IncidenceMetrics) -> str:
-    """The model's albedo (mean over RGB), with its standard error if it has one."""
-    value, err = sum(row.albedo_model) / 3, sum(row.albedo_model_err) / 3
+    """The model's albedo (mean over the channels: R, G, B or the wavelengths), with its
+    standard error if it has one."""
+    value, err = channel_mean(row.albedo_model), channel_mean(row.albedo_model_err)
     return f"{value:.4f} ± {err:.4f}" if err > 0 else f"{value:.4f}"
 
 
+def channel_albedos(names: tuple[str, ...], result: Comparison) -> list[str]:
+    """``report.md``'s table of every channel's albedo per incidence, simulated / model
+    (a spectral table's: one column per wavelength)."""
+    lines = ["| θi (°) | φi (°) | " + " | ".join(names) + " |",
+             "| --- | --- | " + " | ".join("---" for _ in names) + " |"]
+    for r in result.per_theta_i:
+        cells = [f"{s:.4f} / {m:.4f}" for s, m in zip(r.albedo_sim, r.albedo_model,
+                                                      strict=True)]
+        lines.append(f"| {r.theta_i:.1f} | {r.phi_i:.1f} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def write_report(out: Path, title: str, model: str, params: str,
-                 component: str, result: Comparison, check: Agreement) -> Path:
+                 component: str, result: Comparison, check: Agreement,
+                 table: Any = None) -> Path:
     """``report.md``: the metrics table and every plot, in one page.
 
     Parameters
@@ -90,6 +107,10 @@ def write_report(out: Path, title: str, model: str, params: str,
     result : Comparison
     check : Agreement
         ``result``'s verdict.
+    table : BRDFTable or None
+        The table compared: a spectral table's report names its wavelengths, says that
+        the albedo columns are means over them and adds every wavelength's albedo (None:
+        R, G, B).
 
     Returns
     -------
@@ -104,15 +125,22 @@ def write_report(out: Path, title: str, model: str, params: str,
              f"{100 * result.median_rel_error:.2f}% (p90 {100 * result.p90_rel_error:.2f}%) "
              f"over lobe bins; {verdict_text(result, check)} (a Monte Carlo "
              "model's own error is part of stderr).", "",
-             error_model_note(result.error_model, result.realisations) + ".", "",
-             "| θi (°) | φi (°) | median err | p90 err | RMS (1/sr) | z mean | z std | "
+             error_model_note(result.error_model, result.realisations) + ".", ""]
+    spectral = table is not None and table.channels.spectral
+    if spectral:
+        names = table.channels.names
+        lines += [f"Channels: {channels_words(table)}, {', '.join(names)}; the albedo "
+                  f"columns are means over {channels_words(table)}, each wavelength's "
+                  "albedo is in the last table; the figures show luminance (CIE Y, D65) "
+                  "and the colour of the albedo's spectrum (sRGB under D65).", ""]
+    lines += ["| θi (°) | φi (°) | median err | p90 err | RMS (1/sr) | z mean | z std | "
              "albedo sim | albedo model | multiple scattering |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in result.per_theta_i:
         lines.append(
             f"| {r.theta_i:.1f} | {r.phi_i:.1f} | {100 * r.median_rel_error:.2f}% | "
             f"{100 * r.p90_rel_error:.2f}% | {r.rms_error:.4g} | {r.z_mean:.2f} | "
-            f"{r.z_std:.2f} | {sum(r.albedo_sim) / 3:.4f} | {model_albedo(r)} | "
+            f"{r.z_std:.2f} | {channel_mean(r.albedo_sim):.4f} | {model_albedo(r)} | "
             f"{100 * r.multiple_scattering_share:.2f}% |")
     captions = {
         "incidence_plane": "Plane of incidence: simulation (±1 standard error) and model.",
@@ -120,8 +148,16 @@ def write_report(out: Path, title: str, model: str, params: str,
         "z_maps": "z = (simulation − model) / standard error over the outgoing bins.",
         "albedo": "Albedo against θi: all orders, single scattering, model.",
     }
+    if spectral:
+        captions["albedo"] = ("Albedo against wavelength per θi (simulation with its ±1 "
+                              "standard error band, model dashed), and its luminance "
+                              "(CIE Y, D65) against θi: all orders, single scattering, "
+                              "model.")
     for key, name in PLOTS.items():
         lines += ["", f"## {captions[key]}", "", f"![{key}]({name})"]
+    if spectral:
+        lines += ["", f"## Albedo per wavelength ({component}): simulated / model", "",
+                  *channel_albedos(table.channels.names, result)]
     path = out / "report.md"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
@@ -157,8 +193,8 @@ def run(args: argparse.Namespace) -> int:
         compared = compare_table(table, model, args.component, show)
     check = agreement(compared)
     result = {"model": name, "params": params, "param_sources": sources,
-              "component": args.component,
-              "table": str(args.table), **compared.to_json(), "agreement": check.to_json()}
+              "component": args.component, "table": str(args.table),
+              **channels_json(table), **compared.to_json(), "agreement": check.to_json()}
     if args.out is not None:
         title = title_of(table, name, args.component)
         incidence_plane(table, compared.model, args.out / PLOTS["incidence_plane"],
@@ -173,17 +209,20 @@ def run(args: argparse.Namespace) -> int:
         result["report"] = str(write_report(args.out, title, name,
                                             parameters_text(name, params, sources),
                                             args.component,
-                                            compared, check))
+                                            compared, check, table))
     if args.json:
         print_json(result)
         return 0
     print(f"{args.component} of {args.table} vs {name}: {parameters_text(name, params, sources)}")
+    if table.channels.spectral:
+        print(f"channels: {channels_words(table)}; the albedos are means over them "
+              "(--json gives each)")
     print(f"{'theta_i':>8} {'phi_i':>6} {'median err':>11} {'p90 err':>8} {'z mean':>7} "
           f"{'z std':>6} {'albedo sim':>11} {'model':>16} {'multiple':>9}")
     for r in compared.per_theta_i:
         print(f"{r.theta_i:8.1f} {r.phi_i:6.1f} {100 * r.median_rel_error:10.2f}% "
               f"{100 * r.p90_rel_error:7.2f}% {r.z_mean:7.2f} {r.z_std:6.2f} "
-              f"{sum(r.albedo_sim) / 3:11.4f} {model_albedo(r):>16} "
+              f"{channel_mean(r.albedo_sim):11.4f} {model_albedo(r):>16} "
               f"{100 * r.multiple_scattering_share:8.2f}%")
     print(f"overall: median relative error against the model "
           f"{100 * compared.median_rel_error:.2f}% (err: |sim - model| / model over lobe "

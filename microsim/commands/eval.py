@@ -9,6 +9,8 @@ from microsim.commands.common import (
     add_component_arg,
     add_direction_args,
     add_json_arg,
+    channels_json,
+    channels_words,
     print_json,
     readable,
     table_component,
@@ -28,7 +30,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "from the bins (interpolated as table.eval does), the spherical "
                     "harmonics, or the wavelets stored by `microsim wavelets TABLE "
                     "--store`. Directions are THETA,PHI in degrees, pointing away from "
-                    "the surface: --wi towards the light, --wo towards the viewer.")
+                    "the surface: --wi towards the light, --wo towards the viewer. Prints "
+                    "one value per channel: R, G, B, or each wavelength of a spectral "
+                    "table (with its luminance, CIE Y under D65).")
     p.add_argument("table", metavar="TABLE", help="table file (.exr)")
     add_direction_args(p)
     p.add_argument("--basis", choices=BASES, default="table",
@@ -56,10 +60,21 @@ def run(args: argparse.Namespace) -> int:
                          "with microsim wavelets TABLE --store TABLE)")
     wi = direction(*np.radians(args.wi))
     wo = direction(*np.radians(args.wo))
-    f = table.eval(wi, wo, component, args.basis).tolist()
+    values = table.eval(wi, wo, component, args.basis)
+    f = values.tolist()
+    spectral = {}
+    if table.channels.spectral:
+        from microsim.tables.luminance import luminance
+
+        spectral = {**channels_json(table), "luminance": float(luminance(values,
+                                                                         table.channels))}
     if args.json:
         print_json({"table": str(args.table), "basis": args.basis, "component": component,
-                    "wi": list(args.wi), "wo": list(args.wo), "f_r": f})
+                    "wi": list(args.wi), "wo": list(args.wo), "f_r": f, **spectral})
+    elif spectral:
+        print(f"{args.table} ({component}, {args.basis}): f_r = {readable(f, 6)} 1/sr at "
+              f"{channels_words(table)}; luminance (CIE Y, D65) "
+              f"{readable(spectral['luminance'], 6)} 1/sr")
     else:
         print(f"{args.table} ({component}, {args.basis}): f_r = {readable(f, 6)} 1/sr")
     return 0

@@ -11,6 +11,9 @@ from typing import TYPE_CHECKING, Any
 from microsim.commands.common import (
     add_component_arg,
     add_json_arg,
+    channel_mean,
+    channels_json,
+    channels_words,
     error_model_note,
     print_json,
     table_component,
@@ -33,7 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "relative error and the albedo of fit and table per incidence.")
     p.add_argument("table", metavar="TABLE", help="table file (.exr)")
     p.add_argument("--model", required=True, metavar="NAME",
-                   help="beckmann, ggx (alpha and Schlick F0 per channel), oren-nayar "
+                   help="beckmann, ggx (alpha and Schlick F0 per channel: R, G, B, or "
+                        "each wavelength of a spectral table), oren-nayar "
                         "(sigma in radians, albedo per channel), phong (n, ks per channel), "
                         "lafortune[:K] (K isotropic lobes: Cxy, Cz, n), kay-kajiya (kd, ks "
                         "per channel, n; the fibre axis and coverage from the table), "
@@ -89,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     out: dict[str, Any] = {**result.to_json(), "error_model": table.error_model,
                            "realisations": int(table.realisations.max()),
                            "alpha_realised": None if alpha is None else alpha.to_json(),
-                           "units": fit_units(result.model)}
+                           "units": fit_units(result.model), **channels_json(table)}
     if args.plot is not None:
         from microsim.commands.compare import title_of
         from microsim.plots import incidence_plane
@@ -111,8 +115,10 @@ def run(args: argparse.Namespace) -> int:
           f"{100 * result.median_rel_error:.2f}%")
     for row in result.per_theta_i:
         print(f"  theta_i {row.theta_i:5.1f}, phi_i {row.phi_i:5.1f}: albedo fit "
-              f"{sum(row.albedo_fit.tolist()) / 3:.4f}, "
-              f"table {sum(row.albedo_table.tolist()) / 3:.4f}")
+              f"{channel_mean(row.albedo_fit.tolist()):.4f}, "
+              f"table {channel_mean(row.albedo_table.tolist()):.4f}")
+    if table.channels.spectral:
+        print(f"  (albedos: means over {channels_words(table)}; --json gives each)")
     if out["alpha_realised"] is not None:
         print(f"  the surface's realised alpha (pooled over its tiles): "
               f"{out['alpha_realised']}")

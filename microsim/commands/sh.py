@@ -82,13 +82,14 @@ def run(args: argparse.Namespace) -> int:
         writable_file(args.plot, "--plot", PLOT_SUFFIXES)
     if args.matrix is not None and max(args.orders) > MATRIX_MAX_ORDER:
         raise InputError(f"--matrix: built up to order {MATRIX_MAX_ORDER} (a dense "
-                         f"(L+1)^4 x 3 array); the highest of --orders is {max(args.orders)}")
+                         f"(L+1)^4 x {table.channels.count} array); the highest of --orders "
+                         f"is {max(args.orders)}")
     rows = order_errors(table, args.orders, args.window, args.component)
     if args.matrix is not None:
         from microsim.tables.sh_matrix import brdf_matrix, write_matrix
 
         matrix, asymmetry = brdf_matrix(table, max(args.orders), args.component)
-        write_matrix(args.matrix, matrix, asymmetry)
+        write_matrix(args.matrix, matrix, asymmetry, table.channels.wavelengths)
         # the row of the matrix's order (the highest) carries it
         rows[-1].update(matrix=str(args.matrix), matrix_asymmetry=asymmetry.tolist())
     if args.plot is not None:
@@ -108,6 +109,12 @@ def run(args: argparse.Namespace) -> int:
               f"{100 * r['rel_l2_error_lobe']:7.2f}% "
               f"{100 * r['rel_l2_error_unwindowed']:9.2f}% {100 * r['sh_noise']:7.2f}% "
               f"{r['min_value']:10.4g} {r['min_relative']:8.3f} {r['bytes']:9d}")
+    if table.channels.spectral:
+        last = rows[-1]
+        print(f"per wavelength at order {last['order']} (hemisphere, lobe): " + ", ".join(
+            f"{name} {100 * e:.2f}% {100 * f:.2f}%" for name, e, f in zip(
+                last["channels"], last["rel_l2_error_per_channel"],
+                last["rel_l2_error_lobe_per_channel"], strict=True)))
     if args.plot is not None:
         print(f"wrote {args.plot}")
     if args.matrix is not None:

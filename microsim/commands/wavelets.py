@@ -9,6 +9,7 @@ from pathlib import Path
 from microsim.commands.common import (
     add_component_arg,
     add_json_arg,
+    channels_json,
     finite_float,
     positive_int,
     print_json,
@@ -37,7 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "take its orthonormal wavelet transform (PyWavelets, periodization), "
                     "and keep the largest coefficients; the table's spherical harmonics "
                     "are kept by magnitude alike. Reports the median relative error on "
-                    "the lobe bins against the kept coefficients per incidence and colour, "
+                    "the lobe bins against the kept coefficients per incidence and channel "
+                    "(colour, or wavelength of a spectral table), "
                     "and their bytes, for both bases. --store writes the wavelets into a "
                     "table file so that eval reads them. See docs/table-format.md.")
     p.add_argument("table", metavar="TABLE", help="table file (.exr)")
@@ -94,18 +96,21 @@ def run(args: argparse.Namespace) -> int:
         target = args.target_error if args.target_error is not None else (
             None if args.keep is not None else DEFAULT_TARGET)
         table.wavelets = wavelets.encode(table.values, table.bins, args.resolution,
-                                         args.wavelet, target_error=target, keep=args.keep)
+                                         args.wavelet, target_error=target, keep=args.keep,
+                                         channels=table.channels.names)
         microsim.write_table(table, args.store)
         kept = {c: table.wavelets.kept(c) for c in table.components}
         result["stored"] = {"path": str(args.store),
                             "target_error": table.wavelets.target_error,
                             "keep": table.wavelets.keep,
                             "kept": {c: k.tolist() for c, k in kept.items()}}
+    result.update(channels_json(table))
     if args.json:
         print_json(result)
         return 0
+    each = "wavelength" if table.channels.spectral else "colour"
     print(f"{args.table} ({result['component']}): median relative error on the lobe bins "
-          f"against coefficients kept per incidence and colour; harmonics of order "
+          f"against coefficients kept per incidence and {each}; harmonics of order "
           f"{result['sh_order']}, {result['wavelet_name']} wavelets on {args.resolution}² "
           f"equal-area pixels ({result['levels']} levels)")
     for name in ("sh", "wavelet"):
@@ -129,5 +134,5 @@ def run(args: argparse.Namespace) -> int:
     if args.store is not None:
         print(f"wrote {args.store}: wavelets of every component, at most "
               f"{max(int(k.max()) for k in kept.values())} coefficients per incidence and "
-              "colour")
+              f"{each}")
     return 0
