@@ -345,6 +345,6 @@ def _finish(folder: Path, manifest: Manifest, point: Point, parts: list[Measurem
         trace_s=sum(p.trace_time for p in parts),
         median_rel_stderr=_finite(table.median_rel_stderr("total")),
         error_model=table.error_model, realisations=int(table.realisations.max()),
-        albedo=table.albedo.reshape(-1, 3).mean(axis=1).tolist(),
-        albedo_err=table.albedo_err.reshape(-1, 3).mean(axis=1).tolist(),
+        albedo=table.albedo.reshape(-1, table.channels.count).mean(axis=1).tolist(),
+        albedo_err=table.albedo_err.reshape(-1, table.channels.count).mean(axis=1).tolist(),
         warnings=[*warnings, *table.meta.warnings])

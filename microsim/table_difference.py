@@ -17,7 +17,7 @@ def table_difference(a: Any, b: Any, component: str = "total") -> list[dict[str,
     Parameters
     ----------
     a, b : BRDFTable
-        Same incident directions and bins.
+        Same incident directions, bins and channels (R, G, B, or the same wavelengths).
     component : str
         A component of the table (``"total"``, ``"single"``, ``"order2"``, …).
 
@@ -25,22 +25,26 @@ def table_difference(a: Any, b: Any, component: str = "total") -> list[dict[str,
     -------
     list of dict
         Per incident direction: ``theta_i``, ``phi_i`` (degrees); ``albedo_a``,
-        ``albedo_b``, ``albedo_difference`` (a − b) and ``albedo_difference_err`` (3,);
-        ``l1`` = Σ |f_a − f_b| Ω / Σ f_b Ω, the share of b's reflected energy that a
-        places differently (mean over RGB); ``l1_noise``, the L1 noise alone gives in
-        expectation (Σ √(2/π) √(σ_a² + σ_b²) Ω over the same sum: E|N(0, σ²)| =
-        σ √(2/π)); ``z_rms``, the RMS of (f_a − f_b) / √(σ_a² + σ_b²) over bins with a
-        defined error (1 for noise alone).
+        ``albedo_b``, ``albedo_difference`` (a − b) and ``albedo_difference_err`` (C,
+        each: one per channel); ``l1`` = Σ |f_a − f_b| Ω / Σ f_b Ω, the share of b's
+        reflected energy that a places differently (mean over the channels);
+        ``l1_noise``, the L1 noise alone gives in expectation (Σ √(2/π) √(σ_a² + σ_b²) Ω
+        over the same sum: E|N(0, σ²)| = σ √(2/π)); ``z_rms``, the RMS of
+        (f_a − f_b) / √(σ_a² + σ_b²) over bins with a defined error (1 for noise
+        alone).
 
     Raises
     ------
     ValueError
-        If the axes or bins differ.
+        If the axes, bins or channels differ.
     """
     same = (a.bins.shape == b.bins.shape and a.isotropic == b.isotropic
             and np.allclose(a.theta_i, b.theta_i) and np.allclose(a.phi_i, b.phi_i))
     if not same:
         raise ValueError("tables with different incidences or bins do not compare")
+    if a.channels != b.channels:
+        raise ValueError(f"tables of different channels do not compare: "
+                         f"{', '.join(a.channels.names)} and {', '.join(b.channels.names)}")
     omega = a.bins.projected_solid_angle[..., None]
     rows = []
     for i, theta in enumerate(a.theta_i):

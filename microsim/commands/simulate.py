@@ -18,12 +18,14 @@ from microsim.commands.common import (
     add_recipe_args,
     add_seed_arg,
     add_threads_arg,
+    channels_json,
     error_model_note,
     flag_overrides,
     positive_int,
     print_json,
     progress_display,
     roughness_text,
+    wavelengths_words,
 )
 from microsim.files import writable_file
 from microsim.memory import check_memory
@@ -124,8 +126,10 @@ def progress_bar(enabled: bool) -> Iterator[Callable[[Progress], None] | None]:
 
 
 def summary(table: Any, output: Path | None) -> dict[str, Any]:
-    """The numbers ``simulate --json`` prints."""
+    """The numbers ``simulate --json`` prints (a spectral table's with its ``channels`` and
+    ``wavelengths``, which its per-channel lists follow)."""
     meta = table.meta
+    count = table.channels.count
     return {
         "output": None if output is None else str(output),
         "theta_i": [d.theta_i for d in meta.directions],
@@ -135,14 +139,15 @@ def summary(table: Any, output: Path | None) -> dict[str, Any]:
         "segments": meta.segments,
         "wall_s": meta.timing.wall_time,
         "segments_per_s": meta.timing.segments_per_second,
-        "albedo": table.albedo.reshape(-1, 3),
-        "albedo_err": table.albedo_err.reshape(-1, 3),
-        "single_albedo": table.albedo_of["single"].reshape(-1, 3),
+        "albedo": table.albedo.reshape(-1, count),
+        "albedo_err": table.albedo_err.reshape(-1, count),
+        "single_albedo": table.albedo_of["single"].reshape(-1, count),
         "orders": table.orders,
-        "order_albedo": {c: table.albedo_of[c].reshape(-1, 3) for c in table.components[1:]},
-        "order_albedo_err": {c: table.albedo_err_of[c].reshape(-1, 3)
+        "order_albedo": {c: table.albedo_of[c].reshape(-1, count)
+                         for c in table.components[1:]},
+        "order_albedo_err": {c: table.albedo_err_of[c].reshape(-1, count)
                              for c in table.components[1:]},
-        "lost_energy": table.lost_energy.reshape(-1, 3),
+        "lost_energy": table.lost_energy.reshape(-1, count),
         "median_rel_stderr": table.median_rel_stderr("total"),
         "sh_order": table.sh_order,
         "stop": [d.stop for d in meta.directions],
@@ -151,6 +156,7 @@ def summary(table: Any, output: Path | None) -> dict[str, Any]:
         "error_model": table.error_model,
         "realisations": int(table.realisations.max()),
         "surface": meta.surface.to_json(),
+        **channels_json(table),
     }
 
 
@@ -168,8 +174,9 @@ def print_summary(s: dict[str, Any]) -> None:
               + "".join(f"{v[k].mean():9.5f}" for v in orders.values())
               + f" {s['lost_energy'][k].mean():9.2e} {_percent(s['ray_share'][k]):>9}  "
               f"{s['stop'][k]}")
-    print("(tiles: surface realisations averaged; albedo, orders and lost: means over R, "
-          "G and B, --json gives each; ray share: the rays' part of the variance of the "
+    over = wavelengths_words(s.get("wavelengths"))
+    print(f"(tiles: surface realisations averaged; albedo, orders and lost: means over "
+          f"{over}, --json gives each; ray share: the rays' part of the variance of the "
           "lobe bins, the rest is the spread between tiles, above 100% where the tiles "
           "spread less than their rays' noise predicts, a ratio of two noisy variances)")
     roughness = roughness_text(SurfaceFacts.from_json(s["surface"]))

@@ -33,10 +33,11 @@ def from_sums(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
               sums_sq: Mapping[str, np.ndarray], lost: np.ndarray,
               meta: TableMeta, *,
               sh_sums: Mapping[str, np.ndarray] | None = None,
-              sh_sums_sq: Mapping[str, np.ndarray] | None = None) -> BRDFTable:
+              sh_sums_sq: Mapping[str, np.ndarray] | None = None,
+              channels: Channels = RGB) -> BRDFTable:
     """The estimator of one realisation (one tile): ``from_realisations`` with K = 1,
-    its arrays without the realisation axis (``rays`` (a, b), ``sums`` (a, b, m, 3),
-    ``lost`` (a, b, 3), ...)."""
+    its arrays without the realisation axis (``rays`` (a, b), ``sums`` (a, b, m, C),
+    ``lost`` (a, b, C), ...)."""
 
     def one(x: Mapping[str, np.ndarray] | None) -> dict[str, np.ndarray] | None:
         return None if x is None else {c: np.asarray(v)[None] for c, v in x.items()}
@@ -44,7 +45,7 @@ def from_sums(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
     return from_realisations(bins, theta_i, phi_i, isotropic,
                                  np.asarray(rays)[None], one(sums), one(sums_sq),
                                  np.asarray(lost)[None], meta, sh_sums=one(sh_sums),
-                                 sh_sums_sq=one(sh_sums_sq))
+                                 sh_sums_sq=one(sh_sums_sq), channels=channels)
 
 
 class EnsembleSums:
@@ -242,7 +243,8 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
                       sums: Mapping[str, np.ndarray], sums_sq: Mapping[str, np.ndarray],
                       lost: np.ndarray, meta: TableMeta, *,
                       sh_sums: Mapping[str, np.ndarray] | None = None,
-                      sh_sums_sq: Mapping[str, np.ndarray] | None = None) -> BRDFTable:
+                      sh_sums_sq: Mapping[str, np.ndarray] | None = None,
+                      channels: Channels = RGB) -> BRDFTable:
     """``from_ensemble`` of per-realisation sums, which the table keeps (tables of the
     same realisations and independent rays then merge: ``merge``).
 
@@ -262,6 +264,8 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
         Σ w Y_k(ωo) of the escaping rays, per component.
     sh_sums_sq : dict of str to (K, a, b, (2L + 1)², 3) float, or None
         Σ w² Y_K(ωo) to order 2L.
+    channels : Channels
+        The channels of the arrays' last axis (RGB: 3; one per wavelength).
 
     Returns
     -------
@@ -280,8 +284,8 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
                          f">= 0, each direction traced, got shape {rays.shape}")
     components = components_of(sums)
     sums, sums_sq = by_component(sums, components), by_component(sums_sq, components)
-    channels = np.shape(sums["total"])[-1]
-    expected = rays.shape + (bins.size, channels)
+    count = np.shape(sums["total"])[-1]
+    expected = rays.shape + (bins.size, count)
     for c in components:
         if not np.shape(sums[c]) == np.shape(sums_sq[c]) == expected:
             raise ValueError(f"sums[{c!r}] and sums_sq[{c!r}] must have shape {expected}")
@@ -291,13 +295,13 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
         sh_sums_sq = by_component(sh_sums_sq, components)
         order = sh.order_of(np.shape(sh_sums["total"])[-2])
         for c in components:
-            if np.shape(sh_sums[c]) != rays.shape + (sh.size(order), channels) or np.shape(
-                    sh_sums_sq[c]) != rays.shape + (sh.size(2 * order), channels):
+            if np.shape(sh_sums[c]) != rays.shape + (sh.size(order), count) or np.shape(
+                    sh_sums_sq[c]) != rays.shape + (sh.size(2 * order), count):
                 raise ValueError(f"sh_sums[{c!r}] and sh_sums_sq[{c!r}] must have shapes "
                                  f"(K, a, b, (L+1)^2, C) and (K, a, b, (2L+1)^2, C)")
     else:
         sh_sums = sh_sums_sq = None
-    ensemble = EnsembleSums((a, b), components, bins.size, order, channels)
+    ensemble = EnsembleSums((a, b), components, bins.size, order, count)
     lost = np.asarray(lost, float)
 
     def rows(x: Mapping[str, np.ndarray] | None, r: int, at: tuple[int, int]
@@ -314,7 +318,7 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
            "sums": {c: np.asarray(sums[c], float) for c in components},
            "sums_sq": {c: np.asarray(sums_sq[c], float) for c in components},
            "sh_sums": sh_sums, "sh_sums_sq": sh_sums_sq}
-    return from_ensemble(bins, theta_i, phi_i, isotropic, ensemble, meta, raw)
+    return from_ensemble(bins, theta_i, phi_i, isotropic, ensemble, meta, raw, channels)
 
 
 def merge(self: BRDFTable, other: BRDFTable) -> BRDFTable:
@@ -325,7 +329,7 @@ def merge(self: BRDFTable, other: BRDFTable) -> BRDFTable:
     ------
     ValueError
         If either is not a fresh estimate (a read table holds no raw sums), or their axes,
-        realisations or components differ.
+        realisations, components or channels differ.
     """
     if self.sums is None or other.sums is None:
         raise ValueError("only tables holding raw sums (fresh estimates) merge")
@@ -338,6 +342,10 @@ def merge(self: BRDFTable, other: BRDFTable) -> BRDFTable:
     if self.components != other.components:
         raise ValueError(f"tables with different components do not merge: "
                          f"{self.components} and {other.components}")
+    if self.channels != other.channels:
+        raise ValueError(f"tables of different channels do not merge: "
+                         f"{', '.join(self.channels.names)} and "
+                         f"{', '.join(other.channels.names)}")
     components = self.components
     harmonics = (self.sh_sums is not None and other.sh_sums is not None
                  and self.sh_order == other.sh_order)
@@ -352,4 +360,4 @@ def merge(self: BRDFTable, other: BRDFTable) -> BRDFTable:
         {c: self.sums[c] + other.sums[c] for c in components},
         {c: self.sums_sq[c] + other.sums_sq[c] for c in components},
         self.lost + other.lost, self.meta, sh_sums=merged(self.sh_sums, other.sh_sums),
-        sh_sums_sq=merged(self.sh_sums_sq, other.sh_sums_sq))
+        sh_sums_sq=merged(self.sh_sums_sq, other.sh_sums_sq), channels=self.channels)
