@@ -12,9 +12,9 @@ where f_r grows as 1/cos θo towards the horizon, as fibre layers seen edge-on d
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import replace
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -22,6 +22,7 @@ from microsim.analytic.brdf import as_rgb
 from microsim.comparison import Comparison, IncidenceMetrics
 from microsim.errors import InputError
 from microsim.geometry import direction
+from microsim.spectra.channels import Channels
 from microsim.surfaces.facts import SurfaceFacts, TileFacts
 from microsim.table_models import microfacet_model, model_defaults
 from microsim.tables.binning import HemisphereBins
@@ -212,6 +213,41 @@ def channels_of(values: np.ndarray, count: int) -> np.ndarray:
                      "number, or leave them out to take the table's own per channel")
 
 
+RGB_ONLY_MODELS = ("cylinders", "velvet-sparse", "microcylinder")
+"""Models that compute R, G and B only (``microsim.analytic.cylinders``,
+``microsim.analytic.cloth``): their colour parameters take one or three values."""
+
+
+def check_model_channels(spec: str, defaults: Mapping[str, Any] | None,
+                         channels: Channels, flag: str = "--model") -> None:
+    """Refuse, before it is built, an RGB-only model (``RGB_ONLY_MODELS``) whose colour
+    parameters (the spec's, else the table's ``defaults``) differ between the
+    wavelengths of a spectral table; the same model with grey parameters (one value)
+    compares with every wavelength.
+
+    Raises
+    ------
+    InputError
+        Naming the flag, the parameters and what they may be.
+    """
+    from microsim.analytic.registry import MODELS, split_spec
+
+    name, given = split_spec(spec, "model")
+    if not channels.spectral or name not in RGB_ONLY_MODELS:
+        return
+    keys = MODELS[name].params
+    merged = {k: v for k, v in (defaults or {}).items() if k in keys}
+    merged.update(getattr(defaults, "for_model", {}).get(name, {}))
+    merged.update(given)
+    coloured = [k for k, key in keys.items() if key.kind == "channels" and k in merged
+                and np.unique(np.ravel(np.asarray(merged[k], float))).size > 1]
+    if coloured:
+        raise InputError(f"{flag} {spec}: the {name} model computes R, G and B only, and "
+                         f"{', '.join(coloured)} differ between this table's "
+                         f"{channels.count} wavelengths; give each one number (e.g. "
+                         f"{name}:{coloured[0]}=0.5), the same in every wavelength")
+
+
 def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
                    model_err: np.ndarray | None = None, dof: np.ndarray | float = np.inf
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -319,7 +355,8 @@ def _metrics(sim: np.ndarray, err: np.ndarray, model: np.ndarray, proj: np.ndarr
 
 def model_table(model: Model, theta_i: np.ndarray, bins: HemisphereBins,
                 sigma_rel: float = 0.0, rng: np.random.Generator | None = None,
-                meta: TableMeta | None = None, phi_i: np.ndarray | None = None) -> BRDFTable:
+                meta: TableMeta | None = None, phi_i: np.ndarray | None = None,
+                channels: Channels | None = None) -> BRDFTable:
     """A table whose bins hold an analytic model's bin averages: a noiseless reference,
     or one with Gaussian noise of known relative standard deviation.
 
@@ -345,6 +382,9 @@ def model_table(model: Model, theta_i: np.ndarray, bins: HemisphereBins,
         None: an isotropic table (incidences at φi = 0, outgoing azimuths relative to it).
         Otherwise the incident azimuths (radians, increasing, within [0, 2π)) of an
         anisotropic table with absolute outgoing azimuths.
+    channels : Channels or None
+        The table's channels (default: RGB); a grey model fills each of them, a model of
+        per-channel values must give one per channel (``channels_of``).
 
     Returns
     -------
@@ -355,6 +395,8 @@ def model_table(model: Model, theta_i: np.ndarray, bins: HemisphereBins,
     theta_i = np.asarray(theta_i, float)
     azimuths = np.zeros(1) if phi_i is None else np.asarray(phi_i, float)
     avg = bin_averages(model, Axes(bins, theta_i, azimuths, phi_i is None))
+    if channels is not None:
+        avg = np.array(channels_of(avg, channels.count))
     err = sigma_rel * avg + 1e-12
     values = np.maximum(avg + rng.standard_normal(avg.shape) * err, 0.0) if sigma_rel else avg
     albedo = (values * bins.projected_solid_angle[None, None, :, :, None]).sum(axis=(2, 3))
@@ -363,7 +405,8 @@ def model_table(model: Model, theta_i: np.ndarray, bins: HemisphereBins,
     return BRDFTable(bins, theta_i, azimuths, phi_i is None, {c: values for c in both},
                      {c: err for c in both}, np.full(avg.shape[:2], 10**6),
                      {c: albedo for c in both}, {c: zeros for c in both},
-                     zeros, meta or TableMeta(surface=SurfaceFacts(TileFacts(kind="analytic"))))
+                     zeros, meta or TableMeta(surface=SurfaceFacts(TileFacts(kind="analytic"))),
+                     **({} if channels is None else {"channels": channels}))
 
 
 def model_for(model: Model, component: str) -> Model:

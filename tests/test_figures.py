@@ -67,6 +67,38 @@ def synthetic_table(n: int, path: Path) -> Path:
     return path
 
 
+NM5 = (400.0, 475.0, 550.0, 625.0, 700.0)
+"""The wavelengths of the spectral synthetic table, nm."""
+
+
+def spectral_synthetic_table(n: int, path: Path) -> Path:
+    """``synthetic_table`` of a spectral gold table: Beckmann α = 0.3 with the Fresnel of
+    the shipped gold indices at five wavelengths (400-700 nm), one channel each."""
+    import microsim
+    from microsim.analytic.registry import parse_model_spec
+    from microsim.compare import model_table
+    from microsim.spectra import measured
+    from microsim.spectra.channels import Channels
+    from microsim.tables import sh
+    from microsim.tables.binning import HemisphereBins
+
+    eta, k = (np.round(x.at(NM5), 4).tolist() for x in measured.conductor("Au"))
+    _, _, model = parse_model_spec(f"beckmann:alpha=0.3,eta={eta},k={k}".replace(" ", ""))
+    theta = np.radians(np.linspace(0.0, 87.0, n) if n > 1 else [30.0])
+    bins = HemisphereBins(8, 16)
+    table = model_table(model, theta, bins, 0.05, np.random.default_rng(n),
+                        channels=Channels(NM5))
+    table.rays = np.arange(1, n + 1)[:, None] * 200_000
+    t, p = np.meshgrid(bins.theta_centers, bins.phi_centers, indexing="ij")
+    weights = bins.projected_solid_angle.ravel()
+    y = sh.basis(4, np.cos(t).ravel(), p.ravel()) * weights[:, None]  # (bins, 25)
+    table.sh = {c: np.einsum("bk,aqbc->aqkc", y, v.reshape(*v.shape[:2], -1, len(NM5)))
+                for c, v in table.values.items()}
+    table.sh_err = {c: 0.05 * np.abs(v) for c, v in table.sh.items()}
+    microsim.write_table(table, path)
+    return path
+
+
 def assert_clean(drawn: list[dict], count: int) -> None:
     assert len(drawn) == count, len(drawn)
     for figure in drawn:
@@ -102,6 +134,27 @@ def test_fit_and_sh_figures(cli, tmp_path, figures, n):
     assert code == 0, err
     assert_clean(figures, 2)
     assert "fit: ggx" in figures[0]["texts"]
+
+
+@pytest.mark.parametrize("n", INCIDENCES)
+def test_spectral_figures(cli, tmp_path, figures, n):
+    """A spectral table's figures (compare --out and sh --plot; fit --plot draws
+    compare's plane of incidence) pass the lint too and say what they show: luminance as
+    CIE Y under D65, the strip's sRGB of the spectrum, the albedo per wavelength beside
+    the luminance against θi."""
+    table = spectral_synthetic_table(n, tmp_path / "t.exr")
+    code, _, err = cli("compare", str(table), "--model", "beckmann", "--out",
+                       str(tmp_path / "out"))
+    assert code == 0, err
+    code, _, err = cli("sh", str(table), "--plot", str(tmp_path / "s.png"), "--json")
+    assert code == 0, err
+    assert_clean(figures, 5)
+    texts = [" ".join(f["texts"]) for f in figures]
+    assert all("luminance (CIE Y, D65)" in t for t in texts), texts
+    strips = [texts[k] for k in (0, 1, 3)]      # plane, half-difference, albedo
+    assert all("sRGB of its spectrum under D65" in t for t in strips), strips
+    assert "albedo per wavelength" in texts[3] and "wavelength (nm)" in texts[3]
+    assert "Rec. 709" not in " ".join(texts)
 
 
 def test_measure_and_demo_figures(cli, tmp_path, figures):

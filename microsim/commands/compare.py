@@ -168,7 +168,7 @@ def run(args: argparse.Namespace) -> int:
     import microsim
     from microsim.agreement import agreement, verdict_text
     from microsim.analytic.registry import parameter_sources, parameters_text, parse_model_spec
-    from microsim.compare import compare_table, model_for
+    from microsim.compare import check_model_channels, compare_table, model_for
     from microsim.plots import albedo_plot, half_difference_slices, incidence_plane, z_maps
     from microsim.table_models import table_defaults
 
@@ -177,6 +177,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"warning: {args.table}: {warning}", file=sys.stderr)
     args.component = table_component(table, args.component, args.table)
     defaults = table_defaults(table, args.component)
+    check_model_channels(args.model, defaults, table.channels)
     name, params, model = parse_model_spec(args.model, defaults)
     sources = parameter_sources(args.model, params, defaults)
     if args.out is not None:

@@ -119,26 +119,30 @@ def view_table(args: argparse.Namespace, source: Path) -> int:
     title = f"{source.name}: theta_i = {theta:g} deg"
     if not table.isotropic:
         title += f", phi_i = {phi:g} deg"
-    if table.channels.spectral:
-        nm = table.channels.wavelengths
-        title += (f" (luminance, CIE Y under D65, of {len(nm)} wavelengths "
-                  f"{nm[0]:g}-{nm[-1]:g} nm)")
+
     note = incidence_note([math.degrees(t) for t in table.theta_i], theta)
     if note:
         title += f" ({note})"
         print(f"warning: --theta-i {theta:g}: {note}", file=sys.stderr)
     if args.model is not None:
         from microsim.analytic.registry import parse_model_spec
-        from microsim.compare import singular_albedo
+        from microsim.compare import check_model_channels, singular_albedo
         from microsim.geometry import direction
         from microsim.table_models import model_defaults
 
-        name, _, model = parse_model_spec(args.model, model_defaults(table.meta))
+        defaults = model_defaults(table.meta)
+        check_model_channels(args.model, defaults, table.channels)
+        name, _, model = parse_model_spec(args.model, defaults)
         if singular_albedo(model, direction(*np.radians([theta, phi]))) > 0:
             raise InputError(f"--model {args.model}: its specular cone is a delta, which a "
                              "lobe has no value for; compare it over the table's bins "
                              "(microsim compare)")
         title += f" (wireframe: {name}; colour: relative error against it)"
+    if table.channels.spectral:
+        nm = table.channels.wavelengths
+        # a second line: the first is already as wide as the window holds
+        title += (f"\nf_r: luminance (CIE Y, D65) of {len(nm)} wavelengths, "
+                  f"{nm[0]:g}-{nm[-1]:g} nm")
     show_lobe(table, float(np.radians(theta)), model, args.screenshot, args.radius,
               args.log, title=title, phi_i=float(np.radians(phi)))
     if args.screenshot is not None:
