@@ -45,6 +45,7 @@ def size(text: str) -> tuple[int, int]:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``render`` command."""
+    from microsim.render.backend import VARIANTS
     from microsim.render.scene import DEFAULT_LIGHTS, LIGHTS
 
     p = sub.add_parser(
@@ -89,8 +90,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "once for every table, or once per table in their order")
     p.add_argument("--seed", type=nonnegative_int, default=0,
                    help="sampler seed (default 0)")
-    p.add_argument("--variant", default="scalar_rgb", choices=("scalar_rgb", "llvm_ad_rgb"),
-                   help="Mitsuba variant (default scalar_rgb; llvm_ad_rgb needs LLVM >= 16)")
+    p.add_argument("--variant", default="scalar_rgb", choices=VARIANTS,
+                   help="Mitsuba variant (default scalar_rgb; llvm_* need LLVM >= 16). "
+                        "*_spectral render wavelengths: a spectral table (and its model) "
+                        "per wavelength, an RGB one upsampled as Mitsuba upsamples RGB; an "
+                        "RGB variant renders a spectral table's linear sRGB")
     p.add_argument("--live", action="store_true",
                    help="render RECIPE's microgeometry itself, each BSDF sample a path "
                         "traced through its tile, beside the render of its table and the "
@@ -113,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
     import microsim
     from microsim.analytic.registry import parameter_sources, parameters_text, parse_model_spec
     from microsim.commands.common import print_json
-    from microsim.render import backend, bsdfs, figure, objects, scene
+    from microsim.render import backend, bsdfs, figure, objects, scene, spectral
     from microsim.table_models import table_defaults
 
     writable_file(args.output, "--output", (".png",))
@@ -138,6 +142,9 @@ def run(args: argparse.Namespace) -> int:
     specs = [specs[min(k, len(specs) - 1)] for k in range(len(tables))] if specs else []
     defaults = [table_defaults(t, c) for t, c in zip(tables, components, strict=True)]
     models = [parse_model_spec(spec, d) for spec, d in zip(specs, defaults, strict=False)]
+    for k, (_, _, model) in enumerate(models):
+        bsdfs.model_channels(model, tables[k].channels.wavelengths,
+                             f"--model {specs[k]} (for {args.tables[k]})")
     mi = backend.load(args.variant)
     camera = scene.Camera(args.size[0], args.size[1], args.camera[0], args.camera[1],
                           args.fov[0])
@@ -151,7 +158,10 @@ def run(args: argparse.Namespace) -> int:
             image = scene.render(mi, surface, bsdf, camera, lights, args.spp, args.seed,
                                  track(f"rendering {label}"))
             entry: dict[str, Any] = {"table": str(path), "seconds": image.seconds,
-                                     "noise": _noise(image)}
+                                     "noise": _noise(image),
+                                     "channels": _channels(table),
+                                     "rendered_as": spectral.conversion(
+                                         mi, table.channels.wavelengths)}
             panels = [("table" if models else label, figure.display(image))]
             if models:
                 name, params, model = models[k]
@@ -159,7 +169,8 @@ def run(args: argparse.Namespace) -> int:
                 # there the model is tabulated like a table (docs/render.md)
                 tabulate = Path(tmp) / f"model{k}.bsdf" if args.variant.startswith(
                     "scalar") else None
-                bsdf, how = bsdfs.model_bsdf(mi, model, args.rotate, tabulate)
+                bsdf, how = bsdfs.model_bsdf(mi, model, args.rotate, tabulate,
+                                             table.channels.wavelengths)
                 other = scene.render(mi, surface, bsdf, camera, lights, args.spp,
                                      args.seed + 1, track(f"rendering {name}"))
                 diff = figure.difference(image, other)
@@ -183,7 +194,8 @@ def run(args: argparse.Namespace) -> int:
         print_json(result)
         return 0
     for entry in report:
-        line = (f"{entry['table']}: {entry['seconds']:.2f} s, per-pixel noise "
+        line = (f"{entry['table']}: {entry['channels']} as {entry['rendered_as']}, "
+                f"{entry['seconds']:.2f} s, per-pixel noise "
                 f"{100 * entry['noise']:.1f}% (median)")
         if "model" in entry:
             d = entry["difference"]
@@ -219,6 +231,13 @@ def run_live(args: argparse.Namespace) -> int:
         raise InputError(f"--table {args.table}: no such file")
     resolved = recipe.load(args.tables[0], [*args.overrides, *flag_overrides(
         args, "simulation", "realisations")])
+    if args.variant in backend.SPECTRAL:
+        raise InputError(f"--variant {args.variant}: not with --live (the live surface "
+                         "traces R, G, B: use scalar_rgb or llvm_ad_rgb)")
+    if resolved.table.channels.spectral:
+        raise InputError(f"--live: {args.tables[0]} has [table] wavelengths; the live "
+                         "surface traces R, G, B recipes only (render the spectral table "
+                         "itself: microsim render TABLE --variant scalar_spectral)")
     lights = [scene.parse_light(s) for s in (args.light or LIVE_LIGHTS)]
     live.check_lights(lights)
     surface = objects.load_object(args.object)
@@ -307,6 +326,14 @@ def progress_bar(enabled: bool) -> Iterator[_Tracker]:
         return
     with progress_display() as bar:
         yield _Tracker(bar)
+
+
+def _channels(table: Any) -> str:
+    """A table's channels in words: ``"RGB"`` or ``"16 wavelengths 400-700 nm"``."""
+    nm = table.channels.wavelengths
+    if nm is None:
+        return "RGB"
+    return f"{len(nm)} wavelengths {nm[0]:g}-{nm[-1]:g} nm"
 
 
 def _z(value: float, err: float) -> float | None:

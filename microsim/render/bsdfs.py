@@ -17,18 +17,41 @@ an isotropic one with a dielectric Fresnel term. Everything else is tabulated as
 is (``tensor_bsdf``) where the caller gives a file for it — the render command does in
 scalar variants, where a Python call per direction pair would take minutes — or else
 evaluated by numpy through a Python BSDF (``python_bsdf``), sampled cosine-weighted.
+
+**Channels.** A table's or a model's channels are R, G, B or the wavelengths of a
+spectral table (``wavelengths``); each BSDF gets what its variant renders
+(``microsim.render.spectral``): a spectral table in a spectral variant keeps its
+wavelengths (``measured`` reads the spectral RGL layout), in an RGB variant it is its
+linear sRGB; an RGB table in a spectral variant is upsampled as Mitsuba upsamples RGB.
+A model's equivalent plugin gets per-wavelength parameters as Mitsuba spectra where the
+plugin computes the same function per wavelength (a conductor's η and k, a Lambertian
+albedo); in an RGB variant a per-wavelength Fresnel term has no RGB equivalent (the sRGB
+of F(η(λ), k(λ)) is not F of any RGB η, k), nor in a spectral variant an RGB one (Mitsuba
+would upsample η and k, not f_r), so such models are tabulated or evaluated by numpy and
+their f_r converted like a table's.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from microsim.analytic.brdf import as_rgb
-from microsim.tables.export import rgl_phi_i, rgl_tensor, write_tensor_file
+from microsim.errors import InputError
+from microsim.render.spectral import (
+    at_wavelengths,
+    coefficients,
+    for_variant,
+    per_channel,
+    spectral_variant,
+    spectrum_dict,
+    upsampled,
+)
+from microsim.tables.export import rgl_phi_i, rgl_tensor, srgb_linear, write_tensor_file
 
 THETA_NODES = {True: 32, False: 16}
 """Incidences of the resampled tensor (isotropic, anisotropic), uniform over [0, 89°]."""
@@ -65,7 +88,7 @@ def oriented(f: Any, rotation: float) -> Any:
 
 
 def tensor_bsdf(mi: Any, f: Any, isotropic: bool, path: str | Path, rotation: float,
-                description: str) -> Any:
+                description: str, wavelengths: Sequence[float] | None = None) -> Any:
     """Write f_r as an RGL tensor at ``path`` and load it with ``measured``.
 
     Parameters
@@ -73,7 +96,7 @@ def tensor_bsdf(mi: Any, f: Any, isotropic: bool, path: str | Path, rotation: fl
     mi : module
         Mitsuba, variant set.
     f : callable
-        ``f(wi, wo) -> (..., 3)`` (or (...)) f_r in 1/sr for (..., 3) unit directions.
+        ``f(wi, wo) -> (..., C)`` (or (...)) f_r in 1/sr for (..., 3) unit directions.
     isotropic : bool
         Whether f depends on the azimuths only through their difference (one φi slice).
     path : str or Path
@@ -82,23 +105,27 @@ def tensor_bsdf(mi: Any, f: Any, isotropic: bool, path: str | Path, rotation: fl
         Degrees about the normal (anisotropic f; an isotropic one is unchanged).
     description : str
         The tensor's description field.
+    wavelengths : (C,) float or None
+        The channels of f: None for R, G, B. They become the variant's
+        (``microsim.render.spectral.for_variant``): a spectral tensor in a spectral
+        variant, an RGB one in an RGB variant.
     """
-    def rgb(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-        return as_rgb(f(wi, wo), np.broadcast_shapes(wi.shape, wo.shape)[:-1])
-
-    fields = rgl_tensor(oriented(rgb, rotation),
+    g, nm, _ = for_variant(mi, f, wavelengths)
+    fields = rgl_tensor(oriented(g, rotation),
                         np.radians(np.linspace(0.0, 89.0, THETA_NODES[isotropic])),
                         None if isotropic else rgl_phi_i(PHI_STEP), RESOLUTION[isotropic],
-                        description)
+                        description, nm)
     write_tensor_file(fields, path)
     return mi.load_dict({"type": "measured", "filename": str(path)})
 
 
 def table_bsdf(mi: Any, table: Any, path: str | Path, component: str = "total",
                rotation: float = 0.0) -> Any:
-    """``table``'s ``component`` through ``measured`` (``tensor_bsdf``)."""
+    """``table``'s ``component`` through ``measured`` (``tensor_bsdf``), in the channels
+    of the variant (its wavelengths, its sRGB, or its RGB upsampled)."""
     return tensor_bsdf(mi, lambda wi, wo: table.eval(wi, wo, component),
-                       bool(table.isotropic), path, rotation, f"microsim {component} table")
+                       bool(table.isotropic), path, rotation, f"microsim {component} table",
+                       table.channels.wavelengths)
 
 
 def isotropic(f: Any, pairs: int = 256, seed: int = 0) -> bool:
@@ -121,7 +148,39 @@ def rgb_spectrum(value: Any) -> dict[str, Any]:
     return {"type": "rgb", "value": [float(x) for x in v]}
 
 
-def mitsuba_equivalent(model: Any, rotation: float = 0.0) -> dict[str, Any] | None:
+def _uniform(value: Any) -> float | None:
+    """The one number every channel of ``value`` holds, or None if they differ."""
+    v = np.ravel(np.asarray(value, float))
+    return float(v[0]) if v.size and np.all(v == v[0]) else None
+
+
+def _spectrum(value: Any, wavelengths: Sequence[float] | None, spectral: bool,
+              linear: bool) -> dict[str, Any] | float | None:
+    """A plugin parameter of per-channel ``value`` for the variant, or None where the
+    plugin would not compute the same function.
+
+    A number is the same everywhere: an ``rgb`` dict in an RGB variant, a plain float
+    (Mitsuba's ``uniform`` spectrum) in a spectral one, where an ``rgb`` dict would be
+    upsampled (and one above 1, such as an η of 1.5, came back as 0 from
+    ``roughconductor`` in ``scalar_spectral``); three numbers of an RGB model are an
+    ``rgb`` dict in an RGB variant only; per-wavelength numbers are an ``irregular``
+    spectrum in a spectral variant, or, where the plugin is ``linear`` in the parameter
+    (a Lambertian albedo), their linear sRGB in an RGB variant.
+    """
+    one = _uniform(value)
+    if one is not None:
+        return one if spectral else rgb_spectrum(one)
+    if wavelengths is None:
+        return None if spectral else rgb_spectrum(value)
+    v = np.ravel(np.asarray(value, float))
+    if spectral:
+        return spectrum_dict(wavelengths, v)
+    return rgb_spectrum(srgb_linear(wavelengths, v)) if linear else None
+
+
+def mitsuba_equivalent(model: Any, rotation: float = 0.0,
+                       wavelengths: Sequence[float] | None = None,
+                       spectral: bool = False) -> dict[str, Any] | None:
     """The dict of Mitsuba's own plugin that computes ``model``, or None.
 
     Parameters
@@ -131,6 +190,11 @@ def mitsuba_equivalent(model: Any, rotation: float = 0.0) -> dict[str, Any] | No
     rotation : float
         Degrees about the normal. Isotropic models ignore it; an anisotropic one maps to
         ``roughconductor`` only at multiples of 90° (which swap α_u and α_v).
+    wavelengths : (C,) float or None
+        What the model's per-channel parameters are: None for R, G, B, or these
+        wavelengths (a spectral table's).
+    spectral : bool
+        Whether the variant is spectral.
 
     Returns
     -------
@@ -140,7 +204,12 @@ def mitsuba_equivalent(model: Any, rotation: float = 0.0) -> dict[str, Any] | No
     from microsim.analytic.ndf import GGX, Beckmann
 
     if isinstance(model, Lambertian):
-        return {"type": "diffuse", "reflectance": rgb_spectrum(model.albedo)}
+        albedo = model.albedo
+        if wavelengths is None and spectral and _uniform(albedo) is None:
+            return {"type": "diffuse", "reflectance": rgb_spectrum(albedo)}  # upsampled
+        reflectance = _spectrum(albedo, wavelengths, spectral, linear=True)
+        return None if reflectance is None else {"type": "diffuse",
+                                                 "reflectance": reflectance}
     if not (isinstance(model, TorranceSparrow) and model.shadowing == "smith-separable"
             and type(model.ndf) in (Beckmann, GGX)):
         return None
@@ -157,19 +226,53 @@ def mitsuba_equivalent(model: Any, rotation: float = 0.0) -> dict[str, Any] | No
     if fresnel is None:
         return {"type": "roughconductor", "material": "none", **rough}
     if fresnel[0] == "conductor":
-        return {"type": "roughconductor", "eta": rgb_spectrum(fresnel[1]),
-                "k": rgb_spectrum(fresnel[2]), **rough}
-    eta = np.ravel(fresnel[1])
-    if fresnel[0] == "dielectric" and ax == ay and np.all(eta == eta[0]):
-        return {"type": "roughplastic", "int_ior": float(eta[0]), "ext_ior": 1.0,
+        eta = _spectrum(fresnel[1], wavelengths, spectral, linear=False)
+        k = _spectrum(fresnel[2], wavelengths, spectral, linear=False)
+        if eta is None or k is None:
+            return None
+        return {"type": "roughconductor", "eta": eta, "k": k, **rough}
+    eta = _uniform(fresnel[1]) if fresnel[0] == "dielectric" else None
+    if eta is not None and ax == ay:
+        return {"type": "roughplastic", "int_ior": eta, "ext_ior": 1.0,
                 "diffuse_reflectance": rgb_spectrum(0.0), "nonlinear": False, **rough}
     return None
 
 
+def model_channels(model: Any, wavelengths: Sequence[float] | None, where: str) -> None:
+    """Check that ``model`` gives one value or one per channel of its table.
+
+    Raises
+    ------
+    InputError
+        A model whose per-channel parameters do not fit the table's channels: three
+        values (R, G, B) for a spectral table of another number of wavelengths, or
+        parameters of different lengths (a spec's three beside the table's sixteen).
+    """
+    count = 3 if wavelengths is None else len(wavelengths)
+    what = "R, G, B" if wavelengths is None else f"the table's {count} wavelengths"
+    hint = (f"{where}: its per-channel parameters must be one number or one per channel "
+            f"({what})")
+    w = np.array([[0.3, 0.1, 0.95], [-0.2, 0.25, 0.9]])
+    w /= np.linalg.norm(w, axis=1, keepdims=True)
+    try:
+        value = np.asarray(model.eval(w[:1], w[1:]), float)
+    except ValueError:  # numpy cannot broadcast channels of different lengths
+        raise InputError(f"{hint}; they have different lengths") from None
+    if value.ndim < 2 or value.shape[-1] in (1, count):
+        return
+    if value.shape[-1] == 3 and np.all(value == value[..., :1]):
+        return  # one number given, which the spec makes R, G, B: grey (per_channel)
+    raise InputError(f"{hint}; it gives {value.shape[-1]} values per direction pair")
+
+
 def model_bsdf(mi: Any, model: Any, rotation: float = 0.0,
-               path: str | Path | None = None) -> tuple[Any, str]:
+               path: str | Path | None = None,
+               wavelengths: Sequence[float] | None = None) -> tuple[Any, str]:
     """Mitsuba's equivalent plugin if there is one; else the model tabulated as a table is
     (``tensor_bsdf``) when ``path`` is given, or the Python BSDF.
+
+    ``wavelengths`` says what the model's channels are (None: R, G, B; else a spectral
+    table's wavelengths); each way converts them to the variant's as a table's are.
 
     Returns
     -------
@@ -177,13 +280,14 @@ def model_bsdf(mi: Any, model: Any, rotation: float = 0.0,
     how : str
         The plugin's name, ``"tabulated"`` or ``"python"``.
     """
-    plugin = mitsuba_equivalent(model, rotation)
+    plugin = mitsuba_equivalent(model, rotation, wavelengths, spectral_variant(mi))
     if plugin is not None:
         return mi.load_dict(plugin), plugin["type"]
     if path is not None:
         return tensor_bsdf(mi, model.eval, isotropic(model.eval), path, rotation,
-                           f"microsim model {type(model).__name__}"), "tabulated"
-    return python_bsdf(mi, model, rotation), "python"
+                           f"microsim model {type(model).__name__}",
+                           wavelengths), "tabulated"
+    return python_bsdf(mi, model, rotation, wavelengths), "python"
 
 
 def _numpy(v: Any) -> np.ndarray:
@@ -192,18 +296,41 @@ def _numpy(v: Any) -> np.ndarray:
     return a.T if a.ndim == 2 else a
 
 
-def python_bsdf(mi: Any, model: Any, rotation: float = 0.0) -> Any:
+def python_bsdf(mi: Any, model: Any, rotation: float = 0.0,
+                wavelengths: Sequence[float] | None = None) -> Any:
     """``model`` evaluated by numpy inside a Mitsuba BSDF.
 
     ``eval`` returns f_r(ωi = light, ωo = viewer) cos θ_light; ``sample`` draws the light
     direction cosine-weighted (Malley's method, ``square_to_cosine_hemisphere``), so the
     weight is f_r π. Works in every variant: one direction pair per call in
-    ``scalar_rgb`` (about 0.1 ms each, docs/render.md), whole arrays in ``llvm_ad_rgb``.
+    ``scalar_rgb``, whole arrays in ``llvm_ad_rgb`` and ``llvm_ad_spectral``. In a
+    spectral variant the value is at the ray's four wavelengths (``si.wavelengths``): a
+    per-wavelength model's (``wavelengths``) interpolated linearly between them
+    (``spectral.at_wavelengths``), an RGB one's upsampled (``spectral.coefficients``, one
+    Mitsuba call per pair: slow); in an RGB variant a per-wavelength model's is its
+    linear sRGB.
     """
     import drjit as dr
 
     f = oriented(model.eval, rotation)
     flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
+    spectral = spectral_variant(mi)
+    count = 3 if wavelengths is None else len(wavelengths)
+
+    def spectrum(lam: Any, value: np.ndarray) -> Any:
+        """Mitsuba's Spectrum of ``value`` ((count,) or (n, count)) at the rays'
+        wavelengths ``lam``."""
+        nm = np.array(lam, dtype=float)
+        rows = value.reshape(-1, count)
+        nm = np.broadcast_to(nm.T if nm.ndim == 2 else nm, (len(rows), nm.shape[0]))
+        if wavelengths is None:
+            coeff, scale = coefficients(mi, rows)
+            out = upsampled(coeff, scale, nm)
+        else:
+            out = at_wavelengths(wavelengths, rows, nm)
+        if value.ndim == 1:
+            return mi.Spectrum(*(float(x) for x in out[0]))
+        return mi.Spectrum(np.ascontiguousarray(out.T, dtype=np.float32))
 
     class ModelBSDF(mi.BSDF):
         def __init__(self, props: Any) -> None:
@@ -211,11 +338,17 @@ def python_bsdf(mi: Any, model: Any, rotation: float = 0.0) -> Any:
             self.m_flags = flags
             self.m_components = [flags]
 
-        def _value(self, wi: Any, wo: Any, active: Any) -> Any:
+        def _value(self, si: Any, wo: Any, active: Any) -> Any:
+            wi = si.wi
             a, b = _numpy(wi), _numpy(wo)
-            value = as_rgb(f(a, b), a.shape[:-1]) * np.maximum(b[..., 2:3], 0.0)
-            colour = (mi.Color3f(*value) if value.ndim == 1 else
-                      mi.Color3f(np.ascontiguousarray(value.T, dtype=np.float32)))
+            value = per_channel(f(a, b), a.shape[:-1], count) * np.maximum(b[..., 2:3], 0.0)
+            if spectral:
+                colour = spectrum(si.wavelengths, value)
+            else:
+                if wavelengths is not None:
+                    value = srgb_linear(wavelengths, value)
+                colour = (mi.Color3f(*value) if value.ndim == 1 else
+                          mi.Color3f(np.ascontiguousarray(value.T, dtype=np.float32)))
             return dr.select(active & (wi.z > 0) & (wo.z > 0), colour, 0.0)
 
         def sample(self, ctx: Any, si: Any, sample1: Any, sample2: Any,
@@ -226,11 +359,11 @@ def python_bsdf(mi: Any, model: Any, rotation: float = 0.0) -> Any:
             bs.wo, bs.pdf, bs.eta = wo, pdf, 1.0
             bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
             bs.sampled_component = 0
-            value = self._value(si.wi, wo, active & (pdf > 0))
+            value = self._value(si, wo, active & (pdf > 0))
             return bs, value / dr.maximum(pdf, 1e-20)
 
         def eval(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
-            return self._value(si.wi, wo, active)
+            return self._value(si, wo, active)
 
         def pdf(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
             return dr.select(si.wi.z > 0, mi.warp.square_to_cosine_hemisphere_pdf(wo), 0.0)
