@@ -284,16 +284,14 @@ def rgl_fields(table: BRDFTable, resolution: int = 32, component: str = "total",
     Mitsuba 3's RGB variants load; ``rgb`` changes nothing for an RGB table.
     """
     nm = table.channels.wavelengths
-    if nm is not None and rgb:
-        def f(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-            return srgb_linear(nm, table.eval(wi, wo, component))
-        nm = None
-    else:
-        def f(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-            return table.eval(wi, wo, component)
+
+    def f(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        value = table.eval(wi, wo, component)
+        return srgb_linear(nm, value) if nm is not None and rgb else value
+
     return rgl_tensor(f, table.theta_i if theta_i is None else theta_i,
                       None if table.isotropic else rgl_phi_i(phi_step), resolution,
-                      description or "microsim table", nm)
+                      description or "microsim table", None if rgb else nm)
 
 
 def write_rgl(table: BRDFTable, path: str | Path, resolution: int = 32,
