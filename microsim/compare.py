@@ -219,11 +219,23 @@ RGB_ONLY_MODELS = ("cylinders", "velvet-sparse", "microcylinder")
 
 
 def check_model_channels(spec: str, defaults: Mapping[str, Any] | None,
-                         channels: Channels, flag: str = "--model") -> None:
-    """Refuse, before it is built, an RGB-only model (``RGB_ONLY_MODELS``) whose colour
-    parameters (the spec's, else the table's ``defaults``) differ between the
-    wavelengths of a spectral table; the same model with grey parameters (one value)
-    compares with every wavelength.
+                         channels: Channels | None, flag: str = "--model") -> None:
+    """Refuse, before it is built, an RGB-only model (``RGB_ONLY_MODELS``) with colour
+    parameters (the spec's, else the table's ``defaults``) it cannot compute: of other
+    than one or three (R, G, B) values, or, for a spectral table, differing between its
+    wavelengths (the same model with grey parameters, one value, compares with every
+    wavelength).
+
+    Parameters
+    ----------
+    spec : str
+        The model spec, ``NAME[:key=value,...]``.
+    defaults : mapping or None
+        The table's (``microsim.table_models.model_defaults``), or None.
+    channels : Channels or None
+        The table's channels; None without a table (``microsim models eval``).
+    flag : str
+        How the error names the spec.
 
     Raises
     ------
@@ -233,19 +245,32 @@ def check_model_channels(spec: str, defaults: Mapping[str, Any] | None,
     from microsim.analytic.registry import MODELS, split_spec
 
     name, given = split_spec(spec, "model")
-    if not channels.spectral or name not in RGB_ONLY_MODELS:
+    if name not in RGB_ONLY_MODELS:
         return
     keys = MODELS[name].params
     merged = {k: v for k, v in (defaults or {}).items() if k in keys}
     merged.update(getattr(defaults, "for_model", {}).get(name, {}))
     merged.update(given)
-    coloured = [k for k, key in keys.items() if key.kind == "channels" and k in merged
-                and np.unique(np.ravel(np.asarray(merged[k], float))).size > 1]
-    if coloured:
-        raise InputError(f"{flag} {spec}: the {name} model computes R, G and B only, and "
-                         f"{', '.join(coloured)} differ between this table's "
-                         f"{channels.count} wavelengths; give each one number (e.g. "
-                         f"{name}:{coloured[0]}=0.5), the same in every wavelength")
+    spectral = channels is not None and channels.spectral
+    values = {}
+    for k, key in keys.items():
+        if key.kind == "channels" and merged.get(k) is not None:
+            try:
+                values[k] = np.ravel(np.asarray(merged[k], float))
+            except (TypeError, ValueError):
+                pass                 # not numbers: parse_model_spec says what is allowed
+    if spectral:
+        coloured = [k for k, v in values.items() if np.unique(v).size > 1]
+        if coloured:
+            raise InputError(f"{flag} {spec}: the {name} model computes R, G and B only, "
+                             f"and {', '.join(coloured)} differ between this table's "
+                             f"{channels.count} wavelengths; give each one number (e.g. "
+                             f"{name}:{coloured[0]}=0.5), the same in every wavelength")
+    else:
+        coloured = [k for k, v in values.items() if v.size not in (1, 3)]
+        if coloured:
+            raise InputError(f"{flag} {spec}: the {name} model computes R, G and B only; "
+                             f"{', '.join(coloured)} must be one number or three (R, G, B)")
 
 
 def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray,

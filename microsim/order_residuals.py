@@ -20,7 +20,8 @@ Fresnel (as ``microsim compare`` takes them):
 
 For every table, incidence and component (``total`` and each order):
 
-- **albedo** (∫ f_r cos θo dωo, mean over RGB) simulated and of each reference, and the
+- **albedo** (∫ f_r cos θo dωo, mean over the channels: R, G, B or a spectral table's
+  wavelengths) simulated and of each reference, and the
   **residual** simulated − reference ± its standard error. For a table simulated here
   the error is the batch-means error over realisations of A_r − γ α_r (A_r: realisation
   r's albedo, α_r its realised roughness, γ = dA/dα of the reference, a central
@@ -28,8 +29,8 @@ For every table, incidence and component (``total`` and each order):
   of the tiles' spread that their own α explains is not an error of it; with the
   reference's own error in quadrature. A table read from a file holds no realisation
   sums: its error is the table's own albedo error (which also counts that part).
-  The RGB mean's errors are the mean of the channels' (they share rays and walks: the
-  bound for fully correlated channels).
+  The channel mean's errors are the mean of the channels' (they share rays and walks:
+  the bound for fully correlated channels).
 - **median lobe error**: the median of |sim − model| / model over the model's lobe bins
   (≥ 10% of its peak per channel, as ``compare``), with an error bar (the standard
   deviation of the median over ``replicates`` parametric replicates: every bin of table
@@ -93,7 +94,7 @@ def incidences(table: Any) -> list[tuple[int, int, tuple]]:
 
 def model_bins(table: Any, refs: References) -> dict[tuple[str, str], tuple[np.ndarray,
                                                                              np.ndarray]]:
-    """Bin averages and their standard errors, (a, b, nt, np, 3), per (component,
+    """Bin averages and their standard errors, (a, b, nt, np, C), per (component,
     reference): Smith for order 1 and the total, the walk for the orders above 1 (random
     parts) and the total (Smith + the orders' random parts)."""
     shape = table.values["total"].shape
@@ -151,7 +152,7 @@ def lobe_errors(table: Any, component: str, model: np.ndarray, model_err: np.nda
 
 
 def realisation_albedos(table: Any) -> tuple[np.ndarray, np.ndarray] | None:
-    """Per component, each realisation's albedo (RGB mean, (K, a, b), NaN where it traced
+    """Per component, each realisation's albedo (channel mean, (K, a, b), NaN where it traced
     nothing) and realised α (K,); None for a table without realisation albedos (one read
     from a file) or without a scalar α per realisation."""
     per = () if table.meta.surface is None else table.meta.surface.per_realisation
@@ -164,7 +165,7 @@ def realisation_albedos(table: Any) -> tuple[np.ndarray, np.ndarray] | None:
 
 def model_albedos(table: Any, refs: References, bins: dict, walks: int
                   ) -> dict[tuple[str, str], tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per (component, reference) the reference's albedo (RGB mean, (a, b)), its error
+    """Per (component, reference) the reference's albedo (channel mean, (a, b)), its error
     and its slope dA/dα (NaN without a scalar α): Smith's from its bin averages
     (Σ f_r Ω_proj: exact), the walk's from escapes."""
     omega = table.bins.projected_solid_angle[..., None]

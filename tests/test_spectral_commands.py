@@ -419,7 +419,7 @@ def test_an_rgb_only_model_is_refused_with_one_error_line(cli, tmp_path) -> None
     """The cylinders model computes R, G, B only: compared with a spectral table whose
     recipe gives per-wavelength albedos (ColorChecker patches), compare and view exit 2
     with one error line naming the flag, the keys and what is allowed; with those keys
-    given as one number each, it compares."""
+    given as one number each, it compares; models eval refuses four values alike."""
     table = microsim.simulate(microsim.load_recipe({
         "surface": {"kind": "cylinders", "radius": 0.5, "spacing": 1.2, "sink": 0.25},
         "material": {"base": {"kind": "lambertian", "data": "colorchecker_red"},
@@ -440,3 +440,10 @@ def test_an_rgb_only_model_is_refused_with_one_error_line(cli, tmp_path) -> None
     code, _, err = cli("compare", str(path), "--model",
                        "cylinders:albedo=0.3,base_albedo=0.4", "--json")
     assert code == 0, err
+    # without a table: one or three values (four is neither R, G, B nor grey)
+    code, _, err = cli("models", "eval", "cylinders:albedo=[0.1,0.2,0.3,0.4]", "--wi",
+                       "30,0", "--wo", "30,180")
+    assert code == 2
+    (line,) = err.strip().splitlines()
+    assert line.endswith("the cylinders model computes R, G and B only; albedo must be "
+                         "one number or three (R, G, B)")

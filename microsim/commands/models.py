@@ -63,7 +63,7 @@ def run_eval(args: argparse.Namespace) -> int:
     import numpy as np
 
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import singular_albedo
+    from microsim.compare import check_model_channels, singular_albedo
     from microsim.geometry import direction
 
     spec = args.spec
@@ -71,6 +71,7 @@ def run_eval(args: argparse.Namespace) -> int:
         if "=" not in item:
             raise InputError(f"--param {item!r}: must be KEY=VALUE")
         spec += ("," if ":" in spec else ":") + item
+    check_model_channels(spec, None, None, "model")
     name, params, model = parse_model_spec(spec)
     wi = direction(*np.radians(args.wi))
     wo = direction(*np.radians(args.wo))

@@ -133,12 +133,3 @@ def display_srgb(values: np.ndarray, channels: Channels = RGB) -> np.ndarray:
 
     return colour.to_srgb_display(np.asarray(channels.wavelengths), v)
 
-
-def channels_text(channels: Channels) -> str:
-    """The channels in words: ``R, G, B`` or ``16 wavelengths, 400–700 nm``."""
-    if not channels.spectral:
-        return ", ".join(channels.names)
-    nm = channels.wavelengths
-    if len(nm) == 1:
-        return f"1 wavelength, {nm[0]:g} nm"
-    return f"{len(nm)} wavelengths, {nm[0]:g}–{nm[-1]:g} nm"
