@@ -203,11 +203,11 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                     if params[part, P_DISPERSIVE, 0] != 0.0 and slots_i[i, I_HERO] < 0:
                         _follow_hero(slots_f, slots_i, i, channels)
                     hero = slots_i[i, I_HERO]
-                    ox, oy, oz = scatter_event(
+                    ox, oy, oz, kept = scatter_event(
                         kind[part], params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz,
                         faces[f, F_TX], faces[f, F_TY], faces[f, F_TZ], key,
                         slots_i[i, I_RAY], bounce + 1, max(hero, 0), fac)
-                    for c in range(channels):
+                    for c in range(0 if kept else channels):
                         w = slots_f[i, S_W + c]
                         slots_f[i, S_W + 2 * channels + c] += w * fac[1, c]
                         slots_f[i, S_W + channels + c] += w * (1.0 - fac[0, c] - fac[1, c])

@@ -90,7 +90,9 @@ class Material:
     path's ``hero`` channel (the one whose wavelength decides a dispersive event). Fills
     ``fac`` ((2, C)) with the factor each channel's weight is multiplied by (row 0) and the
     fraction transmitted into a non-refracting dielectric (row 1); the rest,
-    1 − factor − transmitted, is absorbed. Returns the new unit direction."""
+    1 − factor − transmitted, is absorbed. Returns the new unit direction and whether the
+    weight is kept as it is (factor 1 in every channel, nothing transmitted: ``fac`` is
+    then left unwritten and the transport skips the weight's bookkeeping)."""
     blocks: ClassVar[int] = 0
     mirror: ClassVar[bool] = False
     """The event is a perfect mirror's: specular reflection, factor 1, nothing transmitted.

@@ -16,11 +16,12 @@ from microsim.spectra.channels import RGB, Channels
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
             ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
-            ) -> tuple[float, float, float]:
+            ) -> tuple[float, float, float, bool]:
     """Factor 0: the whole weight is absorbed. The path goes on (mirrored, carrying
     nothing) to its end, as every path does, so its fate is counted as usual."""
     fac[:, :] = 0.0
-    return reflect(dx, dy, dz, nx, ny, nz)
+    ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
+    return ox, oy, oz, False
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -28,23 +28,35 @@ above it the Fresnel terms overflow float64 (η = 1e100 gave NaN reflectance).""
 
 
 @kernel
+def coated(params: np.ndarray, part: int, c: float, fac: np.ndarray) -> None:
+    """The factors of a coated conductor: the film's reflectance at each channel's
+    wavelength (``thin_film``), nothing transmitted. Compiled as a function of its own
+    (``microsim.kernel.events``), called, not inlined: the film's complex arithmetic kept
+    out of the transport's loop costs the uncoated events nothing."""
+    for j in range(fac.shape[1]):
+        fac[0, j] = film_reflectance(c, params[part, 2, j], params[part, 3, j],
+                                     params[part, P_WAVELENGTH, j], params[part, 0, j],
+                                     params[part, 1, j])[0]
+        fac[1, j] = 0.0
+
+
+@kernel
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
             ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
-            ) -> tuple[float, float, float]:
+            ) -> tuple[float, float, float, bool]:
     """Mirror reflection, the weight times F(θ) of η + ik per channel (column 0: η,
     1: k), or, under a coating (column 3: its thickness, > 0; 2: its index), the film's
     reflectance at the channel's wavelength; the rest is absorbed."""
     c = -(dx * nx + dy * ny + dz * nz)
-    for j in range(fac.shape[1]):
-        if params[part, 3, j] > 0.0:
-            fac[0, j] = film_reflectance(c, params[part, 2, j], params[part, 3, j],
-                                         params[part, P_WAVELENGTH, j], params[part, 0, j],
-                                         params[part, 1, j])[0]
-        else:
+    if params[part, 3, 0] > 0.0:
+        coated(params, part, c, fac)
+    else:
+        for j in range(fac.shape[1]):
             fac[0, j] = fresnel_conductor(c, params[part, 0, j], params[part, 1, j])
-        fac[1, j] = 0.0
-    return reflect(dx, dy, dz, nx, ny, nz)
+            fac[1, j] = 0.0
+    ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
+    return ox, oy, oz, False
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -23,7 +23,7 @@ from microsim.spectra.channels import RGB, Channels
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
             ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
-            ) -> tuple[float, float, float]:
+            ) -> tuple[float, float, float, bool]:
     """Column 0: η per channel; column 1: 1 to refract; columns 2 and 3: a coating's index
     and thickness (nm; 0: none), whose reflectance and transmittance at the channel's
     wavelength replace the bare interface's (``thin_film``; from inside the medium every
@@ -38,8 +38,6 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
     Otherwise a mirror reflection with weight F per channel; 1 − F is transmitted
     (reported as lost)."""
     if params[part, 1, 0] != 0.0:
-        fac[0, :] = 1.0
-        fac[1, :] = 0.0
         eta = params[part, 0, hero]
         inside = dx * nx + dy * ny + dz * nz >= 0.0
         if inside:
@@ -49,14 +47,16 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
         if u[0] >= f:
             tx, ty, tz, tir = refract(dx, dy, dz, nx, ny, nz, eta)
             if not tir:
-                return tx, ty, tz
-        return reflect(dx, dy, dz, nx, ny, nz)
+                return tx, ty, tz, True
+        ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
+        return ox, oy, oz, True
     c = -(dx * nx + dy * ny + dz * nz)
     for j in range(fac.shape[1]):
         f, t = _reflectance(params, part, j, c, params[part, 0, j], False)
         fac[0, j] = f
         fac[1, j] = t
-    return reflect(dx, dy, dz, nx, ny, nz)
+    ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
+    return ox, oy, oz, False
 
 
 @kernel

@@ -20,14 +20,15 @@ from microsim.spectra.spectrum import Spectrum
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
             ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
-            ) -> tuple[float, float, float]:
+            ) -> tuple[float, float, float, bool]:
     """A cosine-distributed direction about n (u[0], u[1]); the cosine pdf cancels the
     BRDF's cosine, so the weight is the albedo (column 0; PBR 4th ed., sec. 13.6.3
     and 4.5.1)."""
     for j in range(fac.shape[1]):
         fac[0, j] = params[part, 0, j]
         fac[1, j] = 0.0
-    return cosine_about(nx, ny, nz, u[0], u[1])
+    ox, oy, oz = cosine_about(nx, ny, nz, u[0], u[1])
+    return ox, oy, oz, False
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -16,11 +16,10 @@ from microsim.spectra.channels import RGB, Channels
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
             ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
-            ) -> tuple[float, float, float]:
+            ) -> tuple[float, float, float, bool]:
     """Mirror reflection about n; the weight is kept."""
-    fac[0, :] = 1.0
-    fac[1, :] = 0.0
-    return reflect(dx, dy, dz, nx, ny, nz)
+    ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
+    return ox, oy, oz, True
 
 
 @dataclass(frozen=True, kw_only=True)
