@@ -32,12 +32,14 @@ up."""
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``export`` command."""
     p = sub.add_parser(
-        "export", help="write a table as .npz, MERL .binary or RGL .bsdf (Mitsuba 3, pbrt-v4)",
+        "export", help="write a table as .npz, MERL .binary or RGL .bsdf (Mitsuba 3)",
         description="Export a BRDF table: npz (axes, values, errors, albedo for numpy), "
                     "merl (MERL .binary, 90 x 90 x 180 half/difference cells, BRDF Explorer "
                     "and many tools read it), or rgl (RGL tensor file .bsdf, loaded by "
-                    "Mitsuba 3's and pbrt-v4's 'measured' materials). See "
-                    "docs/table-format.md.")
+                    "Mitsuba 3's 'measured' material). A spectral table keeps its "
+                    "wavelengths in npz and in rgl (Mitsuba's spectral layout, for its "
+                    "spectral variants; --rgb for its RGB variants); merl holds its linear "
+                    "sRGB. See docs/table-format.md.")
     p.add_argument("table", metavar="TABLE", help="table file (.exr)")
     p.add_argument("--format", required=True, choices=tuple(SUFFIXES), help="output format")
     p.add_argument("-o", "--output", type=Path, required=True,
