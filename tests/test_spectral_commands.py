@@ -447,3 +447,37 @@ def test_an_rgb_only_model_is_refused_with_one_error_line(cli, tmp_path) -> None
     (line,) = err.strip().splitlines()
     assert line.endswith("the cylinders model computes R, G and B only; albedo must be "
                          "one number or three (R, G, B)")
+
+
+def test_rgb_tables_do_not_import_colour_science(tmp_path) -> None:
+    """colour-science takes about a second to import: the commands import it for spectral
+    tables only. compare --out, sh --plot, fit, eval and view's lobe of an RGB table, in a
+    fresh interpreter, leave it unimported."""
+    import subprocess
+    import sys
+
+    from microsim.analytic.registry import parse_model_spec
+    from microsim.compare import model_table
+    from microsim.tables.binning import HemisphereBins
+
+    _, _, model = parse_model_spec("beckmann:alpha=0.3,eta=[0.2,0.9,1.1],k=[3.9,2.4,2.1]")
+    table = model_table(model, np.radians([0.0, 45.0]), HemisphereBins(4, 8), 0.05,
+                        np.random.default_rng(0))
+    path = tmp_path / "rgb.exr"
+    microsim.write_table(table, path)
+    out = tmp_path / "out"
+    script = f"""
+import contextlib, io, sys
+from microsim.cli import main
+with contextlib.redirect_stdout(io.StringIO()):
+    for args in (["compare", {str(path)!r}, "--model", "beckmann", "--out", {str(out)!r}],
+                 ["fit", {str(path)!r}, "--model", "beckmann"],
+                 ["eval", {str(path)!r}, "--wi", "30,0", "--wo", "20,180"],
+                 ["view", {str(path)!r}, "--screenshot", {str(tmp_path / "v.png")!r}]):
+        assert main(args) == 0, args
+print("colour" in sys.modules)
+"""
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          timeout=120, check=False)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "False"
