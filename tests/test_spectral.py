@@ -305,3 +305,26 @@ def test_a_lossless_coated_interface_reflects_alike_from_both_sides() -> None:
                 inside = _reflectance(params, 0, 0, np.cos(theta_s), 1.0 / eta, True)
                 assert abs(inside[0] - outside[0]) < 1e-12, (thickness, nm, theta_s)
                 assert abs(inside[0] + inside[1] - 1.0) < 1e-12
+
+
+@pytest.mark.parametrize("material", [
+    {"kind": "conductor", "data": "Au", "coating": {"thickness": 90.0, "eta": 1.45}},
+    {"kind": "conductor", "eta": {"nm": [400.0, 700.0], "value": [1.0, 2.0]}, "k": 3.0,
+     "coating": {"thickness": 100.0, "eta": {"nm": [400.0, 700.0], "value": [2.0, 2.1]}}},
+    {"kind": "lambertian", "data": "colorchecker_green"},
+    {"kind": "dielectric", "data": "fused_silica", "refract": True},
+])
+def test_a_spectral_recipe_round_trips_through_its_toml(material: dict) -> None:
+    """``microsim check`` writes spectra and coatings as inline tables and leaves out the
+    keys ``data`` stands in for, so what it prints resolves to the same recipe."""
+    import tomllib
+
+    from microsim.recipe import resolve, to_toml
+
+    recipe = microsim.load_recipe({"surface": {"kind": "flat"}, "material": material,
+                                   "table": {"wavelengths": [450.0, 600.0]}})
+    text = to_toml(recipe)
+    assert resolve(tomllib.loads(text)) == recipe
+    if "data" in material:
+        assert f'data = "{material["data"]}"' in text
+        assert "\nalbedo =" not in text and "\nk =" not in text

@@ -94,6 +94,8 @@ class Material:
     weight is kept as it is (factor 1 in every channel, nothing transmitted: ``fac`` is
     then left unwritten and the transport skips the weight's bookkeeping)."""
     blocks: ClassVar[int] = 0
+    replaced_by_data: ClassVar[tuple[str, ...]] = ()
+    """The keys a kind's ``data`` key (shipped measurements) stands in for."""
     mirror: ClassVar[bool] = False
     """The event is a perfect mirror's: specular reflection, factor 1, nothing transmitted.
     The transport then reflects inline and skips the weight's bookkeeping (the commonest
@@ -131,12 +133,13 @@ class Material:
 
     def to_json(self) -> dict[str, Any]:
         """The section as a recipe holds it: ``kind`` and every key given or defaulted
-        (RGB as lists, spectra as their ``to_json``)."""
+        but those ``data`` stands in for (RGB as lists, spectra as their ``to_json``)."""
         out: dict[str, Any] = {"kind": self.kind}
+        replaced = self.replaced_by_data if getattr(self, "data", None) is not None else ()
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            if value is None:
-                continue  # an optional key not given (``data``)
+            if value is None or f.name in replaced:
+                continue  # an optional key not given, or one that ``data`` stands in for
             out[f.name] = (list(value) if isinstance(value, tuple) else
                            value.to_json() if isinstance(value, Spectrum | Coating) else value)
         return out

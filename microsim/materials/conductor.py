@@ -67,6 +67,7 @@ class Conductor(Material):
     doc: ClassVar[str] = ("Specular reflection with exact conductor Fresnel per colour "
                           "channel.")
     scatter: ClassVar = scatter
+    replaced_by_data: ClassVar[tuple[str, ...]] = ("eta", "k")
     eta: tuple[float, float, float] | Spectrum = key(
         "spectrum", list(GOLD_RGB[0]), "Real part of the complex index of refraction (R, G, "
         "B, or a spectrum in a spectral table) relative to the medium in front of the faces "

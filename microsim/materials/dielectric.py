@@ -84,6 +84,7 @@ class Dielectric(Material):
         "reported as lost energy, or, with refract = true, refracted into the medium "
         "behind the faces (absorbing per unit length) and out again.")
     scatter: ClassVar = scatter
+    replaced_by_data: ClassVar[tuple[str, ...]] = ("eta",)
     blocks: ClassVar[int] = 1
     eta: float = key("float", 1.5, "Index of refraction relative to the medium in front of "
                      "the faces (air; for particles inside a paint's binder, relative to the "

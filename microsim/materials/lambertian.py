@@ -38,6 +38,7 @@ class Lambertian(Material):
     kind: ClassVar[str] = "lambertian"
     doc: ClassVar[str] = "Cosine-weighted diffuse reflection with the given albedo."
     scatter: ClassVar = scatter
+    replaced_by_data: ClassVar[tuple[str, ...]] = ("albedo",)
     blocks: ClassVar[int] = 1
     albedo: tuple[float, float, float] | Spectrum = key(
         "spectrum", 0.8, "Diffuse reflectance (R, G, B, or a spectrum in a spectral table).",
