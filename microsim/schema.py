@@ -35,7 +35,9 @@ class Key:
         of three, or a table ``{ nm = [...], value = [...] }``: a spectrum, whose values
         the bounds apply to; ``microsim.spectra.spectrum`` checks the rest), ``"pair"`` (a
         list of two numbers), ``"channels"`` (a number, or a list of numbers, one per colour
-        channel: R, G, B or a spectral table's wavelengths), ``"coating"`` (a table
+        channel: R, G, B or a spectral table's wavelengths), ``"index"`` (a number, or a
+        spectrum table as for ``"spectrum"``: one value at every wavelength, or one per
+        wavelength), ``"coating"`` (a table
         ``{ thickness, eta }``, which ``microsim.materials.coating`` checks).
     default : Any
         The default value; ``REQUIRED`` if the key must be given; ``None`` if the key is
@@ -86,6 +88,7 @@ class Key:
             "channels": "a number or a list of numbers, one per colour channel (R, G, B, or "
                         "the table's wavelengths)",
             "coating": "a table { thickness = <nm>, eta = <index or spectrum> }",
+            "index": "a number or a spectrum { nm = [...], value = [...] }",
         }[self.kind]
         if self.kind == "floats" and self.length:
             what = f"a list of {self.length} numbers"
@@ -214,12 +217,14 @@ def check_value(value: Any, name: str, key: Key) -> Any:
         if not isinstance(value, dict):
             raise bad
         return dict(value)
-    if key.kind == "spectrum" and isinstance(value, dict):
+    if key.kind in ("spectrum", "index") and isinstance(value, dict):
         values = value.get("value")
         if isinstance(values, list):
             for i, v in enumerate(values):
                 _number(v, f"{name}.value[{i}]", key)
         return dict(value)
+    if key.kind == "index":
+        return _number(value, name, key)
     if key.kind in ("rgb", "spectrum", "channels") and not isinstance(value, list):
         return [_number(value, name, key)] * 3
     if key.kind == "floats" and key.length in (None, 1) and isinstance(value, int | float) \

@@ -328,3 +328,19 @@ def test_a_spectral_recipe_round_trips_through_its_toml(material: dict) -> None:
     if "data" in material:
         assert f'data = "{material["data"]}"' in text
         assert "\nalbedo =" not in text and "\nk =" not in text
+
+
+def test_a_dielectric_index_spectrum_gives_the_fresnel_of_each_wavelength() -> None:
+    """A flat glass whose index is a spectrum (or the shipped BK7 formula) reflects
+    F(θi, η(λ)) at each wavelength: its albedo equals the exact Fresnel reflectance of the
+    index sampled there (the complex-form ``analytic.fresnel_conductor`` with k = 0) to
+    1e-6."""
+    nm = [400.0, 500.0, 600.0, 700.0]
+    cos = np.cos(np.radians(FLAT_THETA))[:, None]
+    for material, eta in (
+            ({"kind": "dielectric", "eta": {"nm": [380.0, 720.0], "value": [1.9, 1.7]}},
+             np.interp(nm, [380.0, 720.0], [1.9, 1.7])),
+            ({"kind": "dielectric", "data": "BK7"}, measured.dielectric("BK7").at(nm))):
+        table = _flat(material, nm)
+        exact = fresnel_conductor(cos, eta, 0.0)
+        np.testing.assert_allclose(table.albedo[:, 0], exact, rtol=0, atol=1e-6)

@@ -122,7 +122,7 @@ class Material:
         kind = cls.keys()[name].kind
         if kind == "coating":
             return Coating.parse(value, where)
-        if kind == "spectrum" and isinstance(value, Mapping):
+        if kind in ("spectrum", "index") and isinstance(value, Mapping):
             return (Spectrum.from_json(value, where) if "source" in value
                     else parse_spectrum(value, where))
         return rgb(value) if kind in ("rgb", "spectrum") else value

@@ -17,6 +17,7 @@ from microsim.materials.thin_film import film_reflectance
 from microsim.schema import key
 from microsim.spectra import measured
 from microsim.spectra.channels import RGB, Channels
+from microsim.spectra.spectrum import Spectrum
 
 
 @kernel
@@ -86,10 +87,11 @@ class Dielectric(Material):
     scatter: ClassVar = scatter
     replaced_by_data: ClassVar[tuple[str, ...]] = ("eta",)
     blocks: ClassVar[int] = 1
-    eta: float = key("float", 1.5, "Index of refraction relative to the medium in front of "
-                     "the faces (air; for particles inside a paint's binder, relative to the "
-                     "binder); 1 would be no interface at all.", low=1.0, low_open=True,
-                     high=10.0)
+    eta: float | Spectrum = key(
+        "index", 1.5, "Index of refraction relative to the medium in front of the faces "
+        "(air; for particles inside a paint's binder, relative to the binder); 1 would be "
+        "no interface at all. A spectrum { nm, value } in a spectral table (dispersion).",
+        low=1.0, low_open=True, high=10.0)
     refract: bool = key("bool", False, "Refract as well as reflect: a Fresnel-weighted "
                         "choice, Snell's law, total internal reflection; the part's faces "
                         "enclose a medium behind them (docs/materials.md). false: reflect "
