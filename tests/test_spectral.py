@@ -344,3 +344,30 @@ def test_a_dielectric_index_spectrum_gives_the_fresnel_of_each_wavelength() -> N
         table = _flat(material, nm)
         exact = fresnel_conductor(cos, eta, 0.0)
         np.testing.assert_allclose(table.albedo[:, 0], exact, rtol=0, atol=1e-6)
+
+
+def test_gold_srgb_equals_colour_sciences_own_conversion() -> None:
+    """The sRGB (linear, D65) of a flat spectral gold table's normal-incidence albedo
+    (81 wavelengths, 380-780 nm every 5 nm; the product's path: kernel, table,
+    ``microsim.spectra.colour``) equals colour-science's own conversion of gold's
+    normal-incidence reflectance computed here from the shipped η, k at every nm
+    (``colour.sd_to_XYZ`` under D65 with the CIE 1931 2° observer, ``colour.XYZ_to_sRGB``,
+    no product code) within 0.002 per channel: the tolerance covers sampling the
+    reflectance every 5 nm instead of every 1 nm (gold's reflectance bends around its
+    500 nm edge; the measured difference is below 1e-3)."""
+    import colour as cs
+
+    from microsim.spectra import colour as ours
+
+    nm = [float(x) for x in np.arange(380.0, 781.0, 5.0)]
+    table = _flat({"kind": "conductor", "data": "Au"}, nm)
+    product = ours.to_srgb_linear(np.asarray(nm), table.albedo[0, 0])
+    dense = np.arange(380.0, 781.0, 1.0)
+    eta, k = measured.conductor("Au")
+    reflectance = fresnel_conductor(1.0, eta.at(dense), k.at(dense))
+    sd = cs.SpectralDistribution(dict(zip(dense, reflectance, strict=True)))
+    cmfs = cs.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    xyz = cs.sd_to_XYZ(sd, cmfs, cs.SDS_ILLUMINANTS["D65"]) / 100.0
+    reference = cs.XYZ_to_sRGB(xyz, apply_cctf_encoding=False)
+    np.testing.assert_allclose(product, reference, rtol=0, atol=2e-3)
+    assert product[0] > product[1] > product[2]  # gold: red over green over blue
