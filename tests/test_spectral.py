@@ -119,24 +119,48 @@ def test_hero_wavelength_channels_equal_single_wavelength_runs() -> None:
         assert chi.sum() < chi2.ppf(0.999, lobe.sum()), (wavelength, chi.sum(), lobe.sum())
 
 
-@pytest.mark.parametrize("rays", [3 * 4 * 1000, 3 * 4 * 1000 + 4])
-def test_hero_wavelength_furnace_closes_per_wavelength(rays: int) -> None:
+def test_hero_wavelength_furnace_closes_per_wavelength() -> None:
     """White furnace of a lossless dispersive dielectric per wavelength: what escapes, is
-    transmitted and is lost adds up to 1 per channel. Hero sampling ends the other
-    channels' weight at the first event and multiplies the hero's by C; ray i's hero is
-    channel i mod C, so each channel is the hero of N/C of a realisation's N rays and the
-    sum is C n_c / N: exactly 1 (to round-off) when C divides N, and within C / N of 1
-    otherwise (here 4 rays over 4 realisations of 3001: one channel has one ray more)."""
+    transmitted and is lost adds up to 1 per channel in expectation. A refraction leaves
+    a path its hero alone (weight × C); a reflection keeps every channel with weight
+    F_c / F_hero, so no single run closes exactly: over 8 independent runs the mean of
+    (albedo + lost + transmitted − 1) lies within 4.5 of its standard errors of 0 at
+    every wavelength (two-sided, about 1e-5 per comparison), and the runs do scatter
+    (the closure is statistical)."""
     nm = [420.0, 570.0, 720.0]
-    record = _dielectric(nm, 10, rays).meta.directions[0]
-    total = (np.asarray(record.albedo) + np.asarray(record.lost)
-             + np.asarray(record.transmitted))
-    n = min(record.rays_per_realisation)
-    if all(r % len(nm) == 0 for r in record.rays_per_realisation):
-        np.testing.assert_allclose(total, 1.0, rtol=0, atol=1e-12)
-    else:
-        assert np.all(np.abs(total - 1.0) <= len(nm) / n)
-        assert np.any(np.abs(total - 1.0) > 1e-6)
+    sums = []
+    for seed in range(8):
+        record = _dielectric(nm, 10 + seed, 12_000).meta.directions[0]
+        sums.append(np.asarray(record.albedo) + np.asarray(record.lost)
+                    + np.asarray(record.transmitted) - 1.0)
+    sums = np.array(sums)
+    mean, se = sums.mean(axis=0), sums.std(axis=0, ddof=1) / np.sqrt(len(sums))
+    assert np.all(np.abs(mean) <= 4.5 * se), (mean, se)
+    assert np.all(se > 1e-6)
+
+
+def test_dispersive_reflections_keep_every_wavelength() -> None:
+    """A reflection off a dispersive glass has every wavelength's direction, so it keeps
+    every channel (weighted F_c / F_hero); only refractions leave a path its hero. A flat
+    refracting BK7 surface reflects each ray at most once and refracts the rest out
+    through the bottom: each ray adds F_c / F_h to channel c with probability F_h (h its
+    hero, uniform over the C channels), a variance of F_c² (mean_h 1/F_h − 1) per ray, so
+    every channel's albedo has the error of all N rays. χ² of the 12 z-scores (4
+    wavelengths, 3 incidences) against the exact Fresnel reflectance of BK7 stays below
+    its 0.999 quantile; ending the other channels at reflections too (pbrt-v4's way) has
+    C = 4 times the variance and fails it."""
+    nm = [400.0, 500.0, 600.0, 700.0]
+    rays = 40_000
+    table = microsim.simulate(microsim.load_recipe({
+        "surface": {"kind": "flat"},
+        "material": {"kind": "dielectric", "data": "BK7", "refract": True},
+        "table": {"wavelengths": nm, "theta_bins": 4, "phi_bins": 4, "sh_order": 0},
+        "simulation": {"theta_i": [0.0, 60.0, 80.0], "rays": rays}}), threads=1)
+    cos = np.cos(np.radians([0.0, 60.0, 80.0]))[:, None]
+    exact = fresnel_conductor(cos, measured.dielectric("BK7").at(nm), 0.0)
+    spread = (1.0 / exact).mean(axis=1, keepdims=True) - 1.0
+    z = (table.albedo[:, 0] - exact) / (exact * np.sqrt(spread / rays))
+    assert (z**2).sum() < chi2.ppf(0.999, z.size), z
 
 
 def test_spectral_table_round_trips_through_its_file(tmp_path) -> None:

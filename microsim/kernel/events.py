@@ -22,7 +22,7 @@ from numba.extending import register_jitable
 from microsim.jit import INLINE, JIT
 from microsim.kernel.rng import uniforms
 from microsim.materials import KINDS
-from microsim.materials.base import KERNEL_FUNCTIONS, Material
+from microsim.materials.base import KERNEL_FUNCTIONS, WEIGHTED, Material
 
 for _function in KERNEL_FUNCTIONS:
     if _function not in {kind.scatter for kind in KINDS}:
@@ -45,10 +45,10 @@ def draws(blocks: int, key: np.ndarray, ray: int, event: int) -> tuple[float, ..
 def _no_kind(kind: int, params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray,
              part: int, dx: float, dy: float, dz: float, nx: float, ny: float, nz: float,
              ex: float, ey: float, ez: float, key: np.ndarray, ray: int, event: int,
-             hero: int, fac: np.ndarray) -> tuple[float, float, float, bool]:
+             hero: int, fac: np.ndarray) -> tuple[float, float, float, int]:
     """The end of the chain, which no registered code reaches: everything absorbed."""
     fac[:, :] = 0.0
-    return dx, dy, dz, False
+    return dx, dy, dz, WEIGHTED
 
 
 def _link(code: int, kind: type[Material], rest: Callable[..., Any]) -> Callable[..., Any]:
@@ -60,7 +60,7 @@ def _link(code: int, kind: type[Material], rest: Callable[..., Any]) -> Callable
     def link(k: int, params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
              dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
              ey: float, ez: float, key: np.ndarray, ray: int, bounce: int, hero: int,
-             fac: np.ndarray) -> tuple[float, float, float, bool]:
+             fac: np.ndarray) -> tuple[float, float, float, int]:
         if k == code:
             return event(params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz, ex, ey, ez,
                          draws(blocks, key, ray, bounce), hero, fac)
@@ -80,7 +80,7 @@ def scatter_event(kind: int, params: np.ndarray, tab_int: np.ndarray, tab_f: np.
                   part: int, dx: float, dy: float, dz: float, nx: float, ny: float,
                   nz: float, ex: float, ey: float, ez: float, key: np.ndarray, ray: int,
                   event: int, hero: int, fac: np.ndarray
-                  ) -> tuple[float, float, float, bool]:
+                  ) -> tuple[float, float, float, int]:
     """One scattering event at a facet of unit normal n (``d·n < 0``, except at a
     refracting facet, which is hit from either side): kind ``kind``'s event.
 
@@ -113,9 +113,10 @@ def scatter_event(kind: int, params: np.ndarray, tab_int: np.ndarray, tab_f: np.
 
     Returns
     -------
-    tuple of 3 float and a bool
-        New unit direction, and whether the weight is kept as it is (factor 1 in every
-        channel, nothing transmitted; ``fac`` is then not written).
+    tuple of 3 float and an int
+        New unit direction, and what the event did to the weight (``WEIGHTED``, ``KEPT``
+        or ``HERO``: ``microsim.materials.base``; ``fac`` is written for ``WEIGHTED``
+        only).
     """
     return _chain(kind, params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz, ex, ey, ez,
                   key, ray, event, hero, fac)
@@ -133,10 +134,10 @@ def scatter_all(faces: np.ndarray, d: np.ndarray, n: np.ndarray, face_material: 
     for r in range(len(faces)):
         f = faces[r]
         part = face_material[f]
-        out[r, 0], out[r, 1], out[r, 2], kept = scatter_event(
+        out[r, 0], out[r, 1], out[r, 2], outcome = scatter_event(
             kind[part], params, tab_int, tab_f, part, d[r, 0], d[r, 1], d[r, 2], n[r, 0],
             n[r, 1], n[r, 2], tangents[f, 0], tangents[f, 1], tangents[f, 2], key, r,
             event, r % channels, fac[r])
-        if kept:
+        if outcome != WEIGHTED:
             fac[r, 0] = 1.0
             fac[r, 1] = 0.0

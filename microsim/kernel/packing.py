@@ -110,7 +110,7 @@ class FacetMaterials:
             if own:
                 self.params[m, :len(own)] = own
             self.params[m, P_MIRROR] = 1.0 if spec.mirror else 0.0
-            self.params[m, P_DISPERSIVE] = 1.0 if spec.dispersive(channels) else 0.0
+            self.params[m, P_DISPERSIVE] = spec.dispersion(channels)
             self.params[m, P_WAVELENGTH] = channels.wavelengths or 0.0
             medium = spec.medium(channels)
             if medium is not None:

@@ -96,7 +96,15 @@ from microsim.kernel.slots import (
     start,
     wrap_near,
 )
-from microsim.materials.base import P_ABSORPTION, P_DISPERSIVE, P_MEDIUM, P_MIRROR
+from microsim.materials.base import (
+    DISPERSION_ALWAYS,
+    HERO,
+    P_ABSORPTION,
+    P_DISPERSIVE,
+    P_MEDIUM,
+    P_MIRROR,
+    WEIGHTED,
+)
 from microsim.materials.optics import reflect
 
 
@@ -200,14 +208,18 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                 else:
                     # 4. scattering: the weight takes the factor, the rest is absorbed or
                     # transmitted
-                    if params[part, P_DISPERSIVE, 0] != 0.0 and slots_i[i, I_HERO] < 0:
+                    if (params[part, P_DISPERSIVE, 0] == DISPERSION_ALWAYS
+                            and slots_i[i, I_HERO] < 0):
                         _follow_hero(slots_f, slots_i, i, channels)
                     hero = slots_i[i, I_HERO]
-                    ox, oy, oz, kept = scatter_event(
+                    ox, oy, oz, outcome = scatter_event(
                         kind[part], params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz,
                         faces[f, F_TX], faces[f, F_TY], faces[f, F_TZ], key,
-                        slots_i[i, I_RAY], bounce + 1, max(hero, 0), fac)
-                    for c in range(0 if kept else channels):
+                        slots_i[i, I_RAY], bounce + 1,
+                        hero if hero >= 0 else slots_i[i, I_RAY] % channels, fac)
+                    if outcome == HERO and hero < 0:
+                        _follow_hero(slots_f, slots_i, i, channels)
+                    for c in range(channels if outcome == WEIGHTED else 0):
                         w = slots_f[i, S_W + c]
                         slots_f[i, S_W + 2 * channels + c] += w * fac[1, c]
                         slots_f[i, S_W + channels + c] += w * (1.0 - fac[0, c] - fac[1, c])
@@ -385,9 +397,9 @@ def _absorb(slots_f: np.ndarray, i: int, params: np.ndarray, medium: int, z_end:
 
 @njit(**INLINE)
 def _follow_hero(slots_f: np.ndarray, slots_i: np.ndarray, i: int, channels: int) -> None:
-    """Leave slot i's path one channel, its hero h = ray mod C, before its first event
-    whose direction depends on the wavelength: the other channels' weights end there and
-    the hero's is multiplied by C (hero-wavelength sampling, Wilkie et al. 2014, "Hero
+    """Leave slot i's path one channel, its hero h = ray mod C, at its first event whose
+    direction depends on the wavelength: the other channels' weights end there and the
+    hero's is multiplied by C (hero-wavelength sampling, Wilkie et al. 2014, "Hero
     wavelength spectral sampling", sec. 4; pbrt-v4's ``TerminateSecondary``). Each
     channel is the hero of every C-th ray, so each channel's expected weight is unchanged;
     the ended weights are neither absorbed nor transmitted."""

@@ -19,8 +19,8 @@ per channel of the run (C = 3 for an RGB table, one per wavelength for a spectra
 Beer-Lambert absorption of the medium a refracting part's faces enclose
 (``P_ABSORPTION``), whether they enclose one (``P_MEDIUM``), whether its event is a perfect
 mirror's (``P_MIRROR``), whether it disperses (``P_DISPERSIVE``: its event's direction
-depends on the channel's wavelength, so a path that meets it follows one wavelength
-only, ``microsim.kernel.transport``), which the transport reads, and each channel's
+depends on the channel's wavelength, so a path follows one wavelength from there,
+``microsim.kernel.transport``; ``DISPERSION_*``), which the transport reads, and each channel's
 wavelength (``P_WAVELENGTH``, for coatings). Kernel-language functions
 are marked with ``kernel``, so the kernel can compile every one of them (numba's
 ``register_jitable``) while this package imports nothing heavy: ``microsim check`` reads
@@ -54,6 +54,17 @@ P_WAVELENGTH = 8
 """Column of each channel's wavelength, nm (0 in an RGB table)."""
 PARAMS = 9
 """Columns of the kernel's parameter block of a part."""
+
+WEIGHTED, KEPT, HERO = range(3)
+"""What a scattering event did to the path's weight: multiplied each channel's by its
+factor in ``fac``; kept it as it is (factor 1, nothing transmitted: ``fac`` unwritten);
+kept it, and from here the path follows its hero wavelength alone (a direction that
+depends on the wavelength: ``microsim.kernel.transport``)."""
+DISPERSION_NONE, DISPERSION_ALWAYS, DISPERSION_REFRACTED = range(3)
+"""``P_DISPERSIVE`` of a part: its events' directions do not depend on the wavelength;
+they may, at every event (the path follows its hero before each); only where the event
+refracts (it says so itself, ``HERO``: a reflection keeps every channel, weighted by its
+reflectance over the hero's)."""
 
 KERNEL_FUNCTIONS: list[Callable[..., Any]] = []
 """Every kernel-language helper of the material kinds, in the order they were marked."""
@@ -90,9 +101,11 @@ class Material:
     path's ``hero`` channel (the one whose wavelength decides a dispersive event). Fills
     ``fac`` ((2, C)) with the factor each channel's weight is multiplied by (row 0) and the
     fraction transmitted into a non-refracting dielectric (row 1); the rest,
-    1 − factor − transmitted, is absorbed. Returns the new unit direction and whether the
-    weight is kept as it is (factor 1 in every channel, nothing transmitted: ``fac`` is
-    then left unwritten and the transport skips the weight's bookkeeping)."""
+    1 − factor − transmitted, is absorbed. Returns the new unit direction and what the
+    event did to the weight: ``WEIGHTED`` (by ``fac``), ``KEPT`` (factor 1 in every
+    channel, nothing transmitted: ``fac`` is then left unwritten and the transport skips
+    the weight's bookkeeping) or ``HERO`` (kept, and the path follows its hero alone from
+    here)."""
     blocks: ClassVar[int] = 0
     replaced_by_data: ClassVar[tuple[str, ...]] = ()
     """The keys a kind's ``data`` key (shipped measurements) stands in for."""
@@ -177,10 +190,11 @@ class Material:
         """Whether the part's faces enclose a medium (``medium`` is not None)."""
         return self.medium(RGB) is not None
 
-    def dispersive(self, channels: Channels) -> bool:
-        """Whether the event's direction depends on the channel (η varies with the
-        wavelength); False by default."""
-        return False
+    def dispersion(self, channels: Channels) -> int:
+        """Whether and where the event's direction depends on the channel (η varies with
+        the wavelength): ``DISPERSION_NONE`` (by default), ``DISPERSION_ALWAYS`` or
+        ``DISPERSION_REFRACTED``."""
+        return DISPERSION_NONE
 
     def tabulated(self) -> Any:
         """The table the kernel samples for this material (the ``table`` kind: an object

@@ -7,7 +7,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from microsim.materials.base import Material, kernel
+from microsim.materials.base import WEIGHTED, Material, kernel
 from microsim.materials.optics import reflect
 from microsim.spectra.channels import RGB, Channels
 
@@ -16,12 +16,12 @@ from microsim.spectra.channels import RGB, Channels
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
             ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
-            ) -> tuple[float, float, float, bool]:
+            ) -> tuple[float, float, float, int]:
     """Factor 0: the whole weight is absorbed. The path goes on (mirrored, carrying
     nothing) to its end, as every path does, so its fate is counted as usual."""
     fac[:, :] = 0.0
     ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
-    return ox, oy, oz, False
+    return ox, oy, oz, WEIGHTED
 
 
 @dataclass(frozen=True, kw_only=True)

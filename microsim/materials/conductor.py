@@ -9,7 +9,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from microsim.errors import InputError
-from microsim.materials.base import P_WAVELENGTH, Material, kernel
+from microsim.materials.base import P_WAVELENGTH, WEIGHTED, Material, kernel
 from microsim.materials.coating import Coating
 from microsim.materials.optics import fresnel_conductor, reflect
 from microsim.materials.thin_film import film_reflectance
@@ -44,7 +44,7 @@ def coated(params: np.ndarray, part: int, c: float, fac: np.ndarray) -> None:
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
             ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
-            ) -> tuple[float, float, float, bool]:
+            ) -> tuple[float, float, float, int]:
     """Mirror reflection, the weight times F(θ) of η + ik per channel (column 0: η,
     1: k), or, under a coating (column 3: its thickness, > 0; 2: its index), the film's
     reflectance at the channel's wavelength; the rest is absorbed."""
@@ -56,7 +56,7 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
             fac[0, j] = fresnel_conductor(c, params[part, 0, j], params[part, 1, j])
             fac[1, j] = 0.0
     ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
-    return ox, oy, oz, False
+    return ox, oy, oz, WEIGHTED
 
 
 @dataclass(frozen=True, kw_only=True)

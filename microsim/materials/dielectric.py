@@ -10,7 +10,18 @@ from typing import Any, ClassVar
 import numpy as np
 
 from microsim.errors import InputError
-from microsim.materials.base import P_WAVELENGTH, Material, kernel
+from microsim.materials.base import (
+    DISPERSION_ALWAYS,
+    DISPERSION_NONE,
+    DISPERSION_REFRACTED,
+    HERO,
+    KEPT,
+    P_DISPERSIVE,
+    P_WAVELENGTH,
+    WEIGHTED,
+    Material,
+    kernel,
+)
 from microsim.materials.coating import Coating
 from microsim.materials.optics import fresnel_dielectric, reflect, refract
 from microsim.materials.thin_film import film_reflectance
@@ -24,7 +35,7 @@ from microsim.spectra.spectrum import Spectrum
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
             ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
-            ) -> tuple[float, float, float, bool]:
+            ) -> tuple[float, float, float, int]:
     """Column 0: η per channel; column 1: 1 to refract; columns 2 and 3: a coating's index
     and thickness (nm; 0: none), whose reflectance and transmittance at the channel's
     wavelength replace the bare interface's (``thin_film``; from inside the medium every
@@ -34,10 +45,15 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
     weight 1 either way: an unbiased estimate of both (PBR 4th ed., sec. 9.5); from inside
     the medium the ray sees 1 / η about the flipped normal. No 1/η² on crossing: a path
     carries power (importance), not radiance (Veach 1997, thesis, sec. 5.2). The choice
-    and the refracted direction are the ``hero`` channel's: where η depends on the
-    wavelength the transport has left the path only that channel (``P_DISPERSIVE``).
-    Otherwise a mirror reflection with weight F per channel; 1 − F is transmitted
-    (reported as lost)."""
+    and the refracted direction are the ``hero`` channel's. Where η depends on the
+    wavelength (``P_DISPERSIVE`` = ``DISPERSION_REFRACTED``) a refraction leaves the path
+    its hero alone (``HERO``), and a reflection, whose direction is every wavelength's,
+    keeps every channel with weight F_c / F_hero: the hero chose it with probability
+    F_hero, so each channel's expected weight is its own F_c (unbiased for each channel,
+    as pbrt-v4's termination at every event is, but a lobe of reflections keeps all its
+    wavelengths). A coated part (``DISPERSION_ALWAYS``) has left the path its hero before
+    the event. Otherwise a mirror reflection with weight F per channel; 1 − F is
+    transmitted (reported as lost)."""
     if params[part, 1, 0] != 0.0:
         eta = params[part, 0, hero]
         inside = dx * nx + dy * ny + dz * nz >= 0.0
@@ -45,19 +61,27 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
             nx, ny, nz, eta = -nx, -ny, -nz, 1.0 / eta
         c = -(dx * nx + dy * ny + dz * nz)
         f = _reflectance(params, part, hero, c, eta, inside)[0]
+        dispersive = params[part, P_DISPERSIVE, 0] == DISPERSION_REFRACTED
         if u[0] >= f:
             tx, ty, tz, tir = refract(dx, dy, dz, nx, ny, nz, eta)
             if not tir:
-                return tx, ty, tz, True
+                return tx, ty, tz, HERO if dispersive else KEPT
         ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
-        return ox, oy, oz, True
+        if not dispersive:
+            return ox, oy, oz, KEPT
+        for j in range(fac.shape[1]):
+            own = params[part, 0, j]
+            fac[0, j] = _reflectance(params, part, j, c, 1.0 / own if inside else own,
+                                     inside)[0] / f
+            fac[1, j] = 0.0
+        return ox, oy, oz, WEIGHTED
     c = -(dx * nx + dy * ny + dz * nz)
     for j in range(fac.shape[1]):
         f, t = _reflectance(params, part, j, c, params[part, 0, j], False)
         fac[0, j] = f
         fac[1, j] = t
     ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
-    return ox, oy, oz, False
+    return ox, oy, oz, WEIGHTED
 
 
 @kernel
@@ -133,11 +157,16 @@ class Dielectric(Material):
         return channels.sample(self.absorption, where + "absorption") if self.refract \
             else None
 
-    def dispersive(self, channels: Channels) -> bool:
-        """A refracting part whose η differs between channels, or that is coated (the
-        choice between reflection and refraction is then the hero's)."""
-        return self.refract and (self.coating is not None and channels.count > 1
-                                 or len(set(self.parameters(channels)[0])) > 1)
+    def dispersion(self, channels: Channels) -> int:
+        """A refracting part: coated (its reflectance's interference makes the choice
+        between reflection and refraction the hero's at every event), or with η varying
+        between channels (only its refractions' directions depend on the wavelength)."""
+        if not self.refract or channels.count == 1:
+            return DISPERSION_NONE
+        if self.coating is not None:
+            return DISPERSION_ALWAYS
+        dispersive = len(set(self.parameters(channels)[0])) > 1
+        return DISPERSION_REFRACTED if dispersive else DISPERSION_NONE
 
     def fresnel(self, channels: Channels = RGB) -> tuple | None:
         """``("dielectric", eta)``: a number, or η per channel where it varies; coated,

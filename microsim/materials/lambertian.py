@@ -8,7 +8,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from microsim.errors import InputError
-from microsim.materials.base import Material, kernel
+from microsim.materials.base import WEIGHTED, Material, kernel
 from microsim.materials.optics import cosine_about
 from microsim.schema import key
 from microsim.spectra import measured
@@ -20,7 +20,7 @@ from microsim.spectra.spectrum import Spectrum
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
             ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
-            ) -> tuple[float, float, float, bool]:
+            ) -> tuple[float, float, float, int]:
     """A cosine-distributed direction about n (u[0], u[1]); the cosine pdf cancels the
     BRDF's cosine, so the weight is the albedo (column 0; PBR 4th ed., sec. 13.6.3
     and 4.5.1)."""
@@ -28,7 +28,7 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
         fac[0, j] = params[part, 0, j]
         fac[1, j] = 0.0
     ox, oy, oz = cosine_about(nx, ny, nz, u[0], u[1])
-    return ox, oy, oz, False
+    return ox, oy, oz, WEIGHTED
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -7,7 +7,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from microsim.materials.base import Material, kernel
+from microsim.materials.base import KEPT, Material, kernel
 from microsim.materials.optics import reflect
 from microsim.spectra.channels import RGB, Channels
 
@@ -16,10 +16,10 @@ from microsim.spectra.channels import RGB, Channels
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
             ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
-            ) -> tuple[float, float, float, bool]:
+            ) -> tuple[float, float, float, int]:
     """Mirror reflection about n; the weight is kept."""
     ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
-    return ox, oy, oz, True
+    return ox, oy, oz, KEPT
 
 
 @dataclass(frozen=True, kw_only=True)

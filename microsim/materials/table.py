@@ -16,7 +16,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from microsim.materials.base import Material, kernel
+from microsim.materials.base import WEIGHTED, Material, kernel
 from microsim.materials.optics import TWO_PI
 from microsim.schema import key
 
@@ -109,7 +109,7 @@ def _pick_node(x: float, nodes: np.ndarray, at: int, m: int, periodic: bool, u: 
 def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: int,
             dx: float, dy: float, dz: float, nx: float, ny: float, nz: float, ex: float,
             ey: float, ez: float, u: tuple, hero: int, fac: np.ndarray
-            ) -> tuple[float, float, float, bool]:
+            ) -> tuple[float, float, float, int]:
     """A direction importance-sampled from a BRDF table in the facet's frame, and its
     per-channel weight f_r cos θo / pdf (``microsim.kernel.tabulated`` derives both); nothing is
     transmitted.
@@ -154,7 +154,7 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
         fac[0, j] = tab_f[at + j]
         fac[1, j] = 0.0
     return (lx * tx + ly * bx + lz * nx, lx * ty + ly * by + lz * ny,
-            lx * tz + ly * bz + lz * nz, False)
+            lx * tz + ly * bz + lz * nz, WEIGHTED)
 
 
 @dataclass(frozen=True, kw_only=True)
