@@ -42,6 +42,7 @@ EXPECTED = {
     "docs/goniometer.md": (1, 0),
     "docs/materials.md": (2, 0),
     "docs/render.md": (3, 2),
+    "docs/spectral.md": (1, 0),
 }
 """(blocks run, blocks skipped) of every file that has ``sh`` blocks: a new block, or a new
 page with blocks, changes the counts here."""

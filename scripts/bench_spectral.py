@@ -1,0 +1,165 @@
+"""What a spectral table costs against an RGB one: the same recipe, the same rays.
+
+Usage::
+
+    python scripts/bench_spectral.py [--rays 800000] [--repeats 3] [--write]
+
+Two comparisons, each ``microsim simulate --json`` in a child process (its wall time
+inside simulate, ``wall_s``, and its peak resident memory), alternating the two sides
+``repeats`` times; medians:
+
+- **conductor**: surfaces/gaussian-0.3.toml with gold facets, RGB (``material.kind =
+  "conductor"``, the default R, G, B indices) against 32 wavelengths 390-700 nm of the
+  shipped measured gold (``data = "Au"``), with the default order-32 harmonics and without
+  them (``table.sh_order = 0``). The paths are the same (a conductor's directions do not
+  depend on the wavelength); the difference is carrying 32 weights, and the harmonics'
+  transforms, one per channel and moment.
+- **dielectric**: a rough refracting glass (α 0.4) at the same rays: RGB with one index
+  (1.517, BK7's at 587.6 nm: no dispersion) against the dispersive BK7 at 16 wavelengths,
+  whose paths follow one hero wavelength from their first event (docs/spectral.md). Each
+  channel then has 1/C of the paths, so its error is larger: the cost at equal error per
+  channel is the time times (median relative error, spectral / RGB)², each error the
+  median over the channels of the channel's median relative standard error over the
+  lobe bins.
+
+``--write`` puts the table into docs/performance.md (marked section ``bench_spectral``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from microsim.files import write_section
+from microsim.tables.exr import read_table
+
+ROOT = Path(__file__).resolve().parent.parent
+DOC = ROOT / "docs" / "performance.md"
+RECIPE = ROOT / "surfaces" / "gaussian-0.3.toml"
+MICROSIM = str(Path(sys.executable).with_name("microsim"))
+"""The command of this environment (``microsim`` beside its Python)."""
+NM32 = [float(x) for x in np.linspace(390.0, 700.0, 32)]
+NM16 = [float(x) for x in np.linspace(400.0, 700.0, 16)]
+
+
+def _list(values: list[float]) -> str:
+    return "[" + ",".join(f"{v:g}" for v in values) + "]"
+
+
+def run(sets: list[str], rays: int, folder: Path) -> dict[str, float]:
+    """One ``microsim simulate`` of the demo recipe with ``--set`` overrides: its wall
+    time inside simulate (s) and ``channel_error`` of the table it wrote."""
+    argv = [MICROSIM, "simulate", str(RECIPE), "--rays", str(rays),
+            "-o", str(folder / "t.exr"), "--json"]
+    for s in sets:
+        argv += ["--set", s]
+    out = subprocess.run(argv, check=True, capture_output=True, text=True).stdout
+    return {"wall": float(json.loads(out)["wall_s"]),
+            "error": channel_error(read_table(folder / "t.exr"))}
+
+
+def channel_error(table) -> float:
+    """The median over the channels of each channel's median relative standard error over
+    the lobe bins (an empty bin's error, NaN, counted as infinite)."""
+    lobe = table.lobe_mask("total")
+    medians = []
+    for c in range(table.channels.count):
+        f, e = table.values["total"][..., c], table.errors["total"][..., c]
+        rel = np.where(np.isfinite(e), e, np.inf)[lobe] / f[lobe]
+        medians.append(float(np.median(rel)))
+    return float(np.median(medians))
+
+
+def measure(cases: dict[str, list[str]], rays: int, repeats: int) -> dict[str, dict]:
+    """Each case ``repeats`` times, alternating; medians of wall time and error, and the
+    peak memory of a fresh child per case (measured in a process of its own)."""
+    times: dict[str, list[float]] = {c: [] for c in cases}
+    errors: dict[str, list[float]] = {c: [] for c in cases}
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(repeats):
+            for name, sets in cases.items():
+                r = run(sets, rays, Path(tmp))
+                times[name].append(r["wall"])
+                errors[name].append(r["error"])
+    peaks = {name: peak_of(sets, rays) for name, sets in cases.items()}
+    return {name: {"wall": statistics.median(times[name]),
+                   "error": statistics.median(errors[name]), "gib": peaks[name]}
+            for name in cases}
+
+
+def peak_of(sets: list[str], rays: int) -> float:
+    """Peak resident memory (GiB) of one simulate, in a process of its own (so the
+    figure is that run's alone)."""
+    code = ("import resource, subprocess, sys; subprocess.run(sys.argv[1:], check=True, "
+            "stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL); print(resource."
+            "getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
+    with tempfile.TemporaryDirectory() as tmp:
+        argv = [sys.executable, "-c", code, MICROSIM, "simulate",
+                str(RECIPE), "--rays", str(rays), "-o", str(Path(tmp) / "t.exr")]
+        for s in sets:
+            argv += ["--set", s]
+        out = subprocess.run(argv, check=True, capture_output=True, text=True).stdout
+    return int(out.split()[-1]) / 2**20
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--rays", type=int, default=800_000)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--write", action="store_true")
+    args = parser.parse_args()
+    gold = ["material.kind=conductor"]
+    spectral_gold = gold + ["material.data=Au", f"table.wavelengths={_list(NM32)}"]
+    glass = ["material.kind=dielectric", "material.refract=true", "surface.alpha=0.4"]
+    cases = {
+        "gold RGB": gold,
+        "gold 32 wavelengths": spectral_gold,
+        "gold RGB, no harmonics": gold + ["table.sh_order=0"],
+        "gold 32 wavelengths, no harmonics": spectral_gold + ["table.sh_order=0"],
+        "glass RGB (eta 1.517)": glass + ["material.eta=1.517", "table.sh_order=0"],
+        "glass BK7, 16 wavelengths (hero)": glass + [
+            "material.data=BK7", f"table.wavelengths={_list(NM16)}", "table.sh_order=0"],
+    }
+    got = measure(cases, args.rays, args.repeats)
+    rows = ["| case | simulate wall time, s | ratio to RGB | peak memory, GiB | median "
+            "relative error | time at the RGB's error, ratio |",
+            "| --- | --- | --- | --- | --- | --- |"]
+    pairs = [("gold RGB", "gold 32 wavelengths"),
+             ("gold RGB, no harmonics", "gold 32 wavelengths, no harmonics"),
+             ("glass RGB (eta 1.517)", "glass BK7, 16 wavelengths (hero)")]
+    for rgb, spectral in pairs:
+        a, b = got[rgb], got[spectral]
+        rows.append(f"| {rgb} | {a['wall']:.1f} | 1 | {a['gib']:.2f} | "
+                    f"{100 * a['error']:.2f}% | 1 |")
+        equal = b["wall"] / a["wall"] * (b["error"] / a["error"]) ** 2
+        rows.append(f"| {spectral} | {b['wall']:.1f} | **{b['wall'] / a['wall']:.2f}** | "
+                    f"{b['gib']:.2f} | {100 * b['error']:.2f}% | {equal:.1f} |")
+    load = os.getloadavg()[0]
+    text = "\n".join([
+        "## Spectral tables against RGB",
+        "",
+        f"Measured with `python scripts/bench_spectral.py --rays {args.rays} --repeats "
+        f"{args.repeats} --write` on {platform.machine()}, {os.cpu_count()} CPUs; load "
+        f"average (1 min) {load:.1f} at the end: surfaces/gaussian-0.3.toml with "
+        f"{args.rays:,} rays per direction, `microsim simulate`'s own wall time (`wall_s`, "
+        "medians of the repeats) and the peak resident memory of one run. The last column "
+        "is the time times (error ratio)²: what the spectral table costs at the RGB "
+        "table's median relative error per channel.",
+        "",
+        *rows])
+    print(text)
+    if args.write:
+        write_section(DOC, "bench_spectral", text)
+
+
+if __name__ == "__main__":
+    main()
