@@ -155,7 +155,16 @@ def main() -> None:
         "is the time times (error ratio)²: what the spectral table costs at the RGB "
         "table's median relative error per channel.",
         "",
-        *rows])
+        *rows,
+        "",
+        "Where the spectral conductor's time goes: its paths are the RGB table's, so the "
+        "tracing is the same; carrying 32 weights per path costs the difference without "
+        "harmonics, and the harmonics two transforms per channel and batch (Σ w Y_k to "
+        "order L, Σ w² Y_K to 2L: `microsim.tables.sh.moments`) where a gold RGB table has "
+        "six: they dominate a 32-wavelength table. The memory grows with the per-ray "
+        "outcomes of a batch in flight (6 + 3 C floats a ray). A dispersive glass's "
+        "reflections keep every wavelength and only its refractions follow one "
+        "(docs/spectral.md), so its lobe's error per channel is the RGB table's."])
     print(text)
     if args.write:
         write_section(DOC, "bench_spectral", text)

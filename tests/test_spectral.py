@@ -395,3 +395,34 @@ def test_gold_srgb_equals_colour_sciences_own_conversion() -> None:
     reference = cs.XYZ_to_sRGB(xyz, apply_cctf_encoding=False)
     np.testing.assert_allclose(product, reference, rtol=0, atol=2e-3)
     assert product[0] > product[1] > product[2]  # gold: red over green over blue
+
+
+def test_an_absorption_spectrum_is_each_wavelengths_own_absorption() -> None:
+    """A paint binder whose Beer-Lambert absorption is a spectrum σ(λ), over a white
+    Lambertian base: the paths do not depend on the wavelength (the binder's index is one
+    number), so each channel of the spectral table is, bit for bit, the table of that
+    wavelength alone with σ as a number (same rays, same random numbers, each channel's
+    weight its own); and the absorbed share grows with σ."""
+    nm = [450.0, 550.0, 650.0]
+    sigma = {"nm": [400.0, 700.0], "value": [0.0, 6.0]}
+
+    def paint(absorption: object, wavelengths: list[float]) -> BRDFTable:
+        return microsim.simulate(microsim.load_recipe({
+            "surface": {"kind": "paint", "binder_thickness": 0.2, "top_alpha": 0.0,
+                        "pigment_fraction": 0.0, "resolution": 32},
+            "material": {"binder": {"kind": "dielectric", "eta": 1.5, "refract": True,
+                                    "absorption": absorption},
+                         "pigment": {"kind": "lambertian", "albedo": 0.5},
+                         "substrate": {"kind": "lambertian", "albedo": 0.9}},
+            "table": {"wavelengths": wavelengths, "theta_bins": 4, "phi_bins": 4,
+                      "sh_order": 0},
+            "simulation": {"theta_i": [0.0, 50.0], "rays": 4000}}), threads=1)
+
+    spectral = paint(sigma, nm)
+    for j, wavelength in enumerate(nm):
+        value = float(np.interp(wavelength, sigma["nm"], sigma["value"]))
+        alone = paint(value, [wavelength])
+        assert np.array_equal(spectral.values["total"][..., j],
+                              alone.values["total"][..., 0])
+    absorbed = np.asarray(spectral.meta.directions[0].absorbed)
+    assert absorbed[0] < absorbed[1] < absorbed[2]

@@ -187,8 +187,9 @@ class Material:
 
     @property
     def encloses_medium(self) -> bool:
-        """Whether the part's faces enclose a medium (``medium`` is not None)."""
-        return self.medium(RGB) is not None
+        """Whether the part's faces enclose a medium (``medium`` is not None); False by
+        default."""
+        return False
 
     def dispersion(self, channels: Channels) -> int:
         """Whether and where the event's direction depends on the channel (η varies with

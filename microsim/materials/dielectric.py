@@ -129,17 +129,20 @@ class Dielectric(Material):
         "index (a number or a spectrum) relative to the medium in front: reflectance and "
         "transmittance by the Airy summation per wavelength (a spectral table only; "
         "docs/spectral.md).")
-    absorption: tuple[float, float, float] = key(
-        "rgb", 0.0, "Beer-Lambert absorption coefficient inside the medium, per tile unit "
-        "of path length (R, G, B); needs refract = true.", low=0.0)
+    absorption: tuple[float, float, float] | Spectrum = key(
+        "spectrum", 0.0, "Beer-Lambert absorption coefficient inside the medium, per tile "
+        "unit of path length (R, G, B, or a spectrum in a spectral table); needs refract = "
+        "true.", low=0.0)
 
     def check(self, where: str, given: frozenset[str]) -> None:
         """Absorption needs a medium: ``refract = true``; ``data`` replaces ``eta``."""
         if self.data is not None and "eta" in given:
             raise InputError(f"{where}data = {self.data!r}: gives eta; leave out eta")
-        if not self.refract and any(a > 0 for a in self.absorption):
-            raise InputError(f"{where}absorption = {list(self.absorption)!r}: needs refract "
-                             "= true (without refraction no light enters the medium)")
+        values = (self.absorption.value if isinstance(self.absorption, Spectrum)
+                  else self.absorption)
+        if not self.refract and any(a > 0 for a in values):
+            raise InputError(f"{where}absorption = {list(values)!r}: needs refract = true "
+                             "(without refraction no light enters the medium)")
 
     def parameters(self, channels: Channels, where: str = "material."
                    ) -> tuple[tuple[float, ...], ...]:
@@ -156,6 +159,11 @@ class Dielectric(Material):
         """The absorption inside a refracting part, None for a reflecting one."""
         return channels.sample(self.absorption, where + "absorption") if self.refract \
             else None
+
+    @property
+    def encloses_medium(self) -> bool:
+        """A refracting part's faces enclose its medium."""
+        return self.refract
 
     def dispersion(self, channels: Channels) -> int:
         """A refracting part: coated (its reflectance's interference makes the choice
