@@ -20,6 +20,7 @@ The resolved recipe always has the form::
 from __future__ import annotations
 
 import copy
+import math
 import tomllib
 import warnings
 from collections.abc import Iterable, Mapping
@@ -143,11 +144,41 @@ def resolve(raw: Mapping[str, Any]) -> Recipe:
     check_span(surf, spec.keys)
     materials = _materials(raw.get("material", {}), spec.parts)
     _check_media(surf, materials)
-    table = TableSettings(**check_section(_table(raw.get("table", {}), "table"), TABLE,
+    table = TableSettings(**check_section(_wavelength_range(_table(raw.get("table", {}),
+                                                                   "table")), TABLE,
                                           "table."))
     _check_channels(materials, table.channels)
     return Recipe(description, SurfaceSection.of(surf), materials,
                   _simulation(raw.get("simulation", {}), surf), table)
+
+
+MAX_WAVELENGTHS = 1000
+"""Most wavelengths a ``{ start, stop, step }`` range may give (a table's memory grows with
+its channels)."""
+
+
+def _wavelength_range(table: Mapping[str, Any]) -> Mapping[str, Any]:
+    """``[table]`` with ``wavelengths = { start, stop, step }`` (nm) written out as the list
+    start, start + step, …, up to stop (included when a whole number of steps away)."""
+    given = table.get("wavelengths")
+    if not isinstance(given, Mapping):
+        return table
+    where = "table.wavelengths"
+    if set(given) != {"start", "stop", "step"}:
+        raise InputError(f"{where} = {dict(given)!r}: a range is {{ start = <nm>, stop = "
+                         "<nm>, step = <nm> }, or give a list of wavelengths")
+    for name in ("start", "stop", "step"):
+        v = given[name]
+        if isinstance(v, bool) or not isinstance(v, int | float) or not 0 < v < math.inf:
+            raise InputError(f"{where}.{name} = {v!r}: must be a number of nm > 0")
+    start, stop, step = (float(given[k]) for k in ("start", "stop", "step"))
+    if stop < start:
+        raise InputError(f"{where}.stop = {stop:g}: must be >= start = {start:g}")
+    count = int(math.floor((stop - start) / step * (1 + 1e-12))) + 1
+    if count > MAX_WAVELENGTHS:
+        raise InputError(f"{where}: {count} wavelengths; at most {MAX_WAVELENGTHS} (a "
+                         "larger step)")
+    return {**table, "wavelengths": [start + k * step for k in range(count)]}
 
 
 def _check_channels(materials: Mapping[str, Material], channels: Channels) -> None:

@@ -116,7 +116,8 @@ class TableSettings:
     wavelengths: tuple[float, ...] | None = key(
         "floats", None, "Wavelengths in nm (in vacuum) of a spectral table: one channel per "
         "wavelength instead of R, G, B, each material key sampled from its spectrum there "
-        "(docs/spectral.md); absent: an RGB table.", low=200.0, high=5000.0,
+        "(docs/spectral.md), or a range { start, stop, step }; absent: an RGB table.",
+        low=200.0, high=5000.0,
         increasing=True)
 
     @property

@@ -426,3 +426,25 @@ def test_an_absorption_spectrum_is_each_wavelengths_own_absorption() -> None:
                               alone.values["total"][..., 0])
     absorbed = np.asarray(spectral.meta.directions[0].absorbed)
     assert absorbed[0] < absorbed[1] < absorbed[2]
+
+
+@pytest.mark.parametrize(("wavelengths", "expected"), [
+    ({"start": 400, "stop": 700, "step": 100}, [400.0, 500.0, 600.0, 700.0]),
+    ({"start": 400, "stop": 650, "step": 100}, [400.0, 500.0, 600.0]),
+    ({"start": 550, "stop": 550, "step": 10}, [550.0]),
+    ({"start": 400, "stop": 700, "step": 0}, "table.wavelengths.step = 0: must be a number"),
+    ({"start": 400, "stop": 300, "step": 10}, "table.wavelengths.stop = 300: must be >= "),
+    ({"start": 400, "stop": 700}, "table.wavelengths = {'start': 400, 'stop': 700}: a range"),
+    ({"start": 400, "stop": 4000, "step": 1}, "3601 wavelengths; at most 1000"),
+    ({"start": 100, "stop": 700, "step": 100}, "table.wavelengths[0] = 100.0: must be"),
+])
+def test_wavelengths_as_a_range(wavelengths: dict, expected: object) -> None:
+    """``wavelengths = { start, stop, step }`` is the list start, start + step, … up to
+    stop; a bad range is one error naming its key."""
+    recipe = {"surface": {"kind": "flat"}, "table": {"wavelengths": wavelengths}}
+    if isinstance(expected, list):
+        assert list(microsim.load_recipe(recipe).table.wavelengths) == expected
+        return
+    with pytest.raises(InputError) as caught:
+        microsim.load_recipe(recipe)
+    assert expected in str(caught.value)
