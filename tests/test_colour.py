@@ -256,3 +256,18 @@ NM = np.linspace(400.0, 700.0, 4)
 def test_bad_input_is_an_input_error_naming_the_key(call, message: str) -> None:
     with pytest.raises(InputError, match=message):
         call()
+
+
+def test_importing_leaves_numpys_printing_as_it_was() -> None:
+    """colour-science sets numpy's legacy (1.13) printing when imported; importing
+    ``microsim.spectra.colour`` in a fresh interpreter leaves the caller's printing alone
+    (an array prints as numpy prints it, without legacy's sign padding)."""
+    import subprocess
+    import sys
+
+    code = ("import numpy as np; before = np.get_printoptions(); "
+            "import microsim.spectra.colour; print(np.get_printoptions() == before, "
+            "repr(str(np.array([0.5, 1.0]))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "True '[0.5 1. ]'"

@@ -34,17 +34,23 @@ white is neutral whatever the illuminant, as the sRGB viewing condition assumes 
 observer adapted to the scene's white.
 
 This module imports colour-science (and through it SciPy): about a second. Nothing on the
-path of ``microsim check`` (recipes, schema, materials) may import it.
+path of ``microsim check`` (recipes, schema, materials) may import it. colour-science
+switches numpy to its 1.13 printing when imported; this module puts the caller's printing
+back (tests/test_colour.py).
 """
 
 from __future__ import annotations
 
 from functools import lru_cache
 
-import colour
 import numpy as np
 
 from microsim.errors import InputError
+
+_PRINTING = np.get_printoptions()
+import colour  # noqa: E402 (colour-science sets numpy's 1.13 printing on import: undone)
+
+np.set_printoptions(**_PRINTING)
 
 ILLUMINANTS = ("D65", "D50", "D55", "D75", "A", "E")
 """The accepted illuminant names (CIE standard illuminants, colour-science's tables)."""
