@@ -22,7 +22,11 @@ queries), then one step per path:
    segment's start (x and y wrap, z does not).
 4. **Scattering** by the face's material (``scatter.scatter_event``), with the refracting
    part's medium entered or left when the ray went through the face, unless the bounce
-   limit is reached (the path ends, ``BOUNCES``). A face that approximates a curved tube
+   limit is reached (the path ends, ``BOUNCES``). A path carries one weight per channel
+   (R, G, B, or a spectral table's wavelengths), each multiplied by its own factor; where
+   the event's direction depends on the wavelength (a dispersive or coated refracting
+   part), the path follows its hero channel, ray mod C, alone from there
+   (``_follow_hero``; docs/spectral.md). A face that approximates a curved tube
    scatters at the point where the ray entered the tube, about its normal there
    (``shading.shade_one``); the offset of step 5 follows that normal.
 5. **Offset.** The next segment starts ``eps`` off the face on the side its direction
