@@ -91,30 +91,29 @@ class Conductor(Material):
             raise InputError(f"{where}data = {self.data!r}: gives eta and k; leave out "
                              f"{' and '.join(sorted(given & {'eta', 'k'}))}")
 
-    def indices(self, channels: Channels, where: str = "material.") -> tuple[Any, Any]:
+    def indices(self, channels: Channels) -> tuple[Any, Any]:
         """η and k as given: triples, numbers or spectra (``data``'s measurements); the
         default gold's in a spectral table is the measured gold's."""
         if self.data is None and channels.spectral and (self.eta, self.k) == GOLD_RGB:
             return measured.conductor("Au")
-        if self.data is None and channels.spectral:
-            for name, value, default in (("eta", self.eta, GOLD_RGB[0]),
-                                         ("k", self.k, GOLD_RGB[1])):
-                if value == default:
-                    raise InputError(f"{where}{name}: its default is gold's R, G, B, which "
-                                     "a spectral table has no channels for; give it as a "
-                                     "number or a spectrum (or data = \"Au\" …)")
         return (self.eta, self.k) if self.data is None else measured.conductor(self.data)
 
     def parameters(self, channels: Channels, where: str = "material."
                    ) -> tuple[tuple[float, ...], ...]:
         """η, then k, per channel."""
-        name = "data" if self.data is not None else None
-        eta, k = self.indices(channels, where)
-        columns = (channels.sample(eta, where + (name or "eta")),
-                   channels.sample(k, where + (name or "k")))
+        given = self.indices(channels)
+        columns = []
+        for name, value, default in zip(("eta", "k"), given, GOLD_RGB, strict=True):
+            if self.data is not None:
+                name = "data"
+            elif channels.spectral and value == default:
+                raise InputError(f"{where}{name}: its default is gold's R, G, B, which a "
+                                 "spectral table has no channels for; give it as a number "
+                                 "or a spectrum (or data = \"Au\" …)")
+            columns.append(channels.sample(value, where + name))
         if self.coating is None:
-            return columns
-        return columns + self.coating.columns(channels, where + "coating")
+            return tuple(columns)
+        return (*columns, *self.coating.columns(channels, where + "coating"))
 
     def fresnel(self, channels: Channels = RGB) -> tuple | None:
         """``("conductor", eta, k)`` per channel; coated, ``("coated", eta_film,
