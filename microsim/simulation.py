@@ -463,7 +463,10 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
         segments=segments, batch=BATCH,
         offset=next((p.offset for p in parts if 0 in p.surfaces), first.offset),
         tile_warnings=tuple(dict.fromkeys(w for part in parts for w in part.warnings)),
-        warnings=tuple(lost_energy_warnings(records)), timing=timing)
+        warnings=tuple(lost_energy_warnings(records)), timing=timing,
+        sources={} if not table.channels.spectral else {
+            f"material.{part}.{k}": source for part, m in materials.items()
+            for k, source in m.sources().items()})
     return result
 
 

@@ -456,3 +456,24 @@ def test_wavelengths_as_a_range(wavelengths: dict, expected: object) -> None:
     with pytest.raises(InputError) as caught:
         microsim.load_recipe(recipe)
     assert expected in str(caught.value)
+
+
+def test_a_spectral_table_records_where_its_spectra_come_from(tmp_path) -> None:
+    """The table's metadata names the source of every spectrum it sampled: a shipped
+    data set's citation (the measured gold's paper) and a given spectrum's own
+    ``source``, by key, through its file; an RGB table records none."""
+    table = _flat({"kind": "conductor", "data": "Au",
+                   "coating": {"thickness": 100.0,
+                               "eta": {"nm": [380.0, 720.0], "value": [2.4, 2.2],
+                                       "source": "a film index of the test"}}},
+                  [450.0, 600.0])
+    sources = table.meta.sources
+    assert "Johnson and R. W. Christy" in sources["material.base.data"]
+    assert sources["material.base.coating.eta"] == "a film index of the test"
+    microsim.write_table(table, tmp_path / "t.exr")
+    assert microsim.read_table(tmp_path / "t.exr").meta.sources == sources
+    rgb = microsim.simulate(microsim.load_recipe({
+        "surface": {"kind": "flat"}, "material": {"kind": "conductor"},
+        "table": {"theta_bins": 4, "phi_bins": 4, "sh_order": 0},
+        "simulation": {"theta_i": [0.0], "rays": 64}}), threads=1)
+    assert rgb.meta.sources == {} and "sources" not in rgb.meta.to_json()

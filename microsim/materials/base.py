@@ -202,6 +202,18 @@ class Material:
         with ``path``, ``component``, ``axis``), or None."""
         return None
 
+    def sources(self) -> dict[str, str]:
+        """Where the kind's spectra come from, by key (a spectrum's ``source``; a
+        coating's index as ``coating.eta``; ``data``'s citation, ``data_source``)."""
+        out = {}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, Spectrum):
+                out[f.name] = value.source
+            elif isinstance(value, Coating) and isinstance(value.eta, Spectrum):
+                out[f"{f.name}.eta"] = value.eta.source
+        return out
+
     # --- comparisons ----------------------------------------------------------------------
     def fresnel(self, channels: Channels = RGB) -> tuple | None:
         """The ``TorranceSparrow`` Fresnel argument of a specular facet: None for F = 1,

@@ -115,6 +115,13 @@ class Conductor(Material):
             return tuple(columns)
         return (*columns, *self.coating.columns(channels, where + "coating"))
 
+    def sources(self) -> dict[str, str]:
+        """The spectra's sources, and the shipped metal's citation (``data``)."""
+        out = super().sources()
+        if self.data is not None:
+            out["data"] = measured.conductor(self.data)[0].source
+        return out
+
     def fresnel(self, channels: Channels = RGB) -> tuple | None:
         """``("conductor", eta, k)`` per channel; coated, ``("coated", eta_film,
         thickness, wavelength, eta, k)``."""

@@ -160,6 +160,13 @@ class Dielectric(Material):
         return channels.sample(self.absorption, where + "absorption") if self.refract \
             else None
 
+    def sources(self) -> dict[str, str]:
+        """The spectra's sources, and the shipped glass's formula's (``data``)."""
+        out = super().sources()
+        if self.data is not None:
+            out["data"] = measured.dielectric(self.data).source
+        return out
+
     @property
     def encloses_medium(self) -> bool:
         """A refracting part's faces enclose its medium."""

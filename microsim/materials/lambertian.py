@@ -61,6 +61,13 @@ class Lambertian(Material):
             return (channels.sample(measured.reflectance(self.data), where + "data"),)
         return (channels.sample(self.albedo, where + "albedo"),)
 
+    def sources(self) -> dict[str, str]:
+        """The spectra's sources, and the shipped reflectance's (``data``)."""
+        out = super().sources()
+        if self.data is not None:
+            out["data"] = measured.reflectance(self.data).source
+        return out
+
     def diffuse_albedo(self, channels: Channels = RGB) -> tuple[float, ...] | None:
         """The albedo per channel."""
         return self.parameters(channels)[0]

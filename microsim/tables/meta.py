@@ -163,6 +163,10 @@ class TableMeta:
         The secondary-ray offset of realisation 0's scene.
     tile_warnings, warnings : tuple of str
         The tiles' warnings; the table's own (lost energy).
+    sources : dict of str to str
+        A spectral table's: where each material spectrum it sampled comes from, by key
+        (``material.<part>.data``, ``material.<part>.eta``, …: the shipped data's
+        citation, a given spectrum's ``source``); empty for an RGB table.
     timing : Timing or None
         Absent from tables assembled from parts (``microsim batch``), so that they depend
         on the recipe alone.
@@ -184,6 +188,7 @@ class TableMeta:
     tile_warnings: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
     timing: Timing | None = field(default=None)
+    sources: Mapping[str, str] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         """The ``meta`` entry of a table file's JSON (absent fields left out)."""
@@ -208,6 +213,8 @@ class TableMeta:
             out["tile_warnings"] = list(self.tile_warnings)
         if self.directions or self.warnings:
             out["warnings"] = list(self.warnings)
+        if self.sources:
+            out["sources"] = dict(self.sources)
         if self.timing is not None:
             out.update(wall_time=self.timing.wall_time, scene_time=self.timing.scene_time,
                        rays_per_second=self.timing.rays_per_second,
@@ -236,4 +243,5 @@ class TableMeta:
             stop=tuple(data.get("stop", ())), segments=data.get("segments"),
             batch=data.get("batch"), offset=data.get("offset"),
             tile_warnings=tuple(data.get("tile_warnings", ())),
-            warnings=tuple(data.get("warnings", ())), timing=timing)
+            warnings=tuple(data.get("warnings", ())), timing=timing,
+            sources={str(k): str(v) for k, v in (data.get("sources") or {}).items()})
