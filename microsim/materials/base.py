@@ -34,8 +34,10 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+from microsim.errors import InputError
 from microsim.materials.coating import Coating
 from microsim.schema import Key, check_section, schema_of
+from microsim.spectra import measured
 from microsim.spectra.channels import RGB, Channels
 from microsim.spectra.spectrum import Spectrum, parse_spectrum
 
@@ -109,6 +111,8 @@ class Material:
     blocks: ClassVar[int] = 0
     replaced_by_data: ClassVar[tuple[str, ...]] = ()
     """The keys a kind's ``data`` key (shipped measurements) stands in for."""
+    data_kind: ClassVar[str | None] = None
+    """The kind of shipped data its ``data`` key names (``microsim.spectra.measured``)."""
     mirror: ClassVar[bool] = False
     """The event is a perfect mirror's: specular reflection, factor 1, nothing transmitted.
     The transport then reflects inline and skips the weight's bookkeeping (the commonest
@@ -125,7 +129,13 @@ class Material:
         ``where`` + the key) and check the kind's cross-key rules."""
         values = check_section(raw, cls.keys(), where)
         material = cls(**{k: cls.convert(k, v, where + k) for k, v in values.items()})
-        material.check(where, frozenset(raw))
+        given = frozenset(raw)
+        both = given & set(cls.replaced_by_data)
+        if getattr(material, "data", None) is not None and both:
+            raise InputError(f"{where}data = {material.data!r}: gives "
+                             f"{' and '.join(cls.replaced_by_data)}; leave out "
+                             f"{' and '.join(sorted(both))}")
+        material.check(where, given)
         return material
 
     @classmethod
@@ -204,8 +214,10 @@ class Material:
 
     def sources(self) -> dict[str, str]:
         """Where the kind's spectra come from, by key (a spectrum's ``source``; a
-        coating's index as ``coating.eta``; ``data``'s citation, ``data_source``)."""
+        coating's index as ``coating.eta``; the shipped data's citation as ``data``)."""
         out = {}
+        if self.data_kind is not None and getattr(self, "data", None) is not None:
+            out["data"] = measured.source(self.data_kind, self.data)
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             if isinstance(value, Spectrum):

@@ -68,6 +68,7 @@ class Conductor(Material):
                           "channel.")
     scatter: ClassVar = scatter
     replaced_by_data: ClassVar[tuple[str, ...]] = ("eta", "k")
+    data_kind: ClassVar[str] = "conductor"
     eta: tuple[float, float, float] | Spectrum = key(
         "spectrum", list(GOLD_RGB[0]), "Real part of the complex index of refraction (R, G, "
         "B, or a spectrum in a spectral table) relative to the medium in front of the faces "
@@ -84,12 +85,6 @@ class Conductor(Material):
         "coating", None, "A thin dielectric film on the facets, thickness in nm and its "
         "index (a number or a spectrum) relative to the medium in front: reflectance by "
         "the Airy summation per wavelength (a spectral table only; docs/spectral.md).")
-
-    def check(self, where: str, given: frozenset[str]) -> None:
-        """``data`` replaces ``eta`` and ``k``: not both."""
-        if self.data is not None and given & {"eta", "k"}:
-            raise InputError(f"{where}data = {self.data!r}: gives eta and k; leave out "
-                             f"{' and '.join(sorted(given & {'eta', 'k'}))}")
 
     def indices(self, channels: Channels) -> tuple[Any, Any]:
         """η and k as given: triples, numbers or spectra (``data``'s measurements); the
@@ -114,13 +109,6 @@ class Conductor(Material):
         if self.coating is None:
             return tuple(columns)
         return (*columns, *self.coating.columns(channels, where + "coating"))
-
-    def sources(self) -> dict[str, str]:
-        """The spectra's sources, and the shipped metal's citation (``data``)."""
-        out = super().sources()
-        if self.data is not None:
-            out["data"] = measured.conductor(self.data)[0].source
-        return out
 
     def fresnel(self, channels: Channels = RGB) -> tuple | None:
         """``("conductor", eta, k)`` per channel; coated, ``("coated", eta_film,

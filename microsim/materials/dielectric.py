@@ -110,6 +110,7 @@ class Dielectric(Material):
         "behind the faces (absorbing per unit length) and out again.")
     scatter: ClassVar = scatter
     replaced_by_data: ClassVar[tuple[str, ...]] = ("eta",)
+    data_kind: ClassVar[str] = "dielectric"
     blocks: ClassVar[int] = 1
     eta: float | Spectrum = key(
         "index", 1.5, "Index of refraction relative to the medium in front of the faces "
@@ -135,9 +136,7 @@ class Dielectric(Material):
         "true.", low=0.0)
 
     def check(self, where: str, given: frozenset[str]) -> None:
-        """Absorption needs a medium: ``refract = true``; ``data`` replaces ``eta``."""
-        if self.data is not None and "eta" in given:
-            raise InputError(f"{where}data = {self.data!r}: gives eta; leave out eta")
+        """Absorption needs a medium: ``refract = true``."""
         values = (self.absorption.value if isinstance(self.absorption, Spectrum)
                   else self.absorption)
         if not self.refract and any(a > 0 for a in values):
@@ -159,13 +158,6 @@ class Dielectric(Material):
         """The absorption inside a refracting part, None for a reflecting one."""
         return channels.sample(self.absorption, where + "absorption") if self.refract \
             else None
-
-    def sources(self) -> dict[str, str]:
-        """The spectra's sources, and the shipped glass's formula's (``data``)."""
-        out = super().sources()
-        if self.data is not None:
-            out["data"] = measured.dielectric(self.data).source
-        return out
 
     @property
     def encloses_medium(self) -> bool:

@@ -7,7 +7,6 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from microsim.errors import InputError
 from microsim.materials.base import WEIGHTED, Material, kernel
 from microsim.materials.optics import cosine_about
 from microsim.schema import key
@@ -39,6 +38,7 @@ class Lambertian(Material):
     doc: ClassVar[str] = "Cosine-weighted diffuse reflection with the given albedo."
     scatter: ClassVar = scatter
     replaced_by_data: ClassVar[tuple[str, ...]] = ("albedo",)
+    data_kind: ClassVar[str] = "reflectance"
     blocks: ClassVar[int] = 1
     albedo: tuple[float, float, float] | Spectrum = key(
         "spectrum", 0.8, "Diffuse reflectance (R, G, B, or a spectrum in a spectral table).",
@@ -48,25 +48,12 @@ class Lambertian(Material):
         "spectral table only; docs/spectral.md lists them).",
         choices=measured.names("reflectance"))
 
-    def check(self, where: str, given: frozenset[str]) -> None:
-        """``data`` replaces ``albedo``: not both."""
-        if self.data is not None and "albedo" in given:
-            raise InputError(f"{where}data = {self.data!r}: gives the albedo; leave out "
-                             "albedo")
-
     def parameters(self, channels: Channels, where: str = "material."
                    ) -> tuple[tuple[float, ...], ...]:
         """The albedo per channel."""
         if self.data is not None:
             return (channels.sample(measured.reflectance(self.data), where + "data"),)
         return (channels.sample(self.albedo, where + "albedo"),)
-
-    def sources(self) -> dict[str, str]:
-        """The spectra's sources, and the shipped reflectance's (``data``)."""
-        out = super().sources()
-        if self.data is not None:
-            out["data"] = measured.reflectance(self.data).source
-        return out
 
     def diffuse_albedo(self, channels: Channels = RGB) -> tuple[float, ...] | None:
         """The albedo per channel."""

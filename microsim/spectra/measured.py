@@ -218,3 +218,13 @@ def names(kind: str) -> tuple[str, ...]:
     if kind == "reflectance":
         return tuple(_reflectances())
     raise InputError(f"kind = {kind!r}: the kinds of shipped spectra are {', '.join(KINDS)}")
+
+
+def source(kind: str, name: str) -> str:
+    """The citation of a shipped data set (``kind`` as ``names``): a conductor's η and k
+    share their file's."""
+    if kind == "conductor":
+        return conductor(name)[0].source
+    if kind == "dielectric":
+        return dielectric(name).source
+    return reflectance(name).source
