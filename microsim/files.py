@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import hashlib
 import os
+import platform
 import re
 import secrets
-from collections.abc import Iterator
+import time
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -243,6 +245,26 @@ def write_section(path: str | Path, name: str, text: str,
     """
     begin, end = f"<!-- {name}: begin -->", f"<!-- {name}: end -->"
     replace_marked(path, f"{begin}\n{text}\n{end}", begin, end, heading=heading)
+
+
+def measured_with(script: str | Path, args: Sequence[str], load_before: float) -> str:
+    """The sentence a section that a script measured opens with: ``Measured with `python
+    scripts/NAME.py ARGS` on MACHINE, N CPUs, Python X.Y.Z, DATE; load average (1 min) A
+    before, B after`` (B read now), without a closing full stop.
+
+    Parameters
+    ----------
+    script : str or Path
+        The script (its ``__file__``); only its name is written.
+    args : sequence of str
+        Its arguments as given (``sys.argv[1:]``, ``--write`` included).
+    load_before : float
+        The 1-minute load average when the measurement started (``os.getloadavg()[0]``).
+    """
+    command = " ".join(["python", f"scripts/{Path(script).name}", *args])
+    return (f"Measured with `{command}` on {platform.machine()}, {os.cpu_count()} CPUs, "
+            f"Python {platform.python_version()}, {time.strftime('%Y-%m-%d')}; load average "
+            f"(1 min) {load_before:.1f} before, {os.getloadavg()[0]:.1f} after")
 
 
 def file_digest(path: str | Path) -> str:

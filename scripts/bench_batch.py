@@ -34,11 +34,11 @@ from pathlib import Path
 from distributed import Client, LocalCluster, get_task_stream
 
 from microsim.batch import run_batch
-from microsim.files import replace_marked
+from microsim.files import write_section
 from microsim.sweep import load_sweep
 
 ROOT = Path(__file__).resolve().parent.parent
-BEGIN, END = "<!-- bench_batch: begin -->", "<!-- bench_batch: end -->"
+DOC = ROOT / "docs" / "performance.md"
 
 
 def digest(folder: Path) -> str:
@@ -103,7 +103,6 @@ def main() -> None:
     load_after = os.getloadavg()
     cpus = os.cpu_count()
     lines = [
-        BEGIN,
         "## Batch runs: 2 workers against 1",
         "",
         f"Measured with `python scripts/bench_batch.py {' '.join(sys.argv[1:])}`".rstrip()
@@ -130,12 +129,11 @@ def main() -> None:
         "",
         f"Load average (1 min) before and after: {load_before[0]:.1f}, {load_after[0]:.1f} "
         f"on {cpus} CPUs.",
-        END,
     ]
     text = "\n".join(lines)
     print(text)
     if args.write:
-        replace_marked(ROOT / "docs/performance.md", text, BEGIN, END)
+        write_section(DOC, "bench_batch", text)
 
 
 if __name__ == "__main__":

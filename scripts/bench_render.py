@@ -6,7 +6,7 @@ Renders TABLE (default: a smooth gold Beckmann α = 0.3 table made here) on the 
 under the default light, 320 × 240, the command's default samples per pixel, ``repeats``
 times with Mitsuba's ``scalar_rgb`` variant, and also the tensor's set-up (resampling the
 table, writing and loading it) and the whole command run in this process. Prints a
-section for docs/performance.md; ``--write`` replaces the ``render`` section there.
+section for docs/performance.md; ``--write`` replaces the ``bench_render`` section there.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
-BEGIN, END = "<!-- render:begin -->", "<!-- render:end -->"
+DOC = ROOT / "docs" / "performance.md"
 
 
 def smooth_table(path: Path) -> None:
@@ -43,7 +43,7 @@ def main() -> None:
     import microsim
     from microsim.cli import main as cli
     from microsim.commands.render import DEFAULT_SPP
-    from microsim.files import replace_marked
+    from microsim.files import write_section
     from microsim.render import backend, bsdfs, objects, scene
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -79,7 +79,6 @@ def main() -> None:
                 f"{statistics.median(ts):.2f} |")
 
     text = "\n".join([
-        BEGIN,
         "## Rendering a table (`microsim render`)",
         "",
         f"Measured with `python scripts/bench_render.py {' '.join(sys.argv[1:])}`".rstrip()
@@ -96,11 +95,10 @@ def main() -> None:
         "",
         f"Load average (1 min) before and after: {load_before[0]:.1f}, {load_after[0]:.1f} "
         f"on {os.cpu_count()} CPUs.",
-        END,
     ])
     print(text)
     if args.write:
-        replace_marked(ROOT / "docs" / "performance.md", text, BEGIN, END)
+        write_section(DOC, "bench_render", text)
 
 
 if __name__ == "__main__":

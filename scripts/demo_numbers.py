@@ -2,13 +2,13 @@
 
 Usage::
 
-    python scripts/demo_numbers.py [--write-docs]
+    python scripts/demo_numbers.py [--write]
 
 Runs ``microsim demo --json`` as a command (its wall and CPU time, the child's own usage),
 times the all-orders reference (``microsim.commands.demo.total_comparison``: the
 ``beckmann-ms`` walks and the comparison) in this process on the table the demo wrote,
 and runs ``microsim fit TABLE --model beckmann --component single --json``. Prints the
-two paragraphs; ``--write-docs`` puts them in docs/compare.md between the markers
+two paragraphs; ``--write`` puts them in docs/compare.md between the markers
 ``demo-comparison`` and ``demo-fit``.
 """
 
@@ -122,7 +122,7 @@ def comparison_text(m: dict[str, Any]) -> str:
         f"Torrance-Sparrow: {_signed([r['z_mean'] for r in rows])}{pulled}) and spread "
         f"{_range([r['z_std'] for r in rows_total], 2)}, the realisations' own, as for "
         "single scattering.")
-    note = ("(`python scripts/demo_numbers.py --write-docs` measures and writes these two "
+    note = ("(`python scripts/demo_numbers.py --write` measures and writes these two "
             "paragraphs.)")
     return "\n\n".join(wrap(p) for p in (first, second, note))
 
@@ -133,22 +133,22 @@ def fit_text(m: dict[str, Any]) -> str:
     realised = m["demo"]["comparison"]["alpha_realised"]
     return wrap(f"Fitted to the demo's table (`microsim fit tables/demo.exr --model beckmann "
                 f"--component single`), α = {alpha:.4f} against the realised {realised:.4f}, "
-                f"{100 * (alpha / realised - 1):+.1f}% (`python scripts/demo_numbers.py`).")
+                f"{100 * (alpha / realised - 1):+.1f}% (`python scripts/demo_numbers.py --write`).")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--write-docs", action="store_true",
+    parser.add_argument("--write", action="store_true",
                         help="write the paragraphs into docs/compare.md")
     args = parser.parse_args()
-    if args.write_docs and effort() < 1:
-        parser.error(f"--write-docs: ${EFFORT_ENV} is {effort():g}; the docs hold the full "
+    if args.write and effort() < 1:
+        parser.error(f"--write: ${EFFORT_ENV} is {effort():g}; the docs hold the full "
                      "demo's numbers (unset it)")
     with tempfile.TemporaryDirectory() as folder:
         m = measure(Path(folder))
     comparison, fit = comparison_text(m), fit_text(m)
     print(comparison, fit, sep="\n\n")
-    if args.write_docs:
+    if args.write:
         write_section(DOC, "demo-comparison", comparison)
         write_section(DOC, "demo-fit", fit)
 

@@ -2,11 +2,11 @@
 
 Usage::
 
-    python scripts/ensemble_accuracy.py demo [--write-docs]
+    python scripts/ensemble_accuracy.py demo [--write]
     python scripts/ensemble_accuracy.py targets [--realisations 128] [--rays 100000]
-                                                [--write-docs]
+                                                [--write]
     python scripts/ensemble_accuracy.py smith [--realisations 16] [--rays 200000]
-                                              [--write-docs]
+                                              [--write]
 
 ``demo`` runs ``microsim demo`` with its defaults in a subprocess and records its per-
 incidence median relative lobe error against Torrance-Sparrow + Beckmann + height-
@@ -25,7 +25,7 @@ recipe is then run on its own in a subprocess for its wall time and peak memory.
 against Torrance-Sparrow + height-correlated Smith's at θi = 0, 30, 60, 75, 85°, with the
 ensemble's standard error: what Smith itself, not the simulation, leaves.
 
-With ``--write-docs`` each part replaces its marked section of docs/performance.md. The
+With ``--write`` each part replaces its marked section of docs/performance.md. The
 load average before and after is recorded: timings are only comparable on a quiet machine.
 """
 
@@ -42,13 +42,13 @@ from pathlib import Path
 
 from microsim.bench import run_child
 from microsim.compare import compare_table
-from microsim.files import replace_marked
+from microsim.files import write_section
 from microsim.recipe import load, to_toml
 from microsim.simulation import Tiles, assemble_table, measure_ensemble
 from microsim.table_models import microfacet_model
 
 ROOT = Path(__file__).resolve().parent.parent
-DOCS = ROOT / "docs" / "performance.md"
+DOC = ROOT / "docs" / "performance.md"
 RECIPE = ROOT / "surfaces" / "gaussian-0.3.toml"
 THETAS = (0.0, 45.0, 75.0)
 TARGETS = (0.02, 0.01)
@@ -60,15 +60,10 @@ def load_average() -> float:
 
 
 def header(command: str, before: float) -> str:
-    return (f"`python scripts/ensemble_accuracy.py {command}` ({platform.machine()}, "
+    return (f"`python scripts/ensemble_accuracy.py {command} --write` ({platform.machine()}, "
             f"{os.cpu_count()} CPUs, Python {platform.python_version()}, "
             f"{time.strftime('%Y-%m-%d')}; load average {before:.1f} before, "
             f"{load_average():.1f} after)")
-
-
-def write(name: str, text: str, heading: str) -> None:
-    begin, end = f"<!-- ensemble-{name} -->", f"<!-- /ensemble-{name} -->"
-    replace_marked(DOCS, f"{begin}\n\n{text}\n\n{end}", begin, end, heading=heading)
 
 
 # --- demo -------------------------------------------------------------------------------
@@ -210,7 +205,7 @@ def main() -> None:
     parser.add_argument("part", choices=("demo", "targets", "smith"))
     parser.add_argument("--realisations", type=int, default=None)
     parser.add_argument("--rays", type=int, default=None)
-    parser.add_argument("--write-docs", action="store_true")
+    parser.add_argument("--write", action="store_true")
     args = parser.parse_args()
     if args.part == "demo":
         text, heading = demo(), "### `microsim demo`"
@@ -221,8 +216,8 @@ def main() -> None:
         text = smith(args.realisations or 16, args.rays or 200_000)
         heading = "### Where Smith limits the agreement"
     print(text)
-    if args.write_docs:
-        write(args.part, text, heading)
+    if args.write:
+        write_section(DOC, f"ensemble-{args.part}", text, heading=heading)
 
 
 if __name__ == "__main__":

@@ -3,7 +3,7 @@ default ``simulation.realisations`` of each random generator.
 
 Usage::
 
-    python scripts/ensemble_defaults.py [RECIPE ...] [--probe 8] [--write-docs]
+    python scripts/ensemble_defaults.py [RECIPE ...] [--probe 8] [--write]
 
 Each recipe (default: every shipped recipe with random geometry other than the Gaussian
 ones, whose default follows the accuracy study of ``scripts/ensemble_accuracy.py``) is
@@ -15,7 +15,7 @@ tile part τ² does not depend on n, the ray part scales as 1/n). ρ₁ − 1 re
 the realisations' share of the variance equal to the rays' at the recipe's rays: the
 default is the power of two at or above the largest over directions, and at least
 ``MIN_REALISATIONS``. A direction whose lobe shows no spread at all (ρ undefined, e.g. a
-flat top's mirror peak) is left out. With ``--write-docs``
+flat top's mirror peak) is left out. With ``--write``
 the Markdown replaces the section between the ``ensemble-defaults`` markers in
 docs/performance.md.
 """
@@ -31,13 +31,13 @@ from pathlib import Path
 
 import numpy as np
 
-from microsim.files import replace_marked
+from microsim.files import write_section
 from microsim.recipe import load
 from microsim.simulation import simulate_recipe
 from microsim.surfaces.params import SURFACE_KINDS
 
 ROOT = Path(__file__).resolve().parent.parent
-MARKERS = ("<!-- ensemble-defaults -->", "<!-- /ensemble-defaults -->")
+DOC = ROOT / "docs" / "performance.md"
 MIN_REALISATIONS = 4
 """Fewest realisations a default gives a random surface: the moderated ensemble error needs
 three to estimate its own degrees of freedom (``microsim.tables.estimator``)."""
@@ -66,7 +66,7 @@ def probe(path: Path, k: int) -> dict:
 
 
 def markdown(rows: list[dict], k: int) -> str:
-    lines = [f"`python scripts/ensemble_defaults.py --probe {k} --write-docs` "
+    lines = [f"`python scripts/ensemble_defaults.py --probe {k} --write` "
              f"({platform.machine()}, {time.strftime('%Y-%m-%d')}, load average "
              f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs): each recipe with {k} "
              "realisations sharing its rays; ρ is the pooled inflation of the total's lobe "
@@ -89,7 +89,7 @@ def main() -> None:
     parser.add_argument("recipes", nargs="*", default=[str(ROOT / "surfaces" / r)
                                                        for r in RECIPES])
     parser.add_argument("--probe", type=int, default=8)
-    parser.add_argument("--write-docs", action="store_true")
+    parser.add_argument("--write", action="store_true")
     args = parser.parse_args()
     rows = []
     for path in args.recipes:
@@ -101,10 +101,9 @@ def main() -> None:
         rows.append(row)
     text = markdown(rows, args.probe)
     print(text)
-    if args.write_docs:
-        replace_marked(ROOT / "docs" / "performance.md",
-                       f"{MARKERS[0]}\n\n{text}\n\n{MARKERS[1]}", *MARKERS,
-                       heading="### The default count per generator")
+    if args.write:
+        write_section(DOC, "ensemble-defaults", text,
+                      heading="### The default count per generator")
 
 
 if __name__ == "__main__":

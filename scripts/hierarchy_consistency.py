@@ -7,12 +7,12 @@ Usage::
     microsim simulate surfaces/vgroove-rough-facets.toml
     microsim simulate surfaces/vgroove-rough-direct.toml
     python scripts/hierarchy_consistency.py tables/vgroove-rough-facets.exr \\
-        tables/vgroove-rough-direct.exr [--json] [--write-docs]
+        tables/vgroove-rough-direct.exr [--json] [--write]
 
 Prints per incidence the albedos (mean over RGB) and their difference with its standard
 error, the share of reflected energy the first table places differently from the second
 (L1), the L1 that noise alone gives, and the RMS z of the bin differences.
-``--write-docs`` puts the table of L1 and RMS z per incidence (the shipped two-level
+``--write`` puts the table of L1 and RMS z per incidence (the shipped two-level
 example against its one-level reference, as the usage above makes them) in
 docs/materials.md (marked section ``hierarchy-consistency``).
 """
@@ -21,18 +21,21 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import sys
 from collections import defaultdict
 from pathlib import Path
 
-from microsim.files import write_section
+from microsim.files import measured_with, write_section
 from microsim.table_difference import table_difference
 from microsim.tables.exr import read_table
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "materials.md"
 
 
-def markdown(rows: list[dict]) -> str:
-    """docs/materials.md's table: per theta_i, L1, its noise and RMS z at each phi_i."""
+def markdown(rows: list[dict], head: str) -> str:
+    """docs/materials.md's section: ``head``, then per theta_i L1, its noise and RMS z at
+    each phi_i."""
     by_theta: dict[float, list[dict]] = defaultdict(list)
     for r in rows:
         by_theta[r["theta_i"]].append(r)
@@ -41,7 +44,8 @@ def markdown(rows: list[dict]) -> str:
         texts = [fmt.format(r[key]) for r in group]
         return texts[0] if len(set(texts)) == 1 else ", ".join(texts)
 
-    lines = ["| θi | φi | L1 | L1 of noise alone | RMS z |", "| --- | --- | --- | --- | --- |"]
+    lines = [head, "", "| θi | φi | L1 | L1 of noise alone | RMS z |",
+             "| --- | --- | --- | --- | --- |"]
     for theta, group in by_theta.items():
         phis = ", ".join(f"{r['phi_i']:g}°" for r in group)
         lines.append(f"| {theta:g}° | {phis} | {joined(group, '{:.1%}', 'l1')} | "
@@ -56,12 +60,19 @@ def main() -> None:
     parser.add_argument("b", help="table (.exr) with the same axes, e.g. the one-level one")
     parser.add_argument("--component", choices=("total", "single"), default="total")
     parser.add_argument("--json", action="store_true", help="print JSON")
-    parser.add_argument("--write-docs", action="store_true",
+    parser.add_argument("--write", action="store_true",
                         help="write the L1 table into docs/materials.md")
     args = parser.parse_args()
-    rows = table_difference(read_table(args.a), read_table(args.b), args.component)
-    if args.write_docs:
-        write_section(DOC, "hierarchy-consistency", markdown(rows))
+    load_before = os.getloadavg()[0]
+    a, b = read_table(args.a), read_table(args.b)
+    rows = table_difference(a, b, args.component)
+    if args.write:
+        head = (f"{measured_with(__file__, sys.argv[1:], load_before)}: {args.component}, "
+                + "; ".join(f"`{path}` {int(t.rays.max()):,} rays per incidence, "
+                            f"{int(t.realisations.max())} realisations, {t.bins.theta_bins} × "
+                            f"{t.bins.phi_bins} bins" for path, t in ((args.a, a), (args.b, b)))
+                + ".")
+        write_section(DOC, "hierarchy-consistency", markdown(rows, head))
     if args.json:
         print(json.dumps(rows, indent=2))
         return

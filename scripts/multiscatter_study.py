@@ -5,7 +5,7 @@ Usage::
 
     python scripts/multiscatter_study.py scripts/study/*.toml --out docs/images/multiscatter
         [--set SECTION.KEY=VALUE] [--samples 4096] [--walks 1000000] [--seed 0]
-        [--replicates 64] [--save-tables DIR] [--write-docs]
+        [--replicates 64] [--save-tables DIR] [--write]
 
 The recipes in scripts/study/ are the published study (docs/compare.md, "Smith and its
 multiple scattering against Gaussian surfaces, per order"). Each argument is a recipe
@@ -22,7 +22,7 @@ Writes ``DIR/study.json`` (every row), ``DIR/study.md`` (the tables), ``DIR/albe
 (albedo residual of each order against θi), ``DIR/lobe.png`` (median lobe errors with
 their noise floors) and ``DIR/order2-LABEL.png`` (each table's order 2 against the walk's
 in the plane of incidence at ``PLANE_THETA``); ``--save-tables DIR2`` also writes the
-tables simulated here. ``--write-docs`` puts the Markdown between the
+tables simulated here. ``--write`` puts the Markdown between the
 ``multiscatter-study`` markers of docs/compare.md.
 """
 
@@ -40,14 +40,14 @@ from typing import Any
 import numpy as np
 
 import microsim
-from microsim.files import replace_marked
+from microsim.files import write_section
 from microsim.order_residuals import compare_orders
 from microsim.plots import incidence_plane
 from microsim.recipe import load
 from microsim.simulation import simulate_recipe
 
 ROOT = Path(__file__).resolve().parent.parent
-MARKERS = ("<!-- multiscatter-study -->", "<!-- /multiscatter-study -->")
+DOC = ROOT / "docs" / "compare.md"
 HEADING = "## Smith and its multiple scattering against Gaussian surfaces, per order"
 PLANE_THETA = (0.0, 45.0, 70.0)
 """Incidences (degrees; the table's nearest) of the plane-of-incidence figures."""
@@ -118,7 +118,7 @@ def markdown(rows: list[dict[str, Any]], header: str) -> str:
     def incidence(key: tuple) -> str:
         return f"{key[1]:.0f}°" + (f", φi {key[2]:.0f}°" if key[2] else "")
 
-    lines = [MARKERS[0], "", header, "",
+    lines = [header, "",
              "**Albedo**: simulated, and the residual simulated − reference ± its "
              "standard error (order 1 against Smith, the others against the walk).", "",
              "| surface (α realised) | θi | " + " | ".join(
@@ -144,7 +144,6 @@ def markdown(rows: list[dict[str, Any]], header: str) -> str:
         cells += [_lobe(by[key + (c,)], "walk") for c in orders[1:]]
         cells += [_lobe(by[key + ("total",)], "walk"), _lobe(by[key + ("total",)], "smith")]
         lines.append(f"| {key[0]} | {incidence(key)} | " + " | ".join(cells) + " |")
-    lines += ["", MARKERS[1]]
     return "\n".join(lines)
 
 
@@ -224,7 +223,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--replicates", type=int, default=64)
     parser.add_argument("--save-tables", type=Path, metavar="DIR",
                         help="also write the tables simulated here")
-    parser.add_argument("--write-docs", action="store_true")
+    parser.add_argument("--write", action="store_true")
     args = parser.parse_args(argv)
     load_before, start, cpu = os.getloadavg()[0], time.perf_counter(), time.process_time()
     rows, timings = [], []
@@ -249,8 +248,9 @@ def main(argv: list[str] | None = None) -> None:
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu
     (args.out / "study.json").write_text(json.dumps(rows, indent=1), encoding="utf-8")
     first = rows[0]
+    given = sys.argv[1:] if argv is None else argv
     header = (
-        f"`python scripts/multiscatter_study.py {' '.join(args.sources)}` "
+        f"`python scripts/multiscatter_study.py {' '.join(given)}` "
         f"({first['realisations']} realisations, {first['rays']:,} rays per incidence; "
         f"{args.samples} walks per bin, {args.walks:,} per incidence for the albedos, "
         f"{args.replicates} replicates; {time.strftime('%Y-%m-%d')}, {os.cpu_count()} "
@@ -262,8 +262,8 @@ def main(argv: list[str] | None = None) -> None:
     (args.out / "study.md").write_text(text + "\n", encoding="utf-8")
     paths = figures(rows, args.out)
     print(text)
-    if args.write_docs:
-        replace_marked(ROOT / "docs" / "compare.md", text, *MARKERS, heading=HEADING)
+    if args.write:
+        write_section(DOC, "multiscatter-study", text, heading=HEADING)
     print(f"wrote {args.out / 'study.json'}, study.md, "
           + ", ".join(p.name for p in paths), file=sys.stderr)
 

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python scripts/sh_cost.py [RECIPE] [--repeats 7] [--write-docs]
+    python scripts/sh_cost.py [RECIPE] [--repeats 7] [--write]
 
 Traces one batch (``microsim.goniometer.BATCH`` rays) of the recipe's tile (default
 surfaces/gaussian-0.3.toml) at θi = 30°, then times ``Sums.add`` on it without harmonics
@@ -11,7 +11,7 @@ facets (RGB weights equal: per scattering order of the table's default three, 1 
 transforms over that order's rays) and for a gold conductor (RGB weights differ: 3 + 3
 per order), next to the time of tracing the batch, and for comparison the
 direct method (the explicit (n, (L + 1)²) basis and a matrix product per moment). With
-``--write-docs``
+``--write``
 the Markdown replaces the section between the ``sh-cost`` markers in
 docs/performance.md.
 """
@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from microsim.bench import median_time
-from microsim.files import replace_marked
+from microsim.files import write_section
 from microsim.geometry import direction
 from microsim.goniometer import BATCH, Sums
 from microsim.kernel.beam import CELLS, beam_origins
@@ -42,7 +42,7 @@ from microsim.tables.binning import HemisphereBins
 from microsim.trace import PeriodicScene
 
 ROOT = Path(__file__).resolve().parent.parent
-MARKERS = ("<!-- sh-cost -->", "<!-- /sh-cost -->")
+DOC = ROOT / "docs" / "performance.md"
 ORDERS = (0, 8, 16, 32, 64)
 
 
@@ -50,7 +50,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("recipe", nargs="?", default=str(ROOT / "surfaces/gaussian-0.3.toml"))
     parser.add_argument("--repeats", type=int, default=7)
-    parser.add_argument("--write-docs", action="store_true")
+    parser.add_argument("--write", action="store_true")
     args = parser.parse_args()
     loadavg = os.getloadavg()[0]
     recipe = load(args.recipe)
@@ -94,8 +94,8 @@ def main() -> None:
         direct = [(order, median_time(lambda o=order: explicit(o), 3),
                    median_time(lambda o=order: fast(o), args.repeats)) for order in (16, 32)]
     base = {name: t for name, order, t, _ in rows if order == 0}
-    lines = [MARKERS[0], "",
-             f"`python scripts/sh_cost.py --write-docs` ({platform.machine()}, "
+    lines = [
+             f"`python scripts/sh_cost.py --write` ({platform.machine()}, "
              f"{time.strftime('%Y-%m-%d')}, load average {loadavg:.1f} on {os.cpu_count()} "
              f"CPUs before the run): one batch of {BATCH} rays of "
              f"`{Path(args.recipe).name}` at θi = 30°, 16 bounces; median of "
@@ -114,13 +114,11 @@ def main() -> None:
               "| --- | --- | --- |"]
     lines += [f"| {order} | {1000 * te:.0f} ms | {1000 * tf:.0f} ms |"
               for order, te, tf in direct]
-    lines += ["", MARKERS[1]]
     text = "\n".join(lines)
     print(text)
-    if args.write_docs:
-        path = ROOT / "docs" / "performance.md"
-        replace_marked(path, text, *MARKERS, heading="## Spherical harmonics: cost per batch")
-        print(f"wrote {path}")
+    if args.write:
+        write_section(DOC, "sh-cost", text, heading="## Spherical harmonics: cost per batch")
+        print(f"wrote {DOC}")
 
 
 if __name__ == "__main__":

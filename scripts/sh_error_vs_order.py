@@ -3,7 +3,7 @@
 Usage::
 
     python scripts/sh_error_vs_order.py [--rays 4000000] [--alphas 0.5,0.2]
-        [--resolution 1024] [--write-docs]
+        [--resolution 1024] [--write]
 
 Simulates a Gaussian height field (default 1024², correlation length 8 cells: 128 per
 side, so that the tile's own NDF realisation, which gives a 256² tile's lobe a fine
@@ -12,7 +12,7 @@ speckle of ~10% that no smooth series follows, stays small) with mirror facets a
 order the relative L2 error of f_r cos θo over the hemisphere and the lobe
 (``microsim.tables.sh_error``), pooled over the incidences and per incidence, with the
 table's noise floor, and the lowest order that reaches 5% (with no window and with
-Lanczos σ-factors). With ``--write-docs`` the Markdown
+Lanczos σ-factors). With ``--write`` the Markdown
 replaces the section between the ``sh-error-vs-order`` markers in docs/performance.md.
 """
 
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from microsim.files import replace_marked
+from microsim.files import write_section
 from microsim.recipe import resolve
 from microsim.simulation import simulate
 from microsim.surfaces import build_tile
@@ -33,7 +33,7 @@ from microsim.tables.sh_error import order_errors
 from microsim.tables.table import BRDFTable
 
 ROOT = Path(__file__).resolve().parent.parent
-MARKERS = ("<!-- sh-error-vs-order -->", "<!-- /sh-error-vs-order -->")
+DOC = ROOT / "docs" / "performance.md"
 THETA_I = [0.0, 30.0, 60.0, 80.0]
 ORDERS = list(range(1, 33))
 TARGET = 0.05
@@ -62,11 +62,11 @@ def main() -> None:
     parser.add_argument("--rays", type=int, default=4_000_000)
     parser.add_argument("--alphas", default="0.5,0.2")
     parser.add_argument("--resolution", type=int, default=1024)
-    parser.add_argument("--write-docs", action="store_true")
+    parser.add_argument("--write", action="store_true")
     args = parser.parse_args()
-    lines = [MARKERS[0], "",
+    lines = [
              f"`python scripts/sh_error_vs_order.py --rays {args.rays} --resolution "
-             f"{args.resolution} --write-docs` ({platform.machine()}, "
+             f"{args.resolution} --write` ({platform.machine()}, "
              f"{time.strftime('%Y-%m-%d')}): Gaussian {args.resolution}² tile, "
              f"mirror facets, θi = {', '.join(f'{t:g}' for t in THETA_I)}°, "
              f"{args.rays:,} rays per incidence, 32 × 64 bins, order-32 harmonics of the "
@@ -107,13 +107,11 @@ def main() -> None:
                     f"({r['min_relative']:.3f}) | {w['min_relative']:.4f} | {r['bytes']} |")
         lines.append("")
         print("\n".join(lines[-16:]), flush=True)
-    lines.append(MARKERS[1])
-    text = "\n".join(lines)
-    if args.write_docs:
-        path = ROOT / "docs" / "performance.md"
-        replace_marked(path, text, *MARKERS,
-                       heading="## Spherical harmonics: error against order")
-        print(f"wrote {path}")
+    text = "\n".join(lines).rstrip("\n")
+    if args.write:
+        write_section(DOC, "sh-error-vs-order", text,
+                      heading="## Spherical harmonics: error against order")
+        print(f"wrote {DOC}")
 
 
 if __name__ == "__main__":

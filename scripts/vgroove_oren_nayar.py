@@ -2,14 +2,14 @@
 
 Usage::
 
-    python scripts/vgroove_oren_nayar.py [--alpha 0.8] [--rays 200000] [--write-docs]
+    python scripts/vgroove_oren_nayar.py [--alpha 0.8] [--rays 200000] [--write]
 
 Grooves along y with slopes tan(s) drawn as |N(0, alpha^2 / 2)| (a Beckmann surface's
 slope distribution across the grooves), Lambertian facets of albedo 0.8, lit across the
 grooves (phi_i = 0). Oren-Nayar's full model (eq. 30 + 39) is evaluated with sigma = the
 RMS slope angle of the grooves, averaged over the table's bins. Prints, per theta_i, the
 median relative deviation over the lobe, the albedos, and the back/forward ratio at
-theta_o = theta_i of simulation and model. ``--write-docs`` puts the table in
+theta_o = theta_i of simulation and model. ``--write`` puts the table in
 docs/goniometer.md (marked section ``vgroove-oren-nayar``).
 """
 
@@ -18,13 +18,15 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import sys
 from pathlib import Path
 
 import numpy as np
 
 from microsim.analytic.brdf import OrenNayar
 from microsim.compare import bin_average, metrics
-from microsim.files import write_section
+from microsim.files import measured_with, write_section
 from microsim.geometry import direction
 from microsim.recipe import resolve
 from microsim.simulation import simulate
@@ -33,10 +35,10 @@ from microsim.surfaces import build_tile
 DOC = Path(__file__).resolve().parent.parent / "docs" / "goniometer.md"
 
 
-def markdown(rows: list[dict]) -> str:
-    """The table docs/goniometer.md shows, one row per incidence."""
-    lines = ["| θi | median relative deviation (lobe) | albedo sim / model | back/forward sim "
-             "/ model |", "| --- | --- | --- | --- |"]
+def markdown(rows: list[dict], head: str) -> str:
+    """The section of docs/goniometer.md: ``head``, then a row per incidence."""
+    lines = [head, "", "| θi | median relative deviation (lobe) | albedo sim / model | "
+             "back/forward sim / model |", "| --- | --- | --- | --- |"]
     lines += [f"| {r['theta_i']:g}° | {100 * r['median_rel_dev']:.1f} % | "
               f"{r['albedo_sim']:.3f} / {r['albedo_model']:.3f} | "
               f"{r['back_over_forward_sim']:.2f} / {r['back_over_forward_model']:.2f} |"
@@ -48,9 +50,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--alpha", type=float, default=0.8)
     parser.add_argument("--rays", type=int, default=200_000)
-    parser.add_argument("--write-docs", action="store_true",
+    parser.add_argument("--write", action="store_true",
                         help="write the table into docs/goniometer.md")
     args = parser.parse_args()
+    load_before = os.getloadavg()[0]
     theta = [0.0, 30.0, 60.0, 75.0]
     recipe = resolve({"surface": {"kind": "vgroove", "alpha": args.alpha, "grooves": 256,
                                   "seed": 1},
@@ -76,8 +79,11 @@ def main() -> None:
                      "back_over_forward_model": expected[it, [0, 15], 0].mean()
                      / expected[it, [7, 8], 0].mean()})
     print(json.dumps({"sigma_rad": sigma, "rows": rows}, indent=2))
-    if args.write_docs:
-        write_section(DOC, "vgroove-oren-nayar", markdown(rows))
+    if args.write:
+        head = (f"{measured_with(__file__, sys.argv[1:], load_before)}: 256 grooves, α = "
+                f"{args.alpha:g}, {args.rays:,} rays per incidence, 8 × 16 bins; σ = "
+                f"{sigma:.2f} rad, the grooves' RMS slope angle.")
+        write_section(DOC, "vgroove-oren-nayar", markdown(rows, head))
 
 
 if __name__ == "__main__":

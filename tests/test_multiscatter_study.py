@@ -83,7 +83,7 @@ def test_study_runs_from_a_recipe_and_from_a_table(study, tmp_path, capsys) -> N
     for name in ("albedo.png", "lobe.png", "order2-tiny.png", "order2-t.png"):
         assert (tmp_path / "out" / name).stat().st_size > 0
     text = (tmp_path / "out" / "study.md").read_text()
-    assert text.startswith("<!-- multiscatter-study -->") and "order2 − walk" in text
+    assert text.startswith("`python scripts/multiscatter_study.py ") and "order2 − walk" in text
     capsys.readouterr()
 
 
