@@ -87,11 +87,14 @@ class Sums:
         Σ w Y_k(ωo) over the escaping rays the bins take, per row
         (``microsim.tables.sh``; ωo's azimuth relative to ``phi_ref`` of ``add``).
     sh_sums_sq : (N + 1, (2L + 1)², C) float, or None
-        Σ w² Y_K(ωo) to order 2L, from which ``sh.second_moments`` gives Σ (w Y_k)².
+        Σ w² Y_K(ωo) to order 2L, from which ``sh.second_moments`` gives Σ (w Y_k)²;
+        None without ``sh_ray_variance``.
+    sh_ray_variance : bool
+        Whether ``sh_sums_sq`` is kept (``harmonic_ray_variance``).
     """
 
     def __init__(self, bins: int, sh_order: int = 0, orders: int = DEFAULT_ORDERS,
-                 channels: int = 3) -> None:
+                 channels: int = 3, sh_ray_variance: bool = True) -> None:
         self.rays = 0
         self.orders = int(orders)
         self.channels = c = int(channels)
@@ -100,7 +103,9 @@ class Sums:
         self.sums_sq = np.zeros((rows, bins, c))
         self.sh_order = int(sh_order)
         self.sh_sums = np.zeros((rows, sh.size(sh_order), c)) if sh_order else None
-        self.sh_sums_sq = np.zeros((rows, sh.size(2 * sh_order), c)) if sh_order else None
+        self.sh_ray_variance = bool(sh_ray_variance)
+        self.sh_sums_sq = np.zeros((rows, sh.size(2 * sh_order), c)) if (
+            sh_order and sh_ray_variance) else None
         self.lost, self.transmitted, self.absorbed = np.zeros(c), np.zeros(c), np.zeros(c)
         self.fates: dict[str, int] = {}
 
@@ -146,9 +151,10 @@ class Sums:
         self.sums_sq += tally.sums_sq
         for k, s1, s2 in tally.harmonics:
             self.sh_sums[k] += s1
-            self.sh_sums_sq[k] += s2
             self.sh_sums[0] += s1
-            self.sh_sums_sq[0] += s2
+            if s2 is not None:
+                self.sh_sums_sq[k] += s2
+                self.sh_sums_sq[0] += s2
         self.lost += tally.lost
         self.transmitted += tally.transmitted
         self.absorbed += tally.absorbed
@@ -156,11 +162,12 @@ class Sums:
             self.fates[name] = self.fates.get(name, 0) + count
 
     def _harmonics(self, paths: Paths, index: np.ndarray, loc: np.ndarray,
-                   mapper: sh.Mapper | None) -> list[tuple[int, np.ndarray, np.ndarray]]:
+                   mapper: sh.Mapper | None
+                   ) -> list[tuple[int, np.ndarray, np.ndarray | None]]:
         """Moments of the escaping rays' exit weights against the real harmonics: one
         transform per order row over that row's binned rays alone (``index`` their bins,
-        ``loc`` their angles), (row, Σ w Y_k, Σ w² Y_K) in row order (the total row is
-        their sum). The rays are grouped by row in one compiled pass
+        ``loc`` their angles), (row, Σ w Y_k, Σ w² Y_K or None without
+        ``sh_ray_variance``) in row order (the total row is their sum). The rays are grouped by row in one compiled pass
         (``microsim.kernel.tally.gather_rows``); a row's rays are then one slice."""
         n = len(index)
         loc_rows, w = np.empty((n, 2)), np.empty((n, self.channels))
@@ -170,7 +177,8 @@ class Sums:
         for k in range(1, self.orders + 1):
             a, b = ends[k - 1], ends[k]
             if b > a:
-                out.append((k, *sh.moments(loc_rows[a:b], w[a:b], self.sh_order, mapper)))
+                out.append((k, *sh.moments(loc_rows[a:b], w[a:b], self.sh_order, mapper,
+                                           second=self.sh_ray_variance)))
         return out
 
     @property
@@ -187,7 +195,7 @@ class Tally(NamedTuple):
     rays: int
     sums: np.ndarray
     sums_sq: np.ndarray
-    harmonics: list[tuple[int, np.ndarray, np.ndarray]]
+    harmonics: list[tuple[int, np.ndarray, np.ndarray | None]]
     lost: np.ndarray
     transmitted: np.ndarray
     absorbed: np.ndarray
@@ -413,7 +421,19 @@ def new_ensemble(simulation: Simulation, table: TableSettings, isotropic: bool
     """Empty running sums for every incident direction of a simulation's table."""
     return EnsembleSums((len(simulation.theta_i), len(incident_azimuths(isotropic, simulation))),
                         components_for(table.orders), table.theta_bins * table.phi_bins,
-                        table.sh_order, table.channels.count)
+                        table.sh_order, table.channels.count,
+                        harmonic_ray_variance(simulation))
+
+
+def harmonic_ray_variance(simulation: Simulation) -> bool:
+    """Whether a run's harmonics need their ray variances, the order-2L transforms of w²
+    (``microsim.tables.sh.moments``): only a single realisation does, whose error they
+    are. An ensemble's harmonics take batch means over its realisations (unbiased for
+    the error of the mean whatever the rays, ``microsim.tables.estimator``); the ray
+    variance would only floor them where realisations tie, which sums over thousands of
+    directions do not, and its transforms at twice the order cost more than the
+    harmonics themselves (docs/ensembles.md, "Error bars of the ensemble")."""
+    return simulation.realisations_or_one == 1
 
 
 def incident_azimuths(isotropic: bool, simulation: Simulation) -> list[float]:
@@ -462,7 +482,8 @@ def trace_realisations(parts: Iterable[Part], materials: Mapping[str, Material],
     left: dict[int, list] = {}  # per realisation: batches not added, part, segments, inputs
 
     def new_run() -> Run:
-        return Run(Sums(bins.size, table.sh_order, table.orders, table.channels.count))
+        return Run(Sums(bins.size, table.sh_order, table.orders, table.channels.count,
+                        harmonic_ray_variance(simulation)))
 
     def batches() -> Iterator[_Batch]:
         for part in parts:

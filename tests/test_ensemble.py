@@ -281,6 +281,38 @@ def test_ensemble_errors_are_calibrated(k: int, rays: int) -> None:
     assert np.all((albedo > 0.4) & (albedo < 2.2)), albedo
 
 
+def test_ensemble_harmonics_are_batch_means_without_order_2l_transforms() -> None:
+    """An ensemble's harmonic errors are batch means over its realisations, computed here
+    in two passes from each realisation's own Σ w Y_k / n (kept runs) to 1e-12; its runs
+    make no order-2L sums of w² (``harmonic_ray_variance``). One realisation keeps them:
+    its harmonic errors are its ray errors, finite and positive."""
+    from microsim.simulation import measure_ensemble
+
+    k = 6
+    recipe = small_gaussian(k, 6000)
+    done = measure_ensemble(Tiles(recipe.surface), recipe.material, recipe.simulation,
+                            recipe.table, keep_runs=True)
+    assert done.runs and all(run.sums.sh_sums_sq is None for run in done.runs.values())
+    table = assemble_table([done], recipe.material, recipe.simulation, recipe.table)
+    for (l, kk, r), run in done.runs.items():
+        assert kk == 0 and r < k
+    for l in range(len(recipe.simulation.theta_i)):
+        m = np.array([done.runs[(l, 0, r)].sums.sh_sums[0] / done.runs[(l, 0, r)].sums.rays
+                      for r in range(k)])                        # (K, (L+1)², C)
+        batch = np.sqrt(m.var(axis=0, ddof=1) / k)
+        np.testing.assert_allclose(table.sh_err["total"][l, 0], batch, rtol=1e-12,
+                                   atol=1e-15)
+        np.testing.assert_allclose(table.sh["total"][l, 0], m.mean(axis=0), rtol=1e-12,
+                                   atol=1e-15)
+    one = small_gaussian(1, 6000)
+    single = measure_ensemble(Tiles(one.surface), one.material, one.simulation,
+                              one.table, keep_runs=True)
+    assert all(run.sums.sh_sums_sq is not None for run in single.runs.values())
+    err = assemble_table([single], one.material, one.simulation, one.table).sh_err["total"]
+    assert np.all(np.isfinite(err)) and np.all(err[..., 0, :] >= 0) and np.all(
+        err[..., 1:, :] > 0)
+
+
 def test_one_tile_errors_under_report_the_surface() -> None:
     """The same with K = 1 (all rays on one tile; error model ``rays``): the ray errors
     are true for the tile but not for the surface. Measured median ratio 7.2 on the lobe

@@ -65,6 +65,11 @@ class EnsembleSums:
         Order L of the harmonics added (0: none).
     channels : int
         C, the colour channels (3: RGB; one per wavelength).
+    sh_ray_variance : bool
+        Whether the harmonics' order-2L sums of w² are added (``add``'s ``sh_sums_sq``):
+        the ray variance of every coefficient, which one realisation's error is and which
+        floors batch means. Without them the harmonics' errors are batch means alone
+        (``microsim.goniometer.harmonic_ray_variance`` says when a run needs them).
 
     Attributes
     ----------
@@ -84,14 +89,16 @@ class EnsembleSums:
     """
 
     def __init__(self, directions: tuple[int, int], components: tuple[str, ...],
-                 bins: int, sh_order: int = 0, channels: int = 3) -> None:
+                 bins: int, sh_order: int = 0, channels: int = 3,
+                 sh_ray_variance: bool = True) -> None:
         a, b = directions
         rows = len(components)
         self.components, self.sh_order = tuple(components), int(sh_order)
         c = int(channels)
         self.bins = RunningEstimate((a, b, rows, bins, c), GROUPS)
         self.albedo = RunningEstimate((a, b, rows, 1, c))
-        self.sh = RunningEstimate((a, b, rows, sh.size(sh_order), c)) if sh_order else None
+        self.sh = RunningEstimate((a, b, rows, sh.size(sh_order), c),
+                                  ray_variance=sh_ray_variance) if sh_order else None
         self.rays = np.zeros((a, b), np.int64)
         self.lost = np.zeros((a, b, c))
         self.realisation_rays: dict[tuple[int, int], list[int]] = {}
@@ -103,8 +110,8 @@ class EnsembleSums:
         """Add realisation ``r`` of direction ``at``: its ``rays`` (≥ 1), per component
         row its sums Σw and Σw² per bin ((rows, m, C)), its lost weight (C,) and, with
         harmonics, Σ w Y_k ((rows, (L + 1)², C)) and Σ w² Y_K to order 2L ((rows,
-        (2L + 1)², C)). Realisations are added in index order (the sums then do not
-        depend on how the work was split)."""
+        (2L + 1)², C); None without ``sh_ray_variance``). Realisations are added in index
+        order (the sums then do not depend on how the work was split)."""
         m, v = realisation_moments(sums, sums_sq, np.int64(rays))
         self.bins.add(r, m, v, rays, at)
         m, v = realisation_moments(sums.sum(axis=-2, keepdims=True),
@@ -112,8 +119,12 @@ class EnsembleSums:
         self.albedo.add(r, m, v, rays, at)
         self.realisation_albedo.setdefault(at, []).append(m[:, 0])
         if self.sh is not None:
-            m, v = realisation_moments(sh_sums, sh.second_moments(sh_sums_sq, self.sh_order),
-                                       np.int64(rays))
+            if sh_sums_sq is None:
+                m, v = sh_sums / rays, None
+            else:
+                m, v = realisation_moments(sh_sums, sh.second_moments(sh_sums_sq,
+                                                                      self.sh_order),
+                                           np.int64(rays))
             self.sh.add(r, m, v, rays, at)
         self.rays[at] += rays
         self.lost[at] += lost / rays
@@ -168,11 +179,12 @@ def from_ensemble(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
     projected solid angle). The albedo is the mean of the per-ray total exit weight
     W = Σ_bins X, whose Σ W² equals Σ over bins of Σw², because a ray exits once.
     Spherical-harmonic coefficients are the same sample mean of X = w Y_k(ωo), with
-    Σ X² from the order-2L sums (``microsim.tables.sh.second_moments``). Over
-    realisations every quantity is the mean of the realisations' estimates
-    (``microsim.tables.estimator``): the bins' errors are moderated over the lobe bins
-    of each incidence (``lobe_of`` the mean f_r over RGB), the albedo's and the
-    harmonics' are batch means.
+    Σ X² from the order-2L sums (``microsim.tables.sh.second_moments``) where the run
+    kept them. Over realisations every quantity is the mean of the realisations'
+    estimates (``microsim.tables.estimator``): the bins' errors are moderated over the
+    lobe bins of each incidence (``lobe_of`` the mean f_r over RGB), the albedo's and the
+    harmonics' are batch means (the harmonics' floored at their ray variance only where
+    the sums hold it: an ensemble run does not make it, ``EnsembleSums``).
 
     Parameters
     ----------

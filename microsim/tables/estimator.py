@@ -281,10 +281,16 @@ class RunningEstimate:
     groups : int
         Groups kept apart (``GROUPS`` for families the moderated estimator pools; 1 for
         batch means alone).
+    ray_variance : bool
+        Whether realisations bring their ray variances v_r. Without them (``add`` with
+        ``v`` None) the error is batch means alone, not floored, and needs K ≥ 2: NaN for
+        a single realisation.
     """
 
-    def __init__(self, shape: tuple[int, ...], groups: int = 1) -> None:
+    def __init__(self, shape: tuple[int, ...], groups: int = 1,
+                 ray_variance: bool = True) -> None:
         self.shape, self.groups = tuple(shape), int(groups)
+        self.ray_variance = bool(ray_variance)
         lead = self.shape[:-2]
         self.count = np.zeros(lead, np.int64)
         self.shift = np.full(self.shape, np.nan)
@@ -293,8 +299,8 @@ class RunningEstimate:
         self._sums: dict[int, tuple[np.ndarray, ...]] = {}
         self._cached: tuple[np.ndarray, ...] | None = None
 
-    def add(self, r: int, m: np.ndarray, v: np.ndarray, rays: np.ndarray | int | None = None,
-            at: tuple[int, ...] = ()) -> None:
+    def add(self, r: int, m: np.ndarray, v: np.ndarray | None,
+            rays: np.ndarray | int | None = None, at: tuple[int, ...] = ()) -> None:
         """Add realisation ``r``'s estimates.
 
         Parameters
@@ -304,13 +310,18 @@ class RunningEstimate:
         m, v : (..., m, c) float
             Its estimates and their ray variances (of the entries ``at`` selects); NaN
             rows of ``m`` where it is absent, NaN in ``v`` where the variance is unknown.
+            ``v`` is None exactly when the sums were made without ``ray_variance``.
         rays : (...) int, int or None
             Its rays, whose sum less one are the degrees of freedom of one realisation.
         at : tuple of int
             A leading index the arrays belong to (default: all of ``shape``).
         """
+        if (v is None) == self.ray_variance:
+            raise ValueError("ray variances are given exactly when the sums keep them "
+                             f"(ray_variance={self.ray_variance})")
         self._cached = None
-        m, v = np.asarray(m, float), np.asarray(v, float)
+        m = np.asarray(m, float)
+        v = np.full(m.shape, np.nan) if v is None else np.asarray(v, float)
         ix = (*at, Ellipsis)  # views, also of 0-d leading shapes
         present = ~np.isnan(m).all(axis=(-2, -1))
         keep = np.broadcast_to(present[..., None, None], m.shape)
@@ -335,6 +346,8 @@ class RunningEstimate:
     def absorb(self, other: RunningEstimate) -> None:
         """Add ``other``'s sums, of the same shape, whose leading indices (directions)
         hold no realisation here."""
+        if other.ray_variance != self.ray_variance:
+            raise ValueError("sums with and without ray variances do not add")
         self._cached = None
         theirs = other.count > 0
         self.shift = np.where(theirs[..., None, None], other.shift, self.shift)
@@ -348,7 +361,7 @@ class RunningEstimate:
 
     def take(self, rows: Sequence[int]) -> RunningEstimate:
         """The sums of the leading indices ``rows`` of the first axis (copies)."""
-        out = RunningEstimate(self.shape, self.groups)
+        out = RunningEstimate(self.shape, self.groups, self.ray_variance)
         out.shape = (len(rows),) + self.shape[1:]
         rows = list(rows)
         out.count, out.shift = self.count[rows], self.shift[rows]
@@ -404,9 +417,13 @@ class RunningEstimate:
         dof = np.broadcast_to(dof[..., None], mean.shape[:-2] + mean.shape[-1:]).copy()
         inflation = np.full(dof.shape, np.nan)
         if pool is not None:
+            if not self.ray_variance:
+                raise ValueError("the moderated estimator needs the ray variances")
             self._moderate(stderr_sq, spread, ray_var, np.asarray(pool, bool), dof,
                            inflation)
-        undefined = np.isnan(ray_var) | (k[..., None, None] < 1)
+        # without ray variances batch means stand alone (fmax above ignores the NaN)
+        undefined = (np.isnan(ray_var) if self.ray_variance else one) | (
+            k[..., None, None] < 1)
         stderr = np.where(undefined, np.nan, np.sqrt(stderr_sq))
         return Estimate(mean, stderr, np.sqrt(ray_var), dof, inflation, k.copy())
 
