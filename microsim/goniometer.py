@@ -167,8 +167,9 @@ class Sums:
         """Moments of the escaping rays' exit weights against the real harmonics: one
         transform per order row over that row's binned rays alone (``index`` their bins,
         ``loc`` their angles), (row, Σ w Y_k, Σ w² Y_K or None without
-        ``sh_ray_variance``) in row order (the total row is their sum). The rays are grouped by row in one compiled pass
-        (``microsim.kernel.tally.gather_rows``); a row's rays are then one slice."""
+        ``sh_ray_variance``) in row order (the total row is their sum). The rays are
+        grouped by row in one compiled pass (``microsim.kernel.tally.gather_rows``); a
+        row's rays are then one slice."""
         n = len(index)
         loc_rows, w = np.empty((n, 2)), np.empty((n, self.channels))
         ends = np.empty(self.orders + 1, np.int64)

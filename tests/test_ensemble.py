@@ -294,8 +294,8 @@ def test_ensemble_harmonics_are_batch_means_without_order_2l_transforms() -> Non
                             recipe.table, keep_runs=True)
     assert done.runs and all(run.sums.sh_sums_sq is None for run in done.runs.values())
     table = assemble_table([done], recipe.material, recipe.simulation, recipe.table)
-    for (l, kk, r), run in done.runs.items():
-        assert kk == 0 and r < k
+    assert sorted(done.runs) == [(l, 0, r) for l in range(len(recipe.simulation.theta_i))
+                                 for r in range(k)]
     for l in range(len(recipe.simulation.theta_i)):
         m = np.array([done.runs[(l, 0, r)].sums.sh_sums[0] / done.runs[(l, 0, r)].sums.rays
                       for r in range(k)])                        # (K, (L+1)², C)
