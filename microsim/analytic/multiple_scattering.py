@@ -243,6 +243,11 @@ class SmithMultipleScattering:
     def estimate(self, wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """f_r of the held orders and its standard error, from ``samples`` walks per pair.
 
+        The walks of all pairs (``samples`` per pair, pair after pair) run ``CHUNK`` at a
+        time, so memory does not grow with ``samples``; each chunk's sample means and sums
+        of squared deviations per pair are merged into the running ones (Chan, Golub &
+        LeVeque 1979, eq. 2.1), which gives the two-pass sample variance to rounding.
+
         Parameters
         ----------
         wi, wo : (..., 3) float
@@ -257,10 +262,28 @@ class SmithMultipleScattering:
         shape = wi.shape[:-1]
         wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
         above = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-        k = self.samples
-        x = self._per_walk(np.repeat(wi[above], k, axis=0), np.repeat(wo[above], k, axis=0))
-        mean, err = _mean_error(x.reshape(-1, k, x.shape[-1]), axis=1)
-        f, e = np.zeros((len(wi), x.shape[-1])), np.zeros((len(wi), x.shape[-1]))
+        k, pairs, c = self.samples, int(above.sum()), self.channels
+        wi_up, wo_up = wi[above], wo[above]
+        count = np.zeros(pairs)
+        mean, m2 = np.zeros((pairs, c)), np.zeros((pairs, c))
+        for start in range(0, pairs * k, CHUNK):
+            pair = np.arange(start, min(start + CHUNK, pairs * k)) // k
+            x = self._per_walk(wi_up[pair], wo_up[pair])
+            n_b = np.bincount(pair, minlength=pairs).astype(float)
+            seen = n_b > 0
+            sums = np.stack([np.bincount(pair, x[:, j], pairs) for j in range(c)], axis=1)
+            mean_b = sums / np.where(seen, n_b, 1.0)[:, None]
+            dev = x - mean_b[pair]
+            m2_b = np.stack([np.bincount(pair, dev[:, j] ** 2, pairs) for j in range(c)],
+                            axis=1)
+            total = count + n_b
+            delta = mean_b - mean
+            share = np.where(seen, n_b / np.where(total > 0, total, 1.0), 0.0)[:, None]
+            mean = mean + delta * share
+            m2 = m2 + m2_b + delta**2 * (count * share[:, 0])[:, None]
+            count = total
+        err = np.sqrt(m2 / (k - 1) / k)
+        f, e = np.zeros((len(wi), c)), np.zeros((len(wi), c))
         f[above], e[above] = mean / wo[above, 2:3], err / wo[above, 2:3]
         return self._shaped(f, shape), self._shaped(e, shape)
 
