@@ -7,6 +7,7 @@ import os
 import platform
 import re
 import secrets
+import stat
 import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -125,9 +126,81 @@ def writable_folder(folder: str | Path, flag: str) -> Path:
     return folder
 
 
+FS_IOC_GETFLAGS = 0x80086601
+"""Linux's ioctl reading a file's attributes (``lsattr``)."""
+UNREPLACEABLE = {0x10: "immutable", 0x20: "append-only"}
+"""Attributes (``chattr +i``, ``+a``) under which no one, root included, may rename a
+file over another: FS_IMMUTABLE_FL and FS_APPEND_FL of linux/fs.h."""
+
+
+def _attributes(path: Path) -> int:
+    """The Linux attribute flags of the file ``path`` (0 where they cannot be read)."""
+    import fcntl
+    import struct
+
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_NOFOLLOW)
+    except OSError:
+        return 0
+    try:
+        return struct.unpack("i", fcntl.ioctl(fd, FS_IOC_GETFLAGS, struct.pack("i", 0)))[0]
+    except OSError:
+        return 0
+    finally:
+        os.close(fd)
+
+
+def replaceable(path: str | Path, flag: str) -> None:
+    """Check, before any work is done, that the finished output can be renamed over
+    ``path`` (``atomic_path``'s last step): where ``path`` exists it must be a regular file
+    (or a link, which is replaced, not followed) whose attributes allow replacing it, in a
+    folder whose sticky bit, if set, lets this user replace it.
+
+    Parameters
+    ----------
+    path : str or Path
+    flag : str
+        The flag that named it (or named its folder), for the message.
+
+    Raises
+    ------
+    InputError
+        If ``path`` is a folder, a device, a FIFO or a socket (a rename would put a file in
+        its place), or cannot be replaced.
+    """
+    path = Path(path)
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        raise InputError(f"{flag} {path}: {exc.strerror or exc}") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise InputError(f"{flag} {path}: is a folder, where a file is to be written; "
+                         "move it away")
+    if stat.S_ISLNK(st.st_mode):
+        return
+    if not stat.S_ISREG(st.st_mode):
+        what = ("a FIFO" if stat.S_ISFIFO(st.st_mode) else "a socket"
+                if stat.S_ISSOCK(st.st_mode) else "a device")
+        raise InputError(f"{flag} {path}: is {what}, not a file (the output would take "
+                         "its place); give a file's path")
+    locked = [name for bit, name in UNREPLACEABLE.items() if _attributes(path) & bit]
+    if locked:
+        raise InputError(f"{flag} {path}: the file is {locked[0]} (chattr +"
+                         f"{locked[0][0]}), so it cannot be replaced; remove the attribute "
+                         "or move it away")
+    folder = os.stat(path.parent)
+    uid = os.geteuid()
+    if folder.st_mode & stat.S_ISVTX and uid not in (0, st.st_uid, folder.st_uid):
+        raise InputError(f"{flag} {path}: belongs to another user in a folder with the "
+                         "sticky bit, so it cannot be replaced; move it away")
+
+
 def writable_file(path: str | Path, flag: str, suffixes: tuple[str, ...] = ()) -> Path:
     """Make sure the output file ``path`` can be written, before any work is done: its
-    folder is created if missing and must take new files, and ``path`` is no folder.
+    folder is created if missing and must take new files, and ``path`` is no folder and,
+    where it exists, can be replaced (``replaceable``).
 
     Parameters
     ----------
@@ -151,6 +224,7 @@ def writable_file(path: str | Path, flag: str, suffixes: tuple[str, ...] = ()) -
     if path.is_dir():
         raise InputError(f"{flag} {path}: is a folder; give a file name")
     _folder_ready(path.parent, flag, path)
+    replaceable(path, flag)
     longest = _name_max(path.parent) - (len(os.fsencode(_temporary_name(""))))
     if len(os.fsencode(path.name)) > longest:
         raise InputError(f"{flag} {path.name[:40]}…: a file name of "

@@ -53,3 +53,82 @@ def test_a_monte_carlo_models_walks_per_pair_take_bounded_memory():
         tracemalloc.stop()
     assert peak < 64e6, peak
 
+
+def _no_work(*args, **kwargs):
+    raise AssertionError("the work started before the output was checked")
+
+
+@pytest.fixture
+def unreplaceable(tmp_path):
+    """Make files immutable (``chattr +i``: not even root may rename over them) and free
+    them after the test."""
+    import subprocess
+
+    locked = []
+
+    def lock(path: Path) -> Path:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(b"earlier contents")
+        if subprocess.run(["chattr", "+i", str(path)], capture_output=True).returncode:
+            pytest.skip("no chattr +i on this file system")
+        locked.append(path)
+        return path
+
+    yield lock
+    for path in locked:
+        subprocess.run(["chattr", "-i", str(path)], check=False)
+
+
+GAUSSIAN = str(ROOT / "surfaces" / "gaussian-0.3.toml")
+
+
+@pytest.mark.parametrize(("argv", "name", "flag", "patch"), [
+    (["simulate", GAUSSIAN, "-o", "{target}"], "t.exr", "--output",
+     "microsim.simulation.simulate_recipe"),
+    (["generate", GAUSSIAN, "-o", "{target}"], "t.ply", "--output",
+     "microsim.surfaces.build_tile"),
+    (["export", "{table}", "--format", "npz", "-o", "{target}"], "t.npz", "--output",
+     "microsim.tables.export.write_npz"),
+    (["measure", "ndf", GAUSSIAN, "--plot", "{target}"], "n.png", "--plot",
+     "microsim.facets.measure_ndf_recipe"),
+    (["demo", "-o", "{target}"], "d.exr", "--output", "microsim.simulation.simulate_recipe"),
+])
+def test_an_output_that_cannot_be_replaced_is_refused_before_the_work(
+        cli, tmp_path, unreplaceable, monkeypatch, argv, name, flag, patch):
+    """An immutable target let the work run and failed at the final rename (EPERM, as
+    root too); it is refused with one line naming the flag before the work."""
+    from test_robustness import one_error_line
+
+    target = unreplaceable(tmp_path / name)
+    monkeypatch.setattr(patch, _no_work)
+    code, _, err = cli(*[a.format(target=target, table=tmp_path / "missing.exr")
+                         for a in argv])
+    one_error_line(code, err, flag, str(target), "immutable")
+    assert target.read_bytes() == b"earlier contents"
+
+
+@pytest.mark.parametrize("kind", ["FIFO", "device"])
+def test_an_output_that_is_a_device_or_fifo_is_refused(cli, tmp_path, monkeypatch, kind):
+    """An output path that is a FIFO or a device node (``-o t.npz`` where ``t.npz`` is
+    one) was written and renamed over it (as root, in /dev too); it is refused, and stays
+    what it was (here made in the test's folder: a FIFO, or a character device like
+    /dev/null)."""
+    import os
+    import stat
+
+    from test_robustness import one_error_line
+
+    target = tmp_path / "out.npz"
+    if kind == "FIFO":
+        os.mkfifo(target)
+    else:
+        try:
+            os.mknod(target, stat.S_IFCHR | 0o666, os.makedev(1, 3))
+        except PermissionError:
+            pytest.skip("making a device node needs root")
+    monkeypatch.setattr("microsim.tables.export.write_npz", _no_work)
+    code, _, err = cli("export", str(tmp_path / "missing.exr"), "--format", "npz", "-o",
+                       str(target))
+    one_error_line(code, err, "--output", str(target), f"is a {kind}")
+    mode = os.lstat(target).st_mode
+    assert stat.S_ISFIFO(mode) if kind == "FIFO" else stat.S_ISCHR(mode)
