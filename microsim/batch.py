@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from microsim.errors import InputError
-from microsim.files import atomic_path, remove_stale_temporaries
+from microsim.files import atomic_path, remove_stale_temporaries, replaceable
 from microsim.goniometer import Measurement, measure_directions
 from microsim.settings import Recipe
 from microsim.simulation import Tiles, assemble_table, measure_ensemble
@@ -178,12 +178,32 @@ def read_manifest(folder: Path) -> dict[str, Any]:
         return {}
     try:
         tables = json.loads(path.read_text(encoding="utf-8"))["tables"]
-        if not isinstance(tables, dict):
+        if not isinstance(tables, dict) or not all(isinstance(t, dict)
+                                                   for t in tables.values()):
             raise TypeError
         return tables
-    except (json.JSONDecodeError, KeyError, TypeError, UnicodeDecodeError):
+    except (json.JSONDecodeError, KeyError, TypeError, UnicodeDecodeError, RecursionError):
         raise InputError(f"{path}: not a batch manifest; move it away or use "
                          "--no-resume") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+
+
+def check_folder(folder: Path, sweep: Sweep, resume: bool, flag: str = "--output") -> None:
+    """Refuse, before a cluster starts, a batch folder it could not finish in: its lock,
+    its manifest and every point's table must be files that can be replaced where they
+    exist (``microsim.files.replaceable``; a folder or an immutable file under one of
+    those names stopped the run when the first table was done), and when resuming, the
+    manifest must read as one (``read_manifest``).
+
+    Raises
+    ------
+    InputError
+    """
+    for name in (LOCK, MANIFEST, *(f"{p.name}.exr" for p in sweep.points)):
+        replaceable(folder / name, flag)
+    if resume:
+        read_manifest(folder)
 
 
 class Manifest:

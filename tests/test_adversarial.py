@@ -80,6 +80,7 @@ def unreplaceable(tmp_path):
 
 
 GAUSSIAN = str(ROOT / "surfaces" / "gaussian-0.3.toml")
+SWEEP = str(ROOT / "scripts" / "sweep-roughness.toml")
 
 
 @pytest.mark.parametrize(("argv", "name", "flag", "patch"), [
@@ -132,3 +133,36 @@ def test_an_output_that_is_a_device_or_fifo_is_refused(cli, tmp_path, monkeypatc
     one_error_line(code, err, "--output", str(target), f"is a {kind}")
     mode = os.lstat(target).st_mode
     assert stat.S_ISFIFO(mode) if kind == "FIFO" else stat.S_ISCHR(mode)
+
+
+@pytest.mark.parametrize(("state", "needle"), [
+    ("folder:manifest.json", "manifest.json: is a folder"),
+    ("folder:.batch.lock", ".batch.lock: is a folder"),
+    ("folder:alpha=0.4_kind=dielectric.exr", "alpha=0.4_kind=dielectric.exr: is a folder"),
+    ("immutable:alpha=0.1_kind=mirror.exr", "alpha=0.1_kind=mirror.exr: the file is immutable"),
+    ("immutable:manifest.json", "manifest.json: the file is immutable"),
+    ('text:manifest.json:{"tables": {"alpha=0.1_kind=mirror": "done"}}',
+     "not a batch manifest"),
+    ('text:manifest.json:{"tables": {"alpha=0.1_kind=mirror": NaN}}', "not a batch manifest"),
+])
+def test_a_batch_folder_it_could_not_finish_in_is_refused_before_a_cluster(
+        cli, tmp_path, unreplaceable, monkeypatch, state, needle):
+    """A state path of the batch folder that is a folder, an immutable table or manifest,
+    or a manifest whose entries are not tables: the first stopped the run after the
+    cluster had started (the manifest) or when the first table was done (a table), an
+    entry of another type was a traceback; each is one error line before a cluster."""
+    from test_robustness import one_error_line
+
+    out = tmp_path / "out"
+    kind, _, rest = state.partition(":")
+    name, _, text = rest.partition(":")
+    if kind == "folder":
+        (out / name).mkdir(parents=True)
+    elif kind == "immutable":
+        unreplaceable(out / name)
+    else:
+        out.mkdir()
+        (out / name).write_text(text, encoding="utf-8")
+    monkeypatch.setattr("microsim.commands.batch.dask_client", _no_work)
+    code, _, err = cli("batch", SWEEP, "-o", str(out))
+    one_error_line(code, err, "--output" if kind != "text" else "manifest.json", needle)

@@ -197,7 +197,7 @@ def worker_memory_limit(limit_gib: float | None) -> Iterator[None]:
 
 def run(args: argparse.Namespace) -> int:
     """Load and check the whole sweep, run it, print the summary; 1 if a table failed."""
-    from microsim.batch import output_lock, run_batch
+    from microsim.batch import check_folder, output_lock, run_batch
     from microsim.commands.simulate import check_table_memory
     from microsim.surfaces import check_tile_memory
     from microsim.sweep import load_sweep
@@ -208,6 +208,7 @@ def run(args: argparse.Namespace) -> int:
         check_tile_memory(point.recipe.surface, args.memory_limit, f"point {point.name}: ")
         check_table_memory(point.recipe, False, args.memory_limit, f"point {point.name}: ")
     writable_folder(args.output, "--output")
+    check_folder(args.output, sweep, args.resume)
     # the lock before the cluster: a second batch on the folder stops at once
     with output_lock(args.output), worker_memory_limit(args.memory_limit), \
             dask_client(args.workers, args.scheduler) as client, \
