@@ -39,7 +39,8 @@ def lambda_beckmann(a: np.ndarray) -> np.ndarray:
     eq. 83), evaluated without cancellation: with erfc(a) = exp(−a²) erfcx(a),
     Λ = exp(−a²)/2 · (1/(a√π) − erfcx(a)). For a > 8 the bracket is summed from its
     asymptotic series 1/(a√π) Σ_{n≥1} (−1)^{n+1} (2n−1)!! / (2a²)^n (Abramowitz & Stegun
-    7.1.23), whose terms fall below 1e-17 of the first by n = 12.
+    7.1.23), truncated after n = 12: it errs by about the next term, 4.2e-13 of the sum
+    at a = 8 and less beyond (the direct form loses ~1e-14 to cancellation near a = 8).
 
     Parameters
     ----------
