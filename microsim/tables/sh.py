@@ -172,16 +172,24 @@ def _transform(loc: np.ndarray, w: np.ndarray, order: int) -> np.ndarray:
     return alm.real[source] * f_re + alm.imag[source] * f_im
 
 
-def _distinct(weights: np.ndarray) -> tuple[list[int], list[int]]:
-    """The first of every group of equal columns (RGB weights of a grey material), and for
-    every column the position of its group's first in that list."""
+def _distinct(columns: np.ndarray) -> tuple[list[int], list[int]]:
+    """The first of every group of equal rows of ``columns`` ((c, n): the weight columns,
+    e.g. the RGB weights of a grey material), and for every row the position of its
+    group's first in that list.
+
+    Equal rows have equal sums (the same additions of the same numbers), so only rows of
+    equal sums are compared element by element: one pass over the weights, where
+    comparing every pair of a spectral table's 32 channels took 496 passes.
+    """
+    sums = columns.sum(axis=1)
     first: list[int] = []
     which = []
-    for j in range(weights.shape[1]):
-        same = [p for p, k in enumerate(first) if np.array_equal(weights[:, k], weights[:, j])]
-        if not same:
+    for j in range(len(columns)):
+        same = next((p for p, k in enumerate(first)
+                     if sums[k] == sums[j] and np.array_equal(columns[k], columns[j])), None)
+        if same is None:
             first.append(j)
-        which.append(same[0] if same else len(first) - 1)
+        which.append(len(first) - 1 if same is None else same)
     return first, which
 
 
@@ -228,13 +236,14 @@ def moments(loc: np.ndarray, weights: np.ndarray, order: int, mapper: Mapper | N
     sums : ((L + 1)², c) float
     sums_sq_wide : ((2L + 1)², c) float, or None without ``second``
     """
-    first, which = _distinct(weights)
-    squares = [weights[:, j] ** 2 for j in first] if second else []
+    columns = np.ascontiguousarray(weights.T, float)
+    first, which = _distinct(columns)
+    squares = [columns[j] ** 2 for j in first] if second else []
     # weights that are their own squares (0 or 1: mirror facets) take their first moments
     # from the order-2L transform of w² = w, whose first (L + 1)² coefficients they are
-    own = [bool(squares) and np.array_equal(squares[i], weights[:, j])
+    own = [bool(squares) and np.array_equal(squares[i], columns[j])
            for i, j in enumerate(first)]
-    jobs = [(weights[:, j], order) for i, j in enumerate(first) if not own[i]]
+    jobs = [(columns[j], order) for i, j in enumerate(first) if not own[i]]
     jobs += [(w2, 2 * order) for w2 in squares]
     done = (mapper or _in_order)(lambda i: _transform(loc, *jobs[i]), range(len(jobs)))
     wide = done[len(jobs) - len(squares):]
