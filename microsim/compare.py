@@ -63,9 +63,16 @@ class StochasticModel(Model, Protocol):
                            ) -> tuple[np.ndarray, np.ndarray]: ...
 
 
+CHUNK_POINTS = 1 << 18
+"""Outgoing directions ``bin_average`` evaluates a model at, at most, at once: 200-320 B
+each while a model evaluates (tracemalloc peak of Beckmann, RGB Beckmann, Oren-Nayar,
+the cloth model), so at most about 84 MB whatever the table's bins."""
+
+
 def bin_average(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
                 phi_edges: np.ndarray, phi_i: float = 0.0, n: int = 8) -> np.ndarray:
-    """Projected-solid-angle average of a model's f_r over every outgoing bin.
+    """Projected-solid-angle average of a model's f_r over every outgoing bin, rows of θo
+    bins at a time (at most ``CHUNK_POINTS`` directions, or one row).
 
     Parameters
     ----------
@@ -102,9 +109,14 @@ def bin_average(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
         theta[-1] = np.arccos(s)
         weight[-1] = w * s / np.sum(w * s)
     p = phi_edges[:-1, None] + np.diff(phi_edges)[:, None] * t  # (np, n)
-    wo = direction(theta[:, None, :, None], phi_i + p[None, :, None, :])  # (nt, np, n, n, 3)
-    f = as_rgb(model.eval(np.broadcast_to(wi, wo.shape), wo), wo.shape[:-1])
-    f = np.einsum("tpijc,ti->tpc", f, weight) / n
+    rows = max(1, CHUNK_POINTS // (len(p) * n * n))
+    parts = []
+    for start in range(0, len(theta), rows):
+        part = slice(start, start + rows)
+        wo = direction(theta[part, None, :, None], phi_i + p[None, :, None, :])  # (r, np, n, n, 3)
+        f = as_rgb(model.eval(np.broadcast_to(wi, wo.shape), wo), wo.shape[:-1])
+        parts.append(np.einsum("tpijc,ti->tpc", f, weight[part]) / n)
+    f = np.concatenate(parts)
     if hasattr(model, "singular"):
         f = f + model.singular(wi, theta_edges, phi_edges, phi_i)
     return f
