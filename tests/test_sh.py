@@ -131,6 +131,26 @@ def test_ducc0_projection_and_second_moments_equal_direct_sums() -> None:
     assert np.abs(sh.second_moments(wide, 12) - square).max() < 1e-6 * square.max()
 
 
+def test_equal_weight_columns_share_one_transform_and_lookalikes_do_not() -> None:
+    """``moments`` transforms each distinct weight column once: equal columns (a grey
+    material's R, G, B) take the first's sums, and columns of equal sums but other values
+    (a permutation of the same weights) keep their own, equal to the direct sums; a column
+    equal to its square (mirror weights 0 or 1) gives its first moments from the order-2L
+    transform, to ducc0's accuracy."""
+    rng = np.random.default_rng(5)
+    loc = sh.angles(unit(rng.normal(size=(2000, 3))), 0.0)
+    a = rng.random(2000)
+    mirror = (rng.random(2000) < 0.5).astype(float)
+    w = np.column_stack([a, a, rng.permutation(a), mirror, a])
+    assert sh._distinct(np.ascontiguousarray(w.T)) == ([0, 2, 3], [0, 0, 1, 2, 0])
+    sums, wide = sh.moments(loc, w, 8)
+    direct = sh.basis(8, np.cos(loc[:, 0]), loc[:, 1]).T @ w
+    assert np.abs(sums - direct).max() < 1e-6 * np.abs(direct).max()
+    assert np.array_equal(sums[:, 0], sums[:, 1]) and np.array_equal(sums[:, 0], sums[:, 4])
+    wide_direct = sh.basis(16, np.cos(loc[:, 0]), loc[:, 1]).T @ (w * w)
+    assert np.abs(wide - wide_direct).max() < 1e-6 * np.abs(wide_direct).max()
+
+
 def test_windows() -> None:
     assert CLI_WINDOWS == sh.WINDOWS and CLI_MATRIX_MAX_ORDER == MAX_ORDER
     l, _ = sh.degrees(7)
