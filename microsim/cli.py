@@ -38,6 +38,7 @@ from microsim.commands import eval as eval_table
 from microsim.commands.common import Parser
 from microsim.effort import note, scaled
 from microsim.errors import InputError, InputWarning
+from microsim.memory import flag_limit
 from microsim.version import __version__
 
 COMMANDS = {module.__name__.rsplit(".", 1)[1]: module
@@ -107,7 +108,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(f"warning: {quick}", file=sys.stderr)
                 if getattr(args, "spp", None) is not None:
                     args.spp = scaled(args.spp, least=2)  # 1 spp leaves the noise unknown
-            return int(args.func(args) or 0)
+            with flag_limit(getattr(args, "memory_limit", None)):
+                return int(args.func(args) or 0)
     except InputError as exc:
         print(f"error: {one_line(str(exc))}", file=sys.stderr)
         return 2

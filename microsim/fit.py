@@ -40,11 +40,16 @@ from microsim.analytic.cloth import MicrocylinderCloth
 from microsim.analytic.ndf import GGX, Beckmann
 from microsim.compare import Model, bin_averages, channels_of, compare_table
 from microsim.errors import InputError
+from microsim.memory import check_memory
 from microsim.spectra.channels import RGB_NAMES
 from microsim.table_models import model_defaults
 
 EPS_FRACTION = 1e-3
 REL_FLOOR = 0.01
+FIT_BYTES_PER_RESIDUAL = 800
+"""Memory per residual of a fit (a bin with light, per channel) while it runs: measured
+660-730 B beyond a fixed 15 MB (tracemalloc peak of Beckmann and of three Lafortune
+lobes fitted to 32 x 64 and 64 x 128 tables of three incidences), rounded up."""
 SUBSAMPLES = 5
 """Midpoints per bin and axis while fitting (8 for the final metrics). With 3, the model's
 own discretisation shifted α by 4 standard errors on a 16 × 32 table with 5% noise; with 5
@@ -364,6 +369,9 @@ def fit_table(table: Any, spec: str, component: str = "total",
         raise InputError(f"fit {name}: the {component} of this table has {int(keep.sum())} "
                          f"bins with light (a defined error), not more than the {len(x0)} "
                          "parameters to fit: nothing escaped into it to fit a model to")
+    check_memory(FIT_BYTES_PER_RESIDUAL * float(keep.sum()),
+                 f"fit {name}: {int(keep.sum()):,} residuals (bins with light, per channel)",
+                 "fit a table of fewer bins or incidences")
     dof = max(int(keep.sum()) - len(x0), 1)
     evaluations = 0
 

@@ -2,12 +2,15 @@
 before it starts, with the estimate, the budget and how to raise it.
 
 The budget is ``--memory-limit GIB`` where a command has it, else the environment
-variable ``MICROSIM_MEMORY_LIMIT`` (GiB), else 2 GiB. Pure Python, imports nothing heavy.
+variable ``MICROSIM_MEMORY_LIMIT`` (GiB), else 2 GiB. The command line hands a command's
+flag to every guard it reaches (``flag_limit``). Pure Python, imports nothing heavy.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+from collections.abc import Iterator
 
 from microsim.errors import InputError
 
@@ -57,3 +60,22 @@ def check_memory(need_bytes: float, what: str, remedy: str,
         raise InputError(f"{what} needs about {need_bytes / 2**30:.3g} GiB (estimated), over "
                          f"the {limit:g} GiB limit; {remedy}, or raise the limit with "
                          f"--memory-limit GIB or ${LIMIT_ENV}")
+
+
+@contextlib.contextmanager
+def flag_limit(limit_gib: float | None) -> Iterator[None]:
+    """A command's ``--memory-limit`` for everything the block runs: while it runs,
+    ``$MICROSIM_MEMORY_LIMIT`` holds the flag, so the guards the command does not hand it
+    to (a Monte Carlo model's walks, a fit's residuals) and the processes it starts (the
+    workers of a local Dask cluster, which inherit the environment) use it too. Nothing
+    changes when ``limit_gib`` is None."""
+    before = os.environ.get(LIMIT_ENV)
+    if limit_gib is not None:
+        os.environ[LIMIT_ENV] = repr(limit_gib)
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(LIMIT_ENV, None)
+        else:
+            os.environ[LIMIT_ENV] = before

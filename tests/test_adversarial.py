@@ -190,3 +190,57 @@ def test_a_batch_folder_it_could_not_finish_in_is_refused_before_a_cluster(
     monkeypatch.setattr("microsim.commands.batch.dask_client", _no_work)
     code, _, err = cli("batch", SWEEP, "-o", str(out))
     one_error_line(code, err, "--output" if kind != "text" else "manifest.json", needle)
+
+
+@pytest.fixture(scope="module")
+def small_table(tmp_path_factory) -> Path:
+    """A small simulated table (32² tile, θi 0 and 60°, 8 × 16 bins, harmonics to 4)."""
+    from test_robustness import SMALL
+
+    from microsim.cli import main
+
+    path = tmp_path_factory.mktemp("table") / "small.exr"
+    assert main(["simulate", GAUSSIAN, *SMALL, "--rays", "2000", "-o", str(path),
+                 "--json"]) == 0
+    return path
+
+
+@pytest.mark.parametrize(("argv", "needle"), [
+    (["compare", "{table}", "--model", "beckmann-ms"], "model samples = 256"),
+    (["fit", "{table}", "--model", "beckmann"], "fit beckmann: "),
+    (["render", "--live", GAUSSIAN, "-o", "{tmp}/r.png"], "surface: this tile"),
+    (["demo", "-o", "{tmp}/d.exr"], "surface: this tile"),
+])
+def test_memory_limit_of_compare_fit_render_and_demo(cli, small_table, tmp_path, monkeypatch,
+                                                     argv, needle):
+    """compare, fit, render and demo had no ``--memory-limit``: their guards (a Monte
+    Carlo model's walks, a fit's residuals, the live surface's tiles, the demo's tile) read
+    only $MICROSIM_MEMORY_LIMIT. The flag reaches them, and the environment is as it was
+    after the command."""
+    import os
+
+    from test_robustness import one_error_line
+
+    monkeypatch.delenv("MICROSIM_MEMORY_LIMIT", raising=False)
+    code, _, err = cli(*[a.format(table=small_table, tmp=tmp_path) for a in argv],
+                       "--memory-limit", "1e-6")
+    one_error_line(code, err, needle, "over the 1e-06 GiB limit", "--memory-limit")
+    assert "MICROSIM_MEMORY_LIMIT" not in os.environ
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_fit_over_the_memory_limit_is_refused_before_it_runs(small_table, monkeypatch):
+    """A fit holds about 800 B per residual (``FIT_BYTES_PER_RESIDUAL``): a table of
+    512 x 1024 bins and 4 incidences, 6.3 million residuals in RGB, needed 4.6 GB, with no
+    guard; over the budget it is refused before the first evaluation."""
+    import microsim
+    from microsim import fit
+    from microsim.errors import InputError
+
+    table = microsim.read_table(small_table)
+    residuals = int(np.isfinite(table.errors["total"]).sum())
+    monkeypatch.setenv("MICROSIM_MEMORY_LIMIT",
+                       repr(0.5 * fit.FIT_BYTES_PER_RESIDUAL * residuals / 2**30))
+    monkeypatch.setattr(fit, "least_squares", _no_work)
+    with pytest.raises(InputError, match=f"fit beckmann: {residuals:,} residuals"):
+        fit.fit_table(table, "beckmann")

@@ -177,24 +177,6 @@ def print_summary(s: dict[str, Any]) -> None:
         print(f"failed: {failure['table']}: {failure['error']}")
 
 
-@contextlib.contextmanager
-def worker_memory_limit(limit_gib: float | None) -> Iterator[None]:
-    """``--memory-limit`` for the workers of a local cluster, which inherit the
-    environment: ``$MICROSIM_MEMORY_LIMIT`` while the block runs."""
-    from microsim.memory import LIMIT_ENV
-
-    before = os.environ.get(LIMIT_ENV)
-    if limit_gib is not None:
-        os.environ[LIMIT_ENV] = repr(limit_gib)
-    try:
-        yield
-    finally:
-        if before is None:
-            os.environ.pop(LIMIT_ENV, None)
-        else:
-            os.environ[LIMIT_ENV] = before
-
-
 def run(args: argparse.Namespace) -> int:
     """Load and check the whole sweep, run it, print the summary; 1 if a table failed."""
     from microsim.batch import check_folder, output_lock, run_batch
@@ -210,8 +192,8 @@ def run(args: argparse.Namespace) -> int:
     writable_folder(args.output, "--output")
     check_folder(args.output, sweep, args.resume)
     # the lock before the cluster: a second batch on the folder stops at once
-    with output_lock(args.output), worker_memory_limit(args.memory_limit), \
-            dask_client(args.workers, args.scheduler) as client, \
+    # the command line hands --memory-limit to the local cluster's workers (flag_limit)
+    with output_lock(args.output), dask_client(args.workers, args.scheduler) as client, \
             progress_bar(sys.stderr.isatty() and not args.json) as show:
         summary = run_batch(sweep, args.output, client, resume=args.resume,
                             threads=args.threads, progress=show)

@@ -84,9 +84,9 @@ def add_memory_arg(p: argparse.ArgumentParser) -> None:
     """Add ``--memory-limit GIB``."""
     gib = number_list(1, low=0.0, low_open=True, what="a positive number of GiB")
     p.add_argument("--memory-limit", type=lambda t: gib(t)[0], default=None, metavar="GIB",
-                   help="refuse work (a tile, ray paths, an export grid) estimated to "
-                        "need more memory than this many GiB (default: "
-                        "$MICROSIM_MEMORY_LIMIT or 2)")
+                   help="refuse work (a tile, ray paths, an export grid, a Monte Carlo "
+                        "model's walks, a fit) estimated to need more memory than this many "
+                        "GiB (default: $MICROSIM_MEMORY_LIMIT or 2)")
 
 
 def add_component_arg(p: argparse.ArgumentParser) -> None:

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 from microsim.commands.common import (
     add_component_arg,
     add_json_arg,
+    add_memory_arg,
     channel_mean,
     channels_json,
     channels_words,
@@ -49,6 +50,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_component_arg(p)
     p.add_argument("--out", type=Path, default=None, metavar="DIR",
                    help="write plots and report.md into DIR")
+    add_memory_arg(p)
     add_json_arg(p)
     p.set_defaults(func=run)
 

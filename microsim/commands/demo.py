@@ -11,6 +11,7 @@ import microsim
 from microsim import recipe
 from microsim.commands.common import (
     add_json_arg,
+    add_memory_arg,
     add_seed_arg,
     add_threads_arg,
     error_model_note,
@@ -59,6 +60,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="also draw the plane of incidence, simulation against model")
     add_threads_arg(p)
     add_seed_arg(p, "simulation")
+    add_memory_arg(p)
     add_json_arg(p)
     p.set_defaults(func=run)
 
@@ -99,7 +101,8 @@ def run(args: argparse.Namespace) -> int:
     writable_file(args.output, "--output", (".exr",))
     if args.plot is not None:
         writable_file(args.plot, "--plot", PLOT_SUFFIXES)
-    table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json)
+    table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json,
+                              args.memory_limit)
     write_table(table, args.output)
     single, single_check = comparison(table)
     roughness = roughness_json(table.meta.surface)

@@ -13,6 +13,7 @@ from typing import Any
 from microsim.commands.common import (
     add_component_arg,
     add_json_arg,
+    add_memory_arg,
     add_realisations_arg,
     finite_float,
     nonnegative_int,
@@ -108,6 +109,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="with --live: override a value of RECIPE (repeatable), e.g. --set "
                         "'simulation.theta_i=[0,10,20,30,40,50,60,70,80,89]' for the "
                         "table's incidences")
+    add_memory_arg(p)
     add_json_arg(p)
     p.set_defaults(func=run)
 
@@ -245,10 +247,11 @@ def run_live(args: argparse.Namespace) -> int:
     k = int(resolved.simulation.realisations)
     threads = 1 if args.variant.startswith("scalar") else None
     show = sys.stderr.isatty() and not args.json
-    with live.LiveSurface(resolved, k, Tiles(resolved.surface), args.seed,
-                          threads) as sampler:
+    with live.LiveSurface(resolved, k, Tiles(resolved.surface, memory_limit_gib=args.memory_limit),
+                          args.seed, threads, args.memory_limit) as sampler:
         if args.table is None:  # with its own progress bar
-            table, table_name = simulate_resolved(resolved, None, show), "simulated"
+            table, table_name = simulate_resolved(resolved, None, show,
+                                                  args.memory_limit), "simulated"
         else:
             table, table_name = microsim.read_table(args.table), str(args.table)
         camera = scene.Camera(args.size[0], args.size[1], args.camera[0], args.camera[1],
