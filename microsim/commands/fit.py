@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 from microsim.commands.common import (
     add_component_arg,
     add_json_arg,
+    add_memory_arg,
     channel_mean,
     channels_json,
     channels_words,
@@ -46,6 +47,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_component_arg(p)
     p.add_argument("--plot", type=Path, default=None, metavar="PNG",
                    help="draw the plane of incidence, table against the fit")
+    add_memory_arg(p)
     add_json_arg(p)
     p.set_defaults(func=run)
 
