@@ -244,3 +244,26 @@ def test_a_fit_over_the_memory_limit_is_refused_before_it_runs(small_table, monk
     monkeypatch.setattr(fit, "least_squares", _no_work)
     with pytest.raises(InputError, match=f"fit beckmann: {residuals:,} residuals"):
         fit.fit_table(table, "beckmann")
+
+
+def test_demo_prints_its_models_parameters_with_their_units_and_sources(cli, tmp_path):
+    """demo named its models' realised alpha only; it prints each model's parameters as
+    compare does (``parameters_text``: value, unit, source), and its JSON holds them with
+    their sources."""
+    import json
+
+    import microsim
+
+    code, out, err = cli("demo", "--rays", "2000", "-o", str(tmp_path / "d.exr"))
+    assert code == 0, err
+    alpha = microsim.read_table(tmp_path / "d.exr").meta.surface.alpha_realised.alpha
+    single = next(line for line in out.splitlines() if "single scattering against" in line)
+    total = next(line for line in out.splitlines() if "all orders against" in line)
+    assert f"alpha {alpha:.4g} (the table's realised alpha)" in single, single
+    assert "shadowing smith-correlated (given)" in single
+    assert f"alpha {alpha:.4g} (the table's realised alpha)" in total, total
+    assert "samples 64 (given)" in total
+    code, out, err = cli("demo", "--rays", "2000", "-o", str(tmp_path / "d.exr"), "--json")
+    result = json.loads(out)
+    assert result["comparison"]["param_sources"]["alpha"] == "the table's realised alpha"
+    assert result["comparison_total"]["param_sources"]["samples"] == "given"

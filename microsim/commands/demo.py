@@ -65,15 +65,33 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+def single_model(table: BRDFTable) -> tuple[str, dict[str, Any], Any]:
+    """``SINGLE_MODEL`` with the table's parameters (its realised alpha, its facets'
+    Fresnel): the model's name, resolved parameters and the model
+    (``microsim.table_models.microfacet_model``, by its spec)."""
+    from microsim.analytic.registry import parse_model_spec
+    from microsim.table_models import model_defaults
+
+    return parse_model_spec(SINGLE_MODEL, model_defaults(table.meta))
+
+
 def comparison(table: BRDFTable) -> tuple[Comparison, Agreement]:
     """Simulated single scattering against the microfacet model at the realised alpha
-    (``SINGLE_MODEL``), and its verdict."""
+    (``single_model``), and its verdict."""
     from microsim.agreement import agreement
     from microsim.compare import compare_table
-    from microsim.table_models import microfacet_model
 
-    result = compare_table(table, microfacet_model(table.meta), "single")
+    result = compare_table(table, single_model(table)[2], "single")
     return result, agreement(result)
+
+
+def sources_of(table: BRDFTable, spec: str, params: dict[str, Any]) -> dict[str, str]:
+    """Where each of a model's parameters came from, as ``compare`` says it
+    (``microsim.analytic.registry.parameter_sources``)."""
+    from microsim.analytic.registry import parameter_sources
+    from microsim.table_models import model_defaults
+
+    return parameter_sources(spec, params, model_defaults(table.meta))
 
 
 def total_comparison(table: BRDFTable
@@ -95,6 +113,7 @@ def total_comparison(table: BRDFTable
 def run(args: argparse.Namespace) -> int:
     """Simulate, write, compare, print."""
     from microsim.agreement import verdict_text
+    from microsim.analytic.registry import parameters_text
     from microsim.commands.simulate import print_summary, simulate_resolved, summary
 
     resolved = recipe.load(RECIPE, flag_overrides(args, "simulation", "seed", "rays"))
@@ -105,14 +124,18 @@ def run(args: argparse.Namespace) -> int:
                               args.memory_limit)
     write_table(table, args.output)
     single, single_check = comparison(table)
+    single_name, single_params, _ = single_model(table)
+    single_sources = sources_of(table, SINGLE_MODEL, single_params)
     roughness = roughness_json(table.meta.surface)
     simulated = summary(table, args.output)
     spec, params, total, total_check = total_comparison(table)
+    sources = sources_of(table, spec, params)
     result = {"simulation": simulated,
-              "comparison": {"model": SINGLE_MODEL, **roughness, **single.to_json(),
-                             "agreement": single_check.to_json()},
-              "comparison_total": {"model": spec, "params": params, **total.to_json(),
-                                   "agreement": total_check.to_json()}}
+              "comparison": {"model": SINGLE_MODEL, "params": single_params,
+                             "param_sources": single_sources, **roughness,
+                             **single.to_json(), "agreement": single_check.to_json()},
+              "comparison_total": {"model": spec, "params": params, "param_sources": sources,
+                                   **total.to_json(), "agreement": total_check.to_json()}}
     if args.plot is not None:
         from microsim.commands.compare import title_of
         from microsim.plots import incidence_plane
@@ -125,9 +148,12 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print_summary(simulated)
     print(f"\nBeckmann models at the realised alpha {roughness['alpha_realised']:.4f} "
-          f"(target {roughness['alpha_target']:.4f}): single scattering against "
-          "Torrance-Sparrow with height-correlated Smith, all orders against Heitz et al. "
-          "2016's multiple scattering (beckmann-ms):")
+          f"(target {roughness['alpha_target']:.4f}):")
+    print(f"  single scattering against Torrance-Sparrow with height-correlated Smith "
+          f"({SINGLE_MODEL}): "
+          f"{parameters_text(single_name, single_params, single_sources)}")
+    print(f"  all orders against Heitz et al. 2016's multiple scattering ({spec}): "
+          f"{parameters_text(spec.partition(':')[0], params, sources)}")
     print(f"{'':8} {'single vs Torrance-Sparrow':^40}   "
           f"{'all orders vs multiple-scattering Smith':^48}")
     print(f"{'theta_i':>8} {'median err':>11} {'z mean':>7} {'z std':>6} {'albedo sim':>11} "
