@@ -7,9 +7,12 @@ Usage::
 Traces one batch (``microsim.goniometer.BATCH`` rays) of the recipe's tile (default
 surfaces/gaussian-0.3.toml) at θi = 30°, then times ``Sums.add`` on it without harmonics
 and with orders 8, 16, 32, 64 (median of the repeats), for the recipe's grey mirror
-facets (RGB weights equal: per scattering order of the table's default three, 1 + 1
-transforms over that order's rays) and for a gold conductor (RGB weights differ: 3 + 3
-per order), next to the time of tracing the batch, and for comparison the
+facets (RGB weights equal: per scattering order of the table's default three, one
+transform over that order's rays) and for a gold conductor (RGB weights differ: 3 per
+order), as an ensemble's run makes them (first moments only) and as a single
+realisation's (with the order-2L transforms of w² for its ray errors: 1 for mirror
+weights, which are their own squares, 3 + 3 for gold), next to the time of tracing the
+batch, and for comparison the
 direct method (the explicit (n, (L + 1)²) basis and a matrix product per moment). With
 ``--write``
 the Markdown replaces the section between the ``sh-cost`` markers in
@@ -75,11 +78,13 @@ def main() -> None:
             paths = trace()
             index = np.where(paths.order > 0, bins.index(paths.direction), -1)
             for order in ORDERS:
-                def accumulate(order=order, paths=paths):
-                    Sums(bins.size, order).add(paths, bins, 0.0, scene.map)
+                def accumulate(single: bool, order=order, paths=paths) -> None:
+                    Sums(bins.size, order, sh_ray_variance=single).add(paths, bins, 0.0,
+                                                                       scene.map)
 
-                t = median_time(accumulate, args.repeats)
-                rows.append((name, order, t, t_trace))
+                rows.append((name, order, median_time(lambda: accumulate(False),
+                                                      args.repeats),
+                             median_time(lambda: accumulate(True), args.repeats), t_trace))
         loc = sh.angles(paths.direction[index >= 0])
         w = paths.weight[index >= 0]
         w = np.concatenate([w, 0.5 * w], axis=1)           # six different columns
@@ -93,20 +98,24 @@ def main() -> None:
 
         direct = [(order, median_time(lambda o=order: explicit(o), 3),
                    median_time(lambda o=order: fast(o), args.repeats)) for order in (16, 32)]
-    base = {name: t for name, order, t, _ in rows if order == 0}
+    base = {name: t for name, order, t, _, _ in rows if order == 0}
     lines = [
              f"`python scripts/sh_cost.py --write` ({platform.machine()}, "
              f"{time.strftime('%Y-%m-%d')}, load average {loadavg:.1f} on {os.cpu_count()} "
              f"CPUs before the run): one batch of {BATCH} rays of "
              f"`{Path(args.recipe).name}` at θi = 30°, 16 bounces; median of "
              f"{args.repeats}. `add` is the per-batch accumulation (bins, and the harmonics "
-             "when the order is > 0); tracing is `trace_paths` on every core.", "",
-             "| facets | order | `add` per batch | extra for the harmonics | tracing the batch "
-             "| extra / tracing |", "| --- | --- | --- | --- | --- | --- |"]
-    for name, order, t, t_trace in rows:
-        extra = t - base[name]
+             "when the order is > 0), as an ensemble's run makes it (first moments) and as "
+             "a single realisation's (with the order-2L second moments); the extra is over "
+             "the bins alone; tracing is `trace_paths` on every core.", "",
+             "| facets | order | `add` per batch, ensemble | extra for the harmonics "
+             "| extra / tracing | one realisation: extra | extra / tracing "
+             "| tracing the batch |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for name, order, t, t_single, t_trace in rows:
+        extra, single = t - base[name], t_single - base[name]
         lines.append(f"| {name} | {order} | {1000 * t:.1f} ms | {1000 * extra:.1f} ms | "
-                     f"{1000 * t_trace:.1f} ms | {100 * extra / t_trace:.0f}% |")
+                     f"{100 * extra / t_trace:.0f}% | {1000 * single:.1f} ms | "
+                     f"{100 * single / t_trace:.0f}% | {1000 * t_trace:.1f} ms |")
     lines += ["", "Projecting the same batch (escaping rays, six weight columns, RGB all "
               "different) with the first and second moments:", "",
               "| order | explicit basis + matrix products "
