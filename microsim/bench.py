@@ -51,10 +51,12 @@ from microsim.analytic.multiple_scattering import SmithMultipleScattering
 from microsim.analytic.ndf import Beckmann
 from microsim.analytic.shadowing import vcavity_G1
 from microsim.compare import compare_table, lobe_residuals
+from microsim.files import atomic_path
 from microsim.geometry import direction
 from microsim.kernel.packing import FacetMaterials
 from microsim.masking import measure_g1, sample_faces
 from microsim.materials import Lambertian
+from microsim.plots.layout import save
 from microsim.recipe import resolve
 from microsim.simulation import simulate
 from microsim.surfaces import build_tile
@@ -337,8 +339,8 @@ def sweep(quick: bool, seed: int = 1, threads: int = 2,
 
 
 def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
-    """The sweep as CSV (``COLUMNS``)."""
-    with path.open("w", newline="", encoding="utf-8") as f:
+    """The sweep as CSV (``COLUMNS``), atomically."""
+    with atomic_path(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=COLUMNS)
         writer.writeheader()
         for row in rows:
@@ -383,8 +385,7 @@ def plot(rows: list[dict[str, Any]], out: Path) -> list[Path]:
     ax.legend(fontsize=8)
     fig.tight_layout()
     paths = [out / "error_vs_time.png", out / "bias_floor.png"]
-    fig.savefig(paths[0], dpi=110)
-    plt.close(fig)
+    save(fig, paths[0], dpi=110)
     fig, ax = plt.subplots(figsize=(6, 4.2))
     for case, label in (("ts", "ts: median relative error against the model"),
                         ("g1", "g1: mean |G1 − Smith|")):
@@ -403,6 +404,5 @@ def plot(rows: list[dict[str, Any]], out: Path) -> list[Path]:
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(paths[1], dpi=110)
-    plt.close(fig)
+    save(fig, paths[1], dpi=110)
     return paths

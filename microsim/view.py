@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from microsim.errors import InputError
+from microsim.files import atomic_path
 from microsim.geometry import direction
 from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.slots import ESCAPED, O_FATE, O_ORDER, S_DX
@@ -61,12 +62,19 @@ def import_pyvista(off_screen: bool) -> Any:
 
 
 def finish(plotter: Any, screenshot: str | Path | None) -> np.ndarray | None:
-    """Write the off-screen image and return it, or open the interactive window."""
+    """Write the off-screen image (atomically, in the format of its suffix) and return
+    it, or open the interactive window."""
     if screenshot is None:
         plotter.show()
         return None
-    image = plotter.screenshot(str(screenshot), return_img=True)
+    from PIL import Image  # matplotlib's own image library
+
+    image = plotter.screenshot(None, return_img=True)
     plotter.close()
+    suffix = Path(screenshot).suffix.lower()
+    with atomic_path(screenshot) as tmp:
+        Image.fromarray(image).save(tmp, format="JPEG" if suffix in (".jpg", ".jpeg")
+                                    else "PNG")
     return image
 
 

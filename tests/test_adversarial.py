@@ -267,3 +267,53 @@ def test_demo_prints_its_models_parameters_with_their_units_and_sources(cli, tmp
     result = json.loads(out)
     assert result["comparison"]["param_sources"]["alpha"] == "the table's realised alpha"
     assert result["comparison_total"]["param_sources"]["samples"] == "given"
+
+
+def _renamed_into_place(monkeypatch) -> list[Path]:
+    """Record every ``os.replace`` target (``atomic_path``'s last step)."""
+    import os
+
+    targets: list[Path] = []
+    replace = os.replace
+
+    def record(src, dst, *args, **kwargs):
+        targets.append(Path(dst))
+        return replace(src, dst, *args, **kwargs)
+
+    monkeypatch.setattr(os, "replace", record)
+    return targets
+
+
+def _bench_rows() -> list[dict]:
+    """Rows of a bench sweep (``microsim.bench.COLUMNS``): two tile resolutions and two
+    ray counts of the ts case, and the g1 case."""
+    rows = []
+    for case, bins in (("ts", 8), ("g1", 0)):
+        for res in (64, 128):
+            for rays, error in ((1000, 0.1), (4000, 0.05)):
+                rows.append({"case": case, "rays": rays, "tile_resolution": res,
+                             "cells_per_correlation": res / 32, "table_bins": bins,
+                             "wall_s": rays / 1000, "segments": 2 * rays,
+                             "segments_per_s": 1e6, "bare_rays_per_s": 2e6, "ratio": 0.5,
+                             "error": error, "stderr": error / 2})
+    return rows
+
+
+@pytest.mark.parametrize("command", ["compare", "view", "bench"])
+def test_every_output_file_is_renamed_into_place(cli, small_table, tmp_path, monkeypatch,
+                                                 command):
+    """compare's report.md, view's screenshot and bench's CSV and figures were written
+    in place, so an interrupted write left a partial file under the final name; every
+    file these commands write now arrives whole, by a rename (``atomic_path``)."""
+    out = tmp_path / "out"
+    if command == "bench":
+        monkeypatch.setattr("microsim.bench.sweep", lambda *a, **k: _bench_rows())
+    targets = _renamed_into_place(monkeypatch)
+    argv = {"compare": ["compare", str(small_table), "--model", "beckmann", "--out", str(out)],
+            "view": ["view", str(small_table), "--screenshot", str(out / "v.png")],
+            "bench": ["bench", "--quick", "--out", str(out)]}[command]
+    code, _, err = cli(*argv)
+    assert code == 0, err
+    written = sorted(p for p in out.iterdir() if p.is_file())
+    assert written and set(written) <= set(targets), (written, targets)
+

@@ -21,7 +21,7 @@ from microsim.commands.common import (
     readable,
     table_component,
 )
-from microsim.files import writable_folder
+from microsim.files import atomic_path, writable_folder
 
 if TYPE_CHECKING:
     from microsim.agreement import Agreement
@@ -161,7 +161,8 @@ def write_report(out: Path, title: str, model: str, params: str,
         lines += ["", f"## Albedo per wavelength ({component}): simulated / model", "",
                   *channel_albedos(table.channels.names, result)]
     path = out / "report.md"
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with atomic_path(path) as tmp:
+        tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
 
 
