@@ -338,6 +338,12 @@ def sweep(quick: bool, seed: int = 1, threads: int = 2,
     return rows
 
 
+CSV = "bench.csv"
+"""The sweep's file in the output folder."""
+PLOTS = ("error_vs_time.png", "bias_floor.png")
+"""The figures ``plot`` writes in the output folder."""
+
+
 def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
     """The sweep as CSV (``COLUMNS``), atomically."""
     with atomic_path(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as f:
@@ -384,7 +390,7 @@ def plot(rows: list[dict[str, Any]], out: Path) -> list[Path]:
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    paths = [out / "error_vs_time.png", out / "bias_floor.png"]
+    paths = [out / name for name in PLOTS]
     save(fig, paths[0], dpi=110)
     fig, ax = plt.subplots(figsize=(6, 4.2))
     for case, label in (("ts", "ts: median relative error against the model"),

@@ -317,3 +317,22 @@ def test_every_output_file_is_renamed_into_place(cli, small_table, tmp_path, mon
     written = sorted(p for p in out.iterdir() if p.is_file())
     assert written and set(written) <= set(targets), (written, targets)
 
+
+@pytest.mark.parametrize(("argv", "name"), [
+    (["compare", "{table}", "--model", "beckmann", "--out", "{out}"], "report.md"),
+    (["compare", "{table}", "--model", "beckmann", "--out", "{out}"], "z-maps.png"),
+    (["bench", "--quick", "--out", "{out}"], "bench.csv"),
+    (["bench", "--quick", "--out", "{out}"], "bias_floor.png"),
+])
+def test_a_file_of_an_output_folder_that_is_a_folder_is_refused_before_the_work(
+        cli, small_table, tmp_path, monkeypatch, argv, name):
+    """compare --out and bench --out write files of fixed names in their folder; one of
+    them being a folder stopped the command at its end (the rename), after the work."""
+    from test_robustness import one_error_line
+
+    out = tmp_path / "out"
+    (out / name).mkdir(parents=True)
+    monkeypatch.setattr("microsim.compare.compare_table", _no_work)
+    monkeypatch.setattr("microsim.bench.sweep", _no_work)
+    code, _, err = cli(*[a.format(table=small_table, out=out) for a in argv])
+    one_error_line(code, err, "--out", f"{name}: is a folder")

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from microsim.commands.common import add_json_arg, add_seed_arg, print_json
-from microsim.files import writable_folder
+from microsim.files import replaceable, writable_folder
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -47,16 +47,18 @@ def summary(rows: list[dict[str, Any]], wall: float) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     """Sweep, write, summarise."""
-    from microsim.bench import plot, sweep, write_csv
+    from microsim.bench import CSV, PLOTS, plot, sweep, write_csv
 
     writable_folder(args.out, "--out")
+    for name in (CSV, *PLOTS):
+        replaceable(args.out / name, "--out")
     start = time.perf_counter()
     log = (lambda text: None) if args.json else (lambda text: print(text, file=sys.stderr))
     rows = sweep(args.quick, seed=1 if args.seed is None else args.seed, log=log)
-    write_csv(rows, args.out / "bench.csv")
+    write_csv(rows, args.out / CSV)
     plots = plot(rows, args.out)
     result = {**summary(rows, time.perf_counter() - start),
-              "csv": str(args.out / "bench.csv"), "plots": [str(p) for p in plots]}
+              "csv": str(args.out / CSV), "plots": [str(p) for p in plots]}
     if args.json:
         print_json(result)
         return 0

@@ -21,12 +21,14 @@ from microsim.commands.common import (
     readable,
     table_component,
 )
-from microsim.files import atomic_path, writable_folder
+from microsim.files import atomic_path, replaceable, writable_folder
 
 if TYPE_CHECKING:
     from microsim.agreement import Agreement
     from microsim.comparison import Comparison, IncidenceMetrics
 
+REPORT = "report.md"
+"""The report ``--out`` writes beside the figures."""
 PLOTS = {
     "incidence_plane": "incidence-plane.png",
     "half_difference": "half-difference.png",
@@ -160,7 +162,7 @@ def write_report(out: Path, title: str, model: str, params: str,
     if spectral:
         lines += ["", f"## Albedo per wavelength ({component}): simulated / model", "",
                   *channel_albedos(table.channels.names, result)]
-    path = out / "report.md"
+    path = out / REPORT
     with atomic_path(path) as tmp:
         tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
@@ -185,6 +187,8 @@ def run(args: argparse.Namespace) -> int:
     sources = parameter_sources(args.model, params, defaults)
     if args.out is not None:
         writable_folder(args.out, "--out")
+        for file in (*PLOTS.values(), REPORT):
+            replaceable(args.out / file, "--out")
     with (progress_display() if sys.stderr.isatty() and not args.json
           else contextlib.nullcontext()) as bar:
         show = None
