@@ -69,7 +69,8 @@ class Simulation:
                     high=2**63 - 1)
     target_error: float | None = key(
         "float", None, "Adaptive stop: add rays and realisations until the median relative "
-        "standard error over lobe bins is at most this.", low=0.0, low_open=True, high=1.0)
+        "standard error over lobe bins is at most this (at least 1e-6: max_rays' 10^11 "
+        "rays in a single bin still leave 3e-6).", low=1e-6, high=1.0)
     max_rays: int | None = key("int", None, "Adaptive stop: upper limit of rays per "
                                "incident direction (over all realisations).", low=1,
                                high=10**11)

@@ -336,3 +336,24 @@ def test_a_file_of_an_output_folder_that_is_a_folder_is_refused_before_the_work(
     monkeypatch.setattr("microsim.bench.sweep", _no_work)
     code, _, err = cli(*[a.format(table=small_table, out=out) for a in argv])
     one_error_line(code, err, "--out", f"{name}: is a folder")
+
+
+def test_a_target_error_below_reach_is_refused_and_the_smallest_simulates(cli, tmp_path):
+    """``target_error = 1e-300`` squared underflowed to 0 in the adaptive plan: a
+    ZeroDivisionError traceback after the first round. The key is at least 1e-6 (10^11
+    rays, max_rays' most, in one bin still leave 3e-6); at 1e-6 a run stops at its
+    max_rays with a finite table."""
+    import json
+
+    from test_no_nan import assert_finite_table
+    from test_robustness import SMALL, one_error_line
+
+    out = tmp_path / "t.exr"
+    code, _, err = cli("simulate", GAUSSIAN, *SMALL, "--rays", "400", "--target-error",
+                       "1e-300", "-o", str(out))
+    one_error_line(code, err, "simulation.target_error = 1e-300", ">= 1e-06")
+    code, text, err = cli("simulate", GAUSSIAN, *SMALL, "--rays", "400", "--target-error",
+                          "1e-6", "--max-rays", "1600", "-o", str(out), "--json")
+    assert code == 0, err
+    assert set(json.loads(text)["stop"]) == {"max_rays"}
+    assert_finite_table(out)

@@ -70,7 +70,7 @@ def add_tracing_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--target-error", type=float, default=None, metavar="E",
                    help="adaptive stop: add rays and realisations until the median "
                         "relative standard error over lobe bins (of the ensemble) is <= E "
-                        "(0 < E <= 1), or --max-rays or --max-realisations")
+                        "(1e-6 <= E <= 1), or --max-rays or --max-realisations")
     p.add_argument("--max-rays", type=positive_int, default=None,
                    help="adaptive stop: at most this many rays per incident direction")
     p.add_argument("--max-realisations", type=positive_int, default=None,
