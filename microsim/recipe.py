@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import copy
 import math
+import os
+import stat
 import tomllib
 import warnings
 from collections.abc import Iterable, Mapping
@@ -302,8 +304,15 @@ def read_toml(path: str | Path) -> dict:
     syntax error into ``InputError``."""
     path = Path(path)
     try:
-        with path.open("rb") as f:
+        # a FIFO without a writer would block the open for good: opened without waiting,
+        # it reads as empty; one with a writer (a shell's <(...)) reads what it writes
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        os.set_blocking(fd, True)
+        with os.fdopen(fd, "rb") as f:
             data = f.read(MAX_BYTES + 1)
+            if not data and stat.S_ISFIFO(os.fstat(f.fileno()).st_mode):
+                raise InputError(f"{path}: a FIFO that nothing writes to; give a recipe "
+                                 "file")
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except OSError as exc:

@@ -357,3 +357,34 @@ def test_a_target_error_below_reach_is_refused_and_the_smallest_simulates(cli, t
     assert code == 0, err
     assert set(json.loads(text)["stop"]) == {"max_rays"}
     assert_finite_table(out)
+
+
+def test_a_recipe_that_is_a_fifo_is_read_or_refused_without_waiting(tmp_path):
+    """A FIFO nothing writes to as RECIPE blocked the open for good (check, simulate,
+    generate, measure, view and batch's sweep hung); it is one error line at once. A FIFO
+    something writes to (a shell's ``<(...)``) is read as before. Run as commands, each
+    with a time limit: a hang fails the test instead of stopping the suite."""
+    import os
+    import subprocess
+    import sys
+    import threading
+
+    from test_robustness import one_error_line
+
+    fifo = tmp_path / "r.toml"
+    os.mkfifo(fifo)
+    run = subprocess.run([sys.executable, "-m", "microsim.cli", "check", str(fifo)],
+                         capture_output=True, text=True, timeout=60)
+    one_error_line(run.returncode, run.stderr, str(fifo), "a FIFO that nothing writes to")
+    recipe = (ROOT / "surfaces" / "gaussian-0.3.toml").read_bytes()
+
+    def write() -> None:
+        with open(fifo, "wb") as f:
+            f.write(recipe)
+
+    writer = threading.Thread(target=write, daemon=True)
+    writer.start()
+    run = subprocess.run([sys.executable, "-m", "microsim.cli", "check", str(fifo)],
+                         capture_output=True, text=True, timeout=60)
+    writer.join(5)
+    assert run.returncode == 0 and 'kind = "gaussian"' in run.stdout, run.stderr
