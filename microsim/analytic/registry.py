@@ -44,7 +44,8 @@ def _facets(p: dict[str, Any], ndf_name: str) -> tuple[Any, tuple | None]:
                 if "alpha_x" in p else cls(p["alpha"]))
     fresnel = None
     if "k" in p:
-        fresnel = ("conductor", np.asarray(p.get("eta", [1.5] * 3)), np.asarray(p["k"]))
+        fresnel = ("conductor", np.asarray(p.get("eta", [1.5] * len(p["k"]))),
+                   np.asarray(p["k"]))
     elif "eta" in p:
         fresnel = ("dielectric", np.asarray(p["eta"]))
     return dist, fresnel
@@ -324,6 +325,26 @@ def split_spec(spec: str, what: str) -> tuple[str, dict[str, Any]]:
     return name, given
 
 
+def _same_channels(name: str, raw: Mapping[str, Any], params: dict[str, Any],
+                   keys: Mapping[str, Any]) -> None:
+    """Give a spec's colour parameters (kind ``channels``) one count of channels, in
+    place: a number given alone (which ``check_section`` read as R, G, B) takes the length
+    of the lists beside it; lists of different lengths are refused."""
+    colour = [k for k in params if keys[k].kind == "channels"]
+    lists = {k: len(raw[k]) for k in colour if isinstance(raw.get(k), list)}
+    if len(set(lists.values())) > 1:
+        raise InputError(f"model {name}: " + ", ".join(f"{k} has {n} values"
+                                                       for k, n in lists.items())
+                         + "; give each colour parameter one number or one per channel, "
+                         "as many for each")
+    if lists:
+        count = next(iter(lists.values()))
+        for k in colour:
+            if k not in lists:  # one number: as given, or as check_section's R, G, B
+                value = params[k]
+                params[k] = [value[0] if isinstance(value, list) else value] * count
+
+
 def parse_model_spec(spec: str, defaults: Mapping[str, Any] | None = None
                      ) -> tuple[str, dict[str, Any], Any]:
     """Build a model from ``NAME[:key=value,...]``.
@@ -356,6 +377,7 @@ def parse_model_spec(spec: str, defaults: Mapping[str, Any] | None = None
     if "alpha_x" in given or "alpha_y" in given:
         merged.pop("alpha", None)
     params = check_section(merged, keys, f"model {name}: ")
+    _same_channels(name, merged, params, keys)
     if "alpha_x" in keys:
         _check_alphas(params)
         if "alpha_x" in params:
