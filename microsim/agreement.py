@@ -81,13 +81,18 @@ def verdict_text(result: Comparison, check: Agreement, what: str = "") -> str:
     """One line: does the table agree with the model within its error bars, and what the
     numbers say (``result`` from ``compare_table``, ``check`` from ``agreement``; ``what``
     names the comparison when there are several)."""
-    numbers = (f"z = (sim − model) / stderr has mean {result.z_mean:.2f} and spread "
-               f"{result.z_std:.2f} over {check.lobe_bins} lobe bins; noise alone "
-               f"gives a mean within ±{check.z_mean_max:.2f} and a spread up to "
-               f"{check.z_std_max:.2f} at significance {check.significance:g}")
     head = f"verdict ({what}):" if what else "verdict:"
+
+    def z(x: float, spec: str = ".2f", unit: str = "") -> str:
+        """NaN (no lobe bin with light; a spread over one) in words."""
+        return format(x, spec) + unit if np.isfinite(x) else "undefined"
+
+    numbers = (f"z = (sim − model) / stderr has mean {z(result.z_mean)} and spread "
+               f"{z(result.z_std)} over {check.lobe_bins} lobe bins; noise alone "
+               f"gives a mean within ±{z(check.z_mean_max)} and a spread up to "
+               f"{z(check.z_std_max)} at significance {check.significance:g}")
     if check.agrees:
         return f"{head} agrees with the model within the error bars ({numbers})"
     return (f"{head} differs from the model by more than the error bars ({numbers}); the "
             f"median relative error against the model is "
-            f"{100 * result.median_rel_error:.1f}%")
+            f"{z(100 * result.median_rel_error, '.1f', '%')}")

@@ -477,3 +477,41 @@ def test_blinns_lambda_is_its_projected_area_and_quick_for_heavy_tails(n):
         expected = area / math.cos(theta) - 1
         assert float(blinn.Lambda(w[None])[0]) == pytest.approx(expected, rel=1e-7)
 
+
+NAN_WORD = r"(?i)(?<![A-Za-z_])[-+]?(nan|inf)(?![A-Za-z_])"
+
+
+@pytest.fixture(scope="module")
+def black_table(tmp_path_factory) -> Path:
+    """A table of black facets: no light in any bin, so every error and z is undefined."""
+    from test_robustness import SMALL
+
+    from microsim.cli import main
+
+    path = tmp_path_factory.mktemp("black") / "black.exr"
+    assert main(["simulate", GAUSSIAN, *SMALL, "--set", "material.kind=lambertian", "--set",
+                 "material.albedo=0", "--rays", "2000", "-o", str(path), "--json"]) == 0
+    return path
+
+
+@pytest.mark.parametrize("argv", [
+    ["compare", "{black}", "--model", "beckmann", "--out", "{tmp}/report"],
+    ["sh", "{black}"],
+    ["wavelets", "{black}", "--resolution", "16"],
+    ["render", "{black}", "-o", "{tmp}/r.png", "--size", "16x16", "--spp", "2"],
+    ["measure", "g1", GAUSSIAN, "--set", "surface.resolution=32", "--theta", "0,90",
+     "--rays", "300"],
+])
+def test_text_reports_print_undefined_numbers_as_n_a(cli, black_table, tmp_path, argv):
+    """compare (its report.md too), sh, wavelets, render and measure g1 printed ``nan``
+    for what is undefined (a black table's z-scores, errors and noise; G1's error at
+    90°, where no spread is seen); ``number_text`` prints ``n/a``, the verdict says
+    ``undefined``."""
+    import re
+
+    code, out, err = cli(*[a.format(black=black_table, tmp=tmp_path) for a in argv])
+    assert code == 0, err
+    texts = [out] + [p.read_text() for p in tmp_path.rglob("*.md")]
+    assert not any(re.search(NAN_WORD, t) for t in texts), texts
+    assert "n/a" in out
+

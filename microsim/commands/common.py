@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 from typing import Any, NoReturn
 
 from microsim.errors import InputError
@@ -237,6 +238,28 @@ LIST_SHOWN = 8
 """Text output shows lists up to this long whole, longer ones by their ends and length."""
 
 
+def number_text(x: float, spec: str, scale: float = 1.0, suffix: str = "") -> str:
+    """``scale * x`` formatted with ``spec`` and followed by ``suffix``, or ``n/a`` as wide
+    where ``x`` is undefined (NaN or infinite: no light in a bin, no spread between
+    tiles), so a text report never prints nan; e.g. ``number_text(0.1234, "7.2f", 100,
+    "%")`` is ``"  12.34%"``.
+
+    Parameters
+    ----------
+    x : float
+    spec : str
+        A format specification (``"7.2f"``, ``"+.1f"``); its width pads ``n/a``.
+    scale : float
+        What ``x`` is shown times (100 for a percentage).
+    suffix : str
+        The unit after the number (``"%"``).
+    """
+    if math.isfinite(x):
+        return format(scale * x, spec) + suffix
+    width = re.match(r"[<>=^]?[+\- ]?0?(\d*)", spec).group(1)
+    return "n/a".rjust(int(width or 0) + len(suffix))
+
+
 def readable(value: Any, digits: int = 4) -> str:
     """A value for text output: numbers to ``digits`` significant figures, lists and
     dicts item by item (long lists by their ends and length). JSON keeps full precision.
@@ -253,7 +276,7 @@ def readable(value: Any, digits: int = 4) -> str:
     str
     """
     if isinstance(value, float):
-        return f"{value:.{digits}g}"
+        return number_text(value, f".{digits}g")
     if isinstance(value, list | tuple):
         items = [readable(v, digits) for v in value]
         if len(items) > LIST_SHOWN:
@@ -269,7 +292,7 @@ def with_error(value: float, error: float) -> str:
     """``value ± error`` with the error to 2 significant figures and the value to the
     same decimal place (the digits that mean something), e.g. ``0.2912 ± 0.0012``."""
     if not (math.isfinite(value) and math.isfinite(error) and error > 0):
-        return f"{value:.5g} ± {error:.2g}"
+        return f"{number_text(value, '.5g')} ± {number_text(error, '.2g')}"
     places = 1 - math.floor(math.log10(error))
     if places <= 0:
         return f"{round(value, places):.0f} ± {round(error, places):.0f}"

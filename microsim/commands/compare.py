@@ -16,6 +16,7 @@ from microsim.commands.common import (
     channels_json,
     channels_words,
     error_model_note,
+    number_text,
     print_json,
     progress_display,
     readable,
@@ -126,7 +127,8 @@ def write_report(out: Path, title: str, model: str, params: str,
     lines = [f"# {title}", "", f"Model: `{model}` with parameters "
              f"{params} (component: {component}).", "",
              f"Overall: median relative error against the model "
-             f"{100 * result.median_rel_error:.2f}% (p90 {100 * result.p90_rel_error:.2f}%) "
+             f"{number_text(result.median_rel_error, '.2f', 100, '%')} (p90 "
+             f"{number_text(result.p90_rel_error, '.2f', 100, '%')}) "
              f"over lobe bins; {verdict_text(result, check)} (a Monte Carlo "
              "model's own error is part of stderr).", "",
              error_model_note(result.error_model, result.realisations) + ".", ""]
@@ -142,10 +144,13 @@ def write_report(out: Path, title: str, model: str, params: str,
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in result.per_theta_i:
         lines.append(
-            f"| {r.theta_i:.1f} | {r.phi_i:.1f} | {100 * r.median_rel_error:.2f}% | "
-            f"{100 * r.p90_rel_error:.2f}% | {r.rms_error:.4g} | {r.z_mean:.2f} | "
-            f"{r.z_std:.2f} | {channel_mean(r.albedo_sim):.4f} | {model_albedo(r)} | "
-            f"{100 * r.multiple_scattering_share:.2f}% |")
+            f"| {r.theta_i:.1f} | {r.phi_i:.1f} | "
+            f"{number_text(r.median_rel_error, '.2f', 100, '%')} | "
+            f"{number_text(r.p90_rel_error, '.2f', 100, '%')} | "
+            f"{number_text(r.rms_error, '.4g')} | {number_text(r.z_mean, '.2f')} | "
+            f"{number_text(r.z_std, '.2f')} | {channel_mean(r.albedo_sim):.4f} | "
+            f"{model_albedo(r)} | "
+            f"{number_text(r.multiple_scattering_share, '.2f', 100, '%')} |")
     captions = {
         "incidence_plane": "Plane of incidence: simulation (±1 standard error) and model.",
         "half_difference": "θh–θd slices at φd = 90°: simulation, model, log ratio.",
@@ -228,13 +233,16 @@ def run(args: argparse.Namespace) -> int:
     print(f"{'theta_i':>8} {'phi_i':>6} {'median err':>11} {'p90 err':>8} {'z mean':>7} "
           f"{'z std':>6} {'albedo sim':>11} {'model':>16} {'multiple':>9}")
     for r in compared.per_theta_i:
-        print(f"{r.theta_i:8.1f} {r.phi_i:6.1f} {100 * r.median_rel_error:10.2f}% "
-              f"{100 * r.p90_rel_error:7.2f}% {r.z_mean:7.2f} {r.z_std:6.2f} "
+        print(f"{r.theta_i:8.1f} {r.phi_i:6.1f} "
+              f"{number_text(r.median_rel_error, '10.2f', 100, '%')} "
+              f"{number_text(r.p90_rel_error, '7.2f', 100, '%')} "
+              f"{number_text(r.z_mean, '7.2f')} {number_text(r.z_std, '6.2f')} "
               f"{channel_mean(r.albedo_sim):11.4f} {model_albedo(r):>16} "
-              f"{100 * r.multiple_scattering_share:8.2f}%")
+              f"{number_text(r.multiple_scattering_share, '8.2f', 100, '%')}")
     print(f"overall: median relative error against the model "
-          f"{100 * compared.median_rel_error:.2f}% (err: |sim - model| / model over lobe "
-          f"bins), z mean {compared.z_mean:.2f}, z std {compared.z_std:.2f}")
+          f"{number_text(compared.median_rel_error, '.2f', 100, '%')} (err: |sim - model| "
+          f"/ model over lobe bins), z mean {number_text(compared.z_mean, '.2f')}, z std "
+          f"{number_text(compared.z_std, '.2f')}")
     print(verdict_text(compared, check))
     print(error_model_note(compared.error_model, compared.realisations))
     if "report" in result:

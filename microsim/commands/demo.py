@@ -16,6 +16,7 @@ from microsim.commands.common import (
     add_threads_arg,
     error_model_note,
     flag_overrides,
+    number_text,
     positive_int,
     print_json,
 )
@@ -160,9 +161,11 @@ def run(args: argparse.Namespace) -> int:
           f"{'model':>7}   {'median err':>11} {'z mean':>7} {'z std':>6} {'albedo sim':>11} "
           f"{'model':>16}")
     for r, q in zip(single.per_theta_i, total.per_theta_i, strict=True):
-        print(f"{r.theta_i:8.1f} {100 * r.median_rel_error:10.2f}% {r.z_mean:7.2f} "
-              f"{r.z_std:6.2f} {r.albedo_sim[1]:11.4f} {r.albedo_model[1]:7.4f}   "
-              f"{100 * q.median_rel_error:10.2f}% {q.z_mean:7.2f} {q.z_std:6.2f} "
+        print(f"{r.theta_i:8.1f} {number_text(r.median_rel_error, '10.2f', 100, '%')} "
+              f"{number_text(r.z_mean, '7.2f')} {number_text(r.z_std, '6.2f')} "
+              f"{r.albedo_sim[1]:11.4f} {r.albedo_model[1]:7.4f}   "
+              f"{number_text(q.median_rel_error, '10.2f', 100, '%')} "
+              f"{number_text(q.z_mean, '7.2f')} {number_text(q.z_std, '6.2f')} "
               f"{q.albedo_sim[1]:11.4f} {q.albedo_model[1]:9.4f} ± "
               f"{q.albedo_model_err[1]:.4f}")
     print("(err: relative error against the model, |sim - model| / model, over lobe bins "

@@ -19,6 +19,7 @@ from microsim.commands.common import (
     error_model_note,
     flag_overrides,
     number_list,
+    number_text,
     positive_int,
     print_json,
     roughness_text,
@@ -139,8 +140,9 @@ def run_g1(args: argparse.Namespace) -> int:
     for k, theta in enumerate(out["theta"]):
         g, e = out["g1"][k], out["g1_stderr"][k]
         s = "" if smith is None else f"{smith[k]:9.5f}"
-        z = "" if smith is None or e == 0 else f"{(g - smith[k]) / e:9.2f}"
-        print(f"{theta:6.1f} {g:9.5f} {e:9.5f} {s:>9} {z:>9}")
+        # undefined where no spread was seen (one ray per realisation, G1 = 0 at 90°)
+        z = "" if smith is None or e == 0 else number_text((g - smith[k]) / e, "9.2f")
+        print(f"{theta:6.1f} {g:9.5f} {number_text(e, '9.5f')} {s:>9} {z:>9}")
     print(f"{roughness_text(info) or 'no roughness reported'}; {out['rays']:,} rays per "
           f"angle, {out['wall_s']:.1f} s")
     print(error_model_note(out["error_model"], out["realisations"])

@@ -18,6 +18,7 @@ from microsim.commands.common import (
     finite_float,
     nonnegative_int,
     number_list,
+    number_text,
     positive_int,
     progress_display,
     table_component,
@@ -198,14 +199,16 @@ def run(args: argparse.Namespace) -> int:
     for entry in report:
         line = (f"{entry['table']}: {entry['channels']} as {entry['rendered_as']}, "
                 f"{entry['seconds']:.2f} s, per-pixel noise "
-                f"{100 * entry['noise']:.1f}% (median)")
+                f"{number_text(entry['noise'], '.1f', 100, '%')} (median)")
         if "model" in entry:
             d = entry["difference"]
             line += (f"; {entry['model']} ({entry['params_text']}) via {entry['mitsuba']} "
                      f"{entry['model_seconds']:.2f}"
-                     f" s; relative difference median {100 * d['median_abs']:.1f}% (noise "
-                     f"alone {100 * d['median_abs_noise_alone']:.1f}%), mean "
-                     f"{100 * d['mean']:+.1f}% over {d['pixels']} pixels")
+                     f" s; relative difference median "
+                     f"{number_text(d['median_abs'], '.1f', 100, '%')} (noise alone "
+                     f"{number_text(d['median_abs_noise_alone'], '.1f', 100, '%')}), mean "
+                     f"{number_text(d['mean'], '+.1f', 100, '%')} over {d['pixels']} "
+                     "pixels")
         print(line)
     print(f"wrote {args.output} ({args.size[0]}x{args.size[1]}, {args.spp} spp, "
           f"{surface.name})")
@@ -292,15 +295,19 @@ def run_live(args: argparse.Namespace) -> int:
         return 0
     d = result["difference"]
     print(f"table ({table_name}): {tabled.seconds:.2f} s, per-pixel noise "
-          f"{100 * result['table']['noise']:.1f}% (median)")
+          f"{number_text(result['table']['noise'], '.1f', 100, '%')} (median)")
     print(f"live ({k} realisations, {samples:,} samples, {segments:,} segments): "
-          f"{traced.seconds:.2f} s, per-pixel noise {100 * result['live']['noise']:.1f}% "
+          f"{traced.seconds:.2f} s, per-pixel noise "
+          f"{number_text(result['live']['noise'], '.1f', 100, '%')} "
           "(median)")
     print(f"live against table over {d['pixels']} pixels: mean luminance "
-          f"{100 * d['total']:+.2f}% ± {100 * d['total_err']:.2f}% (z = {d['total_z']:+.2f}); "
-          f"mean relative difference {100 * d['mean']:+.2f}% ± {100 * d['mean_err']:.2f}% "
-          f"(z = {d['z']:+.2f}); median |Δ| {100 * d['median_abs']:.1f}% (noise alone "
-          f"{100 * d['median_abs_noise_alone']:.1f}%)")
+          f"{number_text(d['total'], '+.2f', 100, '%')} ± "
+          f"{number_text(d['total_err'], '.2f', 100, '%')} (z = "
+          f"{number_text(d['total_z'], '+.2f')}); mean relative difference "
+          f"{number_text(d['mean'], '+.2f', 100, '%')} ± "
+          f"{number_text(d['mean_err'], '.2f', 100, '%')} (z = {number_text(d['z'], '+.2f')}); "
+          f"median |Δ| {number_text(d['median_abs'], '.1f', 100, '%')} (noise alone "
+          f"{number_text(d['median_abs_noise_alone'], '.1f', 100, '%')})")
     print(f"wrote {args.output} ({args.size[0]}x{args.size[1]}, {args.spp} spp, "
           f"{surface.name})")
     return 0

@@ -5,7 +5,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from microsim.commands.common import add_component_arg, add_json_arg, print_json, table_component
+from microsim.commands.common import (
+    add_component_arg,
+    add_json_arg,
+    number_text,
+    print_json,
+    table_component,
+)
 from microsim.errors import InputError
 from microsim.files import PLOT_SUFFIXES, writable_file
 
@@ -101,24 +107,29 @@ def run(args: argparse.Namespace) -> int:
         print_json(rows)
         return 0
     print(f"spherical harmonics of {args.table} ({args.component}, window {args.window}) "
-          f"against the table; noise floors: table {100 * rows[0]['table_noise']:.2f}%")
+          f"against the table; noise floors: table "
+          f"{number_text(rows[0]['table_noise'], '.2f', 100, '%')}")
     print(f"{'order':>5} {'hemisphere':>10} {'lobe':>8} {'unwindowed':>10} "
           f"{'SH noise':>8} {'min f cos':>10} {'min/max':>8} {'bytes':>9}")
     for r in rows:
-        print(f"{r['order']:5d} {100 * r['rel_l2_error']:9.2f}% "
-              f"{100 * r['rel_l2_error_lobe']:7.2f}% "
-              f"{100 * r['rel_l2_error_unwindowed']:9.2f}% {100 * r['sh_noise']:7.2f}% "
-              f"{r['min_value']:10.4g} {r['min_relative']:8.3f} {r['bytes']:9d}")
+        print(f"{r['order']:5d} {number_text(r['rel_l2_error'], '9.2f', 100, '%')} "
+              f"{number_text(r['rel_l2_error_lobe'], '7.2f', 100, '%')} "
+              f"{number_text(r['rel_l2_error_unwindowed'], '9.2f', 100, '%')} "
+              f"{number_text(r['sh_noise'], '7.2f', 100, '%')} "
+              f"{number_text(r['min_value'], '10.4g')} "
+              f"{number_text(r['min_relative'], '8.3f')} {r['bytes']:9d}")
     if table.channels.spectral:
         last = rows[-1]
         print(f"per wavelength at order {last['order']} (hemisphere, lobe): " + ", ".join(
-            f"{name} {100 * e:.2f}% {100 * f:.2f}%" for name, e, f in zip(
+            f"{name} {number_text(e, '.2f', 100, '%')} {number_text(f, '.2f', 100, '%')}"
+            for name, e, f in zip(
                 last["channels"], last["rel_l2_error_per_channel"],
                 last["rel_l2_error_lobe_per_channel"], strict=True)))
     if args.plot is not None:
         print(f"wrote {args.plot}")
     if args.matrix is not None:
         print(f"wrote {args.matrix}: Westin's matrix at order {max(args.orders)}, asymmetry "
-              f"before symmetrisation {100 * max(rows[-1]['matrix_asymmetry']):.2f}% "
+              "before symmetrisation "
+              f"{number_text(max(rows[-1]['matrix_asymmetry']), '.2f', 100, '%')} "
               "(the theta_i interpolation error)")
     return 0

@@ -11,6 +11,7 @@ from microsim.commands.common import (
     add_json_arg,
     channels_json,
     finite_float,
+    number_text,
     positive_int,
     print_json,
     table_component,
@@ -116,7 +117,8 @@ def run(args: argparse.Namespace) -> int:
     for name in ("sh", "wavelet"):
         counts = ", ".join(
             f"{100 * t:g}%: " + (str(k) if (k := needed(result[name], t)) is not None
-                                  else f"not reached (floor {100 * result[name][-1][1]:.2f}%)")
+                                  else "not reached (floor "
+                                  f"{number_text(result[name][-1][1], '.2f', 100, '%')})")
             for t in TARGETS)
         print(f"  {name:>7} needs {counts}")
     print(f"{'kept':>6} {'SH':>8} {'SH bytes':>10} {'wavelet':>8} {'bytes':>10}")
@@ -129,7 +131,8 @@ def run(args: argparse.Namespace) -> int:
         line = f"{k:6d}"
         for name in ("sh", "wavelet"):
             e, size = cells.get(name, (None, None))
-            line += (f" {100 * e:7.2f}% {size:10d}" if e is not None else f" {'':8} {'':10}")
+            line += (f" {number_text(e, '7.2f', 100, '%')} {size:10d}" if e is not None
+                     else f" {'':8} {'':10}")
         print(line)
     if args.store is not None:
         print(f"wrote {args.store}: wavelets of every component, at most "
