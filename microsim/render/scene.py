@@ -90,6 +90,16 @@ class Camera:
         distance = RADIUS / math.sin(math.radians(self.fov) / 2) / 0.9
         return (distance * _towards(self.elevation, self.azimuth)).tolist()
 
+    def up(self) -> list[float]:
+        """The image's up direction: +z, except straight above or below the object,
+        where +z is the view axis itself and the horizontal direction +z tends to there
+        takes its place (away from the camera's azimuth above, towards it below)."""
+        elevation, azimuth = math.radians(self.elevation), math.radians(self.azimuth)
+        if abs(math.cos(elevation)) > 1e-9:
+            return [0.0, 0.0, 1.0]
+        side = -math.copysign(1.0, math.sin(elevation))
+        return [side * math.cos(azimuth), side * math.sin(azimuth), 0.0]
+
 
 def _towards(elevation: float, azimuth: float) -> np.ndarray:
     """The unit vector ``elevation`` degrees above the horizon at ``azimuth`` about +z."""
@@ -197,7 +207,7 @@ def scene(mi: Any, surface: Surface, bsdf: Any, camera: Camera,
             "type": "perspective", "fov": camera.fov, "fov_axis": "smaller",
             "to_world": mi.ScalarTransform4f().look_at(origin=camera.origin(),
                                                        target=[0.0, 0.0, 0.0],
-                                                       up=[0.0, 0.0, 1.0]),
+                                                       up=camera.up()),
             "film": {"type": "hdrfilm", "width": camera.width, "height": camera.height,
                      "rfilter": {"type": "box"}, "pixel_format": "rgba"},
             "sampler": {"type": "independent", "sample_count": spp, "seed": seed}},
