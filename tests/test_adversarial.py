@@ -536,3 +536,14 @@ def test_a_camera_straight_above_renders_the_object(cli, small_table, tmp_path):
     assert images[0].mean() > 0
     assert np.abs(images[0] - images[1]).mean() < 0.05 * images[1].mean()
 
+
+def test_a_mesh_object_without_extent_is_one_error_line(cli, small_table, tmp_path):
+    """A mesh whose vertices all coincide scaled by 1/0 to NaN and rendered as such; it
+    is refused by name."""
+    from test_robustness import one_error_line
+
+    mesh = tmp_path / "point.obj"
+    mesh.write_text("v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\n")
+    code, _, err = cli("render", str(small_table), "-o", str(tmp_path / "r.png"), "--object",
+                       str(mesh), "--size", "16x16", "--spp", "2")
+    one_error_line(code, err, f"--object {mesh}", "span no extent")

@@ -208,7 +208,11 @@ def mesh_file(path: str | Path) -> Surface:
         raise InputError(f"--object {path}: cannot read it as a mesh ({exc})") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise InputError(f"--object {path}: holds no triangles")
-    vertices = _scaled(np.asarray(mesh.vertices, float))
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        vertices = _scaled(np.asarray(mesh.vertices, float))
+    if not np.isfinite(vertices).all():
+        raise InputError(f"--object {path}: its vertices span no extent, or more than a "
+                         "float holds; nothing to scale to the scene")
     faces = np.asarray(mesh.faces, np.int64)
     return Surface(vertices, np.asarray(mesh.vertex_normals, float), faces,
                    _around_z(vertices, faces), path.stem)
