@@ -51,6 +51,13 @@ def markdown(rows: list[dict], head: str) -> str:
         lines.append(f"| {theta:g}° | {phis} | {joined(group, '{:.1%}', 'l1')} | "
                      f"{joined(group, '{:.1%}', 'l1_noise')} | "
                      f"{joined(group, '{:.1f}', 'z_rms')} |")
+
+    def albedos(key: str) -> str:
+        values = [sum(r[key]) / len(r[key]) for r in rows]
+        return f"{min(values):.4f}–{max(values):.4f}"
+
+    lines += ["", f"Albedos (mean over the channels), over the incidences: {albedos('albedo_a')} "
+              f"in the first table, {albedos('albedo_b')} in the second."]
     return "\n".join(lines)
 
 
@@ -69,7 +76,8 @@ def main() -> None:
     if args.write:
         head = (f"{measured_with(__file__, sys.argv[1:], load_before)}: {args.component}, "
                 + "; ".join(f"`{path}` {int(t.rays.max()):,} rays per incidence, "
-                            f"{int(t.realisations.max())} realisations, {t.bins.theta_bins} × "
+                            f"{int(t.realisations.max())} realisation"
+                            f"{'s' if t.realisations.max() > 1 else ''}, {t.bins.theta_bins} × "
                             f"{t.bins.phi_bins} bins" for path, t in ((args.a, a), (args.b, b)))
                 + ".")
         write_section(DOC, "hierarchy-consistency", markdown(rows, head))
