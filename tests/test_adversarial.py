@@ -547,3 +547,24 @@ def test_a_mesh_object_without_extent_is_one_error_line(cli, small_table, tmp_pa
     code, _, err = cli("render", str(small_table), "-o", str(tmp_path / "r.png"), "--object",
                        str(mesh), "--size", "16x16", "--spp", "2")
     one_error_line(code, err, f"--object {mesh}", "span no extent")
+
+
+@pytest.mark.parametrize(("flag", "value", "needle"), [
+    ("--seed", "4294967295", "from 0 to 4294967294"),
+    ("--seed", "18446744073709551616", "from 0 to 4294967294"),
+    ("--spp", "1000000000", "from 1 to 65536"),
+])
+def test_render_seed_and_samples_are_bounded(cli, small_table, tmp_path, monkeypatch, flag,
+                                             value, needle):
+    """A seed of 2^32 or more was Mitsuba's traceback (its sampler's seed is 32-bit, and
+    the model's render takes seed + 1); --spp 1e9 rendered for days. Both are one error
+    line before Mitsuba loads; the largest seed renders."""
+    from test_robustness import one_error_line
+
+    monkeypatch.setattr("microsim.render.backend.load", _no_work)
+    code, _, err = cli("render", str(small_table), "-o", str(tmp_path / "r.png"), flag, value)
+    one_error_line(code, err, flag, needle)
+    monkeypatch.undo()
+    code, _, err = cli("render", str(small_table), "-o", str(tmp_path / "r.png"), "--size",
+                       "8x8", "--spp", "2", "--seed", "4294967294", "--model", "beckmann")
+    assert code == 0, err

@@ -189,6 +189,21 @@ def positive_int(text: str) -> int:
     return int(value)
 
 
+def bounded_int(low: int, high: int, why: str) -> Any:
+    """argparse type: an integer (plain digits or scientific like 1e3) from ``low`` to
+    ``high``; ``why`` says where the upper bound comes from."""
+    def parse(text: str) -> int:
+        try:
+            value = float(text) if not text.strip().lstrip("+").isdigit() else int(text)
+        except ValueError:
+            value = math.nan
+        if not (low <= value <= high and float(value).is_integer()):  # NaN: neither
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer from {low} to "
+                                             f"{high} ({why})")
+        return int(value)
+    return parse
+
+
 def finite_float(text: str) -> float:
     """argparse type: a finite number."""
     try:

@@ -15,11 +15,10 @@ from microsim.commands.common import (
     add_json_arg,
     add_memory_arg,
     add_realisations_arg,
+    bounded_int,
     finite_float,
-    nonnegative_int,
     number_list,
     number_text,
-    positive_int,
     progress_display,
     table_component,
 )
@@ -27,6 +26,13 @@ from microsim.errors import InputError
 from microsim.files import writable_file
 
 DEFAULT_SPP = 64
+MAX_SPP = 1 << 16
+"""Most samples per pixel: a 320 x 240 image at 2^16 is 5e9 samples, hours of CPU (and
+Mitsuba's sample count is 32-bit)."""
+MAX_SEED = 2**32 - 2
+"""Largest ``--seed``: Mitsuba's sampler seed is a 32-bit unsigned integer, and a row's
+second render (the model's, the live surface's) takes seed + 1."""
+
 LIVE_LIGHTS = ("sun:elevation=50,azimuth=-40,irradiance=3,radius=20", "sky:radiance=0.25")
 """``--live``'s default light: the default sun as a disc of 20° radius (a sampled-only
 BSDF cannot see a directional light) and the sky."""
@@ -69,8 +75,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                        f"{k} ({', '.join(v)})" for k, v in LIGHTS.items())
                    + f"; default: {' and '.join(DEFAULT_LIGHTS)} (sun angles in degrees, "
                      "azimuth 0 = from behind the camera)")
-    p.add_argument("--spp", type=positive_int, default=DEFAULT_SPP,
-                   help=f"samples per pixel (default {DEFAULT_SPP})")
+    p.add_argument("--spp", type=bounded_int(1, MAX_SPP, "hours of CPU at the top"),
+                   default=DEFAULT_SPP,
+                   help=f"samples per pixel (default {DEFAULT_SPP}, at most {MAX_SPP})")
     p.add_argument("--size", type=size, default=(320, 240), metavar="WxH",
                    help="image size in pixels (default 320x240)")
     p.add_argument("--camera", type=number_list(2, -360.0, 360.0,
@@ -90,8 +97,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="also render an analytic model (microsim models lists them), its "
                         "missing parameters from each table, and the relative difference; "
                         "once for every table, or once per table in their order")
-    p.add_argument("--seed", type=nonnegative_int, default=0,
-                   help="sampler seed (default 0)")
+    p.add_argument("--seed", type=bounded_int(0, MAX_SEED, "Mitsuba's seeds are 32-bit, "
+                                                 "and the model's render takes seed + 1"),
+                   default=0, help=f"sampler seed (default 0, at most {MAX_SEED})")
     p.add_argument("--variant", default="scalar_rgb", choices=VARIANTS,
                    help="Mitsuba variant (default scalar_rgb; llvm_* need LLVM >= 16). "
                         "*_spectral render wavelengths: a spectral table (and its model) "
