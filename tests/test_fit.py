@@ -117,3 +117,20 @@ def test_a_table_with_nothing_to_fit_is_an_error_line():
     table = table_of(OrenNayar(0.35, [0.7, 0.5, 0.3]))
     with pytest.raises(InputError, match="not finite"):
         fit_table(table, "phong", start=[np.nan, 1.0, 1.0, 1.0])
+
+
+def test_the_text_report_prints_digits_that_mean_something(cli):
+    """fit's text report of a simulated table (the shipped reference: 8 realisations):
+    the realised α with its standard error over the tiles, as simulate prints it, and
+    no number with more than 6 decimals (it printed the α as 0.2989056262731985); the
+    albedo columns name the channels they average, R, G and B for an RGB table."""
+    import re
+    from pathlib import Path
+
+    reference = (Path(__file__).resolve().parent.parent / "tables" / "reference"
+                 / "gaussian-0.3-facets.exr")
+    code, out, err = cli("fit", str(reference), "--model", "beckmann")
+    assert code == 0, err
+    assert not re.search(r"\d\.\d{7,}", out), out
+    assert re.search(r"surface: alpha realised 0\.\d{4} ± [\d.]+ over 8 tiles", out), out
+    assert "(albedos: means over R, G and B; --json gives each)" in out

@@ -17,6 +17,7 @@ from microsim.commands.common import (
     channels_words,
     error_model_note,
     print_json,
+    roughness_text,
     table_component,
     with_error,
 )
@@ -119,11 +120,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"  theta_i {row.theta_i:5.1f}, phi_i {row.phi_i:5.1f}: albedo fit "
               f"{channel_mean(row.albedo_fit.tolist()):.4f}, "
               f"table {channel_mean(row.albedo_table.tolist()):.4f}")
-    if table.channels.spectral:
-        print(f"  (albedos: means over {channels_words(table)}; --json gives each)")
-    if out["alpha_realised"] is not None:
-        print(f"  the surface's realised alpha (pooled over its tiles): "
-              f"{out['alpha_realised']}")
+    print(f"  (albedos: means over {channels_words(table)}; --json gives each)")
+    roughness = "" if surface is None else roughness_text(surface)
+    if roughness:
+        print(f"  surface: {roughness}")
     print("  " + error_model_note(table.error_model, out["realisations"],
                                   "chi^2 and the parameter uncertainties"))
     return 0
