@@ -110,6 +110,22 @@ def test_parameters_text_names_units_of_every_kind():
         "kay-kajiya", params, parameter_sources("kay-kajiya", params))
 
 
+def test_models_eval_prints_each_parameter_with_its_unit_and_source(cli):
+    """``models eval oren-nayar`` printed ``sigma 20`` (degrees unsaid, the default unsaid);
+    it prints the units and sources compare prints, and its JSON names the sources."""
+    code, out, err = cli("models", "eval", "oren-nayar:albedo=0.5", "--wi", "30,0", "--wo",
+                         "40,180")
+    assert code == 0, err
+    assert "sigma 20° (default)" in out and "albedo [0.5, 0.5, 0.5] (given)" in out, out
+    code, out, err = cli("models", "eval", "oren-nayar:albedo=0.5", "--wi", "30,0", "--wo",
+                         "40,180", "--json")
+    assert code == 0, err
+    result = json.loads(out)
+    assert result["param_sources"] == {"sigma": "default", "albedo": "given",
+                                       "model": "default"}
+    assert result["units"] == {"sigma": "°"}
+
+
 # --- model specs: property-based --------------------------------------------------------
 SPEC_VALUES = st.one_of(
     st.sampled_from(["0", "-1", "1e-300", "1e300", "nan", "inf", "-inf", "0.5", "90", "1e6",

@@ -389,6 +389,20 @@ UNITS = {"deg": "°", "length": " (tile units)"}
 """How a key's unit is printed after its value (dimensionless: nothing)."""
 
 
+def parameter_units(name: str) -> dict[str, str]:
+    """The unit of each parameter of a model that has one, as printed after its value:
+    the unit its model spec reads it in, so a printed value can be given back as it is
+    (``--model oren-nayar:sigma=34.1``); an unknown name has none.
+
+    Parameters
+    ----------
+    name : str
+        A model's name.
+    """
+    keys = MODELS[name].params if name in MODELS else {}
+    return {key: UNITS[k.unit] for key, k in keys.items() if k.unit in UNITS}
+
+
 def parameter_sources(spec: str, params: Mapping[str, Any],
                       defaults: Mapping[str, Any] | None = None) -> dict[str, str]:
     """Where each resolved parameter of a spec came from: ``"given"`` (the spec),

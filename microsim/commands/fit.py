@@ -66,19 +66,10 @@ def progress_printer(enabled: bool) -> Callable[[FitProgress], None] | None:
     return show
 
 
-def fit_units(model: str) -> dict[str, str]:
-    """The unit of each fitted parameter that has one, as printed after its value: the
-    unit its model spec (``microsim.analytic.registry``) reads it in, so a fitted value
-    can be given back as it is (``--model oren-nayar:sigma=34.1``)."""
-    from microsim.analytic.registry import MODELS, UNITS
-
-    keys = MODELS[model].params if model in MODELS else {}
-    return {name: UNITS[key.unit] for name, key in keys.items() if key.unit in UNITS}
-
-
 def run(args: argparse.Namespace) -> int:
     """Fit and report."""
     import microsim
+    from microsim.analytic.registry import parameter_units
     from microsim.files import PLOT_SUFFIXES, writable_file
     from microsim.fit import family, fit_table
 
@@ -96,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     out: dict[str, Any] = {**result.to_json(), "error_model": table.error_model,
                            "realisations": int(table.realisations.max()),
                            "alpha_realised": None if alpha is None else alpha.to_json(),
-                           "units": fit_units(result.model), **channels_json(table)}
+                           "units": parameter_units(result.model), **channels_json(table)}
     if args.plot is not None:
         from microsim.commands.compare import title_of
         from microsim.plots import incidence_plane

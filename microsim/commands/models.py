@@ -62,7 +62,12 @@ def run_eval(args: argparse.Namespace) -> int:
     """Evaluate one model at one direction pair."""
     import numpy as np
 
-    from microsim.analytic.registry import parse_model_spec
+    from microsim.analytic.registry import (
+        parameter_sources,
+        parameter_units,
+        parameters_text,
+        parse_model_spec,
+    )
     from microsim.compare import check_model_channels, singular_albedo
     from microsim.geometry import direction
 
@@ -81,13 +86,16 @@ def run_eval(args: argparse.Namespace) -> int:
     error = None if err is None else np.asarray(err, float).tolist()
     # a model with a singular part (mirror cylinders' cone) has a delta eval cannot give
     delta = singular_albedo(model, wi)
+    sources = parameter_sources(spec, params)
     if args.json:
-        print_json({"model": name, "params": params, "wi": list(args.wi),
+        print_json({"model": name, "params": params, "param_sources": sources,
+                    "units": parameter_units(name), "wi": list(args.wi),
                     "wo": list(args.wo), "f_r": value, "singular_albedo": delta,
                     **({} if error is None else {"f_r_err": error})})
     else:
         spread = "" if error is None else f" ± {readable(error, 2)} (standard error)"
-        print(f"{name} ({readable(params)}): f_r = {readable(value, 6)}{spread} 1/sr")
+        print(f"{name}: {parameters_text(name, params, sources)}")
+        print(f"f_r = {readable(value, 6)}{spread} 1/sr")
         if delta > 0:
             print(f"plus a singular part (a delta on the specular cone) reflecting "
                   f"{delta:.4g} of the incident power, which has no value at one "
