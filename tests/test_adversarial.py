@@ -266,6 +266,7 @@ def test_demo_prints_its_models_parameters_with_their_units_and_sources(cli, tmp
     assert "shadowing smith-correlated (given)" in single
     assert f"alpha {alpha:.4g} (the table's realised alpha)" in total, total
     assert "samples 64 (given)" in total
+    assert "albedos: means over R, G and B, --json gives each" in out  # it printed G alone
     code, out, err = cli("demo", "--rays", "2000", "-o", str(tmp_path / "d.exr"), "--json")
     result = json.loads(out)
     assert result["comparison"]["param_sources"]["alpha"] == "the table's realised alpha"

@@ -203,3 +203,25 @@ def test_view_without_display_asks_for_a_screenshot(cli, table_file, monkeypatch
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     code, _, err = cli("view", str(table_file))
     assert code == 2 and "--screenshot" in err
+
+
+def test_the_text_and_the_report_name_the_channels_the_albedos_average(cli, tmp_path):
+    """An RGB table of three different channels (Lambertian 0.8, 0.4, 0.1): the text
+    report's albedo columns are the mean over R, G and B of the JSON's per-channel
+    albedos, and both the text and report.md say so (an RGB table's said nothing, so a
+    reader could take the column for one channel)."""
+    path = tmp_path / "t.exr"
+    write_table(model_table("lambertian:albedo=[0.8,0.4,0.1]"), path)
+    code, text, err = cli("compare", str(path), "--model", "lambertian", "--out",
+                          str(tmp_path / "cmp"))
+    assert code == 0, err
+    assert "channels: R, G and B; the albedos are means over them (--json gives each)" \
+        in text
+    assert "the albedo columns are means over them" in (tmp_path / "cmp" / "report.md") \
+        .read_text(encoding="utf-8")
+    code, out, _ = cli("compare", str(path), "--model", "lambertian", "--json")
+    rows = json.loads(out)["per_theta_i"]
+    printed = [float(line.split()[6]) for line in text.splitlines()
+               if line.split()[:1] in (["0.0"], ["40.0"], ["70.0"])]
+    assert printed == pytest.approx([np.mean(r["albedo_sim"]) for r in rows], abs=6e-5)
+    assert len(printed) == 3 and max(printed) < 0.5  # the mean, not R's 0.8

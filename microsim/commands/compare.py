@@ -114,8 +114,8 @@ def write_report(out: Path, title: str, model: str, params: str,
         ``result``'s verdict.
     table : BRDFTable or None
         The table compared: a spectral table's report names its wavelengths, says that
-        the albedo columns are means over them and adds every wavelength's albedo (None:
-        R, G, B).
+        the albedo columns are means over them and adds every wavelength's albedo; an
+        RGB table's (or None's) says they are means over R, G and B.
 
     Returns
     -------
@@ -139,6 +139,9 @@ def write_report(out: Path, title: str, model: str, params: str,
                   f"columns are means over {channels_words(table)}, each wavelength's "
                   "albedo is in the last table; the figures show luminance (CIE Y, D65) "
                   "and the colour of the albedo's spectrum (sRGB under D65).", ""]
+    else:
+        lines += ["Channels: R, G and B; the albedo columns are means over them (the "
+                  "command's --json gives each); the figures show luminance.", ""]
     lines += ["| θi (°) | φi (°) | median err | p90 err | RMS (1/sr) | z mean | z std | "
              "albedo sim | albedo model | multiple scattering |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
@@ -227,9 +230,8 @@ def run(args: argparse.Namespace) -> int:
         print_json(result)
         return 0
     print(f"{args.component} of {args.table} vs {name}: {parameters_text(name, params, sources)}")
-    if table.channels.spectral:
-        print(f"channels: {channels_words(table)}; the albedos are means over them "
-              "(--json gives each)")
+    print(f"channels: {channels_words(table)}; the albedos are means over them "
+          "(--json gives each)")
     print(f"{'theta_i':>8} {'phi_i':>6} {'median err':>11} {'p90 err':>8} {'z mean':>7} "
           f"{'z std':>6} {'albedo sim':>11} {'model':>16} {'multiple':>9}")
     for r in compared.per_theta_i:

@@ -14,6 +14,7 @@ from microsim.commands.common import (
     add_memory_arg,
     add_seed_arg,
     add_threads_arg,
+    channel_mean,
     error_model_note,
     flag_overrides,
     number_text,
@@ -163,16 +164,17 @@ def run(args: argparse.Namespace) -> int:
     for r, q in zip(single.per_theta_i, total.per_theta_i, strict=True):
         print(f"{r.theta_i:8.1f} {number_text(r.median_rel_error, '10.2f', 100, '%')} "
               f"{number_text(r.z_mean, '7.2f')} {number_text(r.z_std, '6.2f')} "
-              f"{r.albedo_sim[1]:11.4f} {r.albedo_model[1]:7.4f}   "
+              f"{channel_mean(r.albedo_sim):11.4f} {channel_mean(r.albedo_model):7.4f}   "
               f"{number_text(q.median_rel_error, '10.2f', 100, '%')} "
               f"{number_text(q.z_mean, '7.2f')} {number_text(q.z_std, '6.2f')} "
-              f"{q.albedo_sim[1]:11.4f} {q.albedo_model[1]:9.4f} ± "
-              f"{q.albedo_model_err[1]:.4f}")
+              f"{channel_mean(q.albedo_sim):11.4f} "
+              f"{channel_mean(q.albedo_model):9.4f} ± {channel_mean(q.albedo_model_err):.4f}")
     print("(err: relative error against the model, |sim - model| / model, over lobe bins "
           "where the model reaches 10% of its peak; z = (sim - model) / stderr, standard "
           f"normal if the two differ by noise alone, the model's own Monte Carlo error "
           f"({MS_SAMPLES} walks per bin) included; Torrance-Sparrow leaves out the light "
-          "scattered more than once, the multiple-scattering model holds it)")
+          "scattered more than once, the multiple-scattering model holds it; albedos: "
+          "means over R, G and B, --json gives each)")
     print(verdict_text(single, single_check, "single scattering vs Torrance-Sparrow"))
     print(verdict_text(total, total_check, "all orders vs multiple-scattering Smith"))
     print(error_model_note(single.error_model, single.realisations))
