@@ -126,6 +126,17 @@ def test_models_eval_prints_each_parameter_with_its_unit_and_source(cli):
     assert result["units"] == {"sigma": "°"}
 
 
+def test_view_prints_its_wireframe_models_parameters_with_units_and_sources(cli, table_file,
+                                                                           tmp_path):
+    """``view --model`` filled the model's parameters in from the table and said nothing;
+    it prints them as compare does."""
+    alpha = microsim.read_table(table_file).meta.surface.alpha_realised.alpha
+    code, out, err = cli("view", str(table_file), "--model", "beckmann", "--screenshot",
+                         str(tmp_path / "lobe.png"))
+    assert code == 0, err
+    assert f"alpha {alpha:.4g} (the table's realised alpha)" in out, out
+
+
 # --- model specs: property-based --------------------------------------------------------
 SPEC_VALUES = st.one_of(
     st.sampled_from(["0", "-1", "1e-300", "1e300", "nan", "inf", "-inf", "0.5", "90", "1e6",

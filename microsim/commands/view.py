@@ -125,19 +125,25 @@ def view_table(args: argparse.Namespace, source: Path) -> int:
         title += f" ({note})"
         print(f"warning: --theta-i {theta:g}: {note}", file=sys.stderr)
     if args.model is not None:
-        from microsim.analytic.registry import parse_model_spec
+        from microsim.analytic.registry import (
+            parameter_sources,
+            parameters_text,
+            parse_model_spec,
+        )
         from microsim.compare import check_model_channels, singular_albedo
         from microsim.geometry import direction
         from microsim.table_models import model_defaults
 
         defaults = model_defaults(table.meta)
         check_model_channels(args.model, defaults, table.channels)
-        name, _, model = parse_model_spec(args.model, defaults)
+        name, params, model = parse_model_spec(args.model, defaults)
         if singular_albedo(model, direction(*np.radians([theta, phi]))) > 0:
             raise InputError(f"--model {args.model}: its specular cone is a delta, which a "
                              "lobe has no value for; compare it over the table's bins "
                              "(microsim compare)")
         title += f" (wireframe: {name}; colour: relative error against it)"
+        sources = parameter_sources(args.model, params, defaults)
+        print(f"wireframe: {name}: {parameters_text(name, params, sources)}")
     if table.channels.spectral:
         nm = table.channels.wavelengths
         # a second line: the first is already as wide as the window holds
