@@ -199,6 +199,21 @@ def test_render_grids(tmp_path, figures, tables, model):
     assert_clean(figures, 1)
 
 
+def test_render_live_grid(tmp_path, figures):
+    """render --live's grid (table | live | difference, one row, its own colour-bar
+    label), from synthetic images, with the titles the command gives."""
+    from microsim.render import figure
+
+    rng = np.random.default_rng(0)
+    image = rng.uniform(0, 1, (48, 64, 3))
+    row = figure.Row("gaussian-0.3-gold", [
+        ("table", image), ("live (128 realisations)", image),
+        ("mean luminance +12.3% ± 4.5%", rng.normal(0, 0.1, (48, 64)))])
+    figure.write_grid([row], tmp_path / "g.png", difference="(live − table) / table")
+    assert_clean(figures, 1)
+    assert "(live − table) / table" in figures[0]["texts"]
+
+
 def test_the_lint_finds_what_it_is_for():
     """A figure with clipped, overlapping and off-panel texts, and one 4:1 figure, are
     each reported; a clean one is not."""
@@ -254,6 +269,29 @@ def test_lobe_view_shows_the_model_inside_the_lobe(tmp_path, monkeypatch):
     wire = next(k for k, c in enumerate(calls) if c.get("style") == "wireframe")
     assert calls[lobe]["opacity"] == LOBE_OPACITY < 0.7 and wire > lobe
     assert calls[wire].get("opacity", 1.0) == 1.0
+
+
+def test_the_ray_view_labels_are_readable(cli, tmp_path, monkeypatch):
+    """view RECIPE --rays (the tile with ray paths): its axis titles and tick labels are
+    drawn at 14 pt and its corner text at 12 pt (they were 10 pt, tiny beside the tile in
+    a screenshot; the figure lint reads matplotlib figures, not these 3D views)."""
+    import pyvista as pv
+
+    calls = {}
+    for name in ("show_bounds", "add_text"):
+        method = getattr(pv.Plotter, name)
+
+        def record(self, *args, _name=name, _method=method, **kw):
+            calls.setdefault(_name, []).append(kw.get("font_size"))
+            return _method(self, *args, **kw)
+
+        monkeypatch.setattr(pv.Plotter, name, record)
+    code, _, err = cli("view", str(SURFACES / "gaussian-0.3.toml"), "--set",
+                       "surface.resolution=32", "--rays", "5", "--tiles", "1",
+                       "--screenshot", str(tmp_path / "v.png"))
+    assert code == 0, err
+    assert calls["show_bounds"] == [14] and calls["add_text"] and \
+        min(calls["add_text"]) >= 12, calls
 
 
 def test_the_half_difference_band_is_the_last_theta_o_ring(tmp_path, figures):
