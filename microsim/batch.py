@@ -153,20 +153,33 @@ _locked: set[Path] = set()
 @contextlib.contextmanager
 def output_lock(folder: Path) -> Iterator[None]:
     """Hold ``folder/.batch.lock``: one batch at a time writes a folder. The command line
-    takes it before it starts a cluster; ``run_batch`` inside it holds it already."""
+    takes it before it starts a cluster; ``run_batch`` inside it holds it already.
+
+    A run that fails (a refused scheduler, an interruption) removes the lock it made: a
+    refused batch leaves no file behind. A batch that opened a lock file removed
+    meanwhile finds another file (or none) at the path and is refused as if the folder
+    were locked."""
     folder.mkdir(parents=True, exist_ok=True)
     key = folder.resolve()
     if key in _locked:
         yield
         return
-    with open(folder / LOCK, "a") as handle:
+    path = folder / LOCK
+    made_lock = not path.exists()
+    with open(path, "a") as handle:
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
+            if os.stat(path).st_ino != os.fstat(handle.fileno()).st_ino:
+                raise BlockingIOError
+        except (BlockingIOError, FileNotFoundError):
             raise InputError(f"{folder}: another batch is writing this folder") from None
         _locked.add(key)
         try:
             yield
+        except BaseException:
+            if made_lock:
+                path.unlink(missing_ok=True)
+            raise
         finally:
             _locked.discard(key)
 

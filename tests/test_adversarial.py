@@ -195,6 +195,22 @@ def test_a_batch_folder_it_could_not_finish_in_is_refused_before_a_cluster(
     one_error_line(code, err, "--output" if kind != "text" else "manifest.json", needle)
 
 
+@pytest.mark.parametrize("scheduler", ["garbage", "inproc://x"])
+@pytest.mark.parametrize("existing", [False, True])
+def test_a_batch_refused_at_its_scheduler_leaves_no_lock(cli, tmp_path, scheduler, existing):
+    """A --scheduler refused after the folder's lock was taken left ``out/.batch.lock``
+    behind: a refused run wrote a file. The lock it made is removed, so the folder,
+    new or empty before, holds no file."""
+    from test_robustness import one_error_line
+
+    out = tmp_path / "out"
+    if existing:
+        out.mkdir()
+    code, _, err = cli("batch", SWEEP, "-o", str(out), "--scheduler", scheduler)
+    one_error_line(code, err, "--scheduler", "")
+    assert not list(out.iterdir())
+
+
 @pytest.fixture(scope="module")
 def small_table(tmp_path_factory) -> Path:
     """A small simulated table (32² tile, θi 0 and 60°, 8 × 16 bins, harmonics to 4)."""
