@@ -87,3 +87,25 @@ def test_console_script_runs():
 
 def test_parser_builds():
     assert build_parser().prog == "microsim"
+
+
+def test_simulate_explains_its_ray_share_column(cli, tmp_path):
+    """simulate's text report prints each direction's ray share as the whole percentage
+    of its JSON ``ray_share`` and says why it may pass 100% (a ratio of two noisy
+    variances: the tiles spread less than their rays' noise predicts); values of
+    101-109% were printed unexplained."""
+    recipe = Path(__file__).resolve().parent.parent / "surfaces" / "gaussian-0.3.toml"
+    argv = ["simulate", str(recipe), "-o", str(tmp_path / "t.exr"), "--rays", "4000",
+            "--realisations", "4", "--set", "surface.resolution=32", "--set",
+            "simulation.theta_i=[0, 40]", "--set", "table.sh_order=0", "--set",
+            "table.theta_bins=8", "--set", "table.phi_bins=16"]
+    code, text, err = cli(*argv)
+    assert code == 0, err
+    assert ("above 100% where the tiles spread less than their rays' noise predicts, a "
+            "ratio of two noisy variances") in " ".join(text.split())
+    code, out, err = cli(*argv, "--json")
+    assert code == 0, err
+    shares = json.loads(out)["ray_share"]
+    rows = [line.split() for line in text.splitlines() if line.split()[:1] in (["0.0"],
+                                                                             ["40.0"])]
+    assert [r[-2] for r in rows] == [f"{100 * s:.0f}%" for s in shares], (rows, shares)
