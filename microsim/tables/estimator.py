@@ -321,10 +321,11 @@ class RunningEstimate:
                              f"(ray_variance={self.ray_variance})")
         self._cached = None
         m = np.asarray(m, float)
-        v = np.full(m.shape, np.nan) if v is None else np.asarray(v, float)
         ix = (*at, Ellipsis)  # views, also of 0-d leading shapes
         present = ~np.isnan(m).all(axis=(-2, -1))
-        keep = np.broadcast_to(present[..., None, None], m.shape)
+        # where every row is present the masked additions below are the plain ones
+        keep = True if present.all() else np.broadcast_to(present[..., None, None],
+                                                          m.shape)
         shift = self.shift[ix]
         np.copyto(shift, m, where=keep & (self.count[ix] == 0)[..., None, None])
         g = r % self.groups
@@ -335,10 +336,12 @@ class RunningEstimate:
         d = m - shift
         np.add(s1, d, out=s1, where=keep)
         np.add(s2, np.square(d, out=d), out=s2, where=keep)
-        known = keep & np.isfinite(v)
-        np.add(sv, v, out=sv, where=known)
+        if v is not None:  # without ray variances no v is known: Σ v and known stay 0
+            v = np.asarray(v, float)
+            known = keep & np.isfinite(v)
+            np.add(sv, v, out=sv, where=known)
+            self.known[ix] += known
         n += present
-        self.known[ix] += known
         self.count[ix] += present
         if rays is not None:
             self.dof_one[ix] += np.where(present, rays, 0)
