@@ -20,6 +20,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
@@ -47,6 +48,9 @@ OPTIONS: dict[str, Key] = {
 }
 """Top-level keys of a sweep file besides ``base`` and ``[sweep]``."""
 TOP_KEYS = ("base", "sweep", *OPTIONS)
+MAX_POINTS = 1_000_000
+"""Points one sweep may have: more are refused before they are enumerated (the product
+of ten axes of ten values held memory until the kernel killed the batch)."""
 
 
 def canonical(obj: Any) -> str:
@@ -226,6 +230,12 @@ def load_sweep(path: str | Path) -> Sweep:
                              + ", ".join(f"{k} {len(v)}" for k, v in axes.items()))
         combos = list(zip(*axes.values(), strict=True))
     else:
+        count = math.prod(len(v) for v in axes.values())
+        if count > MAX_POINTS:
+            raise InputError(f"{where}sweep: {count:,} points ("
+                             + " × ".join(str(len(v)) for v in axes.values())
+                             + f"); at most {MAX_POINTS:,}: split it into several sweep "
+                             "files")
         combos = list(itertools.product(*axes.values()))
     names = _names(keys, combos)
     seen: dict[str, int] = {}

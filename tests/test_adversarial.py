@@ -211,6 +211,26 @@ def test_a_batch_refused_at_its_scheduler_leaves_no_lock(cli, tmp_path, schedule
     assert not list(out.iterdir())
 
 
+def test_a_sweep_of_too_many_points_is_refused_before_they_are_enumerated(cli, tmp_path):
+    """Ten axes of ten values (10^10 points) were enumerated until the kernel killed the
+    batch (83 s, exit -9); more than MAX_POINTS points are one error line naming the
+    count, at once (bound 10 s, CPU time, on a shared machine)."""
+    import time
+
+    from test_robustness import one_error_line
+
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text('[base.surface]\nkind = "gaussian"\n[sweep]\n' + "".join(
+        f'"{key}" = {list(range(1, 11))}\n' for key in (
+            "surface.seed", "simulation.seed", "simulation.bounces", "table.theta_bins",
+            "table.phi_bins", "table.sh_order", "table.orders", "surface.rotation",
+            "simulation.rays", "surface.resolution")), encoding="utf-8")
+    start = time.process_time()
+    code, _, err = cli("batch", str(sweep), "-o", str(tmp_path / "out"))
+    one_error_line(code, err, "10,000,000,000 points", "at most 1,000,000")
+    assert time.process_time() - start < 10
+
+
 @pytest.fixture(scope="module")
 def small_table(tmp_path_factory) -> Path:
     """A small simulated table (32² tile, θi 0 and 60°, 8 × 16 bins, harmonics to 4)."""
