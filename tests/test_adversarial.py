@@ -231,6 +231,16 @@ def test_a_sweep_of_too_many_points_is_refused_before_they_are_enumerated(cli, t
     assert time.process_time() - start < 10
 
 
+@pytest.mark.parametrize("steps", ["65", "1000000000"])
+def test_wavelet_steps_are_bounded(cli, small_table, steps):
+    """``wavelets --steps 1000000000`` was numpy's traceback allocating 35 GiB of counts;
+    more than MAX_STEPS steps per doubling are one error line naming the flag."""
+    from test_robustness import one_error_line
+
+    code, _, err = cli("wavelets", str(small_table), "--steps", steps)
+    one_error_line(code, err, "--steps", "from 1 to 64")
+
+
 @pytest.fixture(scope="module")
 def small_table(tmp_path_factory) -> Path:
     """A small simulated table (32² tile, θi 0 and 60°, 8 × 16 bins, harmonics to 4)."""

@@ -9,6 +9,7 @@ from pathlib import Path
 from microsim.commands.common import (
     add_component_arg,
     add_json_arg,
+    bounded_int,
     channels_json,
     finite_float,
     number_text,
@@ -23,6 +24,9 @@ DEFAULT_WAVELET = "haar"
 import numpy; likewise the resolution and the sweep."""
 DEFAULT_RESOLUTION = 256
 STEPS_PER_OCTAVE = 2
+MAX_STEPS = 64
+"""Most ``--steps``: each step is one more reconstruction of the table per doubling (a
+billion allocated the sweep's counts at once, 35 GiB)."""
 DEFAULT_TARGET = 0.01
 """What ``--store`` keeps without ``--target-error`` or ``--keep``."""
 TARGETS = (0.10, 0.05, 0.02)
@@ -50,8 +54,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--resolution", type=positive_int, default=DEFAULT_RESOLUTION,
                    metavar="N", help="pixels per side of the equal-area square, a power "
                                      "of two from 4 to 1024 (default 256)")
-    p.add_argument("--steps", type=positive_int, default=STEPS_PER_OCTAVE, metavar="S",
-                   help="kept counts per doubling in the sweep (default 2)")
+    p.add_argument("--steps", type=bounded_int(1, MAX_STEPS, "one reconstruction each per "
+                                                        "doubling"),
+                   default=STEPS_PER_OCTAVE, metavar="S",
+                   help=f"kept counts per doubling in the sweep, 1 to {MAX_STEPS} (default 2)")
     p.add_argument("--store", type=Path, default=None, metavar="EXR",
                    help="write the table with its wavelets (every component, kept to "
                         "--target-error or --keep) to this file, atomically (it may be "
