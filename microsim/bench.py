@@ -130,15 +130,18 @@ def run_child(argv: list[str]) -> ChildRun:
     Raises
     ------
     RuntimeError
-        If it exits with a non-zero status.
+        If it exits with a non-zero status (with the last line it wrote to stderr).
     """
     start = time.perf_counter()
-    with tempfile.TemporaryFile() as out:
-        process = subprocess.Popen(argv, stdout=out, stderr=subprocess.DEVNULL)
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        process = subprocess.Popen(argv, stdout=out, stderr=err)
         _, status, usage = os.wait4(process.pid, 0)
         wall = time.perf_counter() - start
         if status != 0:
-            raise RuntimeError(f"{' '.join(argv)} failed with status {status}")
+            err.seek(0)
+            said = err.read().decode(errors="replace").strip().splitlines()
+            raise RuntimeError(f"{' '.join(argv)} failed with wait status {status}"
+                               + (f": {said[-1]}" if said else ""))
         out.seek(0)
         return ChildRun(out.read().decode(), wall, usage.ru_utime + usage.ru_stime,
                         usage.ru_maxrss / 2**20)
