@@ -231,6 +231,25 @@ def test_a_sweep_of_too_many_points_is_refused_before_they_are_enumerated(cli, t
     assert time.process_time() - start < 10
 
 
+def test_more_local_workers_than_four_per_cpu_are_refused_before_a_cluster(cli, tmp_path,
+                                                                         monkeypatch):
+    """``batch --workers 100000`` started local worker processes until its time limit
+    (300 s); more than ``LOCAL_WORKERS_PER_CPU`` per CPU is one error line before any
+    cluster, lock or folder."""
+    import os
+
+    from test_robustness import one_error_line
+
+    from microsim.commands.batch import LOCAL_WORKERS_PER_CPU
+
+    monkeypatch.setattr("microsim.commands.batch.dask_client", _no_work)
+    out = tmp_path / "out"
+    code, _, err = cli("batch", SWEEP, "-o", str(out), "--workers", "100000")
+    one_error_line(code, err, "--workers: at most "
+                   f"{LOCAL_WORKERS_PER_CPU * (os.cpu_count() or 1)}", "not 100,000")
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("steps", ["65", "1000000000"])
 def test_wavelet_steps_are_bounded(cli, small_table, steps):
     """``wavelets --steps 1000000000`` was numpy's traceback allocating 35 GiB of counts;

@@ -53,6 +53,23 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+LOCAL_WORKERS_PER_CPU = 4
+"""At most this many workers of the local cluster per CPU: each is a process of its own
+(an interpreter, numpy, the compiled kernel), and beyond the CPUs they only wait for them."""
+
+
+def check_workers(workers: int | None) -> None:
+    """Refuse (``InputError``) more local workers than ``LOCAL_WORKERS_PER_CPU`` per CPU,
+    before a cluster starts them (``--workers 100000`` started processes until the run was
+    stopped)."""
+    cpus = os.cpu_count() or 1
+    most = LOCAL_WORKERS_PER_CPU * cpus
+    if workers is not None and workers > most:
+        raise InputError(f"--workers: at most {most} on this machine ({LOCAL_WORKERS_PER_CPU}"
+                         f" per CPU, {cpus} CPUs), not {workers:,}: the local cluster's "
+                         "workers are processes, and more of them than CPUs only wait")
+
+
 @contextlib.contextmanager
 def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     """A client of a new local cluster (processes, one thread each) or of ``scheduler``."""
@@ -184,6 +201,7 @@ def run(args: argparse.Namespace) -> int:
     from microsim.surfaces import check_tile_memory
     from microsim.sweep import load_sweep
 
+    check_workers(args.workers)
     folder_possible(args.output, "--output")  # before the points, which may be many
     sweep = load_sweep(args.sweep)
     for point in sweep.points:  # before a cluster starts (isotropy unknown: every phi_i)
