@@ -41,6 +41,17 @@ def test_a_monte_carlo_models_walks_per_pair_are_the_two_pass_estimate(spec):
     assert np.all(f[~up] == 0) and np.all(e[~up] == 0)
 
 
+def test_a_monte_carlo_models_samples_are_bounded_in_time(cli):
+    """``models eval beckmann-ms:samples=100000000`` ran past the campaign's 120 s (about
+    2 µs a walk: 230 s for one pair); a spec takes at most 10^7 walks, one error line
+    naming the key and its bounds."""
+    from test_robustness import one_error_line
+
+    code, _, err = cli("models", "eval", "beckmann-ms:samples=100000000", "--wi", "30,0",
+                       "--wo", "40,180")
+    one_error_line(code, err, "samples", "<= 10000000")
+
+
 def test_a_monte_carlo_models_walks_per_pair_take_bounded_memory():
     """``models eval beckmann-ms:samples=100000000`` held every walk of a pair at once
     (228 B each: 23 GB, unguarded); run a chunk of 65 536 walks at a time, 10^6 walks

@@ -275,10 +275,11 @@ def test_memory_guard_refuses_before_the_work(cli, capsys, small_table, tmp_path
 
 
 def test_memory_guard_bounds_the_walks_of_a_monte_carlo_model(cli, small_table):
-    """beckmann-ms with 10^8 walks per bin asked for 191 GiB; refused before a walk."""
+    """beckmann-ms with 10^7 walks per bin (the most a spec takes) asks for tens of GiB;
+    refused before a walk."""
     code, _, err = cli("compare", str(small_table), "--model",
-                       "beckmann-ms:samples=100000000")
-    line = one_error_line(code, err, "samples = 100000000", "lower the model's samples",
+                       "beckmann-ms:samples=10000000")
+    line = one_error_line(code, err, "samples = 10000000", "lower the model's samples",
                           "$MICROSIM_MEMORY_LIMIT")
     assert "needs about" in line
 
