@@ -506,7 +506,7 @@ def test_demo_ends_with_a_verdict_line_per_model(cli, tmp_path):
                 if line.startswith("verdict (")]
     assert len(verdicts) == 2 and all(verdicts), out
     table = microsim.read_table(out_table)
-    single, _ = comparison(table)
+    _, _, single, _ = comparison(table)
     _, _, total, _ = total_comparison(table)
     for m, result in zip(verdicts, (single, total), strict=True):
         mean, std = float(m["mean"]), float(m["std"])

@@ -67,24 +67,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def single_model(table: BRDFTable) -> tuple[str, dict[str, Any], Any]:
-    """``SINGLE_MODEL`` with the table's parameters (its realised alpha, its facets'
-    Fresnel): the model's name, resolved parameters and the model
-    (``microsim.table_models.microfacet_model``, by its spec)."""
+def comparison(table: BRDFTable) -> tuple[str, dict[str, Any], Comparison, Agreement]:
+    """Simulated single scattering against ``SINGLE_MODEL`` with the table's parameters
+    (its realised alpha, its facets' Fresnel: ``microsim.table_models.model_defaults``):
+    the model's name and parameters, the comparison and its verdict."""
+    from microsim.agreement import agreement
     from microsim.analytic.registry import parse_model_spec
+    from microsim.compare import compare_table
     from microsim.table_models import model_defaults
 
-    return parse_model_spec(SINGLE_MODEL, model_defaults(table.meta))
-
-
-def comparison(table: BRDFTable) -> tuple[Comparison, Agreement]:
-    """Simulated single scattering against the microfacet model at the realised alpha
-    (``single_model``), and its verdict."""
-    from microsim.agreement import agreement
-    from microsim.compare import compare_table
-
-    result = compare_table(table, single_model(table)[2], "single")
-    return result, agreement(result)
+    name, params, model = parse_model_spec(SINGLE_MODEL, model_defaults(table.meta))
+    result = compare_table(table, model, "single")
+    return name, params, result, agreement(result)
 
 
 def sources_of(table: BRDFTable, spec: str, params: dict[str, Any]) -> dict[str, str]:
@@ -125,8 +119,7 @@ def run(args: argparse.Namespace) -> int:
     table = simulate_resolved(resolved, args.threads, sys.stderr.isatty() and not args.json,
                               args.memory_limit)
     write_table(table, args.output)
-    single, single_check = comparison(table)
-    single_name, single_params, _ = single_model(table)
+    single_name, single_params, single, single_check = comparison(table)
     single_sources = sources_of(table, SINGLE_MODEL, single_params)
     roughness = roughness_json(table.meta.surface)
     simulated = summary(table, args.output)
