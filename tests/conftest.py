@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 
 import pytest
 
@@ -19,3 +20,16 @@ def cli(capsys: pytest.CaptureFixture[str]) -> Callable[..., tuple[int, str, str
         return code, out, err
 
     return run
+
+
+@pytest.fixture(scope="module")
+def small_table(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A small simulated table with spherical harmonics (two-part EXR: a 32² tile, θi 0
+    and 60°, 8 × 16 bins, harmonics to order 4; ``test_robustness.SMALL``), made once per
+    test module that asks for it."""
+    from test_robustness import GAUSSIAN, SMALL
+
+    path = tmp_path_factory.mktemp("table") / "small.exr"
+    assert main(["simulate", GAUSSIAN, *SMALL, "--rays", "3000", "-o", str(path),
+                 "--json"]) == 0
+    return path

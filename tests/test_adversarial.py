@@ -271,19 +271,6 @@ def test_wavelet_steps_are_bounded(cli, small_table, steps):
     one_error_line(code, err, "--steps", "from 1 to 64")
 
 
-@pytest.fixture(scope="module")
-def small_table(tmp_path_factory) -> Path:
-    """A small simulated table (32² tile, θi 0 and 60°, 8 × 16 bins, harmonics to 4)."""
-    from test_robustness import SMALL
-
-    from microsim.cli import main
-
-    path = tmp_path_factory.mktemp("table") / "small.exr"
-    assert main(["simulate", GAUSSIAN, *SMALL, "--rays", "2000", "-o", str(path),
-                 "--json"]) == 0
-    return path
-
-
 @pytest.mark.parametrize(("argv", "needle"), [
     (["compare", "{table}", "--model", "beckmann-ms"], "model samples = 256"),
     (["fit", "{table}", "--model", "beckmann"], "fit beckmann: "),

@@ -31,17 +31,6 @@ def one_error_line(code: int, err: str, *needles: str) -> str:
     return lines[0]
 
 
-@pytest.fixture(scope="module")
-def small_table(tmp_path_factory) -> Path:
-    """A small simulated table with spherical harmonics (two-part EXR)."""
-    from microsim.cli import main
-
-    path = tmp_path_factory.mktemp("table") / "small.exr"
-    assert main(["simulate", GAUSSIAN, *SMALL, "--rays", "3000", "-o", str(path),
-                 "--json"]) == 0
-    return path
-
-
 # --- recipes that are not recipes ---------------------------------------------------------
 def test_binary_recipe_is_an_error_line(cli, tmp_path):
     path = tmp_path / "random.toml"
