@@ -5,13 +5,16 @@ Usage::
 
     python scripts/hierarchy_scale_separation.py [--resolution 256] [--cells 4]
         [--grooves 4] [--slope 30] [--alpha 0.3] [--rays 60000] [--seed 11] [--json]
+    python scripts/hierarchy_scale_separation.py --write
 
 The one-level tile is ``vgroove`` with ``micro_alpha`` (gold facets); the lower level is
 ``microsim.surfaces.vgroove.face_roughness_tile``, the very field the faces carry laid
 flat, simulated every 5 degrees from 0 to 85 (16 x 32 bins, ``--rays`` / 1.5 rays per
 node); both upper tables have 8 x 16 bins and ``--rays`` rays per incidence (0, 30, 60
 degrees, across the grooves). Prints ``microsim.table_difference.table_difference`` per incidence
-(docs/materials.md explains the figures).
+(docs/materials.md explains the figures). ``--write`` runs the defaults and the variations
+of ``VARIATIONS`` instead (each flag changed alone; minutes on 2 cores) and puts their
+table into docs/materials.md (marked section ``hierarchy-scale-separation``).
 """
 
 from __future__ import annotations
@@ -19,9 +22,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import sys
 import tempfile
 from pathlib import Path
 
+from microsim.files import measured_with, write_section
 from microsim.materials import Table, material_from_json
 from microsim.recipe import resolve
 from microsim.settings import Simulation, TableSettings
@@ -31,21 +37,33 @@ from microsim.surfaces.vgroove import face_roughness_tile
 from microsim.table_difference import table_difference
 from microsim.tables.exr import write_table
 
+DOC = Path(__file__).resolve().parent.parent / "docs" / "materials.md"
 GOLD = {"kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]}
+VARIATIONS = ((), ("--seed", "21"), ("--grooves", "1"), ("--grooves", "16"), ("--cells", "8"),
+              ("--resolution", "512", "--rays", "160000"))
+"""The flags of each row of the written table (the first, none: the defaults)."""
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--resolution", type=int, default=256)
-    parser.add_argument("--cells", type=float, default=4.0,
-                        help="correlation length in grid steps along a face")
-    parser.add_argument("--grooves", type=int, default=4)
-    parser.add_argument("--slope", type=float, default=30.0, help="degrees")
-    parser.add_argument("--alpha", type=float, default=0.3)
-    parser.add_argument("--rays", type=int, default=60_000)
-    parser.add_argument("--seed", type=int, default=11)
-    parser.add_argument("--json", action="store_true")
-    args = parser.parse_args()
+def parser() -> argparse.ArgumentParser:
+    """The options of one measurement, and ``--json`` and ``--write``."""
+    options = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    options.add_argument("--resolution", type=int, default=256)
+    options.add_argument("--cells", type=float, default=4.0,
+                         help="correlation length in grid steps along a face")
+    options.add_argument("--grooves", type=int, default=4)
+    options.add_argument("--slope", type=float, default=30.0, help="degrees")
+    options.add_argument("--alpha", type=float, default=0.3)
+    options.add_argument("--rays", type=int, default=60_000)
+    options.add_argument("--seed", type=int, default=11)
+    options.add_argument("--json", action="store_true")
+    options.add_argument("--write", action="store_true",
+                         help="measure VARIATIONS and write them into docs/materials.md")
+    return options
+
+
+def measure(args: argparse.Namespace) -> list[dict]:
+    """``table_difference`` of the two-level table from the one-level one, per incidence,
+    for one set of options."""
     n, s = args.resolution, math.radians(args.slope)
     surface = resolve({"surface": {
         "kind": "vgroove", "slope": args.slope, "grooves": args.grooves,
@@ -67,11 +85,43 @@ def main() -> None:
         path = Path(folder) / "faces.exr"
         write_table(low, path)
         hier = simulate(build_tile(plain), {"base": Table(path=str(path))}, sim, grid)
-    rows = table_difference(hier, direct)
+    return table_difference(hier, direct)
+
+
+def row(flags: tuple[str, ...], rows: list[dict]) -> str:
+    """One line of the written table: per incidence the largest albedo difference over R,
+    G, B, the L1 and the L1 of noise alone."""
+    cells = [f"{max(abs(d) for d in r['albedo_difference']):.4f}, {100 * r['l1']:.1f}% "
+             f"({100 * r['l1_noise']:.1f}%)" for r in rows]
+    return f"| {'`' + ' '.join(flags) + '`' if flags else '(defaults)'} | {' | '.join(cells)} |"
+
+
+def write() -> None:
+    """Measure ``VARIATIONS`` and write their table into docs/materials.md."""
+    before = os.getloadavg()[0]
+    lines = []
+    for flags in VARIATIONS:
+        rows = measure(parser().parse_args(list(flags)))
+        lines.append(row(flags, rows))
+        print(lines[-1], flush=True)
+    degrees = [f"θi = {r['theta_i']:g}°" for r in rows]
+    text = "\n".join([
+        f"{measured_with(__file__, sys.argv[1:], before)}; each row changes the defaults' "
+        "flags as it says (seed 11, 4 grooves, 256² grid, τ = 4 grid steps, 60,000 rays):",
+        "", f"| flags | {' | '.join(degrees)} |", f"| --- |{' --- |' * len(degrees)}",
+        *lines])
+    write_section(DOC, "hierarchy-scale-separation", text)
+
+
+def main() -> None:
+    args = parser().parse_args()
+    if args.write:
+        write()
+        return
+    rows = measure(args)
     if args.json:
         print(json.dumps(rows, indent=2))
         return
-    print(f"micro alpha realised (face frame): {direct_tile.facts.micro_alpha_realised.axes}")
     print(f"{'theta_i':>7} {'max |albedo diff|':>18} {'L1':>7} {'noise L1':>9} {'z rms':>6}")
     for r in rows:
         worst = max(abs(d) for d in r["albedo_difference"])
