@@ -22,6 +22,12 @@ Sections (``--only`` picks some):
 - ``breakdown``: the CPU time of each part of one in-process ``simulate`` of
   ``surfaces/gaussian-0.3.toml`` and of the tile-heavy gold ensemble (the kernel, the
   tally, tiles and scenes, ...).
+- ``beam``: the kernel's CPU time per segment on the tile-heavy gold tile against the rays a
+  batch puts on the tile: one direction's 12 500 rays (what the tile-heavy ensemble
+  traces per realisation and direction), the five directions' 62 500 rays as one beam
+  (cell-ordered origins, the directions dealt in turn, so a chunk holds every direction
+  from neighbouring origins) and one direction's 65 536 (the demo's batches); medians
+  over interleaved rounds.
 - ``tile``: the cost of one realisation of the 256² Gaussian tile, as ``simulate`` opens
   one (``microsim.simulation.Opener.open``, one after the other: the tile's generation and
   facts, then the refit of a scene built for realisation 0), mean of 16 after realisation
@@ -47,7 +53,10 @@ import numpy as np
 
 from microsim.bench import bare_rays_per_second, bare_scene, run_child, surface_rays
 from microsim.files import write_section
+from microsim.geometry import direction
 from microsim.goniometer import Measurement
+from microsim.kernel.beam import CELLS, beam_origins
+from microsim.kernel.packing import FacetMaterials
 from microsim.recipe import load, resolve, to_toml
 from microsim.simulation import Opener, Tiles
 from microsim.surfaces import build_tile
@@ -174,6 +183,62 @@ def target_section() -> str:
             f"median relative standard error {100 * result['median_rel_stderr']:.2f}%.")
 
 
+HEAVY_THETA = (0, 20, 40, 60, 80)
+"""Incident polar angles of the tile-heavy case, degrees."""
+BEAM_ROUNDS = 8
+"""Interleaved rounds of each beam (``beam``)."""
+
+
+def beam_section() -> str:
+    """The kernel's CPU time per segment (``time.process_time`` around ``PeriodicScene.run``,
+    2 threads) on the tile-heavy gold tile for three beams, one round of each in turn."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "heavy-gold.toml"
+        path.write_text(heavy_recipe(GOLD), encoding="utf-8")
+        recipe = load(path)
+    tile = build_tile(recipe.surface)
+    facets = FacetMaterials(tile.material, tile.parts, recipe.material, tile.tangents,
+                            tile.curved, recipe.table.channels)
+    travel = [-direction(np.radians(t), 0.0) for t in HEAVY_THETA]
+    per_direction = 400_000 // 32
+    beams = {"one direction, 12,500 rays": (per_direction, False),
+             "five directions in one beam, 62,500 rays": (5 * per_direction, True),
+             "one direction, 65,536 rays": (65_536, False)}
+    spent: dict[str, list[float]] = {name: [] for name in beams}
+    with PeriodicScene(tile, THREADS) as scene:
+        def trace(rays: int, dealt: bool, seed: int) -> float:
+            rng = np.random.default_rng(seed)
+            if dealt:
+                origins = beam_origins(rng.random((rays, 2)), scene.period, scene.z_top,
+                                       CELLS)
+                calls = [(origins, np.array(travel)[np.arange(rays) % len(travel)])]
+            else:
+                calls = [(beam_origins(rng.random((rays, 2)), scene.period, scene.z_top,
+                                       CELLS), np.broadcast_to(d, (rays, 3)))
+                         for d in travel]
+            before, cpu = scene.segments, time.process_time()
+            for origins, dirs in calls:
+                scene.run(origins, dirs, facets, 16, np.random.SeedSequence(seed))
+            return (time.process_time() - cpu) / (scene.segments - before)
+
+        trace(65_536, False, 0)  # warm: compiled code, caches
+        for seed in range(1, BEAM_ROUNDS + 1):
+            for name, (rays, dealt) in beams.items():
+                spent[name].append(trace(rays, dealt, seed))
+    cells = CELLS * CELLS
+    rows = [f"| {name} | {rays / cells:.1f} | "
+            f"{1e9 * statistics.median(spent[name]):.0f} "
+            f"({1e9 * min(spent[name]):.0f}–{1e9 * max(spent[name]):.0f}) |"
+            for name, (rays, _) in beams.items()]
+    return "\n".join([
+        f"The kernel alone (`PeriodicScene.run`, {THREADS} threads, CPU time per segment, "
+        f"median (range) of {BEAM_ROUNDS} interleaved rounds) on the tile-heavy gold tile "
+        f"(131,072 faces), per beam of one call, θi = "
+        f"{', '.join(map(str, HEAVY_THETA))}°:", "",
+        "| beam | rays per cell of the beam | ns per segment |", "| --- | --- | --- |",
+        *rows])
+
+
 def tile_section() -> str:
     recipe = load(ROOT / "surfaces" / "gaussian-0.3.toml")
     tiles = Tiles(recipe.surface)
@@ -277,8 +342,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--only", nargs="+",
-                        choices=("recipes", "heavy", "target", "tile", "breakdown"),
-                        default=("recipes", "heavy", "target", "tile", "breakdown"))
+                        choices=("recipes", "heavy", "target", "tile", "breakdown", "beam"),
+                        default=("recipes", "heavy", "target", "tile", "breakdown", "beam"))
     parser.add_argument("--write", action="store_true",
                         help="write the results into docs/performance.md")
     args = parser.parse_args()
@@ -287,7 +352,7 @@ def main() -> None:
         text = {"recipes": lambda: recipes_section(args.repeats),
                 "heavy": lambda: heavy_section(args.repeats),
                 "target": target_section, "tile": tile_section,
-                "breakdown": breakdown_section}[name]()
+                "breakdown": breakdown_section, "beam": beam_section}[name]()
         print(text, flush=True)
         if args.write:
             repeats = f" --repeats {args.repeats}" if name in ("recipes", "heavy") else ""
@@ -304,7 +369,7 @@ def main() -> None:
 
 TITLES = {"recipes": "The shipped recipes, as they are", "heavy": "A tile-heavy ensemble",
           "target": "To 1% ensemble error", "tile": "The cost of a realisation",
-          "breakdown": "Where the time goes"}
+          "breakdown": "Where the time goes", "beam": "Rays per batch and the kernel"}
 INTROS = {"heavy": "256² Gaussian, α = 0.5, 32 realisations, 400,000 rays per direction, "
                    "θi = 0, 20, 40, 60, 80°, harmonics of order 32:\n"}
 
