@@ -44,13 +44,14 @@ CHUNK = 4096
 """Rays per worker task: a chunk is traced whole (every query and bounce) on one thread;
 small enough that its slots stay in a core's cache and the threads share a batch evenly
 (chosen by measurement: docs/performance.md)."""
-HIT, ESCAPED, LEAKED, TRAPPED, BACKFACE = range(5)
-"""Outcomes of a first-hit query (``closest_hit``): a hit on the side of a face the ray
-can reach (the front; the back of a refracting face for a ray inside its medium), out
-through the top, out through the bottom, out of side crossings, or a hit on the other side
-(numerical leakage)."""
-_STATUS = np.array([ESCAPED, HIT, LEAKED, LEAKED, TRAPPED, BACKFACE], np.int8)
-"""``closest_hit`` status of each kernel fate (``microsim.kernel.slots.FATES``)."""
+HIT = ks.BOUNCES
+"""A first-hit query's (``closest_hit``) ray that met a face it can reach (the front; the
+back of a refracting face for a ray inside its medium): a path of no bounces ends at its
+first hit by the bounce limit. Its other outcomes are the kernel's fates of the same
+names (``microsim.kernel.slots``): ``ESCAPED`` out through the top, ``LEAKED`` out
+through the bottom, ``TRAPPED`` out of side crossings, ``BACKFACE`` a hit on the other
+side (numerical leakage); a query has no materials, so no ray is ``TRANSMITTED``."""
+ESCAPED, LEAKED, TRAPPED, BACKFACE = ks.ESCAPED, ks.LEAKED, ks.TRAPPED, ks.BACKFACE
 T = TypeVar("T")
 
 
@@ -382,7 +383,7 @@ class PeriodicScene:
         Hits
         """
         out = self.run(origins, dirs, None, 0, media=inside)
-        return Hits(_STATUS[out.ints[:, ks.O_FATE]], out.ints[:, ks.O_FACE],
+        return Hits(out.ints[:, ks.O_FATE].astype(np.int8), out.ints[:, ks.O_FACE],
                     out.floats[:, ks.S_PX:ks.S_PZ + 1])
 
     def offset(self, points: np.ndarray, n_f: np.ndarray, dirs: np.ndarray) -> np.ndarray:

@@ -76,16 +76,16 @@ def _check_alphas(p: dict[str, Any]) -> None:
         raise InputError("model: give both alpha_x and alpha_y, or alpha")
 
 
-ALPHA_MIN = 1e-4
+MODEL_ALPHA_MIN = 1e-4
 """Smallest roughness a model spec takes: the range the analytic models are tested in
 (tests/test_analytic_*.py); far below, D overflows float64 near the peak."""
 MICROFACET = {
-    "alpha": Key("float", 0.3, "Roughness (Walter et al. 2007's alpha).", low=ALPHA_MIN,
+    "alpha": Key("float", 0.3, "Roughness (Walter et al. 2007's alpha).", low=MODEL_ALPHA_MIN,
                  high=10.0),
     "alpha_x": Key("float", None, "Anisotropic roughness along x (with alpha_y).",
-                   low=ALPHA_MIN, high=10.0),
+                   low=MODEL_ALPHA_MIN, high=10.0),
     "alpha_y": Key("float", None, "Anisotropic roughness along y (with alpha_x).",
-                   low=ALPHA_MIN, high=10.0),
+                   low=MODEL_ALPHA_MIN, high=10.0),
     "shadowing": Key("str", "smith-correlated", "Masking-shadowing.",
                      choices=("smith-correlated", "smith-separable", "v-groove", "none")),
     "eta": Key("channels", None, "Fresnel: index of refraction, one value or one per colour "

@@ -55,7 +55,6 @@ from microsim.render.bsdfs import rotation_z
 from microsim.settings import Recipe
 from microsim.trace import PeriodicScene
 
-ESCAPED = ks.FATES.index("escaped")
 SCENE_BYTES_PER_FACE = 400
 """Memory the guard counts for one open realisation per face of its tile: the tile's
 arrays, the face table and Embree's BVH (measured: 29 MiB resident a realisation of the
@@ -169,7 +168,7 @@ class LiveSurface:
             out = scene.run(origins, -wi[rows], self.facets[r], self.bounces,
                             np.random.SeedSequence(entropy, spawn_key=(int(r),)))
             self.segments += out.segments
-            escaped = (out.ints[:, ks.O_FATE] == ESCAPED) & (out.ints[:, ks.O_ORDER] > 0)
+            escaped = (out.ints[:, ks.O_FATE] == ks.ESCAPED) & (out.ints[:, ks.O_ORDER] > 0)
             hit = rows[escaped]
             wo[hit] = out.floats[escaped, ks.S_DX:ks.S_DZ + 1]
             weight[hit] = out.floats[escaped, ks.O_W:ks.O_W + 3]

@@ -13,8 +13,8 @@ from typing import Any
 
 from microsim.schema import REQUIRED, Key
 from microsim.surfaces.rules import (
-    ALPHA_MIN,
     MICRO_RESOLUTION,
+    SURFACE_ALPHA_MIN,
     VELVET_REALISATIONS,
     check_cylinders,
     check_gaussian,
@@ -75,8 +75,8 @@ def _len(doc: str, default: Any = REQUIRED, zero: bool = False) -> Key:
 
 
 def _alpha(doc: str, high: float = 10.0) -> Key:
-    """An optional roughness key, alpha in [ALPHA_MIN, high]."""
-    return Key("float", None, doc, low=ALPHA_MIN, high=high)
+    """An optional roughness key, alpha in [SURFACE_ALPHA_MIN, high]."""
+    return Key("float", None, doc, low=SURFACE_ALPHA_MIN, high=high)
 
 
 SEED = Key("int", 0, "Seed of the generator's random numbers.", low=0, high=2**63 - 1)

@@ -16,7 +16,7 @@ SPAN = 1e4
 """Largest ratio between two lengths of one tile (the period, heights, radii,
 thicknesses, correlation lengths): the tracer offsets secondary rays by 1e-6 of the
 tile's extent (microsim.trace.EPS_REL), so the smallest feature stays 100 offsets wide."""
-ALPHA_MIN = 1e-3
+SURFACE_ALPHA_MIN = 1e-3
 """Smallest roughness a recipe asks for: below it a surface is a mirror at every bin
 resolution a table has (its lobe is narrower than 0.06 degrees)."""
 
@@ -119,10 +119,10 @@ def check_gaussian(s: dict[str, Any]) -> None:
                          "(alpha = 2 sigma / correlation_length)")
     sigma, tau_x, tau_y = correlation_lengths(s)
     cell = s["size"] / s["resolution"]
-    if "sigma" in s and not ALPHA_MIN <= 2 * sigma / tau_x <= 10:
+    if "sigma" in s and not SURFACE_ALPHA_MIN <= 2 * sigma / tau_x <= 10:
         raise InputError(f"surface.sigma = {sigma!r}: gives alpha = 2 sigma / "
                          f"correlation_length = {2 * sigma / tau_x:.3g}; must be in "
-                         f"[{ALPHA_MIN:g}, 10]")
+                         f"[{SURFACE_ALPHA_MIN:g}, 10]")
     base = "correlation_length" if "correlation_length" in s else "resolution"
     for axis, tau in (("x", tau_x), ("y", tau_y)):
         # the smoother axis of an anisotropic surface gets the longer correlation length
@@ -191,9 +191,9 @@ def check_paint(s: dict[str, Any]) -> None:
         raise InputError(f"surface.pigment_radius = {s['pigment_radius']!r}: the largest "
                          f"radius {r_max:g} must be <= a quarter of the tile size "
                          f"({0.25 * s['size']:g}); raise size")
-    if 0 < s["top_alpha"] < ALPHA_MIN:
+    if 0 < s["top_alpha"] < SURFACE_ALPHA_MIN:
         raise InputError(f"surface.top_alpha = {s['top_alpha']!r}: must be 0 (flat) or at "
-                         f"least {ALPHA_MIN:g}")
+                         f"least {SURFACE_ALPHA_MIN:g}")
     if s["top_alpha"] > 0 and "top_correlation_length" in s:
         check_correlation(s, "top_correlation_length", s["top_correlation_length"],
                            s["size"] / s["resolution"], s["size"])
