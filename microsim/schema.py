@@ -13,11 +13,13 @@ import dataclasses
 import difflib
 import math
 import tomllib
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Container, Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from microsim.errors import InputError
+
+R = TypeVar("R")
 
 REQUIRED: Any = "<required>"
 """Marker for a key without a default."""
@@ -132,6 +134,52 @@ def schema_of(cls: type) -> dict[str, Key]:
     """The recipe keys of a dataclass whose fields were made with ``key``, in field
     order."""
     return {f.name: f.metadata["key"] for f in dataclasses.fields(cls) if "key" in f.metadata}
+
+
+def record_json(record: Any, leave_out: Container[str] = ()) -> dict[str, Any]:
+    """A dataclass record (a recipe section, a material, a tile's facts) as JSON: every
+    field that is set, in field order (None and the fields ``leave_out`` left out); a
+    value with a ``to_json`` as that, a tuple as a list.
+
+    Parameters
+    ----------
+    record : dataclass instance
+    leave_out : container of str
+        Field names not written.
+
+    Returns
+    -------
+    dict of str to JSON value
+    """
+    out = {}
+    for f in dataclasses.fields(record):
+        value = getattr(record, f.name)
+        if value is None or f.name in leave_out:
+            continue
+        out[f.name] = (value.to_json() if hasattr(value, "to_json") else
+                       list(value) if isinstance(value, tuple) else value)
+    return out
+
+
+def record_from_json(cls: type[R], data: Mapping[str, Any],
+                     value: Callable[[dataclasses.Field, Any], Any] | None = None) -> R:
+    """Inverse of ``record_json``: a ``cls`` of the entries of ``data`` that are its fields
+    (others ignored; fields absent take their defaults), each read by ``value(field, v)``
+    (default: a list as a tuple).
+
+    Parameters
+    ----------
+    cls : dataclass type
+    data : mapping of str to JSON value
+    value : callable or None
+
+    Returns
+    -------
+    cls
+    """
+    read = value or (lambda _, v: tuple(v) if isinstance(v, list) else v)
+    return cls(**{f.name: read(f, data[f.name]) for f in dataclasses.fields(cls)
+                  if f.name in data})
 
 
 def suggest(name: str, options: Iterable[str]) -> str:

@@ -13,35 +13,17 @@ default).
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from microsim.materials import Material, material_from_json
-from microsim.schema import key, schema_of
+from microsim.schema import key, record_from_json, record_json, schema_of
 from microsim.spectra.channels import Channels
 
 DEFAULT_ORDERS = 3
 """Order components a table holds by default (``table.orders``): orders 1, 2 and
 3-and-above."""
-
-
-def _json_fields(record: Any) -> dict[str, Any]:
-    """A section record's keys as JSON: every field that is set (tuples as lists)."""
-    out = {}
-    for f in dataclasses.fields(record):
-        value = getattr(record, f.name)
-        if value is not None:
-            out[f.name] = list(value) if isinstance(value, tuple) else value
-    return out
-
-
-def _from_json(cls: type, data: Mapping[str, Any]) -> Any:
-    """A section record from JSON: the fields ``data`` holds (lists as tuples)."""
-    names = {f.name for f in dataclasses.fields(cls)}
-    return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in data.items()
-                  if k in names})
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -90,12 +72,12 @@ class Simulation:
 
     def to_json(self) -> dict[str, Any]:
         """The section as a recipe holds it (unset keys left out)."""
-        return _json_fields(self)
+        return record_json(self)
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> Simulation:
         """Inverse of ``to_json``."""
-        return _from_json(cls, data)
+        return record_from_json(cls, data)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -128,13 +110,13 @@ class TableSettings:
 
     def to_json(self) -> dict[str, Any]:
         """The section as a recipe holds it."""
-        return _json_fields(self)
+        return record_json(self)
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> TableSettings:
         """Inverse of ``to_json`` (a table written before ``orders`` existed: 2, its total
         and single scattering)."""
-        return _from_json(cls, {"orders": 2, **data})
+        return record_from_json(cls, {"orders": 2, **data})
 
 
 SIMULATION = schema_of(Simulation)

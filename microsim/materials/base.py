@@ -36,7 +36,7 @@ from typing import Any, ClassVar
 
 from microsim.errors import InputError
 from microsim.materials.coating import Coating
-from microsim.schema import Key, check_section, schema_of
+from microsim.schema import Key, check_section, record_from_json, record_json, schema_of
 from microsim.spectra import measured
 from microsim.spectra.channels import RGB, Channels
 from microsim.spectra.spectrum import Spectrum, parse_spectrum
@@ -157,23 +157,16 @@ class Material:
     def to_json(self) -> dict[str, Any]:
         """The section as a recipe holds it: ``kind`` and every key given or defaulted
         but those ``data`` stands in for (RGB as lists, spectra as their ``to_json``)."""
-        out: dict[str, Any] = {"kind": self.kind}
         replaced = self.replaced_by_data if getattr(self, "data", None) is not None else ()
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            if value is None or f.name in replaced:
-                continue  # an optional key not given, or one that ``data`` stands in for
-            out[f.name] = (list(value) if isinstance(value, tuple) else
-                           value.to_json() if isinstance(value, Spectrum | Coating) else value)
-        return out
+        # an optional key not given, or one that ``data`` stands in for, is left out
+        return {"kind": self.kind, **record_json(self, leave_out=replaced)}
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> Material:
         """Inverse of ``to_json`` (the keys a table file's recipe holds; keys it lacks
         take their defaults)."""
-        names = {f.name for f in dataclasses.fields(cls)}
-        return cls(**{k: cls.convert(k, v, f"material.{k}") for k, v in data.items()
-                      if k in names})
+        return record_from_json(cls, data,
+                                lambda f, v: cls.convert(f.name, v, f"material.{f.name}"))
 
     # --- the transport kernel -----------------------------------------------------------
     def parameters(self, channels: Channels, where: str = "material."

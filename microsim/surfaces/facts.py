@@ -21,6 +21,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from microsim.schema import record_from_json, record_json
+
 
 @dataclass(frozen=True)
 class Roughness:
@@ -125,24 +127,13 @@ class TileFacts:
 
     def to_json(self) -> dict[str, Any]:
         """Every reported fact (None left out), roughness as numbers or pairs."""
-        return {f.name: _json(getattr(self, f.name)) for f in dataclasses.fields(self)
-                if getattr(self, f.name) is not None}
+        return record_json(self)
 
     @staticmethod
     def from_json(data: Mapping[str, Any]) -> TileFacts:
         """The facts of the generator ``data["kind"]`` names (unknown facts ignored)."""
         cls = FACTS.get(data.get("kind", ""), TileFacts)
-        return cls(**{f.name: _field_value(f, data[f.name])
-                      for f in dataclasses.fields(cls) if f.name in data})
-
-
-def _json(value: Any) -> Any:
-    """A fact's JSON form."""
-    if isinstance(value, Roughness):
-        return value.to_json()
-    if isinstance(value, tuple):
-        return list(value)
-    return value
+        return record_from_json(cls, data, _field_value)
 
 
 def _field_value(f: dataclasses.Field, value: Any) -> Any:
