@@ -153,9 +153,19 @@ def run(args: argparse.Namespace) -> int:
     specs = [specs[min(k, len(specs) - 1)] for k in range(len(tables))] if specs else []
     defaults = [table_defaults(t, c) for t, c in zip(tables, components, strict=True)]
     models = [parse_model_spec(spec, d) for spec, d in zip(specs, defaults, strict=False)]
-    for k, (_, _, model) in enumerate(models):
+    for k, (name, _, model) in enumerate(models):
         bsdfs.model_channels(model, tables[k].channels.wavelengths,
                              f"--model {specs[k]} (for {args.tables[k]})")
+        if args.variant.startswith("scalar") and hasattr(model, "random_bin_average"):
+            # tabulated, its walks would run at every vertex of the tensor (docs/render.md)
+            raise InputError(
+                f"--model {specs[k]}: a Monte Carlo model is not rendered in {args.variant}: "
+                f"tabulated, its {model.samples:,} walks would run at each of the tensor's "
+                f"{bsdfs.tensor_pairs(True):,} (isotropic) to {bsdfs.tensor_pairs(False):,} "
+                "direction pairs (minutes) and freeze their noise into the image; use "
+                f"--variant {args.variant.replace('scalar', 'llvm_ad')} (walks at each "
+                f"shading point), --model {name.removesuffix('-ms')} (its single "
+                f"scattering, exact) or microsim compare {args.tables[k]} --model {specs[k]}")
     mi = backend.load(args.variant)
     camera = scene.Camera(args.size[0], args.size[1], args.camera[0], args.camera[1],
                           args.fov[0])

@@ -61,6 +61,12 @@ PHI_STEP = 15.0
 """Degrees between the φi slices of an anisotropic tensor."""
 
 
+def tensor_pairs(isotropic: bool) -> int:
+    """Direction pairs at which ``tensor_bsdf`` evaluates f (isotropic or not)."""
+    slices = 1 if isotropic else len(rgl_phi_i(PHI_STEP))
+    return slices * THETA_NODES[isotropic] * RESOLUTION[isotropic] ** 2
+
+
 def rotation_z(degrees: float) -> np.ndarray:
     """The 3 × 3 rotation by ``degrees`` about +z (counter-clockwise seen from above)."""
     c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
