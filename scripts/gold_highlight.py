@@ -13,7 +13,7 @@ mean linear RGB of the brightest 2% of the covered pixels (the sun's highlight) 
 the luminance of F0(λ), gold's normal-incidence reflectance (exact Fresnel of the shipped
 Johnson & Christy indices), beside F0's own linear sRGB and display encoding, and the two
 variants' mean colour over the sphere. ``--write`` puts the figures into docs/render.md
-(marked section ``gold-highlight``). A minute or two on 2 cores.
+(marked section ``gold-highlight``). About a minute on 2 cores.
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ flat, simulated every 5 degrees from 0 to 85 (16 x 32 bins, ``--rays`` / 1.5 ray
 node); both upper tables have 8 x 16 bins and ``--rays`` rays per incidence (0, 30, 60
 degrees, across the grooves). Prints ``microsim.table_difference.table_difference`` per incidence
 (docs/materials.md explains the figures). ``--write`` runs the defaults and the variations
-of ``VARIATIONS`` instead (each flag changed alone; minutes on 2 cores) and puts their
+of ``VARIATIONS`` instead (each flag changed alone; under a minute on 2 cores) and puts their
 table into docs/materials.md (marked section ``hierarchy-scale-separation``).
 """
 

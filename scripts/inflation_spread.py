@@ -11,7 +11,7 @@ the single-scattering lobe bins of each incidence the median inflation s² / u a
 variance of log(s² / u): s² the batch-means variance of the ensemble mean over the
 realisations, u its ray part. Sampling alone gives var = ψ′((K − 1)/2); a larger variance
 means the inflation differs between the bins pooled. ``--write`` puts the table into
-docs/ensembles.md (marked section ``inflation-spread``). About a minute on 2 cores.
+docs/ensembles.md (marked section ``inflation-spread``). Seconds on 2 cores.
 """
 
 from __future__ import annotations

@@ -8,8 +8,7 @@ Usage::
 (default: all). Each part simulates shipped recipes with ``--set`` overrides, as the
 commands its section names do, and prints its Markdown; ``--write`` puts it into
 docs/materials.md's marked section ``materials-<part>``, opened by the command, machine,
-date and load average. About half a minute (fibre-axis), a minute (refracting-slab) and
-two minutes (clear-coat) on 2 cores.
+date and load average. Under a minute for all three on 2 cores.
 """
 
 from __future__ import annotations

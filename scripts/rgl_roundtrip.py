@@ -17,7 +17,7 @@ spectral layout and evaluates them in ``scalar_spectral`` at their own wavelengt
 (between and beyond them, tests/test_spectral_export.py holds Mitsuba's lookup to 1%, but
 the medians there changed from one process to the next in this script, 0.16–0.79%, so
 they are not written). ``--write`` puts the figures into docs/table-format.md (marked sections
-``rgl_roundtrip`` and ``rgl_roundtrip-spectral``). Both parts by default; a minute or two
+``rgl_roundtrip`` and ``rgl_roundtrip-spectral``). Both parts by default; under a minute
 on 2 cores.
 """
 
