@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -123,6 +123,8 @@ class FitResult:
         Evaluations of the residuals by ``scipy.optimize.least_squares``.
     fitted : Model
         The model at the fitted parameters.
+    held, held_sources : dict of str to object, dict of str to str
+        The model's parameters the fit holds (``Family.held``) and where each came from.
     model_bins : (a, b, nt, np, C) float
         The fitted model's bin averages per incidence (a θi, b φi), bin and channel, 1/sr:
         for plots.
@@ -137,13 +139,16 @@ class FitResult:
     nfev: int
     fitted: Model
     model_bins: np.ndarray
+    held: dict[str, Any] = field(default_factory=dict)
+    held_sources: dict[str, str] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
-        """The fit as JSON: the parameters, their uncertainties, the fit's quality and
-        the per-incidence rows; the ``fitted`` model and its ``model_bins`` are left
-        out."""
+        """The fit as JSON: the parameters, their uncertainties, the held parameters and
+        their sources, the fit's quality and the per-incidence rows; the ``fitted`` model
+        and its ``model_bins`` are left out."""
         return {"model": self.model, "params": dict(self.params),
-                "uncertainty": dict(self.uncertainty), "chi2_dof": self.chi2_dof,
+                "uncertainty": dict(self.uncertainty), "held": dict(self.held),
+                "held_sources": dict(self.held_sources), "chi2_dof": self.chi2_dof,
                 "median_rel_error": self.median_rel_error,
                 "per_theta_i": [row.to_json() for row in self.per_theta_i],
                 "nfev": self.nfev}
@@ -151,14 +156,28 @@ class FitResult:
 
 @dataclass(frozen=True)
 class Family:
-    """A fittable model: parameter names, start values, bounds, and a builder (of the
-    parameter vector, in the order of the names)."""
+    """A fittable model: parameter names, start values, bounds, a builder (of the
+    parameter vector, in the order of the names), and the parameters of the model
+    (``microsim.analytic.registry``'s keys) it holds, the table's or its own default,
+    with where each came from."""
 
     names: tuple[str, ...]
     start: tuple[float, ...]
     lower: tuple[float, ...]
     upper: tuple[float, ...]
     build: Callable[[np.ndarray], Any]
+    held: dict[str, Any] = field(default_factory=dict)
+    held_sources: dict[str, str] = field(default_factory=dict)
+
+
+def _held(defaults: Mapping[str, Any], own: Mapping[str, Any]
+          ) -> tuple[dict[str, Any], dict[str, str]]:
+    """The parameters ``own`` (key: the family's default) as held: the table's value
+    where ``defaults`` (``model_defaults``) has one, with its source, else the default."""
+    sources = getattr(defaults, "sources", {})
+    values = {k: defaults.get(k, v) for k, v in own.items()}
+    return values, {k: sources.get(k, "the table's") if k in defaults else "default"
+                    for k in own}
 
 
 def _per_channel(name: str, channels: Sequence[str]) -> tuple[str, ...]:
@@ -171,10 +190,12 @@ def _microfacet(ndf_name: str, channels: Sequence[str]) -> Family:
 
     def build(p: np.ndarray) -> Any:
         cls = Beckmann if ndf_name == "beckmann" else GGX
-        return TorranceSparrow(cls(p[0]), fresnel=("schlick", p[1:1 + count]))
+        return TorranceSparrow(cls(p[0]), fresnel=("schlick", p[1:1 + count]),
+                               shadowing=held["shadowing"])
 
+    held, sources = _held({}, {"shadowing": "smith-correlated"})
     return Family(("alpha", *_per_channel("F0", channels)), (0.3, *(0.9,) * count),
-                  (1e-3, *(0.0,) * count), (5.0, *(1.0,) * count), build)
+                  (1e-3, *(0.0,) * count), (5.0, *(1.0,) * count), build, held, sources)
 
 
 def _oren_nayar(channels: Sequence[str]) -> Family:
@@ -182,11 +203,12 @@ def _oren_nayar(channels: Sequence[str]) -> Family:
     count = len(channels)
 
     def build(p: np.ndarray) -> Any:
-        return OrenNayar(np.radians(p[0]), p[1:1 + count], "full")
+        return OrenNayar(np.radians(p[0]), p[1:1 + count], held["model"])
 
+    held, sources = _held({}, {"model": "full"})
     return Family(("sigma", *_per_channel("albedo", channels)),
                   (math.degrees(0.3), *(0.5,) * count), (0.0, *(0.0,) * count),
-                  (math.degrees(1.5), *(1.0,) * count), build)
+                  (math.degrees(1.5), *(1.0,) * count), build, held, sources)
 
 
 def _phong(channels: Sequence[str]) -> Family:
@@ -195,12 +217,14 @@ def _phong(channels: Sequence[str]) -> Family:
     def build(p: np.ndarray) -> Any:
         class Scaled:
             def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-                return Phong(p[0], normalized=True).eval(wi, wo)[..., None] * p[1:1 + count]
+                return (Phong(p[0], normalized=held["normalized"]).eval(wi, wo)[..., None]
+                        * p[1:1 + count])
 
         return Scaled()
 
+    held, sources = _held({}, {"normalized": True})
     return Family(("n", *_per_channel("ks", channels)), (20.0, *(0.8,) * count),
-                  (0.0, *(0.0,) * count), (1e5, *(5.0,) * count), build)
+                  (0.0, *(0.0,) * count), (1e5, *(5.0,) * count), build, held, sources)
 
 
 def _lafortune(lobes: int) -> Family:
@@ -223,12 +247,14 @@ def _kay_kajiya(defaults: Mapping[str, Any], channels: Sequence[str]) -> Family:
     axis, 2 radius / spacing), 1 and +y without them."""
     count = len(channels)
 
+    held, sources = _held(defaults, {"tangent_theta": 90.0, "tangent_phi": 90.0,
+                                     "coverage": 1.0})
+
     def build(p: np.ndarray) -> Any:
-        theta = np.radians(defaults.get("tangent_theta", 90.0))
-        phi = np.radians(defaults.get("tangent_phi", 90.0))
+        theta, phi = np.radians(held["tangent_theta"]), np.radians(held["tangent_phi"])
         t = [np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)]
-        models = [KayKajiya(t, p[c], p[count + c], p[2 * count],
-                            defaults.get("coverage", 1.0)) for c in range(count)]
+        models = [KayKajiya(t, p[c], p[count + c], p[2 * count], held["coverage"])
+                  for c in range(count)]
 
         class PerChannel:
             def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
@@ -239,7 +265,7 @@ def _kay_kajiya(defaults: Mapping[str, Any], channels: Sequence[str]) -> Family:
     kd = defaults.get("kd", 0.05)
     return Family((*_per_channel("kd", channels), *_per_channel("ks", channels), "n"),
                   (*(kd,) * count, *(0.5,) * count, 20.0), (0.0,) * (2 * count + 1),
-                  (*(10.0,) * count, *(1e3,) * count, 1e4), build)
+                  (*(10.0,) * count, *(1e3,) * count, 1e4), build, held, sources)
 
 
 class _ClothPerChannel:
@@ -271,11 +297,12 @@ def _microcylinder(defaults: Mapping[str, Any], channels: Sequence[str]) -> Fami
     itself; any other channels' is ``_ClothPerChannel`` (the same f_r, from three RGB
     evaluations)."""
     count = len(channels)
+    held, sources = _held(defaults, {"slope": 0.0, "flat": 0.0})
 
     def build(p: np.ndarray) -> Any:
         parts = np.array([p[0], p[1], p[2], np.radians(p[3]), np.radians(p[4]), p[5]])
         albedo = p[6:6 + 2 * count].reshape(2, count)
-        slope, flat = defaults.get("slope", 0.0), defaults.get("flat", 0.0)
+        slope, flat = held["slope"], held["flat"]
         if tuple(channels) == RGB_NAMES:
             return MicrocylinderCloth(parts[0:2], *parts[2:6], albedo, slope, flat)
         return _ClothPerChannel(parts, albedo, slope, flat)
@@ -291,7 +318,7 @@ def _microcylinder(defaults: Mapping[str, Any], channels: Sequence[str]) -> Fami
                    *(0.0,) * (2 * count)),
                   (1.0, 1.0, 3.0, math.degrees(1.0), math.degrees(1.5), 1.0,
                    *(5.0,) * (2 * count)),
-                  build)
+                  build, held, sources)
 
 
 FAMILIES = "beckmann, ggx, oren-nayar, phong, lafortune[:K], kay-kajiya, microcylinder"
@@ -408,4 +435,5 @@ def fit_table(table: Any, spec: str, component: str = "total",
         params=dict(zip(fam.names, result.x.tolist(), strict=True)),
         uncertainty=dict(zip(fam.names, unc.tolist(), strict=True)),
         chi2_dof=chi2 / dof, median_rel_error=compared.median_rel_error, per_theta_i=rows,
-        nfev=int(result.nfev), fitted=fitted, model_bins=compared.model)
+        nfev=int(result.nfev), fitted=fitted, model_bins=compared.model,
+        held=dict(fam.held), held_sources=dict(fam.held_sources))

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 from datetime import timedelta
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -124,6 +125,37 @@ def test_models_eval_prints_each_parameter_with_its_unit_and_source(cli):
     assert result["param_sources"] == {"sigma": "default", "albedo": "given",
                                        "model": "default"}
     assert result["units"] == {"sigma": "°"}
+
+
+def test_fit_prints_the_parameters_it_holds_with_their_units_and_sources(cli, tmp_path,
+                                                                       table_file):
+    """fit printed only what it fitted: the Kay-Kajiya fibre tangent and coverage it
+    takes from the table (the cylinders' axis, 2 radius / spacing), a microfacet fit's
+    shadowing, were not said. It prints them held, as compare prints parameters (unit,
+    source), and its JSON holds them with their sources; held from a cylinders table,
+    they are ``model_defaults``'s values."""
+    from microsim.table_models import model_defaults
+
+    path = tmp_path / "cylinders.exr"
+    code, _, err = cli("simulate", str(Path(GAUSSIAN).with_name("cylinders.toml")),
+                       "--set", "simulation.theta_i=[0, 60]", "--set", "simulation.phi_i=[0]",
+                       "--set", "table.theta_bins=8", "--set", "table.phi_bins=16",
+                       "--set", "table.sh_order=2", "--rays", "4000", "-o", str(path))
+    assert code == 0, err
+    defaults = model_defaults(microsim.read_table(path).meta)
+    code, out, err = cli("fit", str(path), "--model", "kay-kajiya")
+    assert code == 0, err
+    held = next(line for line in out.splitlines() if line.strip().startswith("held:"))
+    theta, coverage = defaults["tangent_theta"], defaults["coverage"]
+    assert f"tangent_theta {theta:.4g}° (the cylinders' axis)" in held, held
+    assert f"coverage {coverage:.4g} (2 radius / spacing of the recipe's surface)" in held
+    code, out, err = cli("fit", str(path), "--model", "kay-kajiya", "--json")
+    result = json.loads(out)
+    assert result["held"] == {k: defaults[k] for k in ("tangent_theta", "tangent_phi",
+                                                       "coverage")}
+    assert result["held_sources"]["tangent_phi"] == "the cylinders' axis"
+    code, out, err = cli("fit", str(table_file), "--model", "beckmann")
+    assert "  held: shadowing smith-correlated (default)" in out.splitlines(), out
 
 
 def test_view_prints_its_wireframe_models_parameters_with_units_and_sources(cli, table_file,

@@ -69,7 +69,7 @@ def progress_printer(enabled: bool) -> Callable[[FitProgress], None] | None:
 def run(args: argparse.Namespace) -> int:
     """Fit and report."""
     import microsim
-    from microsim.analytic.registry import parameter_units
+    from microsim.analytic.registry import parameter_units, parameters_text
     from microsim.files import PLOT_SUFFIXES, writable_file
     from microsim.fit import family, fit_table
 
@@ -104,6 +104,9 @@ def run(args: argparse.Namespace) -> int:
     for name, value in result.params.items():
         print(f"  {name:>10} = {with_error(value, result.uncertainty[name])}"
               f"{out['units'].get(name, '')}")
+    if result.held:
+        print("  held: " + parameters_text(result.model.partition(":")[0], result.held,
+                                           result.held_sources))
     print(f"  chi^2/dof {result.chi2_dof:.3g}, median relative error against the fit "
           "over lobe bins "
           f"{100 * result.median_rel_error:.2f}%")
