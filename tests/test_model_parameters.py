@@ -158,6 +158,26 @@ def test_fit_prints_the_parameters_it_holds_with_their_units_and_sources(cli, tm
     assert "  held: shadowing smith-correlated (default)" in out.splitlines(), out
 
 
+def test_render_prints_its_models_parameters_with_units_and_sources(cli, table_file,
+                                                                  tmp_path):
+    """``render --model`` printed its models' parameters (``params_text``) without a test
+    of their units and sources: Oren-Nayar's sigma in degrees and a default, a Lambertian's
+    albedo the table's own measured one (not a facet material's), each said so."""
+    pytest.importorskip("mitsuba")
+    table = microsim.read_table(table_file)
+    albedo = table_defaults(table, "total").for_model["lambertian"]["albedo"]
+    code, out, err = cli("render", str(table_file), str(table_file), "-o",
+                         str(tmp_path / "r.png"), "--size", "16x16", "--spp", "2",
+                         "--model", "oren-nayar", "--model", "lambertian")
+    assert code == 0, err
+    first, second = out.splitlines()[:2]
+    assert "oren-nayar (sigma 20° (default), albedo 0.8 (default), model full (default))" \
+        in first, first
+    listed = "[" + ", ".join(f"{a:.4g}" for a in albedo) + "]"
+    assert (f"lambertian (albedo {listed} (the table's measured total albedo, mean over its "
+            "incidences))") in second, second
+
+
 def test_view_prints_its_wireframe_models_parameters_with_units_and_sources(cli, table_file,
                                                                            tmp_path):
     """``view --model`` filled the model's parameters in from the table and said nothing;
