@@ -225,6 +225,34 @@ def test_microcylinder_cloth_is_reciprocal():
                                atol=1e-14)
 
 
+def test_cloth_tangents_of_a_straight_thread_are_one():
+    """A thread without crimp (slope 0) or all floats (flat 1) has the one tangent along its
+    family, weight 1 (``tangents``' docstring); a crimped one has 2 count + 1 unit tangents,
+    the flat one first with weight ``flat`` and the others (1 − flat) / (2 count) each."""
+    from microsim.analytic.cloth import tangents
+
+    for slope, flat in [(0.0, 0.3), (0.55, 1.0)]:
+        t, w = tangents([0.0, 1.0, 0.0], slope, flat, 8)
+        assert t.tolist() == [[0.0, 1.0, 0.0]] and w.tolist() == [1.0]
+    t, w = tangents([1.0, 0.0, 0.0], 0.55, 0.3, 8)
+    assert t.shape == (17, 3)
+    np.testing.assert_allclose(np.linalg.norm(t, axis=1), 1.0, rtol=1e-15)
+    assert w[0] == 0.3
+    np.testing.assert_allclose(w[1:], 0.7 / 16, rtol=1e-15)
+
+
+def test_microcylinder_cloth_refuses_other_than_two_families():
+    """``coverage`` has one entry per thread family (warp, weft): three, or one, are refused
+    with a ValueError when evaluated, not cut to the families there are."""
+    from microsim.analytic.cloth import MicrocylinderCloth
+
+    albedo = np.array([[0.2, 0.3, 0.8], [0.9, 0.8, 0.7]])
+    for coverage in ([0.5, 0.5, 0.5], [0.5]):
+        cloth = MicrocylinderCloth(coverage, 1.6, 0.15, 0.3, 0.4, albedo, 0.55, 0.3)
+        with pytest.raises(ValueError, match="zip"):
+            cloth.eval(direction(0.5, 0.0), direction(0.6, 2.0))
+
+
 def cloth_by_the_paper(wi, wo, coverage, eta, gamma_s, gamma_v, kd, albedo, slope, flat,
                        masking=True, count=8):
     """Sadeghi et al. 2013's microcylinder cloth for one direction pair, written from the

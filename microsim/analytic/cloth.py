@@ -63,7 +63,7 @@ CORRELATION = math.radians(20.0)
 """σ of the shadowing-masking correlation u(φ_d) (Sadeghi et al. 2013, sec. 5.2)."""
 
 
-def tangents(along: Sequence[float], slope: float, flat: float, count: int = 16
+def tangents(along: Sequence[float], slope: float, flat: float, count: int
              ) -> tuple[np.ndarray, np.ndarray]:
     """One thread family's tangent samples and weights.
 
