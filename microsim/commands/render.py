@@ -94,8 +94,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "tangent towards the bitangent (default 0)")
     add_component_arg(p)
     p.add_argument("--model", action="append", default=None, metavar="SPEC",
-                   help="also render an analytic model (microsim models lists them), its "
-                        "missing parameters from each table, and the relative difference; "
+                   help="also render an analytic model (microsim models lists them; a "
+                        "Monte Carlo one, beckmann-ms or ggx-ms, in an llvm variant only), "
+                        "its missing parameters from each table, and the relative difference; "
                         "once for every table, or once per table in their order")
     p.add_argument("--seed", type=bounded_int(0, MAX_SEED, "Mitsuba's seeds are 32-bit, "
                                                  "and the model's render takes seed + 1"),
