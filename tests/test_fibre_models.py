@@ -184,6 +184,88 @@ def test_sparse_velvet_quadrature_equals_the_mean_over_drawn_fibres():
         assert f == pytest.approx(100.0 * 0.8 * got / (math.pi * wi[2] * wo[2]), rel=1e-12)
 
 
+def test_sparse_velvet_of_given_fibres_is_their_mean_fibre_integral():
+    """With ``axes``, f_r = N_A ⟨∫ (ω_i·n)⁺ (ω_o·n)⁺ dA⟩ ρ / (π cos θ_i cos θ_o), the mean
+    over those fibres with equal weights, for pairs in a (2, 4) array (the result (2, 4, 3));
+    exactly 0 where a direction is on (z = 0) or below the horizon, without a warning
+    (RuntimeWarnings are errors in this suite). 1e-12: the same sums in another order."""
+    rng = np.random.default_rng(4)
+    axes = fibre_directions(5, 20.0, 10.0, 0.0, 360.0, rng)
+    albedo = np.array([0.2, 0.5, 0.9])
+    model = SparseVelvet(0.01, 0.15, 80.0, 0.0, 0.0, 0.0, 0.0, albedo, axes=axes)
+    wi = direction(rng.uniform(0, 1.4, 8), rng.uniform(0, 2 * np.pi, 8))
+    wo = direction(rng.uniform(0, 1.4, 8), rng.uniform(0, 2 * np.pi, 8))
+    wi[5], wo[6], wi[7] = [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.6, 0.0, -0.8]
+    f = model.eval(wi.reshape(2, 4, 3), wo.reshape(2, 4, 3))
+    assert f.shape == (2, 4, 3)
+    f = f.reshape(8, 3)
+    for k in range(5):
+        per = model.fibre_integral(axes, np.repeat(wi[k][None], 5, 0),
+                                   np.repeat(wo[k][None], 5, 0))
+        expected = 80.0 * per.mean() / (math.pi * wi[k, 2] * wo[k, 2]) * albedo
+        np.testing.assert_allclose(f[k], expected, rtol=1e-12)
+    assert np.all(f[5:] == 0.0)
+
+
+def test_sparse_velvet_quadrature_nodes():
+    """The tilt and azimuth rules. A spread of 0 is one node, the tilt clipped to
+    [0, 80]° as the generator clips it, weight 1. Tilt 75 ± 10° (12 Gauss-Legendre nodes
+    and the atoms at 0 and 80°, the upper one P(T > 80°) = 31%): the weights sum to 1 and
+    give the clipped normal's mean tilt (scipy quadrature) to 1e-6 (the rule integrates the
+    smooth density to ~1e-9). A normal azimuth, 30 ± 0.5° or ± 40°: Gauss-Hermite, exact for
+    the mean and variance. The model's defaults are the documented 12 × 32 nodes."""
+    from scipy import integrate, stats
+
+    from microsim.analytic.velvet import azimuth_nodes, tilt_nodes
+
+    for tilt, clipped in [(-5.0, 0.0), (30.0, 30.0), (95.0, 80.0)]:
+        nodes, weights = tilt_nodes(tilt, 0.0, 12)
+        assert nodes.tolist() == [math.radians(clipped)] and weights.tolist() == [1.0]
+    nodes, weights = tilt_nodes(75.0, 10.0, 12)
+    assert len(nodes) == 14 and nodes[0] == 0.0 and nodes[-1] == math.radians(80.0)
+    assert weights.sum() == pytest.approx(1.0, abs=1e-6)
+    inner, _ = integrate.quad(lambda t: t * stats.norm.pdf(t, 75.0, 10.0), 0.0, 80.0)
+    mean = inner + 80.0 * stats.norm.sf(80.0, 75.0, 10.0)
+    assert weights @ nodes == pytest.approx(math.radians(mean), abs=1e-6)
+    assert len(tilt_nodes(30.0, 0.5, 12)[0]) == 14
+    nodes, weights = azimuth_nodes(30.0, 0.0, 32)
+    assert nodes.tolist() == [math.radians(30.0)] and weights.tolist() == [1.0]
+    for spread in (0.5, 40.0):
+        nodes, weights = azimuth_nodes(30.0, spread, 32)
+        assert weights.sum() == pytest.approx(1.0, abs=1e-14)
+        assert weights @ nodes == pytest.approx(math.radians(30.0), rel=1e-12)
+        assert weights @ (nodes - math.radians(30.0)) ** 2 == pytest.approx(
+            math.radians(spread) ** 2, rel=1e-10)
+    model = SparseVelvet(0.01, 0.15, 80.0, 20.0, 10.0, 30.0, 20.0, 0.8)
+    assert len(model.weights) == 14 * 32 and model.tip_n.shape[1] == 6
+    azimuths = np.arctan2(model.axes[:, 1], model.axes[:, 0])
+    tilted = model.axes[:, 2] < 1.0
+    assert (model.weights[tilted] @ azimuths[tilted] / model.weights[tilted].sum()
+            == pytest.approx(math.radians(30.0), rel=1e-10))
+
+
+@pytest.mark.parametrize("sides", [6, 24])
+def test_sparse_velvet_tip_faces_point_outwards_and_tile_the_cone(sides):
+    """The tip's faces from the ring of ``sides`` corners to the apex (in units of r):
+    normals pointing away from the axis and up it, of length twice the face's area, the
+    areas summing to the pyramid's lateral area sides · ½ · 2 sin(π/sides) · √(1 + cos²(π/sides))
+    (base edge times slant height), to 1e-12."""
+    from microsim.analytic.velvet import tip_faces
+    from microsim.surfaces.velvet import section_axes
+
+    t = fibre_directions(20, 30.0, 20.0, 0.0, 360.0, np.random.default_rng(6))
+    u, v = section_axes(t)
+    n, lengths = tip_faces(u, v, t, sides)
+    a = 2 * np.pi * np.arange(sides + 1) / sides
+    ring = np.cos(a)[None, :, None] * u[:, None] + np.sin(a)[None, :, None] * v[:, None]
+    assert np.all(np.einsum("mkj,mkj->mk", n, ring[:, 1:] + ring[:, :-1]) > 0)
+    assert np.all(np.einsum("mkj,mj->mk", n, t) > 0)
+    np.testing.assert_allclose(lengths, np.linalg.norm(n, axis=2), rtol=1e-15)
+    half = math.pi / sides
+    area = sides * 0.5 * 2 * math.sin(half) * math.sqrt(1 + math.cos(half) ** 2)
+    np.testing.assert_allclose(0.5 * lengths.sum(axis=1), area, rtol=1e-12)
+
+
 def test_microcylinder_thread_reduces_to_the_exact_cylinder_reflection():
     """Limiting case of the cloth model: one family of straight threads (no crimp),
     no shadowing, no volume scattering, a narrow surface lobe (γ_s = 0.5°): its bin

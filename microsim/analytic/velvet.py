@@ -46,9 +46,7 @@ from scipy.special import ndtr
 
 from microsim.analytic.brdf import flat_pairs
 from microsim.jit import JIT
-
-MAX_TILT = 80.0
-"""The generator's clip of the tilt, degrees (``microsim.surfaces.velvet.MAX_TILT``)."""
+from microsim.surfaces.velvet import MAX_TILT, section_axes
 
 
 @njit(**JIT)
@@ -178,7 +176,7 @@ class SparseVelvet:
             s = np.sin(th).ravel()
             self.axes = np.column_stack([s * np.cos(ph).ravel(), s * np.sin(ph).ravel(),
                                          np.cos(th).ravel()])
-        self.u, self.v = _section(self.axes)
+        self.u, self.v = section_axes(self.axes)
         self.tip_n, self.tip_len = tip_faces(self.u, self.v, self.axes, self.sides)
 
     def fibre_integral(self, t: np.ndarray, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
@@ -193,7 +191,7 @@ class SparseVelvet:
         -------
         (n,) float
         """
-        u, v = _section(t)
+        u, v = section_axes(t)
         n, lengths = tip_faces(u, v, t, self.sides)
         wi, wo = np.ascontiguousarray(wi, float), np.ascontiguousarray(wo, float)
         return np.array([_fibre(wi, wo, k, u, v, t, n, lengths, k, self.r, self.length)
@@ -227,12 +225,3 @@ def tip_faces(u: np.ndarray, v: np.ndarray, t: np.ndarray, sides: int
     n = np.cross(p[:, 1:] - p[:, :-1], t[:, None] - p[:, :-1])
     n *= np.where(np.einsum("mkj,mkj->mk", n, p[:, 1:] + p[:, :-1]) < 0, -1.0, 1.0)[..., None]
     return np.ascontiguousarray(n), np.linalg.norm(n, axis=2)
-
-
-def _section(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit u, v with (u, v, t) right-handed, as the generator's ``section_axes`` (the
-    tip's corners lie along them; the side is round)."""
-    helper = np.where(np.abs(t[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
-    u = np.cross(t, helper)
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
-    return u, np.cross(t, u)
