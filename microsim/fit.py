@@ -187,13 +187,13 @@ def _per_channel(name: str, channels: Sequence[str]) -> tuple[str, ...]:
 
 def _microfacet(ndf_name: str, channels: Sequence[str]) -> Family:
     count = len(channels)
+    held, sources = _held({}, {"shadowing": "smith-correlated"})
 
     def build(p: np.ndarray) -> Any:
         cls = Beckmann if ndf_name == "beckmann" else GGX
         return TorranceSparrow(cls(p[0]), fresnel=("schlick", p[1:1 + count]),
                                shadowing=held["shadowing"])
 
-    held, sources = _held({}, {"shadowing": "smith-correlated"})
     return Family(("alpha", *_per_channel("F0", channels)), (0.3, *(0.9,) * count),
                   (1e-3, *(0.0,) * count), (5.0, *(1.0,) * count), build, held, sources)
 
@@ -201,11 +201,11 @@ def _microfacet(ndf_name: str, channels: Sequence[str]) -> Family:
 def _oren_nayar(channels: Sequence[str]) -> Family:
     """Oren-Nayar's slope deviation sigma in degrees, as the model spec takes it."""
     count = len(channels)
+    held, sources = _held({}, {"model": "full"})
 
     def build(p: np.ndarray) -> Any:
         return OrenNayar(np.radians(p[0]), p[1:1 + count], held["model"])
 
-    held, sources = _held({}, {"model": "full"})
     return Family(("sigma", *_per_channel("albedo", channels)),
                   (math.degrees(0.3), *(0.5,) * count), (0.0, *(0.0,) * count),
                   (math.degrees(1.5), *(1.0,) * count), build, held, sources)
@@ -213,6 +213,7 @@ def _oren_nayar(channels: Sequence[str]) -> Family:
 
 def _phong(channels: Sequence[str]) -> Family:
     count = len(channels)
+    held, sources = _held({}, {"normalized": True})
 
     def build(p: np.ndarray) -> Any:
         class Scaled:
@@ -222,7 +223,6 @@ def _phong(channels: Sequence[str]) -> Family:
 
         return Scaled()
 
-    held, sources = _held({}, {"normalized": True})
     return Family(("n", *_per_channel("ks", channels)), (20.0, *(0.8,) * count),
                   (0.0, *(0.0,) * count), (1e5, *(5.0,) * count), build, held, sources)
 
@@ -246,7 +246,6 @@ def _kay_kajiya(defaults: Mapping[str, Any], channels: Sequence[str]) -> Family:
     channel and the exponent n; the tangent and coverage are the table's (its surface's
     axis, 2 radius / spacing), 1 and +y without them."""
     count = len(channels)
-
     held, sources = _held(defaults, {"tangent_theta": 90.0, "tangent_phi": 90.0,
                                      "coverage": 1.0})
 
