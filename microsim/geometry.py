@@ -77,3 +77,29 @@ def orthonormal_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     t = np.stack([1.0 + sign * n[:, 0] ** 2 * a, sign * b, -sign * n[:, 0]], axis=1)
     s = np.stack([b, sign + n[:, 1] ** 2 * a, -n[:, 1]], axis=1)
     return t, s
+
+
+FIBRE_MAX_TILT = 80.0
+"""Largest tilt of a velvet fibre from +z, degrees: the generator clips sampled tilts to it,
+so every fibre stands out of the base (``microsim.surfaces.velvet``), and the sparse-velvet
+model integrates over the same range (``microsim.analytic.velvet``)."""
+
+
+def section_axes(axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit vectors u, v with (u, v, axis) right-handed: a fibre's section plane, where
+    its tip's corners lie, for the velvet generator and the sparse-velvet model alike (u
+    from the axis crossed with +z, or with +x for fibres within 26° of +z).
+
+    Parameters
+    ----------
+    axes : (n, 3) float
+        Unit fibre axes.
+
+    Returns
+    -------
+    u, v : (n, 3) float
+    """
+    helper = np.where(np.abs(axes[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
+    u = np.cross(axes, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    return u, np.cross(axes, u)

@@ -45,8 +45,8 @@ from numba import njit
 from scipy.special import ndtr
 
 from microsim.analytic.brdf import flat_pairs
+from microsim.geometry import FIBRE_MAX_TILT, section_axes
 from microsim.jit import JIT
-from microsim.surfaces.velvet import MAX_TILT, section_axes
 
 
 @njit(**JIT)
@@ -115,13 +115,13 @@ def tilt_nodes(tilt: float, spread: float, n: int) -> tuple[np.ndarray, np.ndarr
     """Nodes (radians) and weights of the clipped normal tilt distribution: Gauss-Legendre
     over (0°, 80°) times the density, plus the atoms at 0° and 80°."""
     if spread <= 0:
-        return np.radians([min(max(tilt, 0.0), MAX_TILT)]), np.ones(1)
+        return np.radians([min(max(tilt, 0.0), FIBRE_MAX_TILT)]), np.ones(1)
     x, w = np.polynomial.legendre.leggauss(n)
-    t = 0.5 * MAX_TILT * (x + 1)
+    t = 0.5 * FIBRE_MAX_TILT * (x + 1)
     dens = np.exp(-0.5 * ((t - tilt) / spread) ** 2) / (spread * math.sqrt(2 * math.pi))
-    nodes = np.concatenate([[0.0], t, [MAX_TILT]])
-    weights = np.concatenate([[ndtr(-tilt / spread)], w * 0.5 * MAX_TILT * dens,
-                              [1.0 - ndtr((MAX_TILT - tilt) / spread)]])
+    nodes = np.concatenate([[0.0], t, [FIBRE_MAX_TILT]])
+    weights = np.concatenate([[ndtr(-tilt / spread)], w * 0.5 * FIBRE_MAX_TILT * dens,
+                              [1.0 - ndtr((FIBRE_MAX_TILT - tilt) / spread)]])
     return np.radians(nodes), weights
 
 

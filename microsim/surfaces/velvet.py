@@ -8,12 +8,10 @@ from typing import Any
 
 import numpy as np
 
+from microsim.geometry import FIBRE_MAX_TILT, section_axes
 from microsim.surfaces.facts import VelvetFacts
 from microsim.surfaces.periodic import wrap_into_box
 from microsim.surfaces.tile import Tile
-
-MAX_TILT = 80.0
-"""Sampled tilts are clipped to this many degrees, so every fibre stands out of the base."""
 
 
 def fibre_directions(n: int, tilt: float, tilt_spread: float, azimuth: float,
@@ -25,7 +23,7 @@ def fibre_directions(n: int, tilt: float, tilt_spread: float, azimuth: float,
     -------
     (n, 3) float
     """
-    theta = np.radians(np.clip(rng.normal(tilt, tilt_spread, n), 0.0, MAX_TILT))
+    theta = np.radians(np.clip(rng.normal(tilt, tilt_spread, n), 0.0, FIBRE_MAX_TILT))
     if azimuth_spread >= 360.0:
         phi = rng.uniform(0.0, 2 * math.pi, n)
     else:
@@ -42,20 +40,6 @@ def jittered_points(n: int, size: float, rng: np.random.Generator) -> np.ndarray
     cells = rng.choice(m * m, size=n, replace=False)
     ij = np.column_stack(np.divmod(cells, m)).astype(float)
     return (ij + rng.random((n, 2))) * (size / m)
-
-
-def section_axes(axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit vectors u, v with (u, v, axis) right-handed: a fibre's section plane (u from
-    the axis crossed with +z, or with +x for fibres within 26° of +z).
-
-    Returns
-    -------
-    u, v : (n, 3) float
-    """
-    helper = np.where(np.abs(axes[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
-    u = np.cross(axes, helper)
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
-    return u, np.cross(axes, u)
 
 
 def tubes(roots: np.ndarray, axes: np.ndarray, radius: float, start: np.ndarray,
