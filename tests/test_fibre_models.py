@@ -48,14 +48,14 @@ def test_mirror_cylinder_cone_follows_marschners_r_lobe_with_fresnel():
                 assert power[k, side, c] == pytest.approx(expect, abs=2 * r / s * 2 / 2**16)
 
 
-def brute_lambertian(model: CylinderArray, wi: np.ndarray, wo: np.ndarray,
+def brute_lambertian(model: CylinderArray, wi: np.ndarray, wo: np.ndarray, sink: float,
                      n: int = 20000) -> tuple[float, float]:
     """f_r of the Lambertian cylinders and of the base share, by explicit 2-D geometry:
     points sampled on the arc above the base and on the base, each tested for being lit
     and seen by ray–circle intersections with the neighbours k = −12 … 12 (enough for
     the directions used: within 83° of the zenith, a ray clears every cylinder within 9
-    periods)."""
-    r, s, zc = model.r, model.s, model.zc
+    periods). The axes at height r − sink, as the generator places them."""
+    r, s, zc = model.r, model.s, model.r - sink
 
     def clear(p: np.ndarray, d: np.ndarray, skip_own: bool) -> np.ndarray:
         q = np.array([d[0], d[2]]) / math.hypot(d[0], d[2])
@@ -95,10 +95,160 @@ def test_lambertian_cylinders_and_base_against_brute_force_geometry(sink):
         wi = direction(rng.uniform(0, 1.45), rng.uniform(0, 2 * np.pi))
         wo = direction(rng.uniform(0, 1.45), rng.uniform(0, 2 * np.pi))
         f = model.eval(wi, wo)[0]
-        arc, base = brute_lambertian(model, wi, wo)
+        arc, base = brute_lambertian(model, wi, wo, sink)
         assert f == pytest.approx(arc + base, rel=2e-3, abs=1e-6)
         checked += base > 0 and arc > 0
     assert checked >= 4
+
+
+def test_cylinder_array_refuses_bad_geometry_and_facets():
+    """radius > 0, spacing ≥ 2 radius (touching allowed), 0 ≤ sink < 2 radius, and a
+    specular or Lambertian facet; each refusal says what is allowed. The base is black
+    unless given."""
+    mirror = {"kind": "mirror"}
+    for r, s, sink in [(0.0, 1.0, 0.0), (-0.5, 1.0, 0.0), (0.5, 0.99, 0.0), (0.5, 1.5, -0.1),
+                       (0.5, 1.5, 1.0), (0.5, 1.5, 1.2)]:
+        with pytest.raises(ValueError, match=r"^need radius > 0, spacing >= 2 radius, "
+                                             r"0 <= sink < 2 radius$"):
+            CylinderArray(r, s, sink, mirror)
+    for r, s, sink in [(0.5, 1.0, 0.0), (0.5, 1.5, 0.99), (0.5, np.inf, 0.5), (2.0, 4.0, 3.9)]:
+        CylinderArray(r, s, sink, mirror)
+    with pytest.raises(ValueError, match=r"^facet kind 'velvet': mirror, conductor, "
+                                         r"dielectric or lambertian$"):
+        CylinderArray(0.5, 1.5, 0.0, {"kind": "velvet"})
+    assert CylinderArray(0.5, 1.5, 0.0, mirror).base_albedo.tolist() == [0.0, 0.0, 0.0]
+
+
+def test_cylinder_array_eval_is_linear_in_the_albedos_and_zero_off_the_hemisphere():
+    """f_r is the cylinders' term times their albedo plus the base's times its albedo
+    (coloured albedos against grey unit ones, 1e-12); pairs given as a (2, 3) array give
+    the (2, 3, 3) result of the pairs one at a time; a direction on (z = 0) or below the
+    horizon gives exactly 0 without a warning (RuntimeWarnings are errors in this suite)."""
+    rng = np.random.default_rng(9)
+    wi = direction(rng.uniform(0, 1.4, 6), rng.uniform(0, 2 * np.pi, 6))
+    wo = direction(rng.uniform(0, 1.4, 6), rng.uniform(0, 2 * np.pi, 6))
+    a, b = np.array([0.2, 0.5, 0.9]), np.array([0.7, 0.4, 0.1])
+
+    def model(albedo, base):
+        return CylinderArray(0.5, 1.5, 0.3, {"kind": "lambertian", "albedo": albedo}, base)
+
+    f = model(a, b).eval(wi.reshape(2, 3, 3), wo.reshape(2, 3, 3))
+    assert f.shape == (2, 3, 3)
+    one = np.array([model(a, b).eval(wi[k], wo[k]) for k in range(6)])
+    np.testing.assert_allclose(f.reshape(6, 3), one, rtol=1e-12)
+    arcs, base = model(1.0, 0.0).eval(wi, wo), model(0.0, 1.0).eval(wi, wo)
+    assert np.all(arcs > 0) and base.max() > 0.05     # the base is lit and seen in some
+    np.testing.assert_allclose(f.reshape(6, 3), arcs * a + base * b, rtol=1e-12)
+    off = model(a, b).eval(np.array([[1.0, 0.0, 0.0], wi[0], [0.6, 0.0, -0.8], wi[1]]),
+                           np.array([wo[0], [0.0, 1.0, 0.0], wo[1], [0.0, 0.6, -0.8]]))
+    assert np.all(off == 0.0)
+
+
+def test_cylinder_array_singular_is_zero_where_nothing_is_specular():
+    """``singular`` is zeros of the table's (nt, np, 3) shape for Lambertian cylinders and
+    for light on (z = 0) or below the horizon, and measures φ from 0 unless told."""
+    te, pe = np.radians(np.linspace(0, 90, 7)), np.radians(np.linspace(0, 360, 9))
+    lambertian = CylinderArray(0.5, 1.5, 0.0, {"kind": "lambertian", "albedo": 1.0})
+    assert np.all(lambertian.singular(direction(0.5, 0.3), te, pe) == np.zeros((6, 8, 3)))
+    mirror = CylinderArray(0.5, 1.5, 0.0, {"kind": "mirror"})
+    for wi in ([1.0, 0.0, 0.0], [0.6, 0.0, -0.8]):
+        assert np.all(mirror.singular(np.array(wi), te, pe) == np.zeros((6, 8, 3)))
+    wi = direction(0.5, 0.3)
+    got = mirror.singular(wi, te, pe, impacts=4096)
+    assert got.sum() > 0
+    assert np.array_equal(got, mirror.singular(wi, te, pe, 0.0, impacts=4096))
+
+
+@pytest.mark.parametrize("phi", [0.0, 0.6])
+def test_dense_mirror_cylinders_reflect_what_tracing_the_section_says(phi):
+    """Mirror cylinders 2.2 r apart, sunk 0.2 r, lit at 70° (the neighbours shadow and
+    mask): the power ``singular`` bins (Σ value × projected solid angle) against tracing
+    each of its impacts in the cross-section independently: the point above the base, its
+    ray towards the light and its mirror reflection (going up) clear of the neighbours
+    k = −12 … 12 (ray–circle tests). The same 2¹⁴ midpoint impacts, so the two agree to
+    an impact's share (1/2¹⁴ of the beam) at each of the ≤ 4 arc ends; the masked share is
+    tens of per cent here."""
+    r, s, sink, n = 0.5, 1.1, 0.1, 2**14
+    model = CylinderArray(r, s, sink, {"kind": "mirror"})
+    te, pe = np.radians(np.linspace(0, 90, 10)), np.radians(np.linspace(0, 360, 13))
+    omega = 0.5 * np.outer(np.diff(np.sin(te) ** 2), np.diff(pe))
+    wi = direction(math.radians(70.0), phi)
+    total = (model.singular(wi, te, pe, impacts=n)[..., 0] * omega).sum()
+    zc, cos_l = r - sink, math.hypot(wi[0], wi[2])
+    h = -1 + (np.arange(n) + 0.5) * 2 / n
+    psi = math.atan2(wi[2], wi[0]) + np.arcsin(h)
+    p = np.column_stack([r * np.cos(psi), zc + r * np.sin(psi)])
+    nrm = np.column_stack([np.cos(psi), np.zeros(n), np.sin(psi)])
+    wo = 2 * (nrm @ wi)[:, None] * nrm - wi
+
+    def clear(q):
+        q = q / np.linalg.norm(q, axis=1, keepdims=True)
+        ok = np.ones(n, bool)
+        for k in range(-12, 13):
+            if k:
+                c = np.array([k * s, zc]) - p
+                b = np.sum(c * q, axis=1)
+                ok &= ~((b > 0) & (b * b > (c * c).sum(axis=1) - r * r))
+        return ok
+
+    keep = ((p[:, 1] >= 0) & (wo[:, 2] > 0) & clear(np.tile([wi[0], wi[2]], (n, 1)))
+            & clear(wo[:, [0, 2]]))
+    share = r * (2 / n) * cos_l / (s * wi[2])
+    assert 0.2 < 1 - keep.mean() < 0.8
+    assert total == pytest.approx(keep.sum() * share, abs=4 * share)
+
+
+def test_cylinder_facet_reflectance_and_bin_values():
+    """``facet_reflectance`` is (n, 3): 1 for a mirror, the conductor's and the dielectric's
+    Fresnel terms otherwise. ``bin_values`` puts power over projected solid angle into
+    [lo, hi) bins: a direction on a θ or φ edge goes to the bin above it, one whose z
+    rounds past 1 to the first θ row, one at or below the horizon nowhere, one at φ_ref −
+    1e-17 (φ rounding to 2π) to the last φ bin; with the last φ edge at π the bins are
+    folded (φ → 2π − φ past π: a direction at φ = π in the last bin, one at 7π/4 in the bin
+    of π/4, over twice the solid angle); a full circle of two φ bins is not folded."""
+    from microsim.analytic.cylinders import bin_values, facet_reflectance
+    from microsim.analytic.fresnel import fresnel_dielectric
+
+    cos = np.array([0.1, 0.5, 0.9])
+    assert np.array_equal(facet_reflectance({"kind": "mirror"}, cos), np.ones((3, 3)))
+    gold = facet_reflectance(GOLD, cos)
+    assert gold.shape == (3, 3)
+    np.testing.assert_allclose(gold, fresnel_conductor(cos[:, None], np.array(GOLD["eta"]),
+                                                       np.array(GOLD["k"])), rtol=1e-15)
+    glass = facet_reflectance({"kind": "dielectric", "eta": 1.5}, cos)
+    assert glass.shape == (3, 3)
+    np.testing.assert_allclose(glass, fresnel_dielectric(cos, 1.5)[:, None] * np.ones(3),
+                               rtol=1e-15)
+
+    te = np.array([0.0, np.arccos(0.5), math.pi / 2])
+    pe = np.linspace(0.0, 2 * math.pi, 5)                         # edges 0, π/2, π, 3π/2, 2π
+    u = np.sin(te) ** 2
+    omega = 0.5 * np.outer(np.diff(u), np.diff(pe))
+    s = math.sqrt(0.75)
+    wo = np.array([[0.0, s, 0.5],                 # on the θ edge and the φ edge π/2
+                   [0.0, 0.0, 1.0 + 2.0**-52],     # straight up, z rounded past 1
+                   [0.0, 1.0, 0.0],                # on the horizon
+                   [0.6, 0.0, -0.8],               # below it
+                   [0.6 * math.cos(-1e-17), 0.6 * math.sin(-1e-17), 0.8]])
+    got = bin_values(wo, np.ones((5, 3)), te, pe, 0.0)
+    expected = np.zeros((2, 4))
+    expected[1, 1] = 1.0
+    expected[0, 0] += 1.0
+    expected[0, 3] += 1.0
+    np.testing.assert_allclose(got, (expected / omega)[..., None] * np.ones(3), rtol=1e-12)
+
+    pf = np.linspace(0.0, math.pi, 3)                             # folded: edges 0, π/2, π
+    c = 0.6 * math.sqrt(0.5)
+    wo = np.array([[-0.6, 0.0, 0.8], [c, -c, 0.8]])               # φ = π and φ = 7π/4
+    got = bin_values(wo, np.ones((2, 3)), te, pf, 0.0)
+    omega = np.outer(np.diff(u), np.diff(pf))                     # twice 0.5 ...
+    expected = np.zeros((2, 2))
+    expected[0, 1] = 1.0      # θ = 36.9°; φ = π in the last bin
+    expected[0, 0] = 1.0      # 7π/4 folded onto π/4
+    np.testing.assert_allclose(got, (expected / omega)[..., None] * np.ones(3), rtol=1e-12)
+    two = bin_values(np.array([[0.0, -0.6, 0.8]]), np.ones((1, 3)), te,
+                     np.array([0.0, math.pi, 2 * math.pi]), 0.0)
+    assert two[0, 1, 0] > 0 and two[0, 0, 0] == 0
 
 
 def test_kay_kajiya_diffuse_is_the_lambertian_cylinder_averaged_around_the_fibre():

@@ -227,7 +227,9 @@ class CylinderArray:
         w = math.sqrt(max(self.r**2 - self.zc**2, 0.0))  # half the footprint
         starts, lengths = [np.full(len(wi), -w)], [np.full(len(wi), 2 * w)]
         for d in (wi, wo):
-            sin_a = np.where(above, d[:, 2], 1.0) / np.hypot(d[:, 0], d[:, 2])
+            # pairs not above the horizon are zeroed; (0, ±1, 0) has no projection
+            proj = np.where(above, np.hypot(d[:, 0], d[:, 2]), 1.0)
+            sin_a = np.where(above, d[:, 2], 1.0) / proj
             cot_a = d[:, 0] / np.where(above, d[:, 2], 1.0)
             half = self.r / sin_a
             starts.append(-self.zc * cot_a - half)
