@@ -226,7 +226,9 @@ def test_ndf_bin_average_is_the_closed_form_bin_integral():
 def test_ndfs_vanish_on_and_below_the_horizon():
     """D and G1 are exactly 0 for a normal or direction on the horizon (m_z = 0, not just
     the 6e-17 that θ = 90° rounds to) and below it, for every distribution, with no
-    floating-point warning (a division by m_z = 0 would warn); Λ there is finite."""
+    floating-point warning (a division by m_z = 0 would warn, and a fractional Blinn
+    exponent of a negative cosine would be NaN); Λ there is finite and a float array. A
+    normal whose m_z rounds past 1 has the density of the pole."""
     w = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.6, 0.0, -0.8], [0.0, 0.0, -1.0]])
     analytic = [Beckmann(0.3), GGX(0.3), Beckmann(alpha_x=0.2, alpha_y=0.6),
                 GGX(alpha_x=0.6, alpha_y=0.2)]
@@ -235,10 +237,12 @@ def test_ndfs_vanish_on_and_below_the_horizon():
         for ndf in analytic:
             assert np.array_equal(ndf.D(w), np.zeros(4))
             assert np.array_equal(ndf.G1(w), np.zeros(4))
-            assert np.isfinite(ndf.Lambda(w)).all()
-        for ndf in (Blinn(0.0), Blinn(20.0), TorranceSparrowGaussian(2.0)):
+            assert np.isfinite(ndf.Lambda(w)).all() and ndf.Lambda(w).dtype == np.float64
+        pole, past = np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.0 + 2.0**-52])
+        for ndf in (Blinn(0.0), Blinn(20.0), Blinn(2.5), TorranceSparrowGaussian(2.0)):
             d = ndf.D(w)
             assert d.dtype == float and np.array_equal(d, np.zeros(4))
+            assert ndf.D(past) == ndf.D(pole) > 0
 
 
 def test_ndf_parameters_are_checked():
