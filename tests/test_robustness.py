@@ -534,9 +534,9 @@ def test_fit_json_is_the_records_json_then_the_tables_keys(cli, small_table):
     code, out, err = cli("fit", str(small_table), "--model", "beckmann", "--json")
     assert code == 0, err
     printed = json.loads(out)
-    assert list(printed) == ["model", "params", "uncertainty", "chi2_dof",
-                             "median_rel_error", "per_theta_i", "nfev", "error_model",
-                             "realisations", "alpha_realised", "units"]
+    assert list(printed) == ["model", "params", "uncertainty", "held", "held_sources",
+                             "chi2_dof", "median_rel_error", "per_theta_i", "nfev",
+                             "error_model", "realisations", "alpha_realised", "units"]
     record = fit_table(microsim.read_table(small_table), "beckmann").to_json()
     assert json.loads(json.dumps(record)) == {k: printed[k] for k in record}
     assert [list(row) for row in printed["per_theta_i"]] == [
