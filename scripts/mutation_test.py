@@ -60,7 +60,9 @@ MODULES: dict[str, list[str]] = {
     "microsim/analytic/ndf.py": ["tests/test_analytic_ndf.py"],
     "microsim/fit.py": ["tests/test_fit.py"],
     "microsim/analytic/multiple_scattering.py": ["tests/test_multiple_scattering.py"],
-    "microsim/analytic/brdf.py": ["tests/test_analytic_brdf.py"],
+    "microsim/analytic/brdf.py": ["tests/test_analytic_brdf.py",
+                                  # flat_pairs and as_rgb serve the fibre models and compare
+                                  "tests/test_fibre_models.py", "tests/test_compare.py"],
     "microsim/analytic/registry.py": ["tests/test_models_cli.py",
                                       "tests/test_analytic_brdf.py"],
     "microsim/compare.py": ["tests/test_compare.py",
