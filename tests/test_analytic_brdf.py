@@ -347,3 +347,19 @@ def test_masking_functions_vanish_below_the_horizon_and_broadcast():
     g1 = vcavity_G1(many, h)
     assert g1.shape == (3,) and np.all(g1 > 0)
     np.testing.assert_array_equal(g1, [vcavity_G1(w, h) for w in many])
+
+
+def test_as_rgb_gives_grey_models_three_channels_and_keeps_per_channel_ones():
+    """A grey model's values (the pairs' shape) become three equal channels, a single
+    channel too; a per-channel model's (RGB, or 2 or 32 wavelengths) keep their channels,
+    also for pairs shaped (4, 1); ints become floats."""
+    from microsim.analytic.brdf import as_rgb
+
+    grey = np.arange(8).reshape(4, 2)
+    out = as_rgb(grey, (4, 2))
+    assert out.shape == (4, 2, 3) and out.dtype == np.float64
+    assert np.array_equal(out, np.repeat(grey[..., None], 3, axis=-1).astype(float))
+    assert np.array_equal(as_rgb(grey[..., None], (4, 2)), out)
+    for channels in (2, 3, 32):
+        values = np.arange(4 * channels, dtype=float).reshape(4, 1, channels)
+        assert np.array_equal(as_rgb(values, (4, 1)), values)
