@@ -104,8 +104,14 @@ def realisation_moments(s1: np.ndarray, s2: np.ndarray, rays: np.ndarray
     n = np.asarray(rays, float)[..., None, None]
     with np.errstate(invalid="ignore", divide="ignore"):
         m = np.where(n > 0, s1 / n, np.nan)
-        v = np.maximum(s2 - s1 * m, 0.0) / (n - 1) / n
-    return m, np.where((s2 > 0) & (n >= 2), v, np.nan)
+        # max(s2 − s1 m, 0) / (n − 1) / n, operation by operation, in one array
+        v = np.multiply(s1, m)
+        np.subtract(s2, v, out=v)
+        np.maximum(v, 0.0, out=v)
+        np.divide(v, n - 1, out=v)
+        np.divide(v, n, out=v)
+    v[~((s2 > 0) & (n >= 2))] = np.nan
+    return m, v
 
 
 def inverse_trigamma(x: float) -> float:
