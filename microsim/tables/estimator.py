@@ -459,10 +459,11 @@ class RunningEstimate:
                 continue
             d = kk - 1
             groups = [g for g in sorted(self._sums) if self._sums[g][3][index] > 0]
-            # every group left out at once: (groups, m, c) sums of the others
-            left = [totals[j][index][None] - np.stack([self._sums[g][j][index]
-                                                       for g in groups])
-                    for j in range(3)]
+            # every group left out at once: (groups, m', c) sums of the others, over the
+            # m' bins some column pools (the only ones the jackknife reads)
+            pooled = pool[index].any(axis=1)
+            left = [totals[j][index][pooled][None] - np.stack(
+                [self._sums[g][j][index][pooled] for g in groups]) for j in range(3)]
             rest = np.array([kk - self._sums[g][3][index] for g in groups], float)
             for c in range(var.shape[-1]):
                 s2, u = spread[index][:, c], ray_var[index][:, c]
@@ -471,7 +472,7 @@ class RunningEstimate:
                 if use.sum() < 2:
                     continue
                 rho0, d0 = moderation_prior(s2[use] / u[use], d)
-                t1, t2, tv = (x[:, use, c] for x in left)
+                t1, t2, tv = (x[:, use[pooled], c] for x in left)
                 with np.errstate(invalid="ignore", divide="ignore"):
                     s2_g = _deviations(t1, t2, rest[:, None]) / ((rest - 1) * rest)[:, None]
                     u_g = tv / rest[:, None] ** 2
