@@ -363,3 +363,58 @@ def test_as_rgb_gives_grey_models_three_channels_and_keeps_per_channel_ones():
     for channels in (2, 3, 32):
         values = np.arange(4 * channels, dtype=float).reshape(4, 1, channels)
         assert np.array_equal(as_rgb(values, (4, 1)), values)
+
+
+def test_torrance_sparrow_fresnel_and_shadowing_options():
+    """Each Fresnel option is its function of ⟨ωi, h⟩ (Schlick's F0 + (1 − F0)(1 − c)⁵
+    written out here, grey or RGB; the coated film, the conductor and the dielectric with
+    scalar, RGB or mixed constants: (n,) or (n, 3)); the shadowing options are Smith's correlated
+    and separable G2, the v-groove's and 1 ("none") above the horizon, 0 below; a pair
+    with a direction below the horizon has f_r = 0; other Fresnel kinds and shadowing
+    models are refused with the list of those allowed."""
+    from microsim.analytic.fresnel import fresnel_thin_film
+    from microsim.analytic.shadowing import vgroove_G
+
+    cos = np.array([0.05, 0.3, 0.7, 1.0])
+    ndf = GGX(0.4)
+    rgb = np.array([0.04, 0.5, 0.9])
+    cases = [(("schlick", 0.04), 0.04 + 0.96 * (1 - cos) ** 5),
+             (("schlick", rgb), rgb + (1 - rgb) * (1 - cos[:, None]) ** 5),
+             (("coated", 1.4, 300.0, [450.0, 550.0, 650.0], 1.5, 0.0),
+              fresnel_thin_film(cos[:, None], 1.4, 300.0, [450.0, 550.0, 650.0], 1.5, 0.0)),
+             (("conductor", 0.2, 3.9), fresnel_conductor(cos, 0.2, 3.9)),
+             (("conductor", [0.2, 0.9, 1.1], [3.9, 2.4, 2.1]),
+              fresnel_conductor(cos[:, None], [0.2, 0.9, 1.1], [3.9, 2.4, 2.1])),
+             (("conductor", [0.2, 0.9, 1.1], 3.9),
+              fresnel_conductor(cos[:, None], [0.2, 0.9, 1.1], 3.9)),
+             (("conductor", 0.2, [3.9, 2.4, 2.1]),
+              fresnel_conductor(cos[:, None], 0.2, [3.9, 2.4, 2.1])),
+             (("dielectric", 1.5), fresnel_dielectric(cos, 1.5)),
+             (("dielectric", [1.4, 1.5, 1.6]), fresnel_dielectric(cos[:, None], [1.4, 1.5, 1.6]))]
+    for fresnel, expected in cases:
+        f = TorranceSparrow(ndf, fresnel).F(cos)
+        assert f.shape == np.shape(expected)
+        np.testing.assert_allclose(f, expected, rtol=1e-14)
+    with pytest.raises(ValueError, match=r"^fresnel must be None, \('conductor', eta, k\), "
+                       r"\('dielectric', eta\), \('schlick', f0\) or \('coated', eta_film, "
+                       r"thickness_nm, wavelength_nm, eta, k\)$"):
+        TorranceSparrow(ndf, ("glass", 1.5))
+    with pytest.raises(ValueError, match=r"^shadowing must be one of \('smith-correlated', "
+                                         r"'smith-separable', 'v-groove', 'none'\)$"):
+        TorranceSparrow(ndf, None, "smith")
+
+    rng = np.random.default_rng(12)
+    wi = direction(rng.uniform(0, 1.5, 6), rng.uniform(0, 2 * np.pi, 6))
+    wo = direction(rng.uniform(0, 1.5, 6), rng.uniform(0, 2 * np.pi, 6))
+    wo[4], wi[5] = [0.6, 0.0, -0.8], [0.0, 0.6, -0.8]
+    h = (wi + wo) / np.linalg.norm(wi + wo, axis=-1, keepdims=True)
+    expected = {"smith-correlated": smith_g2(ndf, wi, wo, correlated=True),
+                "smith-separable": smith_g2(ndf, wi, wo, correlated=False),
+                "v-groove": vgroove_G(wi, wo, h),
+                "none": np.array([1.0, 1, 1, 1, 0, 0])}
+    assert not np.allclose(expected["smith-correlated"], expected["smith-separable"])
+    for shadowing, g in expected.items():
+        model = TorranceSparrow(ndf, None, shadowing)
+        np.testing.assert_allclose(model.G(wi, wo, h), g, rtol=1e-14)
+        f = model.eval(wi, wo)
+        assert np.all(f[:4] > 0) and np.all(f[4:] == 0.0)
