@@ -1789,12 +1789,21 @@ def summary(results: list[Result]) -> str:
 
 
 # --- interruption and determinism --------------------------------------------------------------
+def _default_sigint() -> None:
+    """SIGINT at its default action (in a child before it runs the command)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _cli(*argv: str, env: dict[str, str] | None = None, cwd: Path | None = None
          ) -> subprocess.Popen:
-    """``microsim ARGV`` started in a session of its own (so its cluster can be ended)."""
+    """``microsim ARGV`` started in a session of its own (so its cluster can be ended),
+    with SIGINT at its default: a shell's background job starts with SIGINT ignored, an
+    ignored signal stays ignored across exec, and a command that ignores it would pass
+    every SIGINT check by running to its end."""
     return subprocess.Popen([sys.executable, "-m", "microsim.cli", *argv], cwd=cwd,
                             env={**os.environ, **(env or {})}, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, start_new_session=True)
+                            stderr=subprocess.PIPE, start_new_session=True,
+                            preexec_fn=_default_sigint)
 
 
 def _finish(proc: subprocess.Popen, timeout: float = 600) -> tuple[int, str, str]:

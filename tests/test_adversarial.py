@@ -731,3 +731,25 @@ def test_the_campaign_reads_a_file_name_on_stdout_as_a_word_not_a_number(campaig
     bad = campaign.judge(c, 0, f"{path}: noise nan%\n", "", {}, [], False, [path])
     assert ok == ("ok", ""), ok
     assert bad == ("bad output", "stdout holds 'nan'"), bad
+
+
+def test_the_campaigns_sigint_checks_reach_a_command_whose_parent_ignores_sigint(campaign,
+                                                                                tmp_path):
+    """Run as a shell's background job, the campaign's ``--interrupt`` started its
+    commands with SIGINT ignored (inherited across exec), so every SIGINT check saw the
+    command run to its end and held, testing nothing. ``_cli`` gives the command SIGINT at
+    its default: here, with SIGINT ignored in this process, a simulation stopped after
+    1.5 s (well past the imports) ends in ``error: interrupted``, status 130."""
+    import signal
+
+    before = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        proc = campaign._cli("simulate", GAUSSIAN, "--set", "surface.resolution=64", "--rays",
+                             "4000000", "--threads", "1", "-o", str(tmp_path / "t.exr"),
+                             env={"MICROSIM_EFFORT": "1"})
+    finally:
+        signal.signal(signal.SIGINT, before)
+    code, _, err = campaign._stop(proc, signal.SIGINT, 1.5)
+    lines = [line for line in err.splitlines() if not line.startswith("warning:")]
+    assert (code, lines) == (130, ["error: interrupted"]), (code, err[-600:])
+    assert not list(tmp_path.iterdir())
