@@ -418,3 +418,50 @@ def test_torrance_sparrow_fresnel_and_shadowing_options():
         np.testing.assert_allclose(model.G(wi, wo, h), g, rtol=1e-14)
         f = model.eval(wi, wo)
         assert np.all(f[:4] > 0) and np.all(f[4:] == 0.0)
+
+
+def oren_nayar_by_the_paper(wi, wo, sigma, rho, model):
+    """Oren & Nayar 1994 for one pair and one albedo, from ``OrenNayar``'s docstring in
+    scalar arithmetic (the azimuth difference from the two azimuths, no caps)."""
+    ti, to = math.acos(min(wi[2], 1.0)), math.acos(min(wo[2], 1.0))
+    cd = math.cos(math.atan2(wi[1], wi[0]) - math.atan2(wo[1], wo[0]))
+    a, b, s2 = max(ti, to), min(ti, to), sigma**2
+    c1, bc = 1 - 0.5 * s2 / (s2 + 0.33), 0.45 * s2 / (s2 + 0.09)
+    if model == "qualitative":
+        return rho / math.pi * (c1 + bc * max(0.0, cd) * math.sin(a) * math.tan(b))
+    c2 = bc * math.sin(a) if cd >= 0 else bc * (math.sin(a) - (2 * b / math.pi) ** 3)
+    c3 = 0.125 * s2 / (s2 + 0.09) * (4 * a * b / math.pi**2) ** 2
+    f1 = rho / math.pi * (c1 + cd * c2 * math.tan(b) + (1 - abs(cd)) * c3
+                          * math.tan((a + b) / 2))
+    f2 = 0.17 * rho**2 / math.pi * s2 / (s2 + 0.13) * (1 - cd * (2 * b / math.pi) ** 2)
+    return f1 + f2
+
+
+def test_oren_nayar_is_the_papers_formula():
+    """Both models against ``oren_nayar_by_the_paper`` at 40 random pairs (both signs of
+    cos Δφ, up to 85°), RGB and scalar albedos: 1e-10 relative (round-off and the code's
+    cap of tan at π/2 − 1e-12, which no pair here reaches); a pair below the horizon is
+    0, a direction whose z rounds past 1 is the normal's, without a warning. Defaults:
+    albedo 1, the full model; another model is refused with its message."""
+    rng = np.random.default_rng(21)
+    wi = direction(rng.uniform(0, 1.48, 40), rng.uniform(0, 2 * np.pi, 40))
+    wo = direction(rng.uniform(0, 1.48, 40), rng.uniform(0, 2 * np.pi, 40))
+    rgb = np.array([0.2, 0.5, 0.9])
+    for model in ("full", "qualitative"):
+        got = OrenNayar(0.4, rgb, model).eval(wi, wo)
+        grey = OrenNayar(0.4, 0.7, model).eval(wi, wo)
+        assert got.shape == (40, 3) and grey.shape == (40,)
+        for k in range(40):
+            ref = [oren_nayar_by_the_paper(wi[k], wo[k], 0.4, r, model) for r in rgb]
+            np.testing.assert_allclose(got[k], ref, rtol=1e-10)
+            assert grey[k] == pytest.approx(
+                oren_nayar_by_the_paper(wi[k], wo[k], 0.4, 0.7, model), rel=1e-10)
+        on = OrenNayar(0.4, rgb, model)
+        below = on.eval(np.array([[0.6, 0.0, -0.8], wi[0]]), np.array([wo[0], [0, 0.6, -0.8]]))
+        assert np.all(below == 0.0)
+        up, past = np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.0 + 2.0**-52])
+        np.testing.assert_allclose(on.eval(past, wo[0]), on.eval(up, wo[0]), rtol=1e-15)
+        np.testing.assert_allclose(on.eval(wi[0], past), on.eval(wi[0], up), rtol=1e-15)
+    assert np.array_equal(OrenNayar(0.4).eval(wi, wo), OrenNayar(0.4, 1.0, "full").eval(wi, wo))
+    with pytest.raises(ValueError, match=r"^model must be 'full' or 'qualitative'$"):
+        OrenNayar(0.4, 1.0, "simple")
