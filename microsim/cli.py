@@ -11,44 +11,34 @@ from __future__ import annotations
 
 import argparse
 import atexit
+import importlib
 import os
 import sys
 import warnings
 from collections.abc import Sequence
+from types import ModuleType
 from typing import Any
 
-from microsim.commands import (
-    batch,
-    bench,
-    check,
-    compare,
-    demo,
-    export,
-    fit,
-    generate,
-    measure,
-    models,
-    render,
-    sh,
-    simulate,
-    view,
-    wavelets,
-)
-from microsim.commands import eval as eval_table
-from microsim.commands.common import Parser
-from microsim.effort import note, scaled
 from microsim.errors import InputError, InputWarning
-from microsim.memory import flag_limit
 from microsim.version import __version__
 
-COMMANDS = {module.__name__.rsplit(".", 1)[1]: module
-            for module in (check, models, generate, measure, view, simulate, compare, fit, sh,
-                           export, render, bench, batch, demo, wavelets, eval_table)}
-"""The command modules by name, in the order ``--help`` lists them."""
+NAMES = ("check", "models", "generate", "measure", "view", "simulate", "compare", "fit", "sh",
+         "export", "render", "bench", "batch", "demo", "wavelets", "eval")
+"""The commands, in the order ``--help`` lists them: each the module
+``microsim.commands.<name>``."""
+
+
+def commands() -> dict[str, ModuleType]:
+    """The command modules by name (``NAMES``), imported on the first call: ``main`` imports
+    them inside its guard, so a Ctrl-C while they load is the one line of any other, and
+    importing this module loads nothing heavy (numpy among them)."""
+    return {name: importlib.import_module(f"microsim.commands.{name}") for name in NAMES}
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``microsim`` parser with every command registered."""
+    from microsim.commands.common import Parser
+
     parser = Parser(
         prog="microsim",
         description="Microgeometry simulator: builds explicit microsurfaces, ray traces them "
@@ -57,7 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"microsim {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
-    for command in COMMANDS.values():
+    for command in commands().values():
         command.register(sub)
     return parser
 
@@ -101,8 +91,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             parser = build_parser()
             args = parser.parse_args(argv)
             if args.command is None:
-                raise InputError("a command is required, one of: " + ", ".join(COMMANDS)
+                raise InputError("a command is required, one of: " + ", ".join(NAMES)
                                  + " (microsim --help describes them)")
+            from microsim.effort import note, scaled
+            from microsim.memory import flag_limit
+
             quick = note()
             if quick is not None:
                 print(f"warning: {quick}", file=sys.stderr)
