@@ -465,3 +465,59 @@ def test_oren_nayar_is_the_papers_formula():
     assert np.array_equal(OrenNayar(0.4).eval(wi, wo), OrenNayar(0.4, 1.0, "full").eval(wi, wo))
     with pytest.raises(ValueError, match=r"^model must be 'full' or 'qualitative'$"):
         OrenNayar(0.4, 1.0, "simple")
+
+
+def test_blinn_phong_lambertian_and_lafortune_are_their_formulas():
+    """Blinn-Phong (n + 2)/(8π) cos^n θh with h the normalised ωi + ωo, a fractional n;
+    Lambertian ρ/π, grey or RGB; Lafortune Σ_k max(Cx ωi_x ωo_x + Cy ωi_y ωo_y + Cz ωi_z
+    ωo_z, 0)^{n_k} over two lobes, for pairs in a (2, 4) array and one pair: 1e-12
+    relative at random pairs; each is exactly 0 for a direction on (z = 0) or below the
+    horizon, also for ωo = −ωi, without a warning (RuntimeWarnings are errors here)."""
+    rng = np.random.default_rng(17)
+    wi = direction(rng.uniform(0, 1.5, 8), rng.uniform(0, 2 * np.pi, 8))
+    wo = direction(rng.uniform(0, 1.5, 8), rng.uniform(0, 2 * np.pi, 8))
+    off_i = np.array([[1.0, 0.0, 0.0], wi[0], [0.6, 0.0, 0.8], [0.6, 0.0, -0.8]])
+    off_o = np.array([wo[0], [0.0, 1.0, 0.0], [-0.6, 0.0, -0.8], [0.0, 0.6, -0.5]])
+    off_o[3] /= np.linalg.norm(off_o[3])
+    h = (wi + wo) / np.linalg.norm(wi + wo, axis=1, keepdims=True)
+    blinn = BlinnPhong(12.5)
+    np.testing.assert_allclose(blinn.eval(wi, wo), 14.5 / (8 * math.pi) * h[:, 2] ** 12.5,
+                               rtol=1e-12)
+    assert np.all(blinn.eval(off_i, off_o) == 0.0)
+    for albedo in (0.5, np.array([0.2, 0.5, 0.9])):
+        lam = Lambertian(albedo)
+        np.testing.assert_allclose(lam.eval(wi, wo), np.broadcast_to(
+            np.asarray(albedo) / math.pi, lam.eval(wi, wo).shape), rtol=1e-15)
+        assert np.all(lam.eval(off_i, off_o) == 0.0)
+    lobes = np.array([[-1.0, -1.0, 1.0, 10.0], [0.5, 0.5, 0.8, 3.0]])
+    laf = Lafortune(lobes)
+    d = wi[:, None, :] * wo[:, None, :] * lobes[None, :, :3]
+    expected = (np.maximum(d.sum(axis=2), 0.0) ** lobes[:, 3]).sum(axis=1)
+    got = laf.eval(wi.reshape(2, 4, 3), wo.reshape(2, 4, 3))
+    assert got.shape == (2, 4)
+    np.testing.assert_allclose(got.ravel(), expected, rtol=1e-12)
+    assert laf.eval(wi[3], wo[3]) == pytest.approx(expected[3], rel=1e-12)
+    assert np.all(laf.eval(off_i, off_o) == 0.0)
+
+
+def test_kay_kajiya_layer_brdf_is_its_formula():
+    """With ``coverage`` c: f_r = c L sin(t, ωo) / (cos θi cos θo), L = kd sin(t, ωi) +
+    ks max(cos θi cos θo + sin θi sin θo, 0)^n (θi from t to −ωi, θo from t to ωo, the sines
+    as |t × ω|), for a tangent given unnormalised; without it, L itself; 0 for a direction
+    below the horizon: 1e-12 relative at random pairs."""
+    rng = np.random.default_rng(19)
+    wi = direction(rng.uniform(0, 1.5, 10), rng.uniform(0, 2 * np.pi, 10))
+    wo = direction(rng.uniform(0, 1.5, 10), rng.uniform(0, 2 * np.pi, 10))
+    wo[9] = [0.6, 0.0, -0.8]
+    t = np.array([2.0, 0.0, 0.5]) / math.hypot(2.0, 0.5)
+    s_i, s_o = np.linalg.norm(np.cross(t, wi), axis=1), np.linalg.norm(np.cross(t, wo), axis=1)
+    spec = 0.8 * np.maximum(-(wi @ t) * (wo @ t) + s_i * s_o, 0.0) ** 20
+    light = 0.3 * s_i + spec
+    assert spec.min() < 0.4 and spec.max() > 0.0
+    shading = KayKajiya([2.0, 0.0, 0.5], 0.3, 0.8, 20.0)
+    np.testing.assert_allclose(shading.specular(wi, wo), spec, rtol=1e-12, atol=1e-300)
+    np.testing.assert_allclose(shading.eval(wi, wo)[:9], light[:9], rtol=1e-12)
+    layer = KayKajiya([2.0, 0.0, 0.5], 0.3, 0.8, 20.0, coverage=0.6)
+    np.testing.assert_allclose(layer.eval(wi, wo)[:9], (0.6 * light * s_o / (
+        wi[:, 2] * wo[:, 2]))[:9], rtol=1e-12)
+    assert shading.eval(wi, wo)[9] == 0.0 and layer.eval(wi, wo)[9] == 0.0
