@@ -580,3 +580,25 @@ def test_microcylinder_cloth_is_the_papers_formula():
                                               flat, masking) for a, b in zip(wi, wo, strict=True)])
         np.testing.assert_allclose(got, expect, rtol=1e-10, atol=1e-300)
         assert np.all(got[[*range(13), 14, 15, 16]] == 0) and np.all(expect[18:] > 0)
+
+
+def test_one_cylinder_over_a_lit_base_is_the_bases_lambertian_limit():
+    """Spacing ∞ (one cylinder, of no area share) is the limit of wide spacings: the base
+    covers the whole surface, f_r = ρ_b/π, and a spacing of 10⁸ radii agrees with it to
+    within the share its cylinder covers: at most its footprint 2r and its shadow and
+    hidden strip 2r / sin α along each direction (α its elevation in the x-z plane)."""
+    rng = np.random.default_rng(5)
+    wi, wo = (d / np.linalg.norm(d, axis=1, keepdims=True)
+              for d in (rng.normal(size=(200, 3)) * [1, 1, 0.5] + [0, 0, 1.2]
+                        for _ in range(2)))
+    base = [0.2, 0.5, 0.8]
+    mirror = {"kind": "mirror"}  # its reflection is ``singular``'s: eval is the base's alone
+    one = CylinderArray(0.5, math.inf, 0.3, mirror, base).eval(wi, wo)
+    above = (wi[:, 2] > 0) & (wo[:, 2] > 0)
+    np.testing.assert_array_equal(one[above], np.broadcast_to(np.array(base) / math.pi,
+                                                              (above.sum(), 3)))
+    spacing = 0.5e8
+    wide = CylinderArray(0.5, spacing, 0.3, mirror, base).eval(wi, wo)
+    strips = sum(1.0 / (d[:, 2] / np.hypot(d[:, 0], d[:, 2])) for d in (wi, wo))
+    bound = (1.0 + strips[above]) / spacing  # r = 0.5: 2r = 1
+    assert np.all(np.abs(wide[above] - one[above]) <= bound[:, None] * one[above])

@@ -217,8 +217,10 @@ class CylinderArray:
             cos_l = np.hypot(wi[:, 0], wi[:, 2]) * np.hypot(wo[:, 0], wo[:, 2])
             scale = self.r / (math.pi * self.s) * cos_l * integral / (ci * co)
             f += scale[:, None] * np.asarray(self.facet["albedo"], float)
-        if np.any(self.base_albedo > 0) and math.isfinite(self.s):
-            f += self._base_share(wi, wo, above)[:, None] * self.base_albedo / math.pi
+        if np.any(self.base_albedo > 0):
+            # one cylinder (spacing ∞) covers none of the base: the limit of the share, 1
+            share = self._base_share(wi, wo, above) if math.isfinite(self.s) else 1.0
+            f += np.multiply.outer(share, self.base_albedo / math.pi)
         f[~above] = 0.0
         return f.reshape(*shape, 3)
 
