@@ -400,13 +400,13 @@ class Measurement:
         folded = 0 if self.ensemble is None else int(self.ensemble.rays.sum())
         return folded + sum(run.sums.rays for run in self.runs.values())
 
-    def fold(self, key: RunKey, sums: Sums, simulation: Simulation,
-             table: TableSettings) -> None:
-        """Add the sums of run ``key``, no longer one of ``runs``, to the running sums
-        (realisations of a direction in index order)."""
+    def fold(self, key: RunKey, simulation: Simulation, table: TableSettings) -> None:
+        """Move run ``key`` into the running sums (realisations of a direction in index
+        order)."""
         if self.ensemble is None:
             self.ensemble = new_ensemble(simulation, table, self.isotropic)
-        fold(self.ensemble, self.energies.setdefault(key[:2], Energies()), key, sums)
+        fold(self.ensemble, self.energies.setdefault(key[:2], Energies()), key,
+             self.runs.pop(key).sums)
 
 
 def fold(ensemble: EnsembleSums, energies: Energies, key: RunKey, sums: Sums) -> None:

@@ -174,9 +174,6 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
     return done
 
 
-FOLDS_AHEAD = 16
-"""Runs of realisations handed to the fold thread and not yet folded, at most: the tracing
-thread waits for the oldest beyond them (their sums are held until folded)."""
 TILE_SEGMENTS_PER_FACE = 0.34
 """The cost of opening a realisation (its tile's generation and facts, its scene's refit)
 per face of the tile, in Embree segments traced: 8.6 ms for the 131,072 faces of the
@@ -299,10 +296,7 @@ def _trace_round(held: tuple[int, Tile, PeriodicScene] | None, opener: Opener,
     """Trace one round: realisations ``order`` with their ``work``, through one pipeline
     (``trace_realisations``), each realisation opened when its batches are first needed
     and the one after it prepared at once; each realisation's runs folded (``fold``) and
-    its scene handed back when its last batch has been added. The folds run on a thread
-    of their own, one after the other in the order the realisations end (the sums are
-    those of folding them here), so that this thread goes on queueing batches; the round
-    ends when they have. The scenes in use are those
+    its scene handed back when its last batch has been added. The scenes in use are those
     of the realisations with batches under way (one or two; up to ``DEPTH`` when
     realisations have fewer batches than the pipeline holds) and the one prepared.
     ``batches`` counts the measurement's batches done and planned (its two entries grow:
@@ -330,21 +324,14 @@ def _trace_round(held: tuple[int, Tile, PeriodicScene] | None, opener: Opener,
                 opener.ahead(pending[0])
             yield Part(r, opened[r][2], work[r])
 
-    folding = ThreadPoolExecutor(1, thread_name_prefix="microsim-fold") if fold else None
-    folds: deque[Future[None]] = deque()
-
     def ended(part: Part, segments: int, inputs: list[TableInput]) -> None:
         r = part.realisation
         done.segments += segments
         done.inputs = inputs
         for d, n in work[r].items():
-            if folding is not None:
+            if fold:
                 traced[d].append(n)
-                key = RunKey(*d, r)
-                folds.append(folding.submit(done.fold, key, done.runs.pop(key).sums,
-                                            simulation, table))
-                while len(folds) > FOLDS_AHEAD:
-                    folds.popleft().result()
+                done.fold(RunKey(*d, r), simulation, table)
             elif len(traced[d]) <= r:
                 traced[d].append(n)
             else:
@@ -370,11 +357,6 @@ def _trace_round(held: tuple[int, Tile, PeriodicScene] | None, opener: Opener,
         for _, _, scene in opened.values():
             scene.close()
         raise
-    finally:
-        if folding is not None:
-            folding.shutdown()  # the folds still queued end first
-    for pending_fold in folds:
-        pending_fold.result()  # a fold's error, once the tracing ended without one
     done.trace_time += time.perf_counter() - start
     return keep
 
