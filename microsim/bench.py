@@ -287,9 +287,10 @@ def vcavity_reference(slope: float, theta: np.ndarray) -> np.ndarray:
 
 
 def sweep(quick: bool, seed: int = 1, threads: int = 2,
-          log: Callable[[str], None] = print) -> list[dict[str, Any]]:
+          progress: Callable[[int, int], None] | None = None) -> list[dict[str, Any]]:
     """Run every case over the sweep; each row also times bare Embree on its tile
-    (``surface_rays``, median of 3).
+    (``surface_rays``, median of 3). ``progress(done, total)``, where given, is called
+    as each tile resolution, the V-grooves and the bare-Embree timings end.
 
     Quick: rays 10³…10⁵ per direction (5 points), tile resolutions 64, 128, 256 (2, 4, 8
     cells per correlation length), tables of 8 and 16 θo bins. Full: rays 10⁴…10⁶, tile
@@ -302,7 +303,8 @@ def sweep(quick: bool, seed: int = 1, threads: int = 2,
     resolutions = [64, 128, 256] if quick else [64, 128, 256, 512]
     table_bins = [8, 16] if quick else [16, 32]
     rows = []
-    for res in resolutions:
+    steps = len(resolutions) + 2
+    for step, res in enumerate(resolutions, 1):
         for bins in table_bins:
             for n in rays if bins == table_bins[0] else rays[-1:]:
                 rows.append(run_tables("ts", gaussian(0.3, res, seed), "mirror",
@@ -323,12 +325,15 @@ def sweep(quick: bool, seed: int = 1, threads: int = 2,
             rows += [run_tables("ms", surface, "mirror", [0.0, 45.0, 75.0], n,
                                 table_bins[0], 32, seed, lambda t, m=model: score_ms(t, m))
                      for n in rays]
-        log(f"resolution {res} done")
+        if progress is not None:
+            progress(step, steps)
     vg = build_tile(resolve({"surface": {"kind": "vgroove", "slope": 45.0,
                                          "grooves": 16}}).surface)
     vg_theta = [30.0, 60.0, 80.0]
     reference = vcavity_reference(math.radians(45.0), np.radians(vg_theta))
     rows += [g1_rows("vgroove", vg, 0, vg_theta, n, reference, seed) for n in rays]
+    if progress is not None:
+        progress(steps - 1, steps)
     for row in rows:
         tile = row.pop("tile")
         with PeriodicScene(tile, threads=1) as scene:
@@ -338,6 +343,8 @@ def sweep(quick: bool, seed: int = 1, threads: int = 2,
             bare_rays_per_second(bare, o, d, threads) for _ in range(3))
         row["ratio"] = row["segments_per_s"] / row["bare_rays_per_s"]
         row["cells_per_correlation"] = row["tile_resolution"] / LENGTHS
+    if progress is not None:
+        progress(steps, steps)
     return rows
 
 

@@ -4,6 +4,9 @@ which an adaptive stop raises as it plans more."""
 from __future__ import annotations
 
 import math
+import os
+import subprocess
+import sys
 
 from microsim import load_recipe, simulate
 from microsim.commands.simulate import progress_bar
@@ -59,3 +62,33 @@ def test_compare_reports_every_incidence():
     seen = []
     compare_table(table, model, "total", lambda done, total: seen.append((done, total)))
     assert seen == [(1, 3), (2, 3), (3, 3)]
+
+
+def test_step_progress_shows_only_on_a_terminal_without_json(monkeypatch, capsys):
+    """``progress_steps`` gives a callback on a terminal, and None for a pipe or with
+    ``--json`` (whose stdout is read by programs), so a log gets no progress lines."""
+    from microsim.commands.common import progress_steps
+
+    for tty, json_output, shown in ((False, False, False), (True, True, False),
+                                    (True, False, True)):
+        monkeypatch.setattr("sys.stderr.isatty", lambda tty=tty: tty)
+        with progress_steps("steps", json_output) as show:
+            assert (show is not None) == shown
+            if show is not None:
+                show(1, 2)
+                show(2, 2)
+    assert "steps" in capsys.readouterr().err
+
+
+def test_bench_prints_no_progress_into_a_pipe(tmp_path):
+    """``microsim bench --quick`` into pipes, at a hundredth of the work: nothing on stderr
+    but the ``warning:`` line of the reduced effort (it printed "resolution N done" lines,
+    which a log or a script reading stderr takes for warnings or errors), the summary on
+    stdout."""
+    env = {**os.environ, "MICROSIM_EFFORT": "0.01"}
+    run = subprocess.run([sys.executable, "-m", "microsim.cli", "bench", "--quick", "--out",
+                          str(tmp_path)], capture_output=True, text=True, env=env,
+                         timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert [line for line in run.stderr.splitlines() if not line.startswith("warning:")] == []
+    assert "wrote" in run.stdout and (tmp_path / "bench.csv").is_file()

@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import sys
 import time
 from pathlib import Path
 from typing import Any
 
-from microsim.commands.common import add_json_arg, add_seed_arg, print_json
+from microsim.commands.common import add_json_arg, add_seed_arg, print_json, progress_steps
 from microsim.files import replaceable, writable_folder
 
 
@@ -53,8 +52,8 @@ def run(args: argparse.Namespace) -> int:
     for name in (CSV, *PLOTS):
         replaceable(args.out / name, "--out")
     start = time.perf_counter()
-    log = (lambda text: None) if args.json else (lambda text: print(text, file=sys.stderr))
-    rows = sweep(args.quick, seed=1 if args.seed is None else args.seed, log=log)
+    with progress_steps("bench: tile resolutions", args.json) as show:
+        rows = sweep(args.quick, seed=1 if args.seed is None else args.seed, progress=show)
     write_csv(rows, args.out / CSV)
     plots = plot(rows, args.out)
     result = {**summary(rows, time.perf_counter() - start),

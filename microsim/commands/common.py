@@ -8,9 +8,12 @@ gives its unit (angles in degrees). Imports nothing heavy: ``microsim --help`` l
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import re
+import sys
+from collections.abc import Callable, Iterator
 from typing import Any, NoReturn
 
 from microsim.errors import InputError
@@ -362,3 +365,16 @@ def progress_display() -> Any:
     return Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
                     TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
                     console=Console(stderr=True))
+
+
+@contextlib.contextmanager
+def progress_steps(label: str, json_output: bool) -> Iterator[Callable[[int, int], None] | None]:
+    """One bar labelled ``label`` on a terminal (``progress_display``) and its callback
+    ``show(done, total)``; None when stderr is not a terminal or the command prints JSON,
+    so that pipes and logs get no progress lines."""
+    if json_output or not sys.stderr.isatty():
+        yield None
+        return
+    with progress_display() as bar:
+        task = bar.add_task(label, total=None)
+        yield lambda done, total: bar.update(task, completed=done, total=total)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -18,7 +17,7 @@ from microsim.commands.common import (
     error_model_note,
     number_text,
     print_json,
-    progress_display,
+    progress_steps,
     readable,
     table_component,
 )
@@ -197,15 +196,7 @@ def run(args: argparse.Namespace) -> int:
         writable_folder(args.out, "--out")
         for file in (*PLOTS.values(), REPORT):
             replaceable(args.out / file, "--out")
-    with (progress_display() if sys.stderr.isatty() and not args.json
-          else contextlib.nullcontext()) as bar:
-        show = None
-        if bar is not None:
-            task = bar.add_task(f"{name}: bin averages per incidence", total=None)
-
-            def show(done: int, total: int) -> None:
-                bar.update(task, completed=done, total=total)
-
+    with progress_steps(f"{name}: bin averages per incidence", args.json) as show:
         compared = compare_table(table, model, args.component, show)
     check = agreement(compared)
     result = {"model": name, "params": params, "param_sources": sources,
