@@ -34,7 +34,8 @@ output path, a previous output untouched, temporary files removed by the next ru
 one ``error: interrupted`` line with status 130), a resumed batch byte-identical to an
 uninterrupted one, and a few recipes identical with ``--threads 1`` and 2.
 
-``--write`` puts the inputs' summary in docs/testing.md (a marked section). Run it under
+``--write`` puts the inputs' summary, or with ``--interrupt`` its checks, in docs/testing.md
+(a marked section each). Run it under
 ``nice -n 19``: with ``--jobs 1`` (the default) one case runs at a time.
 """
 
@@ -1841,6 +1842,15 @@ def _same_table(a: Path, b: Path) -> bool:
     return same and ta.components == tb.components
 
 
+STARTUP_SIGINT = (0.1, 0.25, 0.5)
+"""Seconds after ``simulate`` starts at which a SIGINT lands in its start-up: the command
+line's guard is in place once ``microsim.cli`` is imported, 20 ms after the interpreter's
+own start-up (on this machine a SIGINT at 0.03 s fell within that, at 0.06 s after it),
+before the commands' imports and numba's load of its cached code, which take the first
+0.7 s of a run. A SIGINT within the interpreter's own start-up, before any of microsim
+runs, ends in Python's KeyboardInterrupt traceback."""
+
+
 def interrupt_checks(work: Path) -> list[tuple[str, bool, str]]:
     """Kill and interrupt ``simulate`` and ``batch`` at several moments, resume batches,
     compare threads: (check, held, what was seen)."""
@@ -1882,6 +1892,17 @@ def interrupt_checks(work: Path) -> list[tuple[str, bool, str]]:
                            f"{_temporaries(folder) or 'none'}"))
     for name in _temporaries(folder):
         checks.append(("temporary removed by the next run", False, name))
+    for after in STARTUP_SIGINT:
+        target = folder / f"startup-{after:g}.exr"
+        shutil.copy(earlier, target)
+        original = target.read_bytes()
+        code, _, err = _stop(_cli(*sim, "-o", str(target), env=full), signal.SIGINT, after)
+        lines = [line for line in err.splitlines() if not line.startswith("warning:")]
+        checks.append((f"simulate SIGINT {after:g} s after its start (imports, numba's load): "
+                       "one error line, the earlier table untouched",
+                       code == 130 and lines == ["error: interrupted"]
+                       and target.read_bytes() == original,
+                       f"exit {code}, stderr {lines[-1][:60] if lines else 'empty'}"))
     sweep = folder / "sweep.toml"
     sweep.write_text(SMALL_BASE.replace("rays = 2000", "rays = 40000") + "\n[sweep]\n"
                      '"surface.alpha" = [0.2, 0.3, 0.4, 0.5]\n"surface.seed" = [1, 2]\n',
@@ -1963,9 +1984,13 @@ def main() -> None:
     load_before = os.getloadavg()[0]
     args.work.mkdir(parents=True, exist_ok=True)
     if args.interrupt:
+        text = interrupt_text(interrupt_checks(args.work))
+        print(text)
         if args.write:
-            parser.error("--interrupt prints its checks; --write is the inputs' summary")
-        print(interrupt_text(interrupt_checks(args.work)))
+            write_section(DOC, "adversarial-interrupt", "\n".join([
+                "### Interruption and determinism", "",
+                measured_line(["--interrupt", "--write"], load_before), "", text]),
+                heading="## Adversarial inputs")
         return
     fx = fixtures(args.work)
     cases = all_cases(fx)
