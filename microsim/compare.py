@@ -199,8 +199,7 @@ def bin_estimate(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
     if random_part is None:
         mean = bin_average(model, wi, theta_edges, phi_edges, phi_i, n)
         return mean, np.zeros_like(mean)
-    mean, err = (as_rgb(x[..., 0] if x.shape[-1] == 1 else x, shape)
-                 for x in random_part(wi, theta_edges, phi_edges, phi_i))
+    mean, err = (as_rgb(x, shape) for x in random_part(wi, theta_edges, phi_edges, phi_i))
     if model.exact is not None:
         mean = mean + bin_average(model.exact, wi, theta_edges, phi_edges, phi_i, n)
     return mean, err

@@ -172,8 +172,13 @@ def test_check_model_channels_refuses_what_rgb_only_models_cannot_compute():
         assert str(e.value) == (f"--reference {four}: the cylinders model computes R, G and "
                                 "B only; albedo must be one number or three (R, G, B)")
     for fine in ("cylinders:albedo=[0.1,0.2,0.3]", "cylinders:albedo=0.5",
-                 "cylinders:albedo=abc", "lambertian:albedo=[0.1,0.2,0.3,0.4]"):
+                 "cylinders:albedo=abc", 'cylinders:albedo=["a","b","c","d"]',
+                 "lambertian:albedo=[0.1,0.2,0.3,0.4]"):
         assert check_model_channels(fine, None, None) is None
+    with pytest.raises(InputError, match="^model cylinders: 'albedo' must be key=value$"):
+        check_model_channels("cylinders:albedo", None, None)
+    with pytest.raises(InputError, match=r"; albedo, base_albedo must be one number or three"):
+        check_model_channels(four + ",base_albedo=[0,0]", None, None)
     defaults = ModelDefaults()
     defaults.put("albedo", [0.1, 0.2, 0.3, 0.4], "the table")
     defaults.put("base_albedo", [0.5] * 4, "the table")
@@ -190,6 +195,8 @@ def test_check_model_channels_refuses_what_rgb_only_models_cannot_compute():
     defaults.for_model["velvet-sparse"] = {"base_albedo": 0.0}
     with pytest.raises(InputError, match=r"and base_albedo differ .* cylinders:base_albedo="):
         check_model_channels("cylinders", defaults, spectral)
+    with pytest.raises(InputError, match=r"and albedo, base_albedo differ .* cylinders:albedo="):
+        check_model_channels("cylinders:albedo=[0.1,0.2,0.3,0.2]", defaults, spectral)
     with pytest.raises(InputError, match="albedo must be one number or three"):
         check_model_channels("cylinders", defaults, Channels())
 
@@ -238,8 +245,9 @@ def test_bin_average_adds_the_singular_part_and_its_defaults():
 def test_bin_average_at_the_horizon_is_exact_for_a_lobe_growing_as_one_over_cos():
     """f = 1/cos θo (fibre layers seen edge-on): its projected-solid-angle average over
     θo in [θ1, θ2] is ∫ s ds/s / ∫ s ds = 2/(cos θ1 + cos θ2). The bin at the horizon
-    (Gauss-Legendre in cos θo) is exact to rounding; a last bin ending at 80° is not at the
-    horizon and takes midpoints in sin²θo, within 1% (measured 0.41%; the bins
+    (Gauss-Legendre in cos θo) is exact to rounding, and one ending 1e-9 rad short of it
+    counts as at the horizon (exact to 1e-8: 2/(cos θ1 + 1e-9)); a last bin ending at 80°
+    is not at the horizon and takes midpoints in sin²θo, within 1% (measured 0.41%; the bins
     below, 0.07% and less, within 0.3%)."""
 
     class Edgewise:
@@ -247,11 +255,13 @@ def test_bin_average_at_the_horizon_is_exact_for_a_lobe_growing_as_one_over_cos(
             return 1.0 / wo[..., 2]
 
     wi, pe = direction(0.3, 0.0), np.linspace(0, 2 * np.pi, 4)
-    for top in (90.0, 80.0):
+    for top in (90.0, 80.0, 90.0 - np.degrees(1e-9)):
         te = np.radians([0.0, 30.0, 60.0, top])
+        if top > 89:
+            te[-1] = np.pi / 2 if top == 90.0 else np.pi / 2 - 1e-9
         avg = bin_average(Edgewise(), wi, te, pe)
         exact = 2 / (np.cos(te[:-1]) + np.cos(te[1:]))
-        np.testing.assert_allclose(avg[-1], exact[-1], rtol=1e-12 if top == 90 else 1e-2)
+        np.testing.assert_allclose(avg[-1], exact[-1], rtol=1e-8 if top > 89 else 1e-2)
         np.testing.assert_allclose(avg[:-1], exact[:-1, None, None] + 0 * avg[:-1],
                                    rtol=3e-3)
         if top == 80.0:
@@ -323,6 +333,12 @@ def test_bin_estimate_adds_the_exact_part_and_carries_the_random_errors():
     defaults, explicit = (bin_estimate(Walker(Lobe(), 3), wi, te, pe, *args)
                           for args in ((), (0.0, 8)))
     assert np.array_equal(defaults[0], explicit[0])
+    one = np.array([0.0, 2 * np.pi])                       # one φ bin: (nt, 1, C) parts
+    for channels in (1, 3):
+        mean, err = bin_estimate(Walker(None, channels), wi, te, one, 0.4)
+        rand, rand_err = Walker(None, channels).random_bin_average(wi, te, one, 0.4)
+        assert np.array_equal(mean, np.broadcast_to(rand, (3, 1, 3)))
+        assert np.array_equal(err, np.broadcast_to(rand_err, (3, 1, 3)))
 
 
 def test_lobe_residuals_welch_satterthwaite_and_the_bins_kept():
