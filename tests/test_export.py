@@ -87,7 +87,7 @@ def test_merl_against_table_eval(cli, table_path, tmp_path):
 def test_rgl_round_trip_through_mitsuba(cli, table_path, tmp_path):
     """Mitsuba 3's `measured` plugin loads the file; its eval (which includes cos θo)
     matches read_table().eval · cos θo within 5% at 50 random direction pairs in the lobe
-    (f_r cos θo ≥ 10% of its value in the mirror direction), the issue's bound; the two interpolate different
+    (f_r cos θo ≥ 10% of its value in the mirror direction); the two interpolate different
     grids (bins in (sin²θo, φo) here, a 64² half-vector grid there)."""
     pytest.importorskip("mitsuba")
     out = tmp_path / "t.bsdf"

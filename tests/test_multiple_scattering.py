@@ -5,7 +5,7 @@ the next-event estimates, and the single-scattering albedos in docs/conventions.
 
 Thresholds: a z-score |z| < Z_MAX = 3.5 per check (a fixed seed; each check has a 1 in
 2000 chance of failing under the null hypothesis, and there are fewer than 60 of them, so
-the whole file has a few per cent), except the furnace's ±3σ, which the issue fixes.
+the whole file has a few per cent), except the white furnace's ±3σ (its docstring says why).
 """
 
 from __future__ import annotations
