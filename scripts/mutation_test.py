@@ -37,6 +37,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 QUIET = Path("/work/QUIET")
 
+MATERIAL_TESTS = ["tests/test_recipe.py", "tests/test_model_parameters.py",
+                  "tests/test_dielectric.py", "tests/test_thin_film.py",
+                  "tests/test_spectra.py", "tests/test_black.py"]
+"""The fast tests of the materials' records (parsing, parameters, Fresnel records, model
+defaults); their scattering is kernel language, which mutmut does not mutate."""
+
 MODULES: dict[str, list[str]] = {
     "microsim/tables/interpolation.py": ["tests/test_tables_table.py"],
     "microsim/tables/components.py": ["tests/test_orders.py::test_component_names",
@@ -75,6 +81,9 @@ MODULES: dict[str, list[str]] = {
         "tests/test_tables_table.py"],
     "microsim/tables/sh.py": ["tests/test_sh.py"],
     "microsim/materials/optics.py": ["tests/test_dielectric.py"],
+    **{f"microsim/materials/{name}.py": MATERIAL_TESTS
+       for name in ("__init__", "base", "black", "coating", "conductor", "dielectric",
+                    "lambertian", "mirror")},
 }
 """Each module of the run and the fast tests that cover it (pytest node ids)."""
 
