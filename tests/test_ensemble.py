@@ -153,6 +153,83 @@ def test_running_sums_give_the_two_pass_estimates_and_the_group_jackknife() -> N
     assert np.array_equal(got.realisations, [70, 70, 50])
 
 
+def test_estimate_of_sums_is_the_documented_formulas_and_sums_merge() -> None:
+    """``estimate`` of each realisation's Σx, Σx² and rays against the module's formulas
+    written out: m_r = Σx / n_r, v_r = (Σx² − n_r m_r²) / (n_r (n_r − 1)), μ̂ the mean of
+    the m_r present, s² = Σ (m_r − μ̂)² / (K (K − 1)) floored at u = Σ v_r / K² (a bin whose
+    realisations tie exactly reports √u), K − 1 degrees of freedom; one realisation: √v and
+    its rays − 1; a bin no ray reached (Σx² = 0): NaN. 5 realisations, 3 directions (all
+    present, only one, two absent), 4 bins, 2 channels, to 1e-12 relative. The same sums
+    fed to ``RunningEstimate`` per direction into two sets, one absorbing the other, and
+    rows taken from it, give the same estimates, and the moderated ``estimate`` equals
+    ``RunningEstimate`` with ``GROUPS`` groups."""
+    from microsim.tables.estimator import (
+        GROUPS,
+        RunningEstimate,
+        estimate,
+        realisation_moments,
+    )
+
+    rng = np.random.default_rng(11)
+    k, dirs, bins, ch = 5, 3, 4, 2
+    rays = np.array([[8, 0, 6], [8, 0, 0], [8, 7, 9], [8, 0, 0], [8, 0, 5]])
+    s1 = np.zeros((k, dirs, bins, ch))
+    s2 = np.zeros((k, dirs, bins, ch))
+    for r, d in zip(*np.nonzero(rays), strict=True):
+        x = rng.exponential(1.0, (rays[r, d], bins, ch)) * (rng.random((rays[r, d], 1, 1))
+                                                            < 0.6)
+        x[:, 3] = 0.0
+        x[:2, 3] = 0.5                      # bin 3: two hits of 0.5 in every realisation
+        x[:, 2, 1] = 0.0                    # bin 2, channel 1: no ray reached it
+        s1[r, d], s2[r, d] = x.sum(axis=0), (x * x).sum(axis=0)
+    got = estimate(s1, s2, rays)
+    for d in range(dirs):
+        here = rays[:, d] > 0
+        n = rays[here, d][:, None, None].astype(float)
+        m = s1[here, d] / n
+        v = (s2[here, d] - n * m * m) / (n * (n - 1))
+        kk = int(here.sum())
+        u = v.sum(axis=0) / kk**2
+        if kk == 1:
+            var, dof = v[0], rays[here, d].sum() - 1
+        else:
+            var = np.maximum(((m - m.mean(axis=0)) ** 2).sum(axis=0) / (kk * (kk - 1)), u)
+            dof = kk - 1
+        var[2, 1] = np.nan
+        assert np.allclose(got.mean[d], m.mean(axis=0), rtol=1e-12, atol=0)
+        assert np.allclose(got.stderr[d] ** 2, var, rtol=1e-12, atol=0, equal_nan=True)
+        assert np.isnan(got.ray_stderr[d, 2, 1])
+        assert np.allclose(got.ray_stderr[d, :2] ** 2, u[:2], rtol=1e-12, atol=0)
+        assert np.all(got.dof[d] == dof) and got.realisations[d] == kk
+    assert np.isclose(got.stderr[0, 3, 0] ** 2, got.ray_stderr[0, 3, 0] ** 2, rtol=1e-12)
+    assert np.all(np.isnan(got.inflation))
+
+    m, v = realisation_moments(s1, s2, rays)
+    one, other = RunningEstimate((dirs, bins, ch)), RunningEstimate((dirs, bins, ch))
+    for r in range(k):
+        one.add(r, m[r, 0], v[r, 0], rays[r, 0], at=(0,))
+        for d in (1, 2):
+            other.add(r, m[r, d], v[r, d], rays[r, d], at=(d,))
+    one.absorb(other)
+    for merged, rows in ((one.estimate(), [0, 1, 2]), (one.take([2, 0]).estimate(), [2, 0])):
+        for field in ("mean", "stderr", "ray_stderr", "dof"):
+            assert np.allclose(getattr(merged, field), getattr(got, field)[rows], rtol=1e-12,
+                               atol=0, equal_nan=True), field
+        assert np.array_equal(merged.realisations, got.realisations[rows])
+
+    pool = np.ones((dirs, bins, ch), bool)
+    pool[:, 2] = False
+    moderated = estimate(s1, s2, rays, pool)
+    running = RunningEstimate((dirs, bins, ch), GROUPS)
+    for r in range(k):
+        running.add(r, m[r], v[r])
+    direct = running.estimate(pool, rays.sum(axis=0) - 1.0)
+    assert np.isfinite(moderated.inflation[0]).all()
+    for field in ("mean", "stderr", "dof", "inflation"):
+        assert np.allclose(getattr(moderated, field), getattr(direct, field), rtol=1e-12,
+                           atol=0, equal_nan=True), field
+
+
 def test_memory_does_not_grow_with_the_realisations() -> None:
     """The peak of the memory numpy allocates (tracemalloc; median of three runs) while 16,
     64 and 256 realisations of a small tile are traced and assembled. Before the running sums every
