@@ -39,6 +39,15 @@ def test_inverse_trigamma_inverts_trigamma(x: float) -> None:
     assert abs(float(polygamma(1, inverse_trigamma(x))) / x - 1) < 1e-9
 
 
+@pytest.mark.parametrize("x", [1e-8, 9.9e-7, 1.01e7, 1e9])
+def test_inverse_trigamma_beyond_newtons_range_is_the_asymptotic_form(x: float) -> None:
+    """Outside [1e-6, 1e7] the inverse is the asymptotic form without Newton steps:
+    y = 1/x for small x (ψ'(y) = 1/y + 1/(2y²) + …, so ψ'(y)/x − 1 ≈ x/2 ≤ 5e-7) and
+    y = 1/√x for large x (ψ'(y) = 1/y² + π²/6 + …, relative π²/(6x) ≤ 1.7e-7): within
+    1e-6 of x."""
+    assert abs(float(polygamma(1, inverse_trigamma(x))) / x - 1) < 1e-6
+
+
 def test_moderation_prior_recovers_a_known_prior() -> None:
     """Smyth's hyperparameters from 4000 variance ratios with d = 3: per-bin inflations
     drawn from a scaled inverse chi-square (rho0 = 5, d0 = 12), each observed with its own
@@ -158,8 +167,10 @@ def test_estimate_of_sums_is_the_documented_formulas_and_sums_merge() -> None:
     written out: m_r = Σx / n_r, v_r = (Σx² − n_r m_r²) / (n_r (n_r − 1)), μ̂ the mean of
     the m_r present, s² = Σ (m_r − μ̂)² / (K (K − 1)) floored at u = Σ v_r / K² (a bin whose
     realisations tie exactly reports √u), K − 1 degrees of freedom; one realisation: √v and
-    its rays − 1; a bin no ray reached (Σx² = 0): NaN. 5 realisations, 3 directions (all
-    present, only one, two absent), 4 bins, 2 channels, to 1e-12 relative. The same sums
+    its rays − 1; a bin no ray reached (Σx² = 0) or a direction no realisation has: NaN,
+    without a RuntimeWarning (an error under the suite's filter). 5 realisations, 4
+    directions (all present, only one, two absent, none), 4 bins, 2 channels, to 1e-12
+    relative. The same sums
     fed to ``RunningEstimate`` per direction into two sets, one absorbing the other, and
     rows taken from it, give the same estimates, and the moderated ``estimate`` equals
     ``RunningEstimate`` with ``GROUPS`` groups."""
@@ -171,8 +182,8 @@ def test_estimate_of_sums_is_the_documented_formulas_and_sums_merge() -> None:
     )
 
     rng = np.random.default_rng(11)
-    k, dirs, bins, ch = 5, 3, 4, 2
-    rays = np.array([[8, 0, 6], [8, 0, 0], [8, 7, 9], [8, 0, 0], [8, 0, 5]])
+    k, dirs, bins, ch = 5, 4, 4, 2
+    rays = np.array([[8, 0, 6, 0], [8, 0, 0, 0], [8, 7, 9, 0], [8, 0, 0, 0], [8, 0, 5, 0]])
     s1 = np.zeros((k, dirs, bins, ch))
     s2 = np.zeros((k, dirs, bins, ch))
     for r, d in zip(*np.nonzero(rays), strict=True):
@@ -183,7 +194,7 @@ def test_estimate_of_sums_is_the_documented_formulas_and_sums_merge() -> None:
         x[:, 2, 1] = 0.0                    # bin 2, channel 1: no ray reached it
         s1[r, d], s2[r, d] = x.sum(axis=0), (x * x).sum(axis=0)
     got = estimate(s1, s2, rays)
-    for d in range(dirs):
+    for d in range(3):
         here = rays[:, d] > 0
         n = rays[here, d][:, None, None].astype(float)
         m = s1[here, d] / n
@@ -203,15 +214,18 @@ def test_estimate_of_sums_is_the_documented_formulas_and_sums_merge() -> None:
         assert np.all(got.dof[d] == dof) and got.realisations[d] == kk
     assert np.isclose(got.stderr[0, 3, 0] ** 2, got.ray_stderr[0, 3, 0] ** 2, rtol=1e-12)
     assert np.all(np.isnan(got.inflation))
+    assert np.isnan(got.mean[3]).all() and np.isnan(got.stderr[3]).all()
+    assert got.realisations[3] == 0
 
     m, v = realisation_moments(s1, s2, rays)
     one, other = RunningEstimate((dirs, bins, ch)), RunningEstimate((dirs, bins, ch))
     for r in range(k):
         one.add(r, m[r, 0], v[r, 0], rays[r, 0], at=(0,))
-        for d in (1, 2):
+        for d in (1, 2, 3):
             other.add(r, m[r, d], v[r, d], rays[r, d], at=(d,))
     one.absorb(other)
-    for merged, rows in ((one.estimate(), [0, 1, 2]), (one.take([2, 0]).estimate(), [2, 0])):
+    for merged, rows in ((one.estimate(), [0, 1, 2, 3]),
+                           (one.take([2, 0]).estimate(), [2, 0])):
         for field in ("mean", "stderr", "ray_stderr", "dof"):
             assert np.allclose(getattr(merged, field), getattr(got, field)[rows], rtol=1e-12,
                                atol=0, equal_nan=True), field
