@@ -9,7 +9,7 @@ import weakref
 import numpy as np
 import pytest
 from scipy import stats
-from scipy.special import polygamma
+from scipy.special import polygamma, psi
 
 from microsim.goniometer import measure_directions
 from microsim.recipe import resolve
@@ -62,6 +62,9 @@ def test_moderation_prior_recovers_a_known_prior() -> None:
     assert abs(rho0 / 5.0 - 1) < 0.05 and 12 / 1.6 < d0 < 12 * 1.6
     rho0, d0 = moderation_prior(5.0 * rng.chisquare(d, g) / d, d)
     assert abs(rho0 / 5.0 - 1) < 0.05 and d0 > 30
+    # equal ratios scatter less than sampling alone: d0 = ∞ and ρ0 = exp(mean e)
+    rho0, d0 = moderation_prior(np.full(10, 2.0), d)
+    assert d0 == np.inf and np.isclose(rho0, 2.0 * 1.5 / np.exp(psi(1.5)), rtol=1e-14)
 
 
 def synthetic_ensembles(runs: int, k: int, bins: int, rng: np.random.Generator,
@@ -183,7 +186,7 @@ def test_estimate_of_sums_is_the_documented_formulas_and_sums_merge() -> None:
 
     rng = np.random.default_rng(11)
     k, dirs, bins, ch = 5, 4, 4, 2
-    rays = np.array([[8, 0, 6, 0], [8, 0, 0, 0], [8, 7, 9, 0], [8, 0, 0, 0], [8, 0, 5, 0]])
+    rays = np.array([[8, 0, 6, 0], [8, 0, 0, 0], [8, 7, 2, 0], [8, 0, 0, 0], [8, 0, 1, 0]])
     s1 = np.zeros((k, dirs, bins, ch))
     s2 = np.zeros((k, dirs, bins, ch))
     for r, d in zip(*np.nonzero(rays), strict=True):
@@ -198,9 +201,10 @@ def test_estimate_of_sums_is_the_documented_formulas_and_sums_merge() -> None:
         here = rays[:, d] > 0
         n = rays[here, d][:, None, None].astype(float)
         m = s1[here, d] / n
-        v = (s2[here, d] - n * m * m) / (n * (n - 1))
+        with np.errstate(invalid="ignore", divide="ignore"):   # one ray: v unknown
+            v = np.where(n >= 2, (s2[here, d] - n * m * m) / (n * (n - 1)), np.nan)
         kk = int(here.sum())
-        u = v.sum(axis=0) / kk**2
+        u = np.nansum(v, axis=0) / kk**2
         if kk == 1:
             var, dof = v[0], rays[here, d].sum() - 1
         else:
@@ -215,9 +219,21 @@ def test_estimate_of_sums_is_the_documented_formulas_and_sums_merge() -> None:
     assert np.isclose(got.stderr[0, 3, 0] ** 2, got.ray_stderr[0, 3, 0] ** 2, rtol=1e-12)
     assert np.all(np.isnan(got.inflation))
     assert np.isnan(got.mean[3]).all() and np.isnan(got.stderr[3]).all()
-    assert got.realisations[3] == 0
+    assert got.realisations[3] == 0 and got.realisations.dtype.kind == "i"
 
     m, v = realisation_moments(s1, s2, rays)
+    assert m.dtype == float and np.isnan(m[1, 1]).all() and np.isnan(v[4, 2]).all()
+    # n rays of one value x: Σx² − Σx · m is 0 but for rounding, which may not make v < 0
+    x = np.linspace(0.01, 1.0, 100)
+    ties = realisation_moments(np.stack([3 * x, 7 * x]).reshape(2, 100, 1, 1),
+                               np.stack([3 * x * x, 7 * x * x]).reshape(2, 100, 1, 1),
+                               np.array([[3] * 100, [7] * 100]))[1]
+    assert (ties >= 0).all()
+    empty = RunningEstimate((2, bins, ch)).estimate()
+    assert np.isnan(empty.mean).all() and np.array_equal(empty.realisations, [0, 0])
+    with pytest.raises(ValueError, match=r"^ray variances are given exactly when the sums "
+                       r"keep them \(ray_variance=True\)$"):
+        RunningEstimate((dirs, bins, ch)).add(0, m[0], None)
     one, other = RunningEstimate((dirs, bins, ch)), RunningEstimate((dirs, bins, ch))
     for r in range(k):
         one.add(r, m[r, 0], v[r, 0], rays[r, 0], at=(0,))
