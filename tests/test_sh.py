@@ -161,6 +161,34 @@ def test_windows() -> None:
         sh.window(7, "gauss")
 
 
+def test_hanning_window_angles_and_orders_are_their_formulas() -> None:
+    """The Hanning factors ½ (1 + cos(πl/(L + 1))) at every l of order 7 (l = 4 alone, where
+    cos vanishes, does not tell ½ (1 + c) from ½ (1 − c) or ½ / (1 + c)); ``angles`` of
+    directions with known colatitude and azimuth, wrapped to [0, 2π) after subtracting
+    ``phi_ref`` (default 0), z rounded past ±1 clipped (arccos would be NaN); ``order_of``
+    of 0, 1, 2 and 16 coefficients, ``truncate`` past the stored order, and their
+    messages."""
+    l, _ = sh.degrees(7)
+    assert np.allclose(sh.window(7, "hanning"), 0.5 * (1 + np.cos(np.pi * l / 8)),
+                       rtol=1e-15, atol=0)
+    theta, phi = np.radians([10.0, 80.0, 135.0]), np.radians([30.0, 200.0, 350.0])
+    d = np.column_stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi),
+                         np.cos(theta)])
+    got = sh.angles(d)
+    assert np.allclose(got, np.column_stack([theta, phi]), rtol=0, atol=1e-14)
+    got = sh.angles(d, 0.7)
+    assert np.allclose(got[:, 1], np.mod(phi - 0.7, 2 * np.pi), rtol=0, atol=1e-14)
+    poles = sh.angles(np.array([[0.0, 0.0, 1.0 + 2e-16], [0.0, 0.0, -1.0 - 2e-16]]))
+    assert np.array_equal(poles[:, 0], [0.0, np.pi])
+    assert sh.order_of(1) == 0 and sh.order_of(16) == 3
+    for n in (0, 2):
+        with pytest.raises(ValueError, match=rf"^{n} coefficients is not \(L \+ 1\)\^2 "
+                                              "for an order L$"):
+            sh.order_of(n)
+    with pytest.raises(ValueError, match=r"^order 4 exceeds the stored order 3$"):
+        sh.truncate(np.zeros((16, 1)), 4)
+
+
 # --- projection of rays -------------------------------------------------------------------
 def test_projection_of_rays_is_unbiased_with_honest_errors() -> None:
     """Rays leave cosine-distributed (pdf cos θo / π) with weight π f(ωo) per colour, so
