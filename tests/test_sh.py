@@ -189,6 +189,18 @@ def test_hanning_window_angles_and_orders_are_their_formulas() -> None:
         sh.truncate(np.zeros((16, 1)), 4)
 
 
+def test_projection_of_one_direction_and_of_none() -> None:
+    """``project`` of a single direction is its basis row times its weights (within 1e-6
+    of the largest, ducc0's accuracy as in the other projections), and of no direction the
+    zero coefficients of the order."""
+    loc = sh.angles(np.array([[0.3, 0.4, math.sqrt(0.75)]]))
+    w = np.array([[0.7, 1.3]])
+    direct = sh.basis(3, np.cos(loc[:, 0]), loc[:, 1]).T @ w
+    got = sh.project(loc, w, 3)
+    assert got.shape == (16, 2) and np.abs(got - direct).max() < 1e-6 * np.abs(direct).max()
+    assert np.array_equal(sh.project(np.zeros((0, 2)), np.zeros((0, 2)), 3), np.zeros((16, 2)))
+
+
 # --- projection of rays -------------------------------------------------------------------
 def test_projection_of_rays_is_unbiased_with_honest_errors() -> None:
     """Rays leave cosine-distributed (pdf cos θo / π) with weight π f(ωo) per colour, so
