@@ -65,6 +65,17 @@ def test_moderation_prior_recovers_a_known_prior() -> None:
     # equal ratios scatter less than sampling alone: d0 = ∞ and ρ0 = exp(mean e)
     rho0, d0 = moderation_prior(np.full(10, 2.0), d)
     assert d0 == np.inf and np.isclose(rho0, 2.0 * 1.5 / np.exp(psi(1.5)), rtol=1e-14)
+    # moderation_priors: each row's ρ0 as moderation_prior gives it (NaN: no ratio)
+    from microsim.tables.estimator import moderation_priors
+
+    rows = np.full((3, 50), np.nan)
+    rows[0] = np.exp(rng.normal(0, 1.5, 50)) * rng.chisquare(d, 50) / d    # finite d0
+    rows[1] = 5.0 * rng.chisquare(8, 50) / 8                      # d0 = ∞ at d = 3
+    rows[2, :20] = np.exp(rng.normal(0, 1.5, 20)) * rng.chisquare(5, 20) / 5
+    dofs = np.array([d, d, 5])
+    want = [moderation_prior(r[np.isfinite(r)], n) for r, n in zip(rows, dofs, strict=True)]
+    assert np.isfinite(want[0][1]) and np.isinf(want[1][1])
+    assert np.allclose(moderation_priors(rows, dofs), [w[0] for w in want], rtol=1e-10, atol=0)
 
 
 def synthetic_ensembles(runs: int, k: int, bins: int, rng: np.random.Generator,
@@ -234,6 +245,12 @@ def test_estimate_of_sums_is_the_documented_formulas_and_sums_merge() -> None:
     with pytest.raises(ValueError, match=r"^ray variances are given exactly when the sums "
                        r"keep them \(ray_variance=True\)$"):
         RunningEstimate((dirs, bins, ch)).add(0, m[0], None)
+    with pytest.raises(ValueError, match=r"^sums with and without ray variances do not add$"):
+        RunningEstimate((dirs, bins, ch)).absorb(RunningEstimate((dirs, bins, ch),
+                                                                 ray_variance=False))
+    with pytest.raises(ValueError, match=r"^the moderated estimator needs the ray variances$"):
+        RunningEstimate((dirs, bins, ch), ray_variance=False).estimate(
+            np.ones((dirs, bins, ch), bool))
     one, other = RunningEstimate((dirs, bins, ch)), RunningEstimate((dirs, bins, ch))
     for r in range(k):
         one.add(r, m[r, 0], v[r, 0], rays[r, 0], at=(0,))
