@@ -84,6 +84,7 @@ MODULES: dict[str, list[str]] = {
         "test_estimate_of_sums_is_the_documented_formulas_and_sums_merge",
         "tests/test_tables_table.py"],
     "microsim/tables/sh.py": ["tests/test_sh.py"],
+    "microsim/tables/sh_matrix.py": ["tests/test_sh.py"],
     "microsim/materials/optics.py": ["tests/test_dielectric.py"],
     **{f"microsim/materials/{name}.py": MATERIAL_TESTS
        for name in ("__init__", "base", "black", "coating", "conductor", "dielectric",
