@@ -58,7 +58,7 @@ def probe(path: Path, k: int) -> dict:
     spec = SURFACE_KINDS[recipe.surface["kind"]]
     default = spec.realisations(recipe.surface) if spec.realisations else None
     return {"recipe": path.name, "rays": int(recipe.simulation.rays),
-            "directions": [f"{d['theta_i']:g}/{d['phi_i']:g}" for d in
+            "directions": [f"{d.theta_i:g}/{d.phi_i:g}" for d in
                            table.meta.directions],
             "rho": rho, "rho_one": one, "need": need,
             "suggested": max(MIN_REALISATIONS, 2 ** math.ceil(math.log2(max(need, 1.0)))),
