@@ -35,7 +35,7 @@ from distributed import Client, LocalCluster, get_task_stream
 
 from microsim.batch import run_batch
 from microsim.files import write_section
-from microsim.sweep import load_sweep
+from microsim.sweep import load_sweep, recipe_hash
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "performance.md"
@@ -82,9 +82,11 @@ def main() -> None:
     parser.add_argument("--write", action="store_true", help="update docs/performance.md")
     args = parser.parse_args()
     sweep = load_sweep(args.sweep)
-    points = sweep.points[:args.tables]
-    for p in points:
-        p.recipe.simulation.update(rays=args.rays, realisations=args.realisations)
+    points = []
+    for p in sweep.points[:args.tables]:
+        recipe = dataclasses.replace(p.recipe, simulation=dataclasses.replace(
+            p.recipe.simulation, rays=args.rays, realisations=args.realisations))
+        points.append(dataclasses.replace(p, recipe=recipe, hash=recipe_hash(recipe)))
     sweep = dataclasses.replace(sweep, points=points)
     load_before = os.getloadavg()
     times: dict[int, list[float]] = {1: [], 2: []}
@@ -109,7 +111,7 @@ def main() -> None:
         + f" on {platform.machine()}, {cpus} CPUs, Python {platform.python_version()}: "
         f"{len(points)} tables ({', '.join(p.name for p in points)}) of "
         f"`{Path(args.sweep).name}`, {rays:,} rays in all, one incident angle per job "
-        f"({sum(len(p.recipe['simulation']['theta_i']) for p in points) * args.realisations}"
+        f"({sum(len(p.recipe.simulation.theta_i) for p in points) * args.realisations}"
         " jobs), a fresh "
         "`LocalCluster` per run (processes, one thread each), runs alternating.",
         "",
