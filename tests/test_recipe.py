@@ -11,7 +11,9 @@ from hypothesis import strategies as st
 
 from microsim import recipe
 from microsim.errors import InputError
+from microsim.materials import Black, Lambertian, material_from_json
 from microsim.schema import Key, check_value
+from microsim.spectra.channels import RGB
 from microsim.surfaces.params import SURFACE_KINDS
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -78,6 +80,12 @@ def test_resolved_recipe_round_trips_through_toml(tmp_path):
         ({"surface": {"kind": "flat"}, "material": {"kind": "gold"}}, "material.kind = 'gold'"),
         ({"surface": {"kind": "flat"}, "material": {"kind": "conductor", "eta": [1, 2]}}, "material.eta"),
         ({"surface": {"kind": "flat"}, "material": {"kind": "lambertian", "albedo": 1.5}}, "material.albedo = 1.5"),
+        ({"surface": {"kind": "flat"}, "material": {"kind": "lambertian", "albedo": {"nm": [400, 700], "value": [0.2, 0.4]}}},
+         "material.albedo: a spectrum needs a spectral table"),
+        ({"surface": {"kind": "flat"}, "material": {"kind": "lambertian", "data": "colorchecker_green"}},
+         "material.data: a spectrum needs a spectral table"),
+        ({"surface": {"kind": "velvet"}, "material": {"base": {"kind": "black"}, "fibre": {"kind": "lambertian", "data": "colorchecker_green"}}},
+         "material.fibre.data: a spectrum needs a spectral table"),
         ({"surface": {"kind": "flat"}, "material": {"kind": "mirror", "eta": 1.5}}, "material.eta: unknown key"),
         ({"surface": {"kind": "velvet"}, "material": {"fibre": {"kind": "mirror"}}}, "material.base: missing"),
         ({"surface": {"kind": "velvet"}, "material": {"fiber": {"kind": "mirror"}}}, "did you mean 'fibre'?"),
@@ -190,3 +198,28 @@ def test_one_number_is_a_list_of_one():
         load(root / "gaussian-0.3.toml", ["simulation.theta_i=true"])
     with pytest.raises(InputError, match="theta_i"):
         load(root / "gaussian-0.3.toml", ["simulation.theta_i=95"])
+
+
+def test_a_materials_own_errors_name_its_key_as_one_material_section():
+    """Outside a recipe (the Python API, a table file's recipe read back) a material's
+    parameters name its keys as a single ``[material]`` section's, ``material.<key>``."""
+    with pytest.raises(InputError) as info:
+        Lambertian(albedo=(0.1, 0.2)).parameters(RGB)
+    assert str(info.value) == "material.albedo: 2 numbers; an RGB table takes three"
+
+
+def test_material_from_json_refuses_an_unknown_kind_and_lists_the_known_ones():
+    """A table file's recipe with a kind this microsim lacks (a newer one's) is one
+    ``InputError`` that names the kind and every kind known, in ``KINDS``' order; each
+    known kind's JSON reads back to the same material."""
+    with pytest.raises(InputError) as info:
+        material_from_json({"kind": "gold", "eta": 1.0})
+    assert str(info.value) == ("material kind 'gold': this microsim knows mirror, "
+                               "conductor, dielectric, lambertian, table, black")
+    with pytest.raises(InputError, match=r"^material kind None: "):
+        material_from_json({})
+    r = recipe.resolve({"surface": {"kind": "velvet"},
+                        "material": {"base": {"kind": "conductor", "eta": 0.5, "k": 2.0},
+                                     "fibre": {"kind": "dielectric", "refract": True}}})
+    for material in (*r.material.values(), Lambertian(albedo=(0.1, 0.2, 0.3)), Black()):
+        assert material_from_json(material.to_json()) == material
