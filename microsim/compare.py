@@ -170,8 +170,7 @@ def normal_z(t: np.ndarray, dof: np.ndarray | float) -> np.ndarray:
     # through the smaller tail, so large |t| keep their precision; where that tail
     # underflows (|t| in the tens or more) t itself stands, a finite bound
     p = stats.t.sf(np.abs(t), dof)
-    with np.errstate(divide="ignore"):
-        z = np.sign(t) * stats.norm.isf(p)
+    z = np.sign(t) * stats.norm.isf(p)  # isf(0) = inf, without a warning
     return np.where((dof >= NORMAL_DOF) | ~np.isfinite(z), t, z)
 
 
@@ -426,7 +425,8 @@ def model_table(model: Model, theta_i: np.ndarray, bins: HemisphereBins,
     -------
     BRDFTable
         Components ``total`` and ``single`` alike; albedo = Σ f_r Ω_proj over the bins of
-        the (noisy) values, with zero error; no lost energy.
+        the (noisy) values, with zero error; no lost energy; a nominal 10⁶ rays per
+        direction (many: its errors are known, ``NORMAL_DOF``).
     """
     theta_i = np.asarray(theta_i, float)
     azimuths = np.zeros(1) if phi_i is None else np.asarray(phi_i, float)
