@@ -2,7 +2,8 @@
 and ``microsim.analytic.fresnel.fresnel_thin_film``, the vectorised one) against an
 independent characteristic-matrix computation of a layered stack written here, against
 the bare interfaces' Fresnel reflectances, and against closed forms (quarter-wave
-anti-reflection coating, absent half-wave layer, energy conservation)."""
+anti-reflection coating, absent half-wave layer, energy conservation); and the coating's
+record as a recipe gives it (``microsim.materials.coating``: parsing, JSON, columns)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,11 @@ import numpy as np
 import pytest
 
 from microsim.analytic import fresnel as analytic
+from microsim.errors import InputError
 from microsim.materials import optics, thin_film
+from microsim.materials.coating import Coating
+from microsim.spectra.channels import RGB, Channels
+from microsim.spectra.spectrum import Spectrum
 
 TOL = 1e-6
 """Agreement with the matrix reference: both are float64 evaluations of the same physics
@@ -254,3 +259,87 @@ def test_compiled_kernel_equals_python() -> None:
         np.testing.assert_allclose(compiled_pol(*case),
                                    thin_film.film_reflectance_polarised(*case),
                                    rtol=0.0, atol=EXACT)
+
+
+# --- the coating as a recipe gives it (microsim.materials.coating) --------------------
+
+FILM_WHERE = "material.coating"
+FILM_FORM = "a table { thickness = <nm>, eta = <index or spectrum> }"
+
+
+@pytest.mark.parametrize(("raw", "thickness", "eta"), [
+    ({"thickness": 0, "eta": 2}, 0.0, 2.0),
+    ({"thickness": 0.5, "eta": 0.5}, 0.5, 0.5),
+    ({"thickness": 100_000.0, "eta": 1e300}, 100_000.0, 1e300),
+])
+def test_coating_takes_0_to_100000_nm_and_any_finite_positive_index(
+        raw: dict, thickness: float, eta: float) -> None:
+    """The documented ranges' ends (thickness 0, the bare facet, and 100 000 nm; any index
+    > 0, also below 1) are taken, and the record holds floats, as its fields say."""
+    coating = Coating.parse(raw, FILM_WHERE)
+    assert coating == Coating(thickness, eta)
+    assert type(coating.thickness) is float and type(coating.eta) is float
+    assert coating.to_json() == {"thickness": thickness, "eta": eta}
+
+
+def test_coating_index_spectrum_with_or_without_its_source_reads_back() -> None:
+    """An index spectrum without ``source`` is cited by its key path; one with a source
+    (as a table file's recipe holds it, with ``kind``) keeps it; ``to_json`` writes the
+    spectrum's JSON, which reads back to the same coating. A film's index may be below 1
+    (relative to the medium in front)."""
+    nm, value = [400.0, 700.0], [0.8, 2.0]
+    given = Coating.parse({"thickness": 100.0, "eta": {"nm": nm, "value": value}}, FILM_WHERE)
+    assert given == Coating(100.0, Spectrum(tuple(nm), tuple(value),
+                                            "the spectrum given at material.coating.eta"))
+    cited = Coating.parse({"thickness": 100.0,
+                           "eta": {"nm": nm, "value": value, "source": "a film of the test"}},
+                          FILM_WHERE)
+    assert cited == Coating(100.0, Spectrum(tuple(nm), tuple(value), "a film of the test"))
+    text = cited.to_json()
+    assert text == {"thickness": 100.0, "eta": {"kind": "tabulated", "nm": nm,
+                                                "value": value, "source": "a film of the test"}}
+    assert Coating.parse(text, FILM_WHERE) == cited
+
+
+@pytest.mark.parametrize(("raw", "message"), [
+    (350.0, f"material.coating = 350.0: must be {FILM_FORM}"),
+    ({"thickness": 1.0, "eta": 2.0, "n": 1},
+     "material.coating.n: unknown key; a coating takes thickness (nm) and eta"),
+    ({"eta": 2.0}, f"material.coating.thickness: missing; a coating is {FILM_FORM}"),
+    ({"thickness": 1.0}, f"material.coating.eta: missing; a coating is {FILM_FORM}"),
+    *[({"thickness": t, "eta": 2.0}, f"material.coating.thickness = {t!r}: must be a "
+       "number of nm >= 0 and <= 100000") for t in (-1.0, 100_000.5, math.nan, True, "100")],
+    *[({"thickness": 1.0, "eta": e}, f"material.coating.eta = {e!r}: must be a number > 0 "
+       "or a spectrum { nm = [...], value = [...] }") for e in (0.0, -1.0, math.inf, True, "2")],
+    ({"thickness": 1.0, "eta": {"nm": [400.0, 700.0], "value": [0.0, 2.0]}},
+     "material.coating.eta: a film's index must be > 0"),
+    ({"thickness": 1.0, "eta": {"nm": [400.0], "value": [1.0, 2.0]}},
+     "material.coating.eta: nm has 1 entries and value 2; give one value for each wavelength"),
+    ({"thickness": 1.0, "eta": {"nm": [400.0], "value": [1.0, 2.0], "source": "s"}},
+     "material.coating.eta: nm has 1 entries and value 2; give one value for each wavelength"),
+])
+def test_a_bad_coating_is_one_error_naming_its_key(raw: object, message: str) -> None:
+    """Each mistake is an ``InputError`` whose whole message names the key and what it
+    takes (a number out of range, a boolean, a string; an index spectrum with a value
+    ≤ 0 or malformed, cited or not)."""
+    with pytest.raises(InputError) as info:
+        Coating.parse(raw, FILM_WHERE)
+    assert str(info.value) == message
+
+
+def test_coating_columns_are_its_index_and_thickness_per_wavelength() -> None:
+    """The kernel's columns: the index spectrum sampled (linear between its points) at
+    each wavelength and the thickness in every channel; an RGB table, or a wavelength
+    outside the spectrum, is refused naming the key."""
+    coating = Coating(120.0, Spectrum((400.0, 700.0), (2.0, 2.3), "a film of the test"))
+    eta, thickness = coating.columns(Channels((450.0, 600.0)), FILM_WHERE)
+    assert eta == pytest.approx((2.0 + 0.3 * 50 / 300, 2.0 + 0.3 * 200 / 300), abs=1e-15)
+    assert thickness == (120.0, 120.0)
+    with pytest.raises(InputError) as info:
+        coating.columns(RGB, FILM_WHERE)
+    assert str(info.value) == ("material.coating: a coating needs a spectral table ([table] "
+                               "wavelengths): its interference depends on the wavelength")
+    with pytest.raises(InputError) as info:
+        coating.columns(Channels((450.0, 750.0)), FILM_WHERE)
+    assert str(info.value).startswith("material.coating.eta: 750 nm asked for, outside "
+                                      "400-700 nm")
