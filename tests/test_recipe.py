@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from microsim import recipe
 from microsim.errors import InputError
-from microsim.materials import Black, Lambertian, material_from_json
+from microsim.materials import Black, Conductor, Lambertian, material_from_json
 from microsim.schema import Key, check_value
 from microsim.spectra.channels import RGB
 from microsim.surfaces.params import SURFACE_KINDS
@@ -200,12 +200,43 @@ def test_one_number_is_a_list_of_one():
         load(root / "gaussian-0.3.toml", ["simulation.theta_i=95"])
 
 
+SPECTRAL = {"wavelengths": [450.0, 600.0]}
+GOLD_DEFAULT = ("its default is gold's R, G, B, which a spectral table has no channels for; "
+                'give it as a number or a spectrum (or data = "Au" …)')
+
+
+@pytest.mark.parametrize(("table", "material", "message"), [
+    (SPECTRAL, {"kind": "conductor", "eta": 0.5}, f"material.k: {GOLD_DEFAULT}"),
+    (SPECTRAL, {"kind": "conductor", "k": 2.0}, f"material.eta: {GOLD_DEFAULT}"),
+    ({"wavelengths": [450.0, 750.0]},
+     {"kind": "conductor", "eta": {"nm": [400, 700], "value": [0.5, 0.6]}, "k": 2.0},
+     "material.eta: 750 nm asked for, outside 400-700 nm, the range of the spectrum given "
+     "at material.eta"),
+    ({}, {"kind": "conductor", "data": "Ag"}, "material.data: a spectrum needs a spectral "
+     "table ([table] wavelengths); an RGB table takes a number or three (R, G, B)"),
+    ({}, {"kind": "conductor", "eta": 0.5, "k": 2.0,
+          "coating": {"thickness": 100.0, "eta": 1.45}},
+     "material.coating: a coating needs a spectral table ([table] wavelengths): its "
+     "interference depends on the wavelength"),
+])
+def test_a_material_that_does_not_fit_the_tables_channels_is_refused_naming_its_key(
+        table, material, message):
+    """A conductor's default gold triple left in a spectral table (the other index given),
+    a spectrum not covering the wavelengths, shipped data or a coating in an RGB table:
+    one ``InputError``, its whole message naming the key."""
+    assert error_of({"surface": {"kind": "flat"}, "table": table,
+                     "material": material}) == message
+
+
 def test_a_materials_own_errors_name_its_key_as_one_material_section():
     """Outside a recipe (the Python API, a table file's recipe read back) a material's
     parameters name its keys as a single ``[material]`` section's, ``material.<key>``."""
     with pytest.raises(InputError) as info:
         Lambertian(albedo=(0.1, 0.2)).parameters(RGB)
     assert str(info.value) == "material.albedo: 2 numbers; an RGB table takes three"
+    with pytest.raises(InputError) as info:
+        Conductor(eta=(1.0, 2.0)).parameters(RGB)
+    assert str(info.value) == "material.eta: 2 numbers; an RGB table takes three"
 
 
 def test_material_from_json_refuses_an_unknown_kind_and_lists_the_known_ones():
