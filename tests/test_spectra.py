@@ -237,6 +237,25 @@ def test_gold_normal_incidence_reflectance_at_650nm():
     assert ((n4 - 1) ** 2 + k4**2) / ((n4 + 1) ** 2 + k4**2) < 0.45
 
 
+def test_a_conductors_indices_in_a_spectral_table_are_its_measured_metals():
+    """In a spectral table a conductor left at its default (gold's R, G, B) is the shipped
+    measured gold, ``data`` names another shipped metal, and given numbers are the same in
+    every channel; each column is the spectrum sampled at the table's wavelengths. In an
+    RGB table the default is gold's triple."""
+    from microsim.materials import Conductor
+    from microsim.spectra.channels import RGB, Channels
+
+    nm = (450.0, 600.0, 650.0)
+    channels = Channels(nm)
+    for material, metal in ((Conductor(), "Au"), (Conductor(data="Ag"), "Ag"),
+                            (Conductor(data="cu"), "Cu")):
+        eta, k = material.parameters(channels)
+        eta_s, k_s = conductor(metal)
+        assert eta == tuple(eta_s.at(nm)) and k == tuple(k_s.at(nm)), metal
+    assert Conductor(eta=0.5, k=2.0).parameters(channels) == ((0.5,) * 3, (2.0,) * 3)
+    assert Conductor().parameters(RGB) == ((0.2, 0.92, 1.1), (3.9, 2.45, 2.14))
+
+
 # --- reflectances -----------------------------------------------------------------------
 
 def test_colorchecker_patches():
