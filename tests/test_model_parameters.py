@@ -237,3 +237,54 @@ def test_any_model_spec_is_refused_in_one_line_or_evaluates_finite(spec):
     assert np.all(np.isfinite(f)), (spec, f)
     text = parameters_text(name, params, parameter_sources(spec, params))
     assert "\n" not in text
+
+
+# --- what the comparisons read from a table's materials -----------------------------------
+
+def recipe_defaults(material: dict, table: dict | None = None) -> ModelDefaults:
+    """``model_defaults`` of a flat tile's table of one material."""
+    from microsim.recipe import resolve
+    from microsim.table_models import model_defaults
+    from microsim.tables.meta import TableMeta
+
+    return model_defaults(TableMeta(recipe=resolve({"surface": {"kind": "flat"},
+                                                    "material": material,
+                                                    "table": table or {}})))
+
+
+def test_a_diffuse_materials_albedo_is_the_lambertian_models_per_channel():
+    """A black facet's albedo is 0 in every channel of the table (3 in RGB, one per
+    wavelength), a Lambertian facet's its own albedo; both named as their source."""
+    for table, count in (({}, 3), ({"wavelengths": [450.0, 550.0, 600.0, 650.0]}, 4)):
+        defaults = recipe_defaults({"kind": "black"}, table)
+        assert defaults == {"albedo": [0.0] * count}
+        assert defaults.sources == {"albedo": "the recipe's material black"}
+    defaults = recipe_defaults({"kind": "lambertian", "albedo": [0.2, 0.4, 0.6]})
+    assert defaults == {"albedo": [0.2, 0.4, 0.6]}
+    assert defaults.sources == {"albedo": "the recipe's material lambertian"}
+
+
+def test_a_conductors_fresnel_and_model_defaults_are_its_indices_per_channel():
+    """A conductor's Fresnel record is ``("conductor", eta, k)`` per channel and its model
+    defaults the same η and k; coated (a spectral table), its record is the film's:
+    ``("coated", film index, thickness, wavelengths, eta, k)`` per channel, and its
+    model defaults stay the facet's η and k."""
+    from microsim.materials import Conductor
+    from microsim.materials.coating import Coating
+    from microsim.spectra.channels import RGB, Channels
+
+    bare = Conductor(eta=(0.2, 0.9, 1.1), k=(3.9, 2.4, 2.1))
+    kind, eta, k = bare.fresnel(RGB)
+    assert kind == "conductor"
+    assert eta.tolist() == [0.2, 0.9, 1.1] and k.tolist() == [3.9, 2.4, 2.1]
+    assert bare.model_defaults(RGB) == {"eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1]}
+    assert recipe_defaults({"kind": "conductor", "eta": [0.2, 0.9, 1.1],
+                            "k": [3.9, 2.4, 2.1]}) == {"eta": [0.2, 0.9, 1.1],
+                                                       "k": [3.9, 2.4, 2.1]}
+    channels = Channels((450.0, 600.0))
+    coated = Conductor(eta=0.5, k=2.0, coating=Coating(100.0, 1.45))
+    record = coated.fresnel(channels)
+    assert record[0] == "coated"
+    assert [np.asarray(x).tolist() for x in record[1:]] == [
+        [1.45, 1.45], [100.0, 100.0], [450.0, 600.0], [0.5, 0.5], [2.0, 2.0]]
+    assert coated.model_defaults(channels) == {"eta": [0.5, 0.5], "k": [2.0, 2.0]}
