@@ -236,6 +236,125 @@ def test_needed_ignores_a_first_crossing_that_does_not_last() -> None:
     assert compression.needed(curve, 0.005) is None
 
 
+def test_needed_counts_a_point_at_the_target_as_reaching_it() -> None:
+    """"At or below the target": an error equal to it (here exactly 0.05) reaches it."""
+    assert compression.needed([[1, 0.2], [2, 0.05], [4, 0.05]], 0.05) == 2
+    assert compression.needed([[1, 0.2], [2, 0.05], [4, 0.06]], 0.05) is None
+
+
+def test_sweep_is_the_rounded_powers_of_the_root_of_two_below_the_total() -> None:
+    """Two steps per octave: round(2^(i/2)) (written out: 2^6.5 = 90.51 → 91, 2^9.5 =
+    724.08 → 724), once each, below the total, then the total; one and two
+    coefficients; four steps per octave for nine."""
+    powers = [1, 2, 3, 4, 6, 8, 11, 16, 23, 32, 45, 64, 91, 128, 181, 256, 362, 512, 724]
+    assert compression.sweep(1024) == powers + [1024]
+    assert compression.sweep(1024, 2) == powers + [1024]
+    assert compression.sweep(1000, 2) == powers + [1000]
+    assert compression.sweep(9, 2) == [1, 2, 3, 4, 6, 8, 9]
+    assert compression.sweep(9, 4) == [1, 2, 3, 4, 5, 6, 7, 8, 9]
+    assert compression.sweep(1) == [1]
+    assert compression.sweep(2) == [1, 2]
+
+
+def test_median_errors_by_hand() -> None:
+    """|g − g_table| / g_table over the lobe bins and channels where g_table > 0, its
+    median per incidence and over all, against values chosen here: incidence 0 has the
+    relative errors 0.5, 0.1, 0.25, 0.2, 0 on its five counted entries (median 0.2), a lobe
+    entry with g_table = 0 (left out, though g = 5 there) and a bin outside the lobe
+    (error 1, left out); incidence 1 has no lobe bin (NaN, without a warning: the
+    RuntimeWarnings of an empty median are errors here); incidence 2 has 0.1, …, 0.8
+    (median 0.45); pooled, the 13 counted errors have median 0.3. To 1e-12 (round-off of
+    the quotients)."""
+    g_table = np.zeros((3, 1, 4, 2))
+    g = np.zeros((3, 1, 4, 2))
+    lobe = np.zeros((3, 1, 4), bool)
+    g_table[0, 0] = [[1.0, 2.0], [4.0, 0.0], [2.0, 2.0], [8.0, 8.0]]
+    g[0, 0] = [[1.5, 2.2], [3.0, 5.0], [2.4, 2.0], [0.0, 0.0]]
+    lobe[0, 0] = [True, True, True, False]
+    g_table[1, 0], g[1, 0] = 1.0, 3.0
+    g_table[2, 0] = 0.5
+    g[2, 0] = 0.5 * (1.0 + np.arange(1, 9).reshape(4, 2) / 10.0)
+    lobe[2, 0] = True
+    per, pooled = compression.median_errors(g, g_table, lobe)
+    assert per.shape == (3, 1)
+    assert per[0, 0] == pytest.approx(0.2, abs=1e-12)
+    assert math.isnan(per[1, 0])
+    assert per[2, 0] == pytest.approx(0.45, abs=1e-12)
+    assert pooled == pytest.approx(0.3, abs=1e-12)
+    per, pooled = compression.median_errors(g, g_table, np.zeros_like(lobe))
+    assert np.isnan(per).all() and math.isnan(pooled)
+
+
+def test_curves_of_a_table_without_harmonics_are_refused() -> None:
+    with pytest.raises(ValueError, match=r"^the table holds no spherical harmonics$"):
+        compression.curves(lobe_table([0.0], HemisphereBins(8, 16)))
+
+
+def anisotropic_lobe_table(theta_i: list[float], phi_i: list[float], bins: HemisphereBins
+                           ) -> BRDFTable:
+    """An anisotropic table: per incidence (θi, φi) a lobe about its mirror direction
+    (``lobe_values`` turned by φi), every component alike, with nine harmonics drawn at
+    random (seed 4): what is checked of it is the bookkeeping, not the harmonics' fit."""
+    t, p = np.meshgrid(bins.theta_centers, bins.phi_centers, indexing="ij")
+    wo = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], -1)
+    f = np.array([[(0.1 + np.exp(40.0 * (wo @ np.array([
+        -math.sin(ti) * math.cos(pi), -math.sin(ti) * math.sin(pi), math.cos(ti)]) - 1.0))
+        )[..., None] * np.array([1.0, 0.5, 0.25]) for pi in phi_i] for ti in theta_i])
+    a, b = len(theta_i), len(phi_i)
+    rng = np.random.default_rng(4)
+    sh = rng.normal(0.3, 0.1, (a, b, size(2), 3))
+    values = {c: f for c in components_for(2)}
+    errors = {c: np.full_like(f, 0.01) for c in values}
+    flat = {c: np.ones((a, b, 3)) for c in values}
+    return BRDFTable(bins, np.array(theta_i), np.array(phi_i), False, values, errors,
+                     np.full((a, b), 1000), flat, flat, np.zeros((a, b, 3)), TableMeta(),
+                     sh={c: sh for c in values},
+                     sh_err={c: np.zeros_like(sh) for c in values})
+
+
+def test_curves_report_their_settings_sizes_and_each_incidence() -> None:
+    """Two θi by two φi (an anisotropic table, so a ≠ 1 and b ≠ 1): the result names its
+    component, order, wavelet, resolution and levels (log2 32 = 5 for Haar, whose filters
+    have two taps), the table's own median relative error (0.01 over the lobe's mean f_r,
+    computed here), each basis' total per incidence and channel (9 harmonics, 32² wavelet
+    coefficients) and bytes per kept coefficient (a float32 and a 2-byte index: 6), the
+    bytes of each count k over every incidence and colour (k × 6 × 3 × 2 × 2), the counts
+    of the asked four steps per octave, and per incidence its angles in degrees and the
+    curves of the table cut down to that incidence alone (its pooled curves are that
+    incidence's own, to 1e-15)."""
+    bins = HemisphereBins(8, 16)
+    theta_i, phi_i = [0.2, 0.7], [0.0, 1.5]
+    table = anisotropic_lobe_table(theta_i, phi_i, bins)
+    result = compression.curves(table, resolution=32, wavelet="haar", steps_per_octave=4)
+    assert result["component"] == "total"
+    assert result["sh_order"] == 2
+    assert result["wavelet_name"] == "haar"
+    assert result["resolution"] == 32
+    assert result["levels"] == 5
+    f = table.values["total"].mean(axis=-1)
+    lobe = table.lobe_mask("total")
+    assert result["median_rel_stderr"] == pytest.approx(float(np.median(0.01 / f[lobe])),
+                                                        rel=1e-12)
+    assert result["coefficients"] == {"sh": 9, "wavelet": 1024}
+    assert result["bytes_per_coefficient"] == {"sh": 6, "wavelet": 6}
+    assert [k for k, _ in result["sh"]] == [1, 2, 3, 4, 5, 6, 7, 8, 9]
+    assert [k for k, _ in result["wavelet"]] == compression.sweep(1024, 4)
+    for name in ("sh", "wavelet"):
+        assert result["bytes"][name] == [k * 6 * 3 * 2 * 2 for k, _ in result[name]]
+    rows = result["per_incidence"]
+    assert [(r["theta_i"], r["phi_i"]) for r in rows] == [
+        (pytest.approx(math.degrees(t), abs=1e-12), pytest.approx(math.degrees(p), abs=1e-12))
+        for t in theta_i for p in phi_i]
+    for row, (i, j) in zip(rows, [(i, j) for i in range(2) for j in range(2)], strict=True):
+        alone = anisotropic_lobe_table([theta_i[i]], [phi_i[j]], bins)
+        alone.sh = {c: table.sh[c][i:i + 1, j:j + 1] for c in table.sh}
+        own = compression.curves(alone, resolution=32, wavelet="haar", steps_per_octave=4)
+        for name in ("sh", "wavelet"):
+            assert [k for k, _ in row[name]] == [k for k, _ in own[name]]
+            np.testing.assert_allclose([e for _, e in row[name]],
+                                       [e for _, e in own[name]], rtol=0, atol=1e-15)
+
+
 # --- the file and the commands ------------------------------------------------------------
 @pytest.fixture
 def lobe_file(tmp_path: Path) -> Path:
