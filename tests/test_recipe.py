@@ -11,9 +11,10 @@ from hypothesis import strategies as st
 
 from microsim import recipe
 from microsim.errors import InputError
-from microsim.materials import Black, Conductor, Lambertian, material_from_json
+from microsim.materials import Black, Conductor, Dielectric, Lambertian, material_from_json
 from microsim.schema import Key, check_value
 from microsim.spectra.channels import RGB
+from microsim.spectra.spectrum import Spectrum
 from microsim.surfaces.params import SURFACE_KINDS
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -201,6 +202,9 @@ def test_one_number_is_a_list_of_one():
 
 
 SPECTRAL = {"wavelengths": [450.0, 600.0]}
+NEEDS_SPECTRAL = ("a spectrum needs a spectral table ([table] wavelengths); an RGB table "
+                  "takes a number or three (R, G, B)")
+NEEDS_REFRACT = "needs refract = true (without refraction no light enters the medium)"
 GOLD_DEFAULT = ("its default is gold's R, G, B, which a spectral table has no channels for; "
                 'give it as a number or a spectrum (or data = "Au" …)')
 
@@ -218,12 +222,26 @@ GOLD_DEFAULT = ("its default is gold's R, G, B, which a spectral table has no ch
           "coating": {"thickness": 100.0, "eta": 1.45}},
      "material.coating: a coating needs a spectral table ([table] wavelengths): its "
      "interference depends on the wavelength"),
+    ({}, {"kind": "dielectric", "eta": {"nm": [400, 700], "value": [1.5, 1.6]}},
+     f"material.eta: {NEEDS_SPECTRAL}"),
+    ({}, {"kind": "dielectric", "data": "BK7"}, f"material.data: {NEEDS_SPECTRAL}"),
+    ({}, {"kind": "dielectric", "refract": True,
+          "absorption": {"nm": [400, 700], "value": [0.1, 0.2]}},
+     f"material.absorption: {NEEDS_SPECTRAL}"),
+    ({}, {"kind": "dielectric", "coating": {"thickness": 100.0, "eta": 1.45}},
+     "material.coating: a coating needs a spectral table ([table] wavelengths): its "
+     "interference depends on the wavelength"),
+    ({}, {"kind": "dielectric", "absorption": 0.5},
+     f"material.absorption = [0.5, 0.5, 0.5]: {NEEDS_REFRACT}"),
+    (SPECTRAL, {"kind": "dielectric", "absorption": {"nm": [400, 700], "value": [0.0, 0.2]}},
+     f"material.absorption = [0.0, 0.2]: {NEEDS_REFRACT}"),
 ])
 def test_a_material_that_does_not_fit_the_tables_channels_is_refused_naming_its_key(
         table, material, message):
     """A conductor's default gold triple left in a spectral table (the other index given),
-    a spectrum not covering the wavelengths, shipped data or a coating in an RGB table:
-    one ``InputError``, its whole message naming the key."""
+    a spectrum not covering the wavelengths, a spectrum, shipped data or a coating in an
+    RGB table, a dielectric's absorption (a number or a spectrum) without refraction: one
+    ``InputError``, its whole message naming the key."""
     assert error_of({"surface": {"kind": "flat"}, "table": table,
                      "material": material}) == message
 
@@ -237,6 +255,13 @@ def test_a_materials_own_errors_name_its_key_as_one_material_section():
     with pytest.raises(InputError) as info:
         Conductor(eta=(1.0, 2.0)).parameters(RGB)
     assert str(info.value) == "material.eta: 2 numbers; an RGB table takes three"
+    index = Spectrum((400.0, 700.0), (1.5, 1.6), "an index of the test")
+    with pytest.raises(InputError) as info:
+        Dielectric(eta=index).parameters(RGB)
+    assert str(info.value) == f"material.eta: {NEEDS_SPECTRAL}"
+    with pytest.raises(InputError) as info:
+        Dielectric(refract=True, absorption=index).medium(RGB)
+    assert str(info.value) == f"material.absorption: {NEEDS_SPECTRAL}"
 
 
 def test_material_from_json_refuses_an_unknown_kind_and_lists_the_known_ones():
