@@ -289,3 +289,40 @@ def test_coated_lambertian_model_agrees_with_the_quadrature() -> None:
                                    f_i + (1 - f_i) * rho * (1 - r_i) / (1 - rho * r_i),
                                    atol=1e-9)
     assert np.all(model.eval(wi, direction(np.radians(95.0), 0.0)) == 0)
+
+
+def test_dielectric_columns_medium_and_dispersion_are_what_the_kernel_reads() -> None:
+    """The kernel's columns of a dielectric: η per channel (shipped ``data`` in its place:
+    N-BK7's n_d = 1.5168 at 587.56 nm and n_F = 1.5224 at 486.13 nm, SCHOTT's data sheet
+    to its 4 decimals, hence 1e-4), then 1 to refract, 0 not to; the medium's absorption
+    only behind refracting faces (None else); its events' directions depend on the
+    wavelength only when it refracts, in a table of more than one channel: always under a
+    coating, at refractions where η varies between channels."""
+    from microsim.materials import Dielectric
+    from microsim.materials.base import DISPERSION_ALWAYS, DISPERSION_NONE, DISPERSION_REFRACTED
+    from microsim.materials.coating import Coating
+    from microsim.spectra.channels import RGB, Channels
+    from microsim.spectra.spectrum import Spectrum
+
+    assert Dielectric().parameters(RGB) == ((1.5,) * 3, (0.0,) * 3)
+    assert Dielectric(eta=1.3, refract=True).parameters(RGB) == ((1.3,) * 3, (1.0,) * 3)
+    eta, refracts = Dielectric(data="BK7", refract=True).parameters(Channels((587.56, 486.13)))
+    assert abs(eta[0] - 1.5168) < 1e-4 and abs(eta[1] - 1.5224) < 1e-4 and refracts == (1.0, 1.0)
+    assert Dielectric(absorption=(0.0, 0.0, 0.0)).medium(RGB) is None
+    assert Dielectric(refract=True, absorption=(0.1, 0.2, 0.3)).medium(RGB) == (0.1, 0.2, 0.3)
+
+    two, one = Channels((450.0, 600.0)), Channels((450.0,))
+    index = Spectrum((400.0, 700.0), (1.6, 1.5), "an index of the test")
+    film = Coating(120.0, 2.0)
+    cases = [  # (material, channels, dispersion)
+        (Dielectric(eta=index, refract=True), two, DISPERSION_REFRACTED),
+        (Dielectric(eta=index), two, DISPERSION_NONE),
+        (Dielectric(eta=index, refract=True), one, DISPERSION_NONE),
+        (Dielectric(eta=1.5, refract=True), two, DISPERSION_NONE),
+        (Dielectric(eta=1.5, refract=True, coating=film), two, DISPERSION_ALWAYS),
+        (Dielectric(eta=1.5, refract=True, coating=film), one, DISPERSION_NONE),
+        (Dielectric(eta=1.5, coating=film), two, DISPERSION_NONE),
+        (Dielectric(eta=1.5, refract=True), RGB, DISPERSION_NONE),
+    ]
+    for material, channels, dispersion in cases:
+        assert material.dispersion(channels) == dispersion, (material, channels)
