@@ -288,3 +288,33 @@ def test_a_conductors_fresnel_and_model_defaults_are_its_indices_per_channel():
     assert [np.asarray(x).tolist() for x in record[1:]] == [
         [1.45, 1.45], [100.0, 100.0], [450.0, 600.0], [0.5, 0.5], [2.0, 2.0]]
     assert coated.model_defaults(channels) == {"eta": [0.5, 0.5], "k": [2.0, 2.0]}
+
+
+def test_a_dielectrics_fresnel_and_model_defaults_are_its_index():
+    """A dielectric's Fresnel record is ``("dielectric", eta)`` and its model default
+    ``eta``: one number where η is the same in every channel (also a table of one
+    wavelength), η per channel where it varies; coated, ``("coated", film index,
+    thickness, wavelengths, eta, 0)`` per channel."""
+    from microsim.materials import Dielectric
+    from microsim.materials.coating import Coating
+    from microsim.spectra.channels import RGB, Channels
+    from microsim.spectra.spectrum import Spectrum
+
+    glass = Dielectric(eta=1.6, refract=True)
+    for channels in (RGB, Channels((550.0,))):
+        kind, eta = glass.fresnel(channels)
+        assert kind == "dielectric" and eta == 1.6 and np.ndim(eta) == 0
+        assert glass.model_defaults(channels) == {"eta": 1.6}
+        assert np.ndim(glass.model_defaults(channels)["eta"]) == 0
+    two = Channels((450.0, 600.0))
+    dispersive = Dielectric(eta=Spectrum((400.0, 700.0), (1.6, 1.5), "an index of the test"))
+    sampled = pytest.approx([1.6 - 0.1 / 6, 1.6 - 0.2 / 3], abs=1e-15)  # linear in nm
+    kind, eta = dispersive.fresnel(two)
+    assert kind == "dielectric" and eta.tolist() == sampled
+    assert dispersive.model_defaults(two) == {"eta": sampled}
+    assert isinstance(dispersive.model_defaults(two)["eta"], list)
+    assert recipe_defaults({"kind": "dielectric", "eta": 1.6}) == {"eta": 1.6}
+    record = Dielectric(eta=1.5, coating=Coating(100.0, 2.0)).fresnel(two)
+    assert record[0] == "coated"
+    assert [np.asarray(x).tolist() for x in record[1:]] == [
+        [2.0, 2.0], [100.0, 100.0], [450.0, 600.0], [1.5, 1.5], [0.0, 0.0]]
