@@ -122,7 +122,10 @@ def inverse_trigamma(x: float) -> float:
 def inverse_trigammas(x: np.ndarray) -> np.ndarray:
     """y with ψ'(y) = x > 0, elementwise, by Newton's method on 1/ψ', which is nearly
     linear (Smyth 2004, appendix; ψ'(y) ≈ 1/y for large y and 1/y² for small y); each
-    element stops when its relative step falls below 1e-12.
+    element stops when its relative step falls below 1e-12 (after 16 steps at most over
+    [1e-6, 1e7], measured at 20 001 log-spaced x). Outside that range no step is taken:
+    y is the asymptotic 1/x below it and 1/√x above it, where ψ'(y) = x (1 + x/2 + …)
+    and x (1 + π²/(6x) + …), so ψ'(y) is x within 1e-6 relative.
 
     Parameters
     ----------
@@ -451,6 +454,8 @@ class RunningEstimate:
         realisation each up to ``groups``). The posterior variance w ρ0 u + (1 − w) s²,
         w = d0 / (d0 + d), then has relative variance 2 / (d0 + d) + w² 2 / ν_ρ
         (Satterthwaite 1946, Biometrics Bull. 2(6), 110), i.e. 1/ν = 1/(d0 + d) + w²/ν_ρ.
+        A replicate that keeps fewer than two realisations, or fewer than two bins with
+        s² and u > 0, leaves Var_J undefined: it is taken as infinite, so ν = 0.
         """
         totals = self._totals()
         for index in np.ndindex(*var.shape[:-2]):
