@@ -97,6 +97,39 @@ def test_moderation_prior_recovers_a_known_prior() -> None:
     assert np.allclose(moderation_priors(rows, dofs), [w[0] for w in want], rtol=1e-10, atol=0)
 
 
+def test_moderation_prior_of_ratios_scattering_exactly_as_sampling_does() -> None:
+    """Two ratios whose var(e) equals ψ'(d/2) to the last bit (for a first ratio of 1.2,
+    1.201, …, the second stepped ulp by ulp across that point until one lands on it;
+    d = 2, where log(d/2) = 0 and e = log ratio − ψ(1)): the excess is 0, not positive,
+    so d0 = ∞ and ρ0 = exp(mean e), from ``moderation_prior`` and, as a row,
+    ``moderation_priors`` (taking 0 as positive asks for the inverse trigamma of 0,
+    which is infinite, and gives a NaN ρ0)."""
+    from microsim.tables.estimator import moderation_priors
+
+    target = float(polygamma(1, 1.0))
+
+    def excess(ratio: np.ndarray) -> float:
+        return float((np.log(ratio) - psi(1.0)).var(ddof=1)) - target
+
+    for first in 1.2 + 1e-3 * np.arange(100):
+        second = first * np.exp(np.sqrt(2 * target))
+        above = excess(np.array([first, second])) > 0
+        for _ in range(100):     # step towards var(e) = ψ'(1) until it is crossed
+            if excess(np.array([first, second])) == 0 or (
+                    excess(np.array([first, second])) > 0) != above:
+                break
+            second = np.nextafter(second, 0.0 if above else np.inf)
+        if excess(np.array([first, second])) == 0:
+            break
+    ratio = np.array([first, second])
+    e = np.log(ratio) - psi(1.0)
+    assert excess(ratio) == 0
+    rho0, d0 = moderation_prior(ratio, 2)
+    assert d0 == np.inf and np.isclose(rho0, np.exp(e.mean()), rtol=1e-14)
+    assert np.allclose(moderation_priors(ratio[None], np.array([2])), rho0, rtol=1e-14,
+                       atol=0)
+
+
 def synthetic_ensembles(runs: int, k: int, bins: int, rng: np.random.Generator,
                         inflation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``runs`` independent ensembles of ``k`` Gaussian realisation estimates per bin: ray
