@@ -17,7 +17,7 @@ from microsim.simulation import Tiles, assemble_table, simulate_recipe
 from microsim.surfaces.facts import PaintFacts, Roughness, SurfaceFacts
 from microsim.surfaces.realisations import realisation, realisation_seed
 from microsim.surfaces.rules import ENSEMBLE_AREAS
-from microsim.tables.estimator import combine, inverse_trigamma, moderation_prior
+from microsim.tables.estimator import Estimate, combine, inverse_trigamma, moderation_prior
 from microsim.tables.exr import write_table
 
 
@@ -430,6 +430,163 @@ def test_batch_mean_sums_keep_one_group_however_many_realisations() -> None:
         tracemalloc.stop()
     assert grown < 0.05 * 3 * m[0].nbytes, grown
     assert np.allclose(running.estimate().mean, m.mean(axis=0), rtol=1e-12, atol=0)
+
+
+def moderated_by_hand(m: np.ndarray, v: np.ndarray, pool: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The moderated estimator of realisations' estimates ``m`` and ray variances ``v``
+    ((R, directions, bins, channels), NaN rows where a realisation is absent) written out
+    from the docstrings of ``estimate`` and ``RunningEstimate._moderate``, two-pass:
+    variances (directions, bins, channels), degrees of freedom and inflations
+    (directions, channels). Per direction of K ≥ 3 realisations and channel, the pooled
+    bins with s², u > 0 (and a finite ratio) fit Smyth's prior; the jackknife deletes the realisations r ≡ g
+    mod GROUPS present, one g at a time, and is infinite where a replicate keeps fewer
+    than two realisations or two ratios. Fewer than three realisations or two ratios:
+    batch means floored at u, K − 1 degrees of freedom."""
+    from microsim.tables.estimator import DOF_MAX, GROUPS
+
+    _, dirs, bins, ch = m.shape
+    var, dof = np.full((dirs, bins, ch), np.nan), np.full((dirs, ch), np.nan)
+    inflation = np.full((dirs, ch), np.nan)
+    for d in range(dirs):
+        rs = np.flatnonzero(~np.isnan(m[:, d]).all(axis=(1, 2)))
+        kk = len(rs)
+        md, vd = m[rs, d], v[rs, d]
+        s2, u = md.var(axis=0, ddof=1) / kk, vd.sum(axis=0) / kk**2
+        var[d], dof[d] = np.maximum(s2, u), kk - 1
+        for c in range(ch if kk >= 3 else 0):
+            with np.errstate(divide="ignore", invalid="ignore"):   # u = 0: not used
+                use = pool[d, :, c] & (s2[:, c] > 0) & (u[:, c] > 0) & np.isfinite(
+                    s2[:, c] / u[:, c])
+            if use.sum() < 2:
+                continue
+            rho0, d0 = moderation_prior(s2[use, c] / u[use, c], kk - 1)
+            logs = []
+            for g in np.unique(rs % GROUPS):
+                rest = rs % GROUPS != g
+                n = int(rest.sum())
+                if n < 2:
+                    logs.append(np.inf)
+                    continue
+                s2g = md[rest][:, use, c].var(axis=0, ddof=1) / n
+                ug = vd[rest][:, use, c].sum(axis=0) / n**2
+                ok = (s2g > 0) & (ug > 0)
+                logs.append(np.log(moderation_prior(s2g[ok] / ug[ok], n - 1)[0])
+                            if ok.sum() >= 2 else np.inf)
+            logs = np.array(logs)
+            jack = ((len(logs) - 1) / len(logs) * np.sum((logs - logs.mean()) ** 2)
+                    if np.isfinite(logs).all() else np.inf)
+            w = 1.0 if np.isinf(d0) else d0 / (d0 + kk - 1)
+            prior = 0.0 if np.isinf(d0) else 1.0 / (d0 + kk - 1)
+            dof[d, c] = min(1 / max(prior + w * w * jack / 2, 1 / DOF_MAX), DOF_MAX)
+            var[d, :, c] = w * rho0 * u[:, c] + (1 - w) * s2[:, c]
+            inflation[d, c] = rho0
+    return var, dof, inflation
+
+
+def assert_moderated_by_hand(m: np.ndarray, v: np.ndarray, pool: np.ndarray) -> Estimate:
+    """``RunningEstimate`` with ``GROUPS`` groups fed ``m`` and ``v`` one realisation at a
+    time against ``moderated_by_hand``: variances and inflations to 1e-10 relative,
+    degrees of freedom to 1e-8 (the jackknife's sums of small differences); returns its
+    estimate."""
+    from microsim.tables.estimator import GROUPS, RunningEstimate
+
+    running = RunningEstimate(m.shape[1:], GROUPS)
+    for r in range(len(m)):
+        running.add(r, m[r], v[r])
+    got = running.estimate(pool, dof_one=1e6)
+    var, dof, inflation = moderated_by_hand(m, v, pool)
+    assert np.allclose(got.stderr**2, var, rtol=1e-10, atol=0)
+    assert np.allclose(got.dof, dof, rtol=1e-8, atol=0)
+    assert np.allclose(got.inflation, inflation, rtol=1e-10, atol=0, equal_nan=True)
+    return got
+
+
+def test_moderated_estimate_of_few_realisations_is_its_formulas() -> None:
+    """``moderated_by_hand`` against ``RunningEstimate`` where the estimator switches:
+    direction 0 has K = 2 realisations (batch means floored at u, s² above u in some
+    bins); direction 1 K = 3, its first channel pooled nowhere (batch means), its second
+    the smallest moderated group: three bins whose realisations are one triple cycled,
+    so every bin has the same ratio (d0 = ∞, w = 1) and every delete-one replicate the
+    same ratios (the jackknife's variance is 0, degrees of freedom ``DOF_MAX``);
+    direction 2 K = 5 with two pooled bins (the fewest a replicate may keep) and the
+    groups 5 … 31 of direction 3's 40 realisations empty. The same sums scaled by 1e100
+    (variances by 1e200) give the same inflations and degrees of freedom, and a pool of
+    0 and 1 the same estimate as one of booleans."""
+    from microsim.tables.estimator import DOF_MAX, GROUPS, RunningEstimate
+
+    rng = np.random.default_rng(8)
+    k, dirs, bins, ch = 40, 4, 4, 2
+    m = rng.normal(0.0, 1.0, (k, dirs, bins, ch)) * np.exp(rng.normal(0, 0.5, (1, 1, bins, 1)))
+    v = np.exp(rng.normal(-2.0, 0.4, (k, dirs, bins, ch)))
+    m[2:, 0] = np.nan
+    m[3:, 1] = np.nan
+    m[5:, 2] = np.nan
+    triple, ray = np.array([0.0, 1.0, 3.0]), np.array([0.5, 0.2, 0.3])
+    for b in range(3):                  # bin b: realisation r has the triple's (r + b) mod 3
+        m[:3, 1, b, 1], v[:3, 1, b, 1] = np.roll(triple, -b), np.roll(ray, -b)
+    pool = np.ones((dirs, bins, ch), bool)
+    pool[1, :, 0] = False
+    pool[1, 3, 1] = False
+    pool[2, 2:] = False
+    got = assert_moderated_by_hand(m, v, pool)
+    assert (got.stderr[0] ** 2 > got.ray_stderr[0] ** 2).any()
+    assert np.isnan(got.inflation[:2, 0]).all() and np.all(got.dof[:2, 0] == [1, 2])
+    assert got.dof[1, 1] == DOF_MAX and np.isfinite(got.inflation[2:]).all()
+
+    scaled = RunningEstimate((dirs, bins, ch), GROUPS)
+    for r in range(k):
+        scaled.add(r, 1e100 * m[r], 1e200 * v[r])
+    big = scaled.estimate(pool, dof_one=1e6)
+    assert np.allclose(big.stderr / 1e100, got.stderr, rtol=1e-12, atol=0)
+    assert np.allclose(big.inflation, got.inflation, rtol=1e-12, atol=0, equal_nan=True)
+    assert np.allclose(big.dof, got.dof, rtol=1e-8, atol=0)
+    ones = scaled.estimate(pool.astype(int), dof_one=1e6)
+    for field in ("stderr", "dof", "inflation"):
+        assert np.array_equal(getattr(ones, field), getattr(big, field), equal_nan=True)
+
+
+def test_moderated_estimate_where_replicates_tie_or_lose_their_ray_variance() -> None:
+    """Bins that some jackknife replicate cannot use, against ``moderated_by_hand``,
+    without a RuntimeWarning: a pooled bin with no ray variance at all (v = 0 in every
+    realisation: left out of the fit); one whose realisations 1, 2 and 3 tie, so the
+    replicate without realisation 0 has s² = 0 there; one where only realisation 0 has
+    ray variance, so that replicate has u = 0 there (each leaves the replicate the
+    ratios of its four other bins); and a direction of K = 3 with two pooled bins, one of them tied in
+    that replicate, which keeps a single ratio: the jackknife is undefined and the
+    degrees of freedom 0."""
+    rng = np.random.default_rng(9)
+    k, dirs, bins, ch = 4, 4, 5, 1
+    m = rng.normal(0.0, 1.0, (k, dirs, bins, ch))
+    v = np.exp(rng.normal(-2.0, 0.4, (k, dirs, bins, ch)))
+    v[:, 0, 4] = 0.0                                 # no ray variance
+    m[1:, 1, 4] = 0.25                               # realisations 1-3 tie
+    v[1:, 2, 4] = 0.0                                # only realisation 0 has some
+    m[3, 3] = np.nan                                 # direction 3: K = 3
+    m[1:3, 3, 1] = 0.5
+    pool = np.ones((dirs, bins, ch), bool)
+    pool[3, 2:] = False
+    got = assert_moderated_by_hand(m, v, pool)
+    assert np.isfinite(got.inflation).all() and np.all(got.dof[3] == 0)
+    assert (got.dof[:3] > 0).all()
+
+
+def test_moderated_estimate_of_sparse_realisations() -> None:
+    """A direction holding realisations 0, 1, 32 and 64 only (K = 4 in two groups): the
+    replicate without group 0 keeps one realisation, whose s² is 0/0 but for rounding
+    (the totals less group 0's sums are one value's sums only up to the last bits):
+    undefined, without a RuntimeWarning, so the jackknife is infinite and the degrees of
+    freedom 0, against ``moderated_by_hand``; the realisations far apart (1000 and 2000
+    from the first) make that rounding large."""
+    rng = np.random.default_rng(10)
+    k, bins = 65, 4
+    m = np.full((k, 1, bins, 1), np.nan)
+    v = np.full((k, 1, bins, 1), np.nan)
+    for r, centre in ((0, 0.0), (1, 1e-3), (32, 1e3), (64, 2e3)):
+        m[r, 0, :, 0] = centre + rng.normal(0, 1e-4, bins)
+        v[r, 0, :, 0] = np.exp(rng.normal(-12, 0.3, bins))
+    got = assert_moderated_by_hand(m, v, np.ones((1, bins, 1), bool))
+    assert np.isfinite(got.inflation).all() and got.dof[0, 0] == 0
 
 
 def test_memory_does_not_grow_with_the_realisations() -> None:
