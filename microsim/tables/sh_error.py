@@ -137,7 +137,10 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
     component = table.component(component)
     a, b = table.rays.shape
     count = table.channels.count
-    omega_proj = table.bins.projected_solid_angle.ravel()
+    # Ω_proj over the same region as Ω: a folded bin's solid angle (bin_integrals) covers
+    # its mirror image too, HemisphereBins.projected_solid_angle one side only
+    omega_proj = table.bins.projected_solid_angle.ravel() * (2.0 if table.bins.folded
+                                                             else 1.0)
     integrals, omega = bin_integrals(max(orders), table.bins)
     scale = (omega_proj / omega)[None, None, :, None]
     g_table = table.values[component].reshape(a, b, -1, count) * scale
