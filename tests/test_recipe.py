@@ -235,13 +235,25 @@ GOLD_DEFAULT = ("its default is gold's R, G, B, which a spectral table has no ch
      f"material.absorption = [0.5, 0.5, 0.5]: {NEEDS_REFRACT}"),
     (SPECTRAL, {"kind": "dielectric", "absorption": {"nm": [400, 700], "value": [0.0, 0.2]}},
      f"material.absorption = [0.0, 0.2]: {NEEDS_REFRACT}"),
+    (SPECTRAL, {"kind": "lambertian", "data": "colorchecker_green", "albedo": 0.5},
+     "material.data = 'colorchecker_green': gives albedo; leave out albedo"),
+    (SPECTRAL, {"kind": "conductor", "data": "Ag", "eta": 1.0, "k": 2.0},
+     "material.data = 'Ag': gives eta and k; leave out eta and k"),
+    (SPECTRAL, {"kind": "conductor", "data": "Ag", "k": 2.0},
+     "material.data = 'Ag': gives eta and k; leave out k"),
+    *[(SPECTRAL, {"kind": "lambertian", "albedo": {"nm": [400], "value": [0.1, 0.2], **cited}},
+       "material.albedo: nm has 1 entries and value 2; give one value for each wavelength")
+      for cited in ({}, {"source": "a reflectance of the test"})],
+    (SPECTRAL, {"kind": "conductor", "data": "Ag", "coating": {"thickness": -1.0, "eta": 2.0}},
+     "material.coating.thickness = -1.0: must be a number of nm >= 0 and <= 100000"),
 ])
 def test_a_material_that_does_not_fit_the_tables_channels_is_refused_naming_its_key(
         table, material, message):
     """A conductor's default gold triple left in a spectral table (the other index given),
     a spectrum not covering the wavelengths, a spectrum, shipped data or a coating in an
-    RGB table, a dielectric's absorption (a number or a spectrum) without refraction: one
-    ``InputError``, its whole message naming the key."""
+    RGB table, a dielectric's absorption (a number or a spectrum) without refraction, a key
+    that ``data`` stands in for given with it, a malformed spectrum (cited or not) or
+    coating: one ``InputError``, its whole message naming the key."""
     assert error_of({"surface": {"kind": "flat"}, "table": table,
                      "material": material}) == message
 
@@ -279,3 +291,40 @@ def test_material_from_json_refuses_an_unknown_kind_and_lists_the_known_ones():
                                      "fibre": {"kind": "dielectric", "refract": True}}})
     for material in (*r.material.values(), Lambertian(albedo=(0.1, 0.2, 0.3)), Black()):
         assert material_from_json(material.to_json()) == material
+
+
+def test_a_spectral_materials_json_leaves_out_what_data_gives_and_reads_back():
+    """A material's JSON (a table file's recipe) holds a spectrum with its source (an
+    uncited one cited by its key path) and leaves out the keys ``data`` stands in for;
+    it reads back to the same material, spectra and coatings as records; a malformed
+    section in a table file is refused naming its key."""
+    nm = [450.0, 600.0]
+    spectrum = {"nm": [400.0, 700.0], "value": [1.6, 1.5]}
+    r = recipe.resolve({"surface": {"kind": "velvet"}, "table": {"wavelengths": nm},
+                        "material": {"base": {"kind": "lambertian", "albedo": {
+                                         "nm": [400.0, 700.0], "value": [0.1, 0.2]}},
+                                     "fibre": {"kind": "dielectric", "eta": spectrum}}})
+    base, fibre = r.material["base"], r.material["fibre"]
+    assert base.albedo == Spectrum((400.0, 700.0), (0.1, 0.2),
+                                   "the spectrum given at material.base.albedo")
+    assert fibre.eta == Spectrum((400.0, 700.0), (1.6, 1.5),
+                                 "the spectrum given at material.fibre.eta")
+    r = recipe.resolve({"surface": {"kind": "flat"}, "table": {"wavelengths": nm},
+                        "material": {"kind": "conductor", "data": "Ag", "coating": {
+                            "thickness": 90.0, "eta": {**spectrum, "source": "a film"}}}})
+    metal = r.material["base"]
+    assert metal.to_json() == {"kind": "conductor", "data": "Ag", "coating": {
+        "thickness": 90.0, "eta": {"kind": "tabulated", **spectrum, "source": "a film"}}}
+    assert Lambertian(data="colorchecker_green").to_json() == {
+        "kind": "lambertian", "data": "colorchecker_green"}
+    for material in (base, fibre, metal):
+        assert material_from_json(material.to_json()) == material
+    with pytest.raises(InputError) as info:
+        material_from_json({"kind": "conductor", "coating": {"thickness": -1, "eta": 2.0}})
+    assert str(info.value) == ("material.coating.thickness = -1: must be a number of nm >= 0 "
+                               "and <= 100000")
+    with pytest.raises(InputError) as info:
+        material_from_json({"kind": "lambertian",
+                            "albedo": {"nm": [400.0], "value": [0.1, 0.2], "source": "s"}})
+    assert str(info.value) == ("material.albedo: nm has 1 entries and value 2; give one value "
+                               "for each wavelength")
