@@ -256,6 +256,30 @@ def test_a_conductors_indices_in_a_spectral_table_are_its_measured_metals():
     assert Conductor().parameters(RGB) == ((0.2, 0.92, 1.1), (3.9, 2.45, 2.14))
 
 
+def test_a_materials_sources_cite_each_spectrum_it_samples():
+    """``sources`` names, by key, the citation of every spectrum a material samples: its
+    shipped ``data`` (Johnson & Christy's gold, SCHOTT's BK7, BabelColor's ColorChecker),
+    a given spectrum's ``source``, a coating's index as ``coating.eta``; nothing for
+    numbers, a number's coating, or a kind without keys."""
+    from microsim.materials import Black, Conductor, Dielectric, Lambertian, Mirror
+    from microsim.materials.coating import Coating
+
+    film = Spectrum((400.0, 700.0), (2.0, 2.1), "a film of the test")
+    albedo = Spectrum((400.0, 700.0), (0.2, 0.4), "an albedo of the test")
+    gold = Conductor(data="Au", coating=Coating(90.0, film)).sources()
+    assert set(gold) == {"data", "coating.eta"} and gold["coating.eta"] == "a film of the test"
+    assert "Johnson and R. W. Christy" in gold["data"]
+    glass = Dielectric(data="BK7", absorption=albedo).sources()
+    assert set(glass) == {"data", "absorption"} and "SCHOTT" in glass["data"]
+    assert glass["absorption"] == "an albedo of the test"
+    patch = Lambertian(data="colorchecker_green").sources()
+    assert set(patch) == {"data"} and "BabelColor" in patch["data"]
+    assert Lambertian(albedo=albedo).sources() == {"albedo": "an albedo of the test"}
+    for bare in (Lambertian(), Conductor(eta=0.5, k=2.0, coating=Coating(90.0, 1.45)),
+                 Dielectric(), Black(), Mirror()):
+        assert bare.sources() == {}, bare
+
+
 # --- reflectances -----------------------------------------------------------------------
 
 def test_colorchecker_patches():
