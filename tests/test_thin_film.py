@@ -237,6 +237,24 @@ def test_vectorised_broadcasts_over_every_argument() -> None:
         assert abs(out[i, j, m] - want) < EXACT
 
 
+def test_every_kernel_function_is_marked_for_the_transport_kernel() -> None:
+    """The transport kernel compiles what ``materials.base.kernel`` marked
+    (``KERNEL_FUNCTIONS``, registered by ``microsim.kernel.events``): the film's and the
+    optics' helpers and every kind's event are in it, and marking returns the function."""
+    from microsim.materials import KINDS, conductor, dielectric
+    from microsim.materials.base import KERNEL_FUNCTIONS, kernel
+
+    helpers = [thin_film.normal_wavenumber, thin_film.film_amplitudes,
+               thin_film.film_reflectance_polarised, thin_film.film_reflectance,
+               optics.reflect, optics.refract, optics.fresnel_dielectric,
+               optics.fresnel_conductor, optics.orthonormal_basis, optics.cosine_about,
+               conductor.coated, dielectric._reflectance]
+    for fn in helpers + [kind.scatter for kind in KINDS]:
+        assert any(marked is fn for marked in KERNEL_FUNCTIONS), fn.__qualname__
+    assert kernel(thin_film.film_reflectance) is thin_film.film_reflectance
+    assert KERNEL_FUNCTIONS.pop() is thin_film.film_reflectance
+
+
 def test_compiled_kernel_equals_python() -> None:
     """Compiled with numba as the transport kernel compiles kernel functions (the helpers
     registered with ``register_jitable``, ``microsim.kernel.events``), the unpolarised and
