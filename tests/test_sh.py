@@ -493,6 +493,32 @@ def test_matrix_refuses_what_it_cannot_build_with_its_messages() -> None:
     assert matrix.shape == (sh.size(32), sh.size(32), 3)
 
 
+def test_matrix_eval_is_the_double_series_and_zero_off_the_hemisphere() -> None:
+    """f_r = Σ_ij b_ij Y_i(ωi) Y_j(ωo) / (cos θi cos θo) with scipy's harmonics for pairs
+    above the horizon (within 1e-12 relative), and exactly 0, as floats, where either
+    direction is on the horizon (z = 0) or below it."""
+    order = 2
+    rng = np.random.default_rng(4)
+    b = rng.normal(size=(sh.size(order), sh.size(order), 2))
+    b = b + b.transpose(1, 0, 2)
+    wi = unit(np.array([[0.3, 0.1, 0.9], [0.5, -0.4, 0.2], [0.2, 0.6, 0.7], [0.6, 0.0, 0.8],
+                        [0.3, 0.4, -0.5], [1.0, 0.0, 0.0], [0.1, 0.2, 0.9]]))
+    wo = unit(np.array([[-0.2, 0.5, 0.6], [0.1, 0.1, 0.95], [0.7, -0.1, 0.1], [0.0, 1.0, 0.0],
+                        [0.2, 0.1, 0.9], [0.3, 0.3, 0.8], [0.4, 0.0, -0.2]]))
+    got = matrix_eval(b, wi, wo)
+    assert got.shape == (7, 2) and got.dtype == np.float64
+    l, m = sh.degrees(order)
+
+    def y(d):
+        theta, phi = np.arccos(d[:, 2]), np.arctan2(d[:, 1], d[:, 0])
+        return np.stack([real_y(a_, b_, theta, phi) for a_, b_ in zip(l, m, strict=True)], -1)
+
+    expected = np.einsum("ki,ijc,kj->kc", y(wi[:3]), b, y(wo[:3])) / (
+        wi[:3, 2] * wo[:3, 2])[:, None]
+    assert np.allclose(got[:3], expected, rtol=1e-12, atol=0)
+    assert np.array_equal(got[3:], np.zeros((4, 2)))
+
+
 # --- the command --------------------------------------------------------------------------
 def test_cli_reports_error_against_order(rough: BRDFTable, tmp_path, cli) -> None:
     write_table(rough, tmp_path / "t.exr")
