@@ -26,7 +26,7 @@ from microsim.tables.components import components_for
 from microsim.tables.exr import write_table
 from microsim.tables.meta import TableMeta
 from microsim.tables.sh_error import bin_integrals, order_errors
-from microsim.tables.sh_matrix import MAX_ORDER, brdf_matrix, matrix_eval
+from microsim.tables.sh_matrix import MAX_ORDER, brdf_matrix, matrix_eval, write_matrix
 from microsim.tables.table import BRDFTable
 
 Z_MAX = 4.2
@@ -517,6 +517,30 @@ def test_matrix_eval_is_the_double_series_and_zero_off_the_hemisphere() -> None:
         wi[:3, 2] * wo[:3, 2])[:, None]
     assert np.allclose(got[:3], expected, rtol=1e-12, atol=0)
     assert np.array_equal(got[3:], np.zeros((4, 2)))
+
+
+def test_write_matrix_stores_its_keys_and_the_wavelengths_of_spectral_tables(
+        tmp_path) -> None:
+    """The ``.npz`` holds exactly ``matrix``, ``order``, ``asymmetry`` and ``convention``
+    (the string docs/table-format.md describes) for RGB, and ``wavelengths`` as float64 nm
+    besides (given as ints here) for a spectral table."""
+    rng = np.random.default_rng(6)
+    matrix, asymmetry = rng.normal(size=(9, 9, 3)), np.array([0.1, 0.2, 0.3])
+    write_matrix(tmp_path / "rgb.npz", matrix, asymmetry)
+    convention = ("f_r cos(theta_i) cos(theta_o) = sum_ij b_ij Y_i(wi) Y_j(wo); real "
+                  "orthonormal spherical harmonics, Condon-Shortley phase, index l*l + l + m "
+                  "(docs/table-format.md)")
+    with np.load(tmp_path / "rgb.npz") as data:
+        assert sorted(data.files) == ["asymmetry", "convention", "matrix", "order"]
+        assert np.array_equal(data["matrix"], matrix) and int(data["order"]) == 2
+        assert np.array_equal(data["asymmetry"], asymmetry)
+        assert str(data["convention"]) == convention
+    write_matrix(tmp_path / "spectral.npz", matrix, asymmetry, (450, 550, 650))
+    with np.load(tmp_path / "spectral.npz") as data:
+        assert sorted(data.files) == ["asymmetry", "convention", "matrix", "order",
+                                      "wavelengths"]
+        assert data["wavelengths"].dtype == np.float64
+        assert np.array_equal(data["wavelengths"], [450.0, 550.0, 650.0])
 
 
 # --- the command --------------------------------------------------------------------------
