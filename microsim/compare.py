@@ -161,7 +161,9 @@ NORMAL_DOF = 1e5
 def normal_z(t: np.ndarray, dof: np.ndarray | float) -> np.ndarray:
     """The standard normal quantile with the probability of a Student-t score:
     Φ⁻¹(F_ν(t)), so z-scores of errors with few degrees of freedom (an ensemble of few
-    realisations, ``microsim.tables.estimator``) have unit spread under the null."""
+    realisations, ``microsim.tables.estimator``) have unit spread under the null.
+    NaN where ν ≤ 0: an error of no degrees of freedom (an ensemble whose jackknife is
+    undefined) says nothing of the spread, so no score can be given."""
     dof = np.broadcast_to(np.asarray(dof, float), np.shape(t))
     if np.all(dof >= NORMAL_DOF):
         return np.asarray(t, float)
@@ -171,7 +173,7 @@ def normal_z(t: np.ndarray, dof: np.ndarray | float) -> np.ndarray:
     # underflows (|t| in the tens or more) t itself stands, a finite bound
     p = stats.t.sf(np.abs(t), dof)
     z = np.sign(t) * stats.norm.isf(p)  # isf(0) = inf, without a warning
-    return np.where((dof >= NORMAL_DOF) | ~np.isfinite(z), t, z)
+    return np.where(dof <= 0, np.nan, np.where((dof >= NORMAL_DOF) | ~np.isfinite(z), t, z))
 
 
 def bin_estimate(model: Model, wi: np.ndarray, theta_edges: np.ndarray,
@@ -305,7 +307,8 @@ def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         |sim − model| / model over lobe bins (model ≥ 10% of its peak, per channel).
     z : (j,) float
         normal_z((sim − model) / √(stderr² + model_err²)) over lobe bins with a defined,
-        non-zero error: the two estimates are independent, so their variances add.
+        non-zero error of some degrees of freedom (ν > 0; a NaN ν is taken as normal):
+        the two estimates are independent, so their variances add.
     lobe : (nt, np, 3) bool
     """
     lobe = lobe_of(model, (0, 1))
@@ -317,7 +320,7 @@ def lobe_residuals(sim: np.ndarray, err: np.ndarray, model: np.ndarray,
         with np.errstate(invalid="ignore", divide="ignore"):
             nu = nu * (1 + (model_err / err) ** 2) ** 2
         err = np.hypot(err, model_err)
-    ok = lobe & np.isfinite(err) & (err > 0)
+    ok = lobe & np.isfinite(err) & (err > 0) & ~(nu <= 0)
     return rel, normal_z((sim - model)[ok] / err[ok], np.nan_to_num(nu[ok], nan=np.inf)), lobe
 
 

@@ -381,6 +381,25 @@ def test_lobe_residuals_welch_satterthwaite_and_the_bins_kept():
     e = err[ok]
     np.testing.assert_allclose(z_exact, stats.norm.isf(stats.t.sf((sim - model)[ok] / e, 3.0)),
                                rtol=1e-9)
+    # a channel whose errors have no degrees of freedom (an ensemble's undefined
+    # jackknife) gives no z-scores, with or without a model error; its relative errors stay
+    for m_err in (None, model_err):
+        rel0, z0, _ = lobe_residuals(sim, err, model, m_err, np.array([3.0, 0.0, 7.0]))
+        e0 = err if m_err is None else np.hypot(err, m_err)
+        kept = lobe_want & np.isfinite(e0) & (e0 > 0)
+        kept[..., 1] = False
+        assert z0.shape == (kept.sum(),) and np.isfinite(z0).all()
+        np.testing.assert_array_equal(rel0, rel)
+
+
+def test_normal_z_of_no_degrees_of_freedom_is_undefined():
+    """ν ≤ 0 (an error that says nothing of its spread) gives NaN, not t: the Student-t
+    tail at ν = 0 is NaN, and the fallback for a non-finite z (an underflowing tail) would
+    otherwise score the bin as if its error were exact."""
+    from microsim.compare import normal_z
+
+    z = normal_z(np.array([2.0, -1.0, 2.0, 2.0]), np.array([0.0, -1.0, 4.0, np.inf]))
+    assert np.isnan(z[:2]).all() and np.isfinite(z[2:]).all() and z[3] == 2.0
 
 
 def test_metrics_are_their_documented_sums():
