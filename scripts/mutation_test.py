@@ -82,6 +82,22 @@ MODULES: dict[str, list[str]] = {
         "test_running_sums_give_the_two_pass_estimates_and_the_group_jackknife",
         "tests/test_ensemble.py::"
         "test_estimate_of_sums_is_the_documented_formulas_and_sums_merge",
+        "tests/test_ensemble.py::"
+        "test_inverse_trigamma_is_the_root_across_newtons_range",
+        "tests/test_ensemble.py::"
+        "test_moderation_prior_of_ratios_scattering_exactly_as_sampling_does",
+        "tests/test_ensemble.py::"
+        "test_realisation_moments_of_absent_and_one_ray_realisations",
+        "tests/test_ensemble.py::"
+        "test_batch_means_alone_and_sums_taken_and_absorbed",
+        "tests/test_ensemble.py::"
+        "test_batch_mean_sums_keep_one_group_however_many_realisations",
+        "tests/test_ensemble.py::"
+        "test_moderated_estimate_of_few_realisations_is_its_formulas",
+        "tests/test_ensemble.py::"
+        "test_moderated_estimate_where_replicates_tie_or_lose_their_ray_variance",
+        "tests/test_ensemble.py::"
+        "test_moderated_estimate_of_sparse_realisations",
         "tests/test_tables_table.py"],
     "microsim/tables/sh.py": ["tests/test_sh.py"],
     "microsim/tables/sh_matrix.py": ["tests/test_sh.py"],
