@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -54,11 +55,83 @@ def test_the_map_is_equal_area_and_inverts() -> None:
     np.testing.assert_allclose(back[1], b, atol=1e-12)
 
 
+def test_the_map_on_the_axes_the_diagonals_and_the_centre() -> None:
+    """Shirley & Chiu's sectors at their seams, written out: (±½, 0) and (0, ±½) go to
+    φ = 0, π, π/2, 3π/2 and (½, ½) to φ = π/4, each with z = 1 − r², sin θ = r √(2 − r²)
+    (r = ½: z = ¾, sin θ = √7 / 4), and the centre to the pole, (0, 0, 1) exactly;
+    without a RuntimeWarning (a division by a = 0 or 0/0 would raise one, the suite turns
+    them into errors), to 1e-15."""
+    s = math.sqrt(7.0) / 4.0
+    a = np.array([0.5, 0.0, -0.5, 0.0, 0.5, 0.0])
+    b = np.array([0.0, 0.5, 0.0, -0.5, 0.5, 0.0])
+    r2 = math.sqrt(2.0) / 2.0
+    want = np.array([[s, 0.0, 0.75], [0.0, s, 0.75], [-s, 0.0, 0.75], [0.0, -s, 0.75],
+                     [s * r2, s * r2, 0.75], [0.0, 0.0, 1.0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        w = to_hemisphere(a, b)
+    np.testing.assert_allclose(w, want, rtol=0, atol=1e-15)
+    assert np.array_equal(w[-1], [0.0, 0.0, 1.0])
+
+
+def test_the_map_keeps_the_shape_and_computes_in_double_precision() -> None:
+    """(2, 3) arrays of square points give (2, 3, 3) directions, those of the flattened
+    points; a, b or w given as float32 (or ints) are converted first, so the result is
+    that of the same values in float64 to 1e-15 (float32 arithmetic errs by ~1e-7)."""
+    rng = np.random.default_rng(9)
+    a, b = rng.uniform(-0.99, 0.99, (2, 2, 3))
+    w = to_hemisphere(a, b)
+    assert w.shape == (2, 3, 3)
+    np.testing.assert_array_equal(w.reshape(-1, 3), to_hemisphere(a.ravel(), b.ravel()))
+    a32, b32 = a.astype(np.float32), b.astype(np.float32)
+    for x, y in ((a32, b), (a, b32)):
+        np.testing.assert_allclose(to_hemisphere(x, y),
+                                   to_hemisphere(x.astype(float), y.astype(float)),
+                                   rtol=0, atol=1e-15)
+    np.testing.assert_allclose(to_hemisphere(np.array([1, 0, -1]), np.array([0, 1, 0])),
+                               [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]],
+                               rtol=0, atol=1e-15)
+    w32 = w.astype(np.float32)
+    for got, want in zip(to_square(w32), to_square(w32.astype(float)), strict=True):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
+
+
+def test_to_square_takes_phi_ref_off_and_clamps_rounded_directions() -> None:
+    """A direction at azimuth φ_ref + ψ maps with ``phi_ref`` as the direction at ψ
+    without it (1e-12), a scalar or one per direction; one at φ_ref itself lands on the
+    +a axis at r = √(1 − z). z rounded past 1 gives the centre (0, 0) and z rounded below
+    the horizon (−1e-12) the square's edge, max(|a|, |b|) = 1 exactly, both without a
+    RuntimeWarning."""
+    rng = np.random.default_rng(4)
+    theta, psi = rng.uniform(0.1, 1.4, 50), rng.uniform(-math.pi, math.pi, 50)
+    ref = rng.uniform(-math.pi, math.pi, 50)
+
+    def direction(t, p):
+        return np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], -1)
+
+    for phi_ref in (ref, 0.7):
+        got = to_square(direction(theta, psi + phi_ref), phi_ref)
+        want = to_square(direction(theta, psi))
+        np.testing.assert_allclose(got[0], want[0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(got[1], want[1], rtol=0, atol=1e-12)
+    a, b = to_square(direction(theta, ref), ref)
+    np.testing.assert_allclose(a, np.sqrt(1.0 - np.cos(theta)), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(b, 0.0, rtol=0, atol=1e-12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        a, b = to_square(np.array([[0.0, 0.0, np.nextafter(1.0, 2.0)],
+                                   [0.6, 0.8, -1e-12]]))
+    assert a[0] == 0.0 and b[0] == 0.0
+    assert max(abs(a[1]), abs(b[1])) == 1.0
+
+
 @pytest.mark.parametrize("period", [2 * math.pi, math.pi])
 def test_overlaps_sum_to_the_pixels_and_the_bins_solid_angles(period: float) -> None:
     """Every pixel's overlaps add up to 2π/n², every bin's to Δcos θ Δφ (twice that when
-    folded), computed here from the bin edges alone, to 1e-12."""
+    folded), computed here from the bin edges alone, to 1e-12. The cache is cleared first,
+    so the overlaps are computed by this test, not kept from an earlier one."""
     bins = HemisphereBins(8, 12, period)
+    overlaps.cache_clear()
     m = overlaps(16, 8, 12, period)
     np.testing.assert_allclose(np.asarray(m.sum(axis=1)).ravel(), pixel_solid_angle(16),
                                rtol=1e-12)
@@ -70,8 +143,10 @@ def test_overlaps_sum_to_the_pixels_and_the_bins_solid_angles(period: float) -> 
 def test_overlaps_match_points_thrown_on_the_square() -> None:
     """400 000 uniform points on the square, mapped and binned by ``HemisphereBins.index``
     (not by the overlap code), fall in each (pixel, bin) cell in proportion to its overlap:
-    Pearson chi-square over the cells expecting >= 5 points, p > SIGNIFICANCE."""
+    Pearson chi-square over the cells expecting >= 5 points, p > SIGNIFICANCE. (The
+    overlaps' cache is cleared first: they are computed here.)"""
     n, bins = 8, HemisphereBins(4, 8)
+    overlaps.cache_clear()
     rng = np.random.default_rng(11)
     a, b = rng.uniform(-1, 1, (2, 400_000))
     pixel = np.minimum(((b + 1) * n / 2).astype(int), n - 1) * n + np.minimum(
