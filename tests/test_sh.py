@@ -203,6 +203,38 @@ def test_projection_of_one_direction_and_of_none() -> None:
     assert np.array_equal(sh.project(np.zeros((0, 2)), np.zeros((0, 2)), 3), np.zeros((16, 2)))
 
 
+def test_the_mapper_runs_every_transform_once() -> None:
+    """``project`` and ``moments`` hand their transforms to the given mapper in one call
+    over range(jobs), and return what they return without one, bit for bit (the mapper
+    here runs the jobs in reverse; each transform is single-threaded): ``project`` runs
+    one order-L transform per distinct weight column; ``moments`` one order-2L transform
+    of w² per distinct column and one order-L transform per distinct column other than
+    its own square (0/1 weights take theirs from the order-2L one), and without
+    ``second`` the order-L ones alone."""
+    rng = np.random.default_rng(9)
+    loc = sh.angles(unit(rng.normal(size=(500, 3))))
+    a = rng.random(500)
+    mirror = (rng.random(500) < 0.5).astype(float)
+    w = np.column_stack([a, mirror, a, rng.random(500)])      # 3 distinct, 1 its square
+    calls = []
+
+    def mapper(fn, jobs):
+        calls.append(len(jobs))
+        return [fn(j) for j in reversed(jobs)][::-1]
+
+    assert np.array_equal(sh.project(loc, w, 6, mapper), sh.project(loc, w, 6))
+    assert calls == [3]
+    calls.clear()
+    sums, wide = sh.moments(loc, w, 6, mapper)
+    ref_sums, ref_wide = sh.moments(loc, w, 6)
+    assert calls == [2 + 3]
+    assert np.array_equal(sums, ref_sums) and np.array_equal(wide, ref_wide)
+    calls.clear()
+    sums, wide = sh.moments(loc, w, 6, mapper, second=False)
+    assert calls == [3] and wide is None
+    assert np.array_equal(sums, sh.moments(loc, w, 6, second=False)[0])
+
+
 # --- projection of rays -------------------------------------------------------------------
 def test_projection_of_rays_is_unbiased_with_honest_errors() -> None:
     """Rays leave cosine-distributed (pdf cos θo / π) with weight π f(ωo) per colour, so
