@@ -101,7 +101,7 @@ MODULES: dict[str, list[str]] = {
         "tests/test_tables_table.py"],
     "microsim/tables/sh.py": ["tests/test_sh.py"],
     "microsim/tables/sh_matrix.py": ["tests/test_sh.py"],
-    "microsim/tables/sh_error.py": ["tests/test_sh.py"],
+    "microsim/tables/sh_error.py": ["tests/test_sh_error.py", "tests/test_sh.py"],
     "microsim/tables/table.py": ["tests/test_tables_table.py", "tests/test_sh.py",
                                  "tests/test_wavelets.py", "tests/test_table_input.py",
                                  "tests/test_export.py"],
