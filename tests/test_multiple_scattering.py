@@ -357,6 +357,95 @@ def test_random_bin_average_is_the_bin_average_of_torrance_sparrow_at_order_one(
     assert lo < np.sum(z[..., 0] ** 2) < hi, np.sum(z[..., 0] ** 2)
 
 
+def test_model_defaults_and_which_first_order_is_exact() -> None:
+    """The documented defaults (256 walks, seed 0, all orders, order 1 exact) and when the
+    first order is ``exact``: held (min_order 1) and ``analytic_single``; ``with_orders``
+    keeps samples, seed and ``analytic_single`` and shares the generator. Exact checks."""
+    model = SmithMultipleScattering(GGX(0.5))
+    assert (model.samples, model.seed, model.min_order, model.max_order) == (256, 0, 1, None)
+    assert model.analytic_single is True and model.exact is model.single
+    assert SmithMultipleScattering(GGX(0.5), min_order=2).exact is None
+    assert SmithMultipleScattering(GGX(0.5), analytic_single=False).exact is None
+    base = SmithMultipleScattering(GGX(0.5), samples=7, seed=3, min_order=2)
+    other = base.with_orders(1, 2)
+    assert (other.samples, other.seed, other.min_order, other.max_order) == (7, 3, 1, 2)
+    assert other.exact is other.single and other.rng is base.rng
+    walk_only = SmithMultipleScattering(GGX(0.5), analytic_single=False).with_orders(1, 1)
+    assert walk_only.analytic_single is False and walk_only.exact is None
+    with pytest.raises(ValueError, match=r"^samples must be >= 2 \(the error is a sample "
+                                         r"variance\)$"):
+        SmithMultipleScattering(GGX(0.5), samples=1)
+
+
+def test_estimate_is_the_mean_of_the_walks_next_event_estimates(monkeypatch) -> None:
+    """``estimate`` written out: with ``CHUNK`` = 3 walks at a time (so the running merge
+    of chunk means and squared deviations, and a pair with a single walk in a chunk, are
+    exercised), the same seed's walks, ``samples`` = 5 per pair, pair after pair, give per
+    pair the mean of the order estimates plus Torrance-Sparrow's f_r cos θo, over cos θo,
+    and the standard error s/√5/cos θo with the two-pass sample variance, to 1e-12
+    (rounding); the shape is the pairs' shape and a colour axis for RGB, none for F = 1."""
+    import microsim.analytic.multiple_scattering as ms
+
+    monkeypatch.setattr(ms, "CHUNK", 3)
+    k = 5
+    wi = np.array([direction(0.5, 0.3), direction(1.1, 2.0)])[:, None]      # (2, 1, 3)
+    wo = np.array([direction(0.9, 2.8), direction(1.2, 5.0)])[:, None]
+    model = SmithMultipleScattering(GGX(1.0), GOLD, samples=k, seed=8)
+    f, err = model.estimate(wi, wo)
+    assert f.shape == err.shape == (2, 1, 3)
+    ref = SmithMultipleScattering(GGX(1.0), GOLD, samples=k, seed=8)
+    wi_k, wo_k = np.repeat(wi[:, 0], k, axis=0), np.repeat(wo[:, 0], k, axis=0)
+    x = np.concatenate([ref.walk(wi_k[s:s + 3], wo_k[s:s + 3]).nee[:, 0]
+                        for s in range(0, 2 * k, 3)]).reshape(2, k, 3)
+    cos_o = wo[:, 0, 2:3]
+    exact = model.single.eval(wi[:, 0], wo[:, 0]).reshape(2, 3)
+    assert np.all(x.std(axis=1) > 0)
+    assert f[:, 0] == pytest.approx(x.mean(axis=1) / cos_o + exact, rel=1e-12)
+    assert err[:, 0] == pytest.approx(x.std(axis=1, ddof=1) / math.sqrt(k) / cos_o,
+                                      rel=1e-12)
+    mirror, mirror_err = SmithMultipleScattering(GGX(1.0), samples=k).estimate(
+        wi[:, 0], wo[:, 0])
+    assert mirror.shape == mirror_err.shape == (2,)
+
+
+def test_estimate_is_zero_for_directions_on_or_below_the_horizon() -> None:
+    """f_r and its error are exactly 0 (not 0/0, not a walk from below) where ωi or ωo is
+    on the horizon or below it, and the pairs above are estimated as usual."""
+    up, flat = direction(0.6, 0.2), np.array([0.6, 0.8, 0.0])
+    wi = np.array([up, flat, direction(2.0, 0.0), up, up])
+    wo = np.array([direction(1.0, 2.5), up, up, -flat, direction(2.5, 1.0)])
+    for fresnel in (None, GOLD):
+        model = SmithMultipleScattering(GGX(0.8), fresnel, samples=8, seed=2,
+                                        analytic_single=False)
+        f, err = model.estimate(wi, wo)
+        assert np.all(f[1:] == 0.0) and np.all(err[1:] == 0.0), (f, err)
+        assert np.all(f[0] > 0) and np.all(err[0] > 0)
+
+
+def test_walk_is_cut_after_max_order_events_and_keeps_order_rows(monkeypatch) -> None:
+    """With ``MAX_ORDER`` = 2, walks still on the surface after 2 scattering events are
+    cut: with F = 1 the escapes after one event and the cut walks add up to all of them,
+    exactly, and no escape is recorded in the rows of orders 2 and 3+. The next-event
+    estimates land in the row of their order: a model holding order 1 only fills row 0
+    of 2 rows, one holding order 2 only row 1."""
+    import microsim.analytic.multiple_scattering as ms
+
+    n = 2000
+    wi = np.repeat(direction(0.5, 0.0)[None], n, axis=0)
+    wo = np.repeat(direction(1.0, 2.0)[None], n, axis=0)
+    with monkeypatch.context() as m:
+        m.setattr(ms, "MAX_ORDER", 2)
+        walks = SmithMultipleScattering(GGX(1.0), seed=7).walk(wi, None, rows=3)
+    assert 0 < walks.cut < n
+    assert np.all(walks.escaped[:, 1:] == 0.0)
+    assert walks.escaped[:, 0].sum() + walks.cut == n
+    for order in (1, 2):
+        model = SmithMultipleScattering(GGX(1.0), min_order=order, max_order=order, seed=7,
+                                        analytic_single=False)
+        nee = model.walk(wi, wo, rows=2).nee
+        assert np.any(nee[:, order - 1] > 0) and np.all(nee[:, 2 - order] == 0.0)
+
+
 def test_bad_parameters() -> None:
     with pytest.raises(ValueError, match="orders"):
         SmithMultipleScattering(GGX(0.5), min_order=2, max_order=1)
