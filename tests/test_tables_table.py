@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
 
 import numpy as np
 import OpenEXR
@@ -11,11 +13,12 @@ import pytest
 import microsim
 from microsim.errors import InputError
 from microsim.geometry import direction
+from microsim.surfaces.facts import GaussianFacts, Roughness, SurfaceFacts
 from microsim.tables import exr, validation
 from microsim.tables.assemble import from_sums, merge
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import write_table
-from microsim.tables.meta import TableMeta
+from microsim.tables.meta import DirectionRecord, TableInput, TableMeta, Timing
 from microsim.tables.table import lobe_of
 
 LAMBERT = 1 / np.pi
@@ -296,3 +299,173 @@ def test_eval_has_one_value_at_the_pole():
     wo = direction(b.theta_centers[it.ravel()], b.phi_centers[ip.ravel()])
     f = t.eval(direction(np.zeros(len(wo)), 0.0), wo)
     np.testing.assert_allclose(f, v[0].reshape(-1, 3), rtol=1e-9)
+
+
+def _full_meta():
+    """A TableMeta with every field set, none to its default, and every number distinct
+    (so that a field written or read under another's key shows)."""
+    recipe = microsim.load_recipe({"surface": {"kind": "vgroove", "slope": 30},
+                                   "material": {"kind": "mirror"},
+                                   "simulation": {"theta_i": [0, 30], "rays": 1000}})
+    surface = SurfaceFacts(GaussianFacts(alpha_target=Roughness(0.3),
+                                         alpha_realised=Roughness(0.29), sigma=0.5),
+                           2, {"alpha_realised": 0.01},
+                           ({"seed": 1, "alpha_realised": 0.28},
+                            {"seed": 2, "alpha_realised": 0.30}))
+    inputs = (TableInput("base", "tables/a.exr", "ab" * 32, "total"),
+              TableInput("coat", "b.exr", "cd" * 32, "order1"))
+    directions = (
+        DirectionRecord(0.0, 0.0, 3000, 2, (1000, 2000), (0.125, 0.25, 0.375),
+                        (0.5, 0.625, 0.75), (0.0625, 0.03125, 0.015625),
+                        {"escaped": 2900, "bounces": 100}, "target_error", 0.02, 0.7,
+                        (0.8, 0.7, 0.6)),
+        DirectionRecord(30.0, 45.0, 5000, 3, (1000, 2000, 2000), (1.5, 2.5, 3.5),
+                        (4.5, 5.5, 6.5), (7.5, 8.5, 9.5), {"escaped": 5000}, "max_rays",
+                        0.04, 0.9, (0.5, 0.4, 0.3)))
+    return TableMeta(recipe=recipe, microsim_version="9.8.7", surface=surface,
+                     inputs=inputs, seed=17, isotropic=False, error_model="ensemble",
+                     realisations=3, directions=directions, stop=("max_rays", "target_error"),
+                     segments=123456, batch=4096, offset=1.5e-6,
+                     tile_warnings=("tile warned",), warnings=("lost energy", "second"),
+                     timing=Timing(12.5, 2.25, 1e5, 3e5),
+                     sources={"material.base.data": "Johnson & Christy 1972"})
+
+
+def test_table_meta_json_has_the_documented_keys_and_reads_back_field_by_field():
+    """The ``meta`` entry of a table file (docs/table-format.md) of a TableMeta with every
+    field set: exactly these keys with these values, and read back (through a JSON text,
+    as a file holds it) every field equal, the records' too."""
+    meta = _full_meta()
+    out = meta.to_json()
+    first, second = meta.directions
+    assert out == {
+        "recipe": meta.recipe.to_json(), "microsim_version": "9.8.7",
+        "surface": meta.surface.to_json(), "seed": 17, "isotropic": False,
+        "error_model": "ensemble", "realisations": 3,
+        "inputs": [{"part": "base", "path": "tables/a.exr", "sha256": "ab" * 32,
+                    "component": "total"},
+                   {"part": "coat", "path": "b.exr", "sha256": "cd" * 32,
+                    "component": "order1"}],
+        "directions": [
+            {"theta_i": 0.0, "phi_i": 0.0, "rays": 3000, "realisations": 2,
+             "rays_per_realisation": [1000, 2000], "lost": [0.125, 0.25, 0.375],
+             "transmitted": [0.5, 0.625, 0.75], "absorbed": [0.0625, 0.03125, 0.015625],
+             "fates": {"escaped": 2900, "bounces": 100}, "stop": "target_error",
+             "rel_stderr": 0.02, "ray_share": 0.7, "albedo": [0.8, 0.7, 0.6]},
+            second.to_json()],
+        "stop": ["max_rays", "target_error"], "segments": 123456, "batch": 4096,
+        "offset": 1.5e-6, "tile_warnings": ["tile warned"],
+        "warnings": ["lost energy", "second"],
+        "sources": {"material.base.data": "Johnson & Christy 1972"},
+        "wall_time": 12.5, "scene_time": 2.25, "rays_per_second": 1e5,
+        "segments_per_second": 3e5}
+    assert out["surface"]["alpha_realised_stderr"] == 0.01
+    assert out["surface"]["per_realisation"][1] == {"seed": 2, "alpha_realised": 0.30}
+    # lists, not tuples: what json writes and reads back
+    assert all(type(v) is list for v in (out["stop"], out["tile_warnings"],
+                                          out["warnings"], out["inputs"]))
+    assert all(type(v) is list for d in out["directions"] for v in (
+        d["rays_per_realisation"], d["lost"], d["transmitted"], d["absorbed"], d["albedo"]))
+    back = TableMeta.from_json(json.loads(json.dumps(out)))
+    for f in dataclasses.fields(TableMeta):
+        assert getattr(back, f.name) == getattr(meta, f.name), f.name
+    for got, want in zip(back.directions, meta.directions, strict=True):
+        for f in dataclasses.fields(want):
+            assert getattr(got, f.name) == getattr(want, f.name), f.name
+            assert type(getattr(got, f.name)) is type(getattr(want, f.name)), f.name
+    assert back == meta and back.directions[0] == first
+    assert back.surface.alpha_realised_stderr == Roughness(0.01)
+
+
+def test_table_meta_json_leaves_out_absent_fields_and_keeps_falsy_ones():
+    """Absent (None or empty) fields are left out of the JSON and read back absent; 0,
+    False and 0.0 are values, kept; ``inputs`` is written (empty) whenever there is a
+    recipe, ``stop`` and ``tile_warnings`` with the directions, ``warnings`` with either
+    the directions or warnings of its own."""
+    assert TableMeta().to_json() == {}
+    assert TableMeta.from_json({}) == TableMeta()
+    falsy = TableMeta(seed=0, isotropic=False, realisations=0, segments=0, batch=0,
+                      offset=0.0, microsim_version="", error_model="")
+    assert falsy.to_json() == {"seed": 0, "isotropic": False, "realisations": 0,
+                               "segments": 0, "batch": 0, "offset": 0.0,
+                               "microsim_version": "", "error_model": ""}
+    assert TableMeta.from_json(falsy.to_json()) == falsy
+    full = _full_meta()
+    assert TableMeta(recipe=full.recipe).to_json() == {"recipe": full.recipe.to_json(),
+                                                       "inputs": []}
+    assert TableMeta(inputs=full.inputs).to_json() == {
+        "inputs": [i.to_json() for i in full.inputs]}
+    assert TableMeta(directions=full.directions[:1]).to_json() == {
+        "directions": [full.directions[0].to_json()], "stop": [], "tile_warnings": [],
+        "warnings": []}
+    assert TableMeta(warnings=("w",), tile_warnings=("t",), stop=("rays",)).to_json() == {
+        "warnings": ["w"]}
+    assert TableMeta(surface=full.surface).to_json() == {"surface": full.surface.to_json()}
+    assert TableMeta(sources={"a": "b"}).to_json() == {"sources": {"a": "b"}}
+    assert TableMeta(timing=Timing(1.0, 0.0, 2.0, 3.0)).to_json() == {
+        "wall_time": 1.0, "scene_time": 0.0, "rays_per_second": 2.0,
+        "segments_per_second": 3.0}
+    for meta in (TableMeta(recipe=full.recipe), TableMeta(directions=full.directions),
+                 TableMeta(surface=full.surface), TableMeta(timing=full.timing)):
+        assert TableMeta.from_json(json.loads(json.dumps(meta.to_json()))) == meta
+
+
+def test_table_meta_reads_tables_of_earlier_versions():
+    """What earlier tables hold: a recipe without materials (read as none), a null
+    surface or sources, a wall time without the other timings (NaN), sources as other
+    JSON values (as strings), and directions of format 1 — ``rel_error`` for
+    ``rel_stderr``, and no realisations, energies, fates, stop, share or albedo (one
+    realisation of all the rays, NaN per channel, no fates, stop ``"rays"``)."""
+    meta = TableMeta.from_json({"recipe": {"description": "old"}, "surface": None,
+                                "sources": None, "wall_time": 4})
+    assert meta.recipe is None and meta.surface is None and meta.sources == {}
+    assert meta.timing.wall_time == 4.0 and type(meta.timing.wall_time) is float
+    assert all(math.isnan(getattr(meta.timing, k)) for k in (
+        "scene_time", "rays_per_second", "segments_per_second"))
+    assert TableMeta.from_json({"sources": {"k": 1, 2: "v"}}).sources == {"k": "1",
+                                                                          "2": "v"}
+    assert TableMeta.from_json({"sources": {}}).sources == {}
+    old = TableMeta.from_json({"directions": [{"theta_i": 10, "phi_i": 0, "rays": 500.0,
+                                               "rel_error": 0.05}]}).directions[0]
+    assert (old.theta_i, old.phi_i, old.rays, old.realisations) == (10.0, 0.0, 500, 1)
+    assert type(old.theta_i) is float and type(old.rays) is int
+    assert old.rays_per_realisation == (500,) and old.fates == {} and old.stop == "rays"
+    assert old.rel_stderr == 0.05 and math.isnan(old.ray_share)
+    for name in ("lost", "transmitted", "absorbed", "albedo"):
+        value = getattr(old, name)
+        assert len(value) == 3 and all(math.isnan(v) for v in value), name
+    # rel_stderr wins over rel_error; nulls are NaN; no rays: 0 of one realisation
+    new = DirectionRecord.from_json({"rel_stderr": 0.5, "rel_error": 0.25,
+                                     "theta_i": None, "lost": [None, 1, 2],
+                                     "albedo": [0.5, None, 0.25], "ray_share": None})
+    assert new.rel_stderr == 0.5 and math.isnan(new.theta_i) and math.isnan(new.phi_i)
+    assert math.isnan(new.ray_share) and new.rays == 0 and new.rays_per_realisation == (0,)
+    assert math.isnan(new.lost[0]) and new.lost[1:] == (1.0, 2.0)
+    assert type(new.lost[1]) is float
+    assert new.albedo[::2] == (0.5, 0.25) and math.isnan(new.albedo[1])
+    assert math.isnan(DirectionRecord.from_json({}).rel_stderr)
+
+
+def test_table_input_json_is_its_four_fields_and_refuses_a_missing_one():
+    """A TableInput's JSON is exactly part, path, SHA-256 and component, read back equal;
+    a record without one of them raises KeyError naming it."""
+    record = TableInput("base", "t.exr", "0f" * 32, "order2")
+    assert record.to_json() == {"part": "base", "path": "t.exr", "sha256": "0f" * 32,
+                                "component": "order2"}
+    assert TableInput.from_json(record.to_json()) == record
+    for key in ("part", "path", "sha256", "component"):
+        data = {k: v for k, v in record.to_json().items() if k != key}
+        with pytest.raises(KeyError, match=key):
+            TableInput.from_json(data)
+
+
+def test_table_meta_survives_a_table_file(tmp_path):
+    """Written into a table file and read by ``read_table``, a TableMeta with every field
+    set is equal to the one written, and the header's ``meta`` is its JSON."""
+    t = make_table(n=2000)
+    t.meta = _full_meta()
+    path = tmp_path / "t.exr"
+    write_table(t, path)
+    assert microsim.read_table(path).meta == t.meta
+    with OpenEXR.File(str(path)) as f:
+        assert json.loads(f.header()["microsim"])["meta"] == t.meta.to_json()
