@@ -176,6 +176,9 @@ HEADERS = {
     "dof of other components": (_set("dof", {"total": [[[1, 1, 1]], [[1, 1, 1]]]}), "dof"),
     "meta a list": (_set("meta", [1]), "header meta"),
     "meta directions malformed": (_set("meta.directions", [{"rays": "x"}]), "header meta"),
+    "meta input without its sha256": (
+        _set("meta.inputs", [{"part": "base", "path": "a.exr", "component": "total"}]),
+        "header meta cannot be read (KeyError: 'sha256')"),
     "huge integer": (_set("rays", [[10**400], [1]]), "header rays"),
 }
 
