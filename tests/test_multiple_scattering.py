@@ -11,6 +11,7 @@ the whole file has a few per cent), except the white furnace's ±3σ (its docstr
 from __future__ import annotations
 
 import math
+import re
 
 import mpmath as mp
 import numpy as np
@@ -444,6 +445,83 @@ def test_walk_is_cut_after_max_order_events_and_keeps_order_rows(monkeypatch) ->
                                         analytic_single=False)
         nee = model.walk(wi, wo, rows=2).nee
         assert np.any(nee[:, order - 1] > 0) and np.all(nee[:, 2 - order] == 0.0)
+
+
+def test_albedo_is_the_mean_escaped_weight_per_range_of_orders(monkeypatch) -> None:
+    """``albedo`` written out: with ``CHUNK`` = 700 (2000 walks in three chunks), the same
+    seed's walks kept in 6 order rows give per range of orders the mean of the weights
+    that escaped within it and the standard error s/√n with the sample variance, to 1e-9
+    (the one-pass variance's rounding), for ranges that end below the last one's start."""
+    import microsim.analytic.multiple_scattering as ms
+
+    monkeypatch.setattr(ms, "CHUNK", 700)
+    n, wi = 2000, direction(0.7, 0.3)
+    orders = [(1, 2), (2, 3), (1, None)]
+    mean, err = SmithMultipleScattering(GGX(0.9), GOLD, seed=3).albedo(wi, n, orders)
+    ref = SmithMultipleScattering(GGX(0.9), GOLD, seed=3)
+    wi_n = np.repeat(wi[None], n, axis=0)
+    e = np.concatenate([ref.walk(wi_n[s:s + 700], None, rows=6).escaped
+                        for s in range(0, n, 700)])
+    x = np.stack([e[:, 0:2].sum(axis=1), e[:, 1:3].sum(axis=1), e.sum(axis=1)], axis=1)
+    assert mean == pytest.approx(x.mean(axis=0), rel=1e-12)
+    assert err == pytest.approx(x.std(axis=0, ddof=1) / math.sqrt(n), rel=1e-9)
+
+
+def test_random_bin_average_defaults_exact_part_horizon_and_memory(monkeypatch) -> None:
+    """``random_bin_average``: φi defaults to 0 (the same seed's numbers as φi = 0
+    given); the exact part is left out, so a model holding only an exact order 1 averages
+    0 with error 0; a bin on the horizon itself (θo from 90° to 90°) averages 0, f_r
+    cos θo being 0 there; the memory guard refuses 160 B × 6 bins × 4 walks over a
+    2000 B budget with the documented message (its numbers exactly)."""
+    from microsim.errors import InputError
+
+    wi, te, pe = direction(0.5, 0.4), np.radians([0.0, 40.0, 90.0]), np.linspace(0, 6, 4)
+    a = SmithMultipleScattering(GGX(0.8), GOLD, samples=6, seed=4, analytic_single=False)
+    b = SmithMultipleScattering(GGX(0.8), GOLD, samples=6, seed=4, analytic_single=False)
+    for x, y in zip(a.random_bin_average(wi, te, pe), b.random_bin_average(wi, te, pe, 0.0),
+                    strict=True):
+        assert np.array_equal(x, y)
+    exact_only = SmithMultipleScattering(GGX(0.8), GOLD, max_order=1, samples=6)
+    for x in exact_only.random_bin_average(wi, te, pe):
+        assert x.shape == (2, 3, 3) and np.all(x == 0.0)
+    mean, err = a.random_bin_average(wi, np.radians([0.0, 90.0, 90.0]), pe)
+    assert np.all(mean[0] > 0) and np.all(err[0] > 0)
+    assert np.all(mean[1] == 0.0) and np.all(err[1] == 0.0)
+    monkeypatch.setenv("MICROSIM_MEMORY_LIMIT", repr(2000 / 2**30))
+    small = SmithMultipleScattering(GGX(0.8), samples=4)
+    message = ("model samples = 4: 4 walks in each of 6 bins needs about 3.58e-06 GiB "
+               "(estimated), over the 1.86265e-06 GiB limit; lower the model's samples "
+               "(default 256), or raise the limit")
+    with pytest.raises(InputError, match="^" + re.escape(message)):
+        small.random_bin_average(wi, te, pe)
+
+
+def test_random_bin_average_written_out_from_the_same_seed(monkeypatch) -> None:
+    """``random_bin_average`` written out: the same seed's draws (t, p) per bin and walk
+    give ωo uniform in u = sin²θo and φo − φi within the bin, the walks run ``CHUNK`` = 5
+    at a time (16 walks: chunks of 5, 5, 5, 1), and each bin's mean of f = (f_r cos θo
+    estimate)/cos θo and s/√4 are the result, to 1e-12 (rounding)."""
+    import microsim.analytic.multiple_scattering as ms
+
+    monkeypatch.setattr(ms, "CHUNK", 5)
+    k, phi_i = 4, 0.4
+    wi, te, pe = direction(0.5, phi_i), np.radians([10.0, 40.0, 70.0]), np.array([0, 2, 5.0])
+    mean, err = SmithMultipleScattering(GGX(0.9), GOLD, samples=k, seed=6).random_bin_average(
+        wi, te, pe, phi_i)
+    ref = SmithMultipleScattering(GGX(0.9), GOLD, samples=k, seed=6)
+    t, p = ref.rng.random((2, 2, 2, k))
+    lo, hi = np.sin(te[:-1]) ** 2, np.sin(te[1:]) ** 2
+    u = lo[:, None, None] + (hi - lo)[:, None, None] * t
+    phi = phi_i + pe[:-1][None, :, None] + np.diff(pe)[None, :, None] * p
+    wo = np.stack([np.sqrt(u) * np.cos(phi), np.sqrt(u) * np.sin(phi), np.sqrt(1 - u)],
+                  -1).reshape(-1, 3)
+    wi_n = np.repeat(wi[None], len(wo), axis=0)
+    x = np.concatenate([ref.walk(wi_n[s:s + 5], wo[s:s + 5]).nee[:, 0]
+                        for s in range(0, len(wo), 5)])
+    f = (x / wo[:, 2:3]).reshape(2, 2, k, 3)
+    assert np.all(f.std(axis=2) > 0)
+    assert mean == pytest.approx(f.mean(axis=2), rel=1e-12)
+    assert err == pytest.approx(f.std(axis=2, ddof=1) / math.sqrt(k), rel=1e-12)
 
 
 def test_bad_parameters() -> None:
