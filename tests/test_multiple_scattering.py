@@ -524,6 +524,35 @@ def test_random_bin_average_written_out_from_the_same_seed(monkeypatch) -> None:
     assert err == pytest.approx(f.std(axis=2, ddof=1) / math.sqrt(k), rel=1e-12)
 
 
+def test_next_event_is_the_phase_function_times_the_masking_at_the_height() -> None:
+    """``_next_event`` against p(ωi', ωo) G1(ωo, h) = F(ωi'·h) D(h) / (4 A(ωi')) ·
+    C1(h)^Λ(ωo) written out (module docstring), for hits seen from above and from below
+    the horizon, to 1e-12; and exactly 0, without a floating-point warning, where no light
+    goes that way: ωi' = −ωo (no half vector), ωi' straight down or on the horizon
+    (A(ωi') = 0), ωo below the horizon, and ωo on the horizon even at the top of the
+    surface (log C1 = 0, where C1^Λ would be 1)."""
+    seen = np.array([direction(0.7, 0.2), direction(2.2, 1.0), -direction(0.5, 1.0),
+                     [0.0, 0.0, -1.0], [1.0, 0.0, 0.0], direction(0.3, 0.0),
+                     direction(0.3, 0.0)])
+    wo = np.array([direction(0.5, 2.0), direction(0.4, 1.5), direction(0.5, 1.0),
+                   direction(0.6, 0.5), direction(0.6, 0.5), direction(2.0, 0.5),
+                   [0.0, 1.0, 0.0]])
+    log_c = np.array([-0.3, -1.2, -0.5, -0.5, -0.5, -0.5, 0.0])
+    for ndf in (GGX(alpha_x=0.4, alpha_y=0.8), Beckmann(0.6)):
+        model = SmithMultipleScattering(ndf, GOLD)
+        value = model._next_event(seen, wo, log_c, ndf.Lambda(wo))
+        assert value.shape == (7, 3)
+        s = seen[:2] + wo[:2]
+        h = s / np.linalg.norm(s, axis=1)[:, None]
+        cos_h = np.sum(seen[:2] * h, axis=1)
+        expected = (model.single.F(cos_h).reshape(2, 3) * (
+            ndf.D(h) / (4 * projected_area(ndf, seen[:2]))
+            * np.exp(ndf.Lambda(wo[:2]) * log_c[:2]))[:, None])
+        assert np.all(expected > 0)
+        assert value[:2] == pytest.approx(expected, rel=1e-12)
+        assert np.all(value[2:] == 0.0), value
+
+
 def test_bad_parameters() -> None:
     with pytest.raises(ValueError, match="orders"):
         SmithMultipleScattering(GGX(0.5), min_order=2, max_order=1)

@@ -219,6 +219,7 @@ class SmithMultipleScattering:
         s = seen + wo
         norm = np.linalg.norm(s, axis=-1)
         h = s / np.where(norm > 0, norm, 1.0)[:, None]
+        h[norm == 0] = (0.0, 0.0, 1.0)          # ωi' = −ωo: no half vector, masked below
         cos_h = np.sum(seen * h, axis=-1)
         area = projected_area(self.ndf, seen)
         ok = (norm > 0) & (cos_h > 0) & (h[:, 2] > 0) & (area > 0) & (wo[:, 2] > 0)
