@@ -411,7 +411,8 @@ def test_estimate_is_the_mean_of_the_walks_next_event_estimates(monkeypatch) -> 
 
 def test_estimate_is_zero_for_directions_on_or_below_the_horizon() -> None:
     """f_r and its error are exactly 0 (not 0/0, not a walk from below) where ωi or ωo is
-    on the horizon or below it, and the pairs above are estimated as usual."""
+    on the horizon or below it, and no walk runs for them: the pair above gets the numbers
+    the same seed gives it alone."""
     up, flat = direction(0.6, 0.2), np.array([0.6, 0.8, 0.0])
     wi = np.array([up, flat, direction(2.0, 0.0), up, up])
     wo = np.array([direction(1.0, 2.5), up, up, -flat, direction(2.5, 1.0)])
@@ -421,6 +422,9 @@ def test_estimate_is_zero_for_directions_on_or_below_the_horizon() -> None:
         f, err = model.estimate(wi, wo)
         assert np.all(f[1:] == 0.0) and np.all(err[1:] == 0.0), (f, err)
         assert np.all(f[0] > 0) and np.all(err[0] > 0)
+        alone = SmithMultipleScattering(GGX(0.8), fresnel, samples=8, seed=2,
+                                        analytic_single=False).estimate(wi[0], wo[0])
+        assert np.array_equal(f[0], alone[0]) and np.array_equal(err[0], alone[1])
 
 
 def test_walk_is_cut_after_max_order_events_and_keeps_order_rows(monkeypatch) -> None:
