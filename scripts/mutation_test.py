@@ -64,7 +64,9 @@ MODULES: dict[str, list[str]] = {
     "microsim/analytic/velvet.py": ["tests/test_fibre_models.py"],
     "microsim/analytic/cylinders.py": ["tests/test_fibre_models.py"],
     "microsim/analytic/ndf.py": ["tests/test_analytic_ndf.py"],
-    "microsim/fit.py": ["tests/test_fit.py"],
+    "microsim/fit.py": ["tests/test_fit.py",
+                        # the fibre models' fits (_kay_kajiya, _microcylinder, _ClothPerChannel)
+                        "tests/test_fit_fibres.py"],
     "microsim/analytic/multiple_scattering.py": ["tests/test_multiple_scattering.py"],
     "microsim/analytic/brdf.py": ["tests/test_analytic_brdf.py",
                                   # flat_pairs and as_rgb serve the fibre models and compare
