@@ -125,6 +125,8 @@ MODULES: dict[str, list[str]] = {
     "microsim/tables/compression.py": ["tests/test_wavelets.py"],
     "microsim/tables/wavelets.py": ["tests/test_wavelets.py"],
     "microsim/materials/optics.py": ["tests/test_dielectric.py"],
+    "microsim/materials/table.py": [*MATERIAL_TESTS, "tests/test_tabulated.py"],
+    "microsim/materials/thin_film.py": MATERIAL_TESTS,
     **{f"microsim/materials/{name}.py": MATERIAL_TESTS
        for name in ("__init__", "base", "black", "coating", "conductor", "dielectric",
                     "lambertian", "mirror")},
