@@ -469,3 +469,106 @@ def test_table_meta_survives_a_table_file(tmp_path):
     assert microsim.read_table(path).meta == t.meta
     with OpenEXR.File(str(path)) as f:
         assert json.loads(f.header()["microsim"])["meta"] == t.meta.to_json()
+
+
+# --- the table file, key by key and part by part (docs/table-format.md) -------------------
+SPECTRAL_NM = (400.0, 552.5, 700.0, 810.0)
+SPECTRAL_NAMES = ("400nm", "552p5nm", "700nm", "810nm")  # the decimal point written p
+FILE_CASES = {  # isotropic, spectral, harmonics, stored wavelets
+    "isotropic RGB": (True, False, False, False),
+    "isotropic spectral with harmonics and wavelets": (True, True, True, True),
+    "anisotropic RGB with harmonics": (False, False, True, False),
+    "anisotropic spectral with wavelets": (False, True, False, True),
+}
+COMPONENTS = ["total", "order1", "order2", "order3+"]
+LINE = "f_r in 1/sr (never times cos theta_o); *_err: standard error, NaN where undefined " \
+       "(no ray landed in the bin)"
+SH_FUNCTION = "f_r(wi, wo) cos(theta_o) over wo on the whole sphere (0 below the horizon)"
+SH_BASIS = ("real orthonormal spherical harmonics, Condon-Shortley phase in P_l^m; "
+            "Y_l0 = N P_l^0, Y_lm = sqrt2 N P_l^m cos(m phi), "
+            "Y_l,-m = sqrt2 N P_l^m sin(m phi) for m > 0")
+OPENEXR_ATTRIBUTES = {"channels", "compression", "dataWindow", "displayWindow", "lineOrder",
+                      "pixelAspectRatio", "screenWindowCenter", "screenWindowWidth", "type",
+                      "name"}
+"""The attributes OpenEXR writes in every part of a file (``chunkCount`` too in a
+multi-part file), beside which a table's part holds only its JSON attribute."""
+
+
+def file_table(isotropic: bool, spectral: bool, harmonics: bool, stored: bool):
+    """A table with every field of the file set and every number distinct (drawn at
+    random): three incidences, one φi (isotropic) or two, 3 × 4 bins, RGB or four
+    wavelengths, an ensemble's error model with realisations, dof and inflation (one
+    inflation null: not pooled), harmonics of order 2 and wavelets kept on 8² pixels."""
+    from microsim.spectra.channels import Channels
+    from microsim.tables import wavelets
+    from microsim.tables.components import components_for
+    from microsim.tables.table import BRDFTable
+
+    rng = np.random.default_rng(23)
+    bins = HemisphereBins(3, 4)
+    theta_i = np.array([0.0, 0.4, 1.1])
+    phi_i = np.zeros(1) if isotropic else np.array([0.0, 2.0])
+    channels = Channels(SPECTRAL_NM) if spectral else Channels()
+    a, b, n = len(theta_i), len(phi_i), channels.count
+
+    def per(shape, low, high):
+        return {c: rng.uniform(low, high, shape) for c in components_for(3)}
+
+    values = per((a, b, 3, 4, n), 0.1, 2.0)
+    inflation = per((a, b, n), 1.0, 3.0)
+    inflation["order2"][1, 0, 0] = np.nan
+    return BRDFTable(
+        bins, theta_i, phi_i, isotropic, values, per((a, b, 3, 4, n), 0.01, 0.1),
+        rng.integers(100, 1000, (a, b)), per((a, b, n), 0.2, 0.9), per((a, b, n), 1e-3, 0.01),
+        rng.uniform(0.0, 0.01, (a, b, n)), TableMeta(seed=29), error_model="ensemble",
+        realisations=rng.integers(2, 9, (a, b)), dof=per((a, b, n), 1.0, 40.0),
+        inflation=inflation,
+        sh={c: rng.normal(size=(a, b, 9, n)) for c in components_for(3)} if harmonics else None,
+        sh_err=per((a, b, 9, n), 1e-3, 0.01) if harmonics else None,
+        wavelets=wavelets.encode(values, bins, 8, "haar", keep=5, channels=channels.names)
+        if stored else None, channels=channels)
+
+
+def parts_of(path) -> list[tuple[str, dict, dict]]:
+    """(name, header, channels) of every part of an OpenEXR file."""
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        return [(p.name(), dict(p.header), {k: np.array(c.pixels) for k, c in p.channels.items()})
+                for p in f.parts]
+
+
+# --- damaged and edited files: the messages a user reads ---------------------------------
+
+
+def rewritten(source, target, edit):
+    """``source`` written again to ``target``, each part's (name, header, channels) handed
+    to ``edit`` first (the header with its compression, type, display window and JSON)."""
+    keep = ("compression", "type", "displayWindow", "microsim", "microsim_sh",
+            "microsim_wavelet")
+    parts = []
+    for name, header, channels in parts_of(source):
+        header = {k: v for k, v in header.items() if k in keep}
+        edit(name, header, channels)
+        parts.append(OpenEXR.Part(header, channels, name))
+    OpenEXR.File(parts).write(str(target))
+    return target
+
+
+@pytest.mark.parametrize("attribute", ["microsim", "microsim_sh", "microsim_wavelet"])
+def test_a_json_attribute_that_does_not_parse_is_one_message(tmp_path, attribute):
+    """Each JSON attribute of a table file that is not JSON is refused naming the file and
+    the attribute, with what this microsim reads."""
+    source = tmp_path / "t.exr"
+    write_table(file_table(True, True, True, True), source)
+
+    def edit(name, header, channels):
+        if attribute in header:
+            header[attribute] = "{oops"
+
+    path = rewritten(source, tmp_path / "edited.exr", edit)
+    with pytest.raises(InputError) as info:
+        microsim.read_table(path)
+    assert str(info.value) == (f"{path}: the '{attribute}' attribute is not JSON that this "
+                               "microsim reads (malformed, nested too deeply or with a number "
+                               "too long)")
+
+

@@ -283,10 +283,12 @@ def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
     wavelet_header, wavelet_pixels = parts.get(WAVELET_PART, ({}, {}))
     stored_wavelets = None
     if WAVELET_ATTRIBUTE in wavelet_header:
+        # parsed first: its InputError already names the file (and is a ValueError)
+        wavelet_info = _parse_json(wavelet_header[WAVELET_ATTRIBUTE], path,
+                                   WAVELET_ATTRIBUTE)
         try:
-            stored_wavelets = wavelets.from_part(
-                _parse_json(wavelet_header[WAVELET_ATTRIBUTE], path, WAVELET_ATTRIBUTE),
-                wavelet_pixels, stored, (a, b), names)
+            stored_wavelets = wavelets.from_part(wavelet_info, wavelet_pixels, stored,
+                                                 (a, b), names)
         except ValueError as exc:
             raise InputError(f"{path}: wavelet part: {exc}") from None
 
