@@ -11,7 +11,7 @@ import OpenEXR
 import pytest
 
 import microsim
-from microsim.errors import InputError
+from microsim.errors import InputError, InputWarning
 from microsim.geometry import direction
 from microsim.surfaces.facts import GaussianFacts, Roughness, SurfaceFacts
 from microsim.tables import exr, validation
@@ -529,6 +529,58 @@ def file_table(isotropic: bool, spectral: bool, harmonics: bool, stored: bool):
         if stored else None, channels=channels)
 
 
+def listed(x) -> list:
+    """An array as the header's JSON holds it: nested lists, NaN as null."""
+    x = np.asarray(x)
+    if x.dtype.kind != "f":
+        return x.tolist()
+    out = x.astype(object)
+    out[np.isnan(x)] = None
+    return out.tolist()
+
+
+def documented_headers(t) -> tuple[dict, dict | None]:
+    """The ``microsim`` and ``microsim_sh`` attributes docs/table-format.md describes for
+    the ``file_table`` ``t``, written out key by key (the bin edges apart: compared to
+    their formulas separately)."""
+    names = SPECTRAL_NAMES if t.channels.spectral else ("R", "G", "B")
+    channels = [f"{c}{s}.{k}" for c in COMPONENTS for s in ("", "_err") for k in names]
+    a, b = len(t.theta_i), len(t.phi_i)
+    header = {
+        "format_version": 2,
+        "parameterisation": ("theta_i,theta_o,phi_o-phi_i" if t.isotropic
+                             else "theta_i,phi_i,theta_o,phi_o"),
+        "isotropic": t.isotropic,
+        "axes": {"theta_i": {"values": listed(t.theta_i), "unit": "rad"},
+                 "phi_i": {"values": listed(t.phi_i), "unit": "rad"},
+                 "theta_o": {"unit": "rad", "spacing": "uniform in sin^2(theta_o)"},
+                 "phi_o": {"unit": "rad", "folded": False}},
+        "layout": {"rows": ["theta_i", "phi_i", "theta_o"], "columns": ["phi_o"],
+                   "shape": [a, b, 3, 4],
+                   "row": "(i_theta_i * n_phi_i + i_phi_i) * n_theta_o + i_theta_o",
+                   "channels": channels, "value": LINE},
+        "components": COMPONENTS, "orders": 3,
+        "rays": listed(t.rays),
+        "albedo": listed(t.albedo_of["total"]), "albedo_err": listed(t.albedo_err_of["total"]),
+        "order_albedo": {c: listed(t.albedo_of[c]) for c in COMPONENTS[1:]},
+        "order_albedo_err": {c: listed(t.albedo_err_of[c]) for c in COMPONENTS[1:]},
+        "lost_energy": listed(t.lost_energy),
+        "error_model": "ensemble",
+        "realisations": listed(t.realisations),
+        "dof": {c: listed(t.dof[c]) for c in COMPONENTS},
+        "inflation": {c: listed(t.inflation[c]) for c in COMPONENTS},
+        "meta": {"seed": 29},
+    }
+    if t.channels.spectral:
+        header["wavelengths"] = list(SPECTRAL_NM)
+    sh = None if t.sh is None else {
+        "order": 2, "coefficients": 9, "function": SH_FUNCTION, "basis": SH_BASIS,
+        "index": "l * l + l + m", "azimuth": "phi_o - phi_i" if t.isotropic else "phi_o",
+        "rows": "i_theta_i * n_phi_i + i_phi_i", "shape": [a, b], "channels": channels,
+        "value": "*_err: standard error of the coefficient"}
+    return header, sh
+
+
 def parts_of(path) -> list[tuple[str, dict, dict]]:
     """(name, header, channels) of every part of an OpenEXR file."""
     with OpenEXR.File(str(path), separate_channels=True) as f:
@@ -536,7 +588,205 @@ def parts_of(path) -> list[tuple[str, dict, dict]]:
                 for p in f.parts]
 
 
+@pytest.mark.parametrize("case", sorted(FILE_CASES))
+def test_the_headers_of_a_table_file_are_the_documented_json(tmp_path, case):
+    """The ``microsim`` attribute of part 0 and the ``microsim_sh`` attribute of the ``sh``
+    part, read with OpenEXR alone, are exactly the JSON docs/table-format.md lists: every
+    key, the fixed strings (units, spacing, layout, parameterisation, the harmonics'
+    function, basis, index, azimuth), the channel names in the documented order, a
+    spectral table's wavelengths (absent for RGB), every number exact (float64; NaN as
+    null), and nothing more; the θo edges are arcsin √(k / theta_bins) and the φo edges
+    uniform over [0, 2π), to 1e-15 rad (float64 round-off of the formulas)."""
+    t = file_table(*FILE_CASES[case])
+    path = tmp_path / "t.exr"
+    write_table(t, path)
+    parts = {name: header for name, header, _ in parts_of(path)}
+    info = json.loads(parts["table"]["microsim"])
+    theta_o = info["axes"]["theta_o"].pop("edges")
+    phi_o = info["axes"]["phi_o"].pop("edges")
+    np.testing.assert_allclose(theta_o, np.arcsin(np.sqrt(np.arange(4) / 3)), rtol=0,
+                               atol=1e-15)
+    np.testing.assert_allclose(phi_o, 2 * np.pi * np.arange(5) / 4, rtol=0, atol=1e-15)
+    header, sh = documented_headers(t)
+    assert info == header
+    if not t.channels.spectral:
+        assert info["layout"]["channels"][:7] == ["total.R", "total.G", "total.B", "total_err.R",
+                                                  "total_err.G", "total_err.B", "order1.R"]
+    assert ("sh" in parts) == (sh is not None)
+    if sh is not None:
+        assert json.loads(parts["sh"]["microsim_sh"]) == sh
+
+
+@pytest.mark.parametrize("case", sorted(FILE_CASES))
+def test_every_field_of_a_table_survives_its_file(tmp_path, case):
+    """``read_table`` gives back every field written: the axes and bins, the channels (a
+    spectral table's wavelengths), values, errors and harmonics to float32, rays, albedos,
+    lost energy, error model, realisations, dof and inflation exactly (NaN where not
+    pooled), the metadata, and the stored wavelets (values to float32, indices exact)."""
+    t = file_table(*FILE_CASES[case])
+    path = tmp_path / "t.exr"
+    write_table(t, path)
+    r = microsim.read_table(path)
+    assert (r.bins.theta_bins, r.bins.phi_bins, r.bins.folded) == (3, 4, False)
+    np.testing.assert_array_equal(r.theta_i, t.theta_i)
+    np.testing.assert_array_equal(r.phi_i, t.phi_i)
+    assert r.isotropic == t.isotropic and r.components == tuple(COMPONENTS)
+    assert r.channels == t.channels and r.error_model == "ensemble" and r.meta == t.meta
+    np.testing.assert_array_equal(r.rays, t.rays)
+    np.testing.assert_array_equal(r.realisations, t.realisations)
+    np.testing.assert_array_equal(r.lost_energy, t.lost_energy)
+    for c in COMPONENTS:
+        for got, want in ((r.values, t.values), (r.errors, t.errors)):
+            np.testing.assert_array_equal(got[c], want[c].astype(np.float32))
+        for got, want in ((r.albedo_of, t.albedo_of), (r.albedo_err_of, t.albedo_err_of),
+                          (r.dof, t.dof), (r.inflation, t.inflation)):
+            np.testing.assert_array_equal(got[c], want[c])
+    assert np.isnan(r.inflation["order2"][1, 0, 0])
+    assert (r.sh is None) == (t.sh is None) and (r.sh_err is None) == (t.sh_err is None)
+    if t.sh is not None:
+        assert r.sh_order == 2
+        for c in COMPONENTS:
+            np.testing.assert_array_equal(r.sh[c], t.sh[c].astype(np.float32))
+            np.testing.assert_array_equal(r.sh_err[c], t.sh_err[c].astype(np.float32))
+    assert (r.wavelets is None) == (t.wavelets is None)
+    if t.wavelets is not None:
+        w, v = r.wavelets, t.wavelets
+        assert (w.wavelet, w.resolution, w.keep, w.channels) == ("haar", 8, 5, v.channels)
+        for c in COMPONENTS:
+            np.testing.assert_array_equal(w.values[c], v.values[c].astype(np.float32))
+            np.testing.assert_array_equal(w.indices[c], v.indices[c])
+
+
+@pytest.mark.parametrize("case", sorted(FILE_CASES))
+def test_a_table_file_has_the_documented_parts(tmp_path, case):
+    """Part 0 is named ``table``, then ``sh`` with harmonics and ``wavelet`` with stored
+    wavelets; a file of the bins alone is a single-part file (the multi-part bit of the
+    version field unset). Every part is a ZIP-compressed scanline image whose attributes
+    are OpenEXR's own and its one JSON attribute; every part has part 0's display window,
+    which is its data window: φo bins wide, n_theta_i · n_phi_i · theta_bins rows."""
+    t = file_table(*FILE_CASES[case])
+    path = tmp_path / "t.exr"
+    write_table(t, path)
+    parts = parts_of(path)
+    names = ["table"] + ["sh"] * (t.sh is not None) + ["wavelet"] * (t.wavelets is not None)
+    assert [name for name, _, _ in parts] == names
+    multi = int.from_bytes(path.read_bytes()[4:8], "little") & 0x1000
+    assert bool(multi) == (len(names) > 1)
+    attribute = {"table": "microsim", "sh": "microsim_sh", "wavelet": "microsim_wavelet"}
+    rows = len(t.theta_i) * len(t.phi_i) * 3
+    for name, header, _ in parts:
+        assert set(header) == OPENEXR_ATTRIBUTES | {attribute[name]} | (
+            {"chunkCount"} if multi else set()), (name, sorted(header))
+        assert header["compression"] == OpenEXR.ZIP_COMPRESSION
+        assert header["type"] == OpenEXR.scanlineimage
+        window = [w.tolist() for w in header["displayWindow"]]
+        assert window == [[0, 0], [3, rows - 1]], name
+    assert [w.tolist() for w in parts[0][1]["dataWindow"]] == [[0, 0], [3, rows - 1]]
+
+
+def test_harmonics_without_their_errors_are_not_written(tmp_path):
+    """The ``sh`` part needs every coefficient's error: a table holding coefficients but no
+    errors is written as the single-part file of its bins, read back without harmonics."""
+    t = file_table(True, False, True, False)
+    t.sh_err = None
+    path = tmp_path / "t.exr"
+    write_table(t, path)
+    assert [name for name, _, _ in parts_of(path)] == ["table"]
+    r = microsim.read_table(path)
+    assert r.sh is None and r.sh_order == 0
+    np.testing.assert_array_equal(r.values["order1"], t.values["order1"].astype(np.float32))
+
+
+def test_harmonics_that_read_table_would_refuse_are_not_written(tmp_path):
+    """A coefficient that is not finite is refused with the file and the channel that
+    holds it (docs/table-format.md: ``not written``), and nothing is written."""
+    t = file_table(False, False, True, False)
+    t.sh["order1"][1, 1, 4, 1] = np.nan
+    path = tmp_path / "t.exr"
+    with pytest.raises(InputError) as info:
+        write_table(t, path)
+    assert str(info.value).startswith(f"{path}: not written: harmonics channel order1.G holds "
+                                      "nan at row 3, column 4"), str(info.value)
+    assert not path.exists()
+
+
 # --- damaged and edited files: the messages a user reads ---------------------------------
+def first_chunks(data: bytes) -> list[int]:
+    """The offset of the first chunk of each part of a multi-part OpenEXR file, from its
+    layout (OpenEXR's file layout: the magic number and version, then each part's header —
+    attributes ``name\\0type\\0`` int32 size, value — ended by a null byte, one more null
+    byte after the last header, then each part's offset table of ``chunkCount`` uint64)."""
+    pos, counts = 8, []
+    while data[pos] != 0:
+        count = 0
+        while data[pos] != 0:
+            name_end = data.index(b"\0", pos)
+            type_end = data.index(b"\0", name_end + 1)
+            size = int.from_bytes(data[type_end + 1:type_end + 5], "little")
+            if data[pos:name_end] == b"chunkCount":
+                count = int.from_bytes(data[type_end + 5:type_end + 9], "little")
+            pos = type_end + 5 + size
+        counts.append(count)
+        pos += 1
+    pos += 1
+    firsts = []
+    for count in counts:
+        firsts.append(int.from_bytes(data[pos:pos + 8], "little"))
+        pos += 8 * count
+    return firsts
+
+
+def test_a_damaged_file_is_one_message_naming_it(tmp_path):
+    """A file whose header is cut, a single-part file whose bins are cut and a two-part
+    file whose bins are corrupt (its harmonics intact) are each refused with the file's
+    name and what cannot be read (docs/table-format.md: one ``error:`` line naming the
+    file)."""
+    single = tmp_path / "single.exr"
+    write_table(file_table(True, False, False, False), single)
+    data = single.read_bytes()
+    damaged = "damaged (truncated or corrupt) OpenEXR file"
+    header_cut = tmp_path / "header-cut.exr"
+    header_cut.write_bytes(data[:16])
+    bins_cut = tmp_path / "bins-cut.exr"
+    bins_cut.write_bytes(data[:-1])
+    double = tmp_path / "double.exr"
+    write_table(file_table(True, False, True, False), double)
+    corrupt = bytearray(double.read_bytes())
+    bins = first_chunks(bytes(corrupt))[0]
+    corrupt[bins + 8:bins + 12] = (2**31 - 1).to_bytes(4, "little")  # part 0's chunk size
+    bins_corrupt = tmp_path / "bins-corrupt.exr"
+    bins_corrupt.write_bytes(bytes(corrupt))
+    for path, what in ((header_cut, "its header cannot be read"),
+                       (bins_cut, "the bins cannot be read"),
+                       (bins_corrupt, "the bins cannot be read")):
+        with pytest.raises(InputError) as info:
+            microsim.read_table(path)
+        assert str(info.value) == f"{path}: {damaged}: {what}"
+
+
+def test_damaged_harmonics_are_a_warning_or_with_require_sh_an_error(tmp_path):
+    """A two-part file cut inside its harmonics reads as its bins with one
+    ``InputWarning`` naming the file and the damaged part, attributed to the caller of
+    ``exr.read_table`` (docs/table-format.md: a ``warning:`` line); with ``require_sh`` the
+    same words are the error."""
+    t = file_table(True, False, True, False)
+    whole = tmp_path / "t.exr"
+    write_table(t, whole)
+    data = whole.read_bytes()
+    path = tmp_path / "cut.exr"
+    path.write_bytes(data[:first_chunks(data)[1] + 16])
+    message = (f"{path}: damaged (truncated or corrupt) OpenEXR file: its "
+               "spherical-harmonics part cannot be read (the bins can)")
+    with pytest.warns(InputWarning) as caught:
+        r = exr.read_table(path)
+    assert [str(w.message) for w in caught] == [f"{message}; reading the bins only"]
+    assert [type(w.message) for w in caught] == [InputWarning]
+    assert caught[0].filename == __file__
+    assert r.sh is None
+    np.testing.assert_array_equal(r.values["total"], t.values["total"].astype(np.float32))
+    with pytest.raises(InputError) as info:
+        exr.read_table(path, require_sh=True)
+    assert str(info.value) == message
 
 
 def rewritten(source, target, edit):
@@ -572,3 +822,33 @@ def test_a_json_attribute_that_does_not_parse_is_one_message(tmp_path, attribute
                                "too long)")
 
 
+def test_a_bad_harmonics_or_wavelet_part_is_refused_naming_the_file(tmp_path):
+    """The ``sh`` part's header and pixels and the ``wavelet`` part are checked like the
+    bins: each refusal names the file, then the key or channel."""
+    source = tmp_path / "t.exr"
+    write_table(file_table(True, True, True, True), source)
+
+    def sh_header(name, header, channels):
+        if name == "sh":
+            info = json.loads(header["microsim_sh"])
+            info["coefficients"] = 10
+            header["microsim_sh"] = json.dumps(info)
+
+    def sh_pixel(name, header, channels):
+        if name == "sh":
+            channels["order2.552p5nm"][2, 3] = np.inf
+
+    def wavelet_header(name, header, channels):
+        if name == "wavelet":
+            info = json.loads(header["microsim_wavelet"])
+            info["levels"] = 1
+            header["microsim_wavelet"] = json.dumps(info)
+
+    for edit, start in ((sh_header, "header sh.coefficients = 10: must be 9"),
+                        (sh_pixel, "harmonics channel order2.552p5nm holds inf at row 2, "
+                                   "column 3"),
+                        (wavelet_header, "wavelet part: mode ")):
+        path = rewritten(source, tmp_path / "edited.exr", edit)
+        with pytest.raises(InputError) as info:
+            microsim.read_table(path)
+        assert str(info.value).startswith(f"{path}: {start}"), str(info.value)
