@@ -69,7 +69,7 @@ def test_microcylinder_fit_recovers_known_parameters_of_an_anisotropic_weave_tab
 def test_kay_kajiya_fit_uses_the_cylinders_axis_and_coverage():
     """Kay-Kajiya on a cylinders table: the tangent (+y) and coverage (2r/s) come from
     the table, so a table made from kd = 0.02, ks = (0.3, 0.2, 0.1), n = 40 comes back
-    within 2%."""
+    within 2%; the fit holds them with the table's sources."""
     table = template({"kind": "cylinders", "radius": 0.25, "spacing": 1.0},
                      {"kind": "lambertian", "albedo": 0.5}, [0.0, 60.0])
     assert model_defaults(table.meta)["coverage"] == pytest.approx(0.5)
@@ -77,3 +77,92 @@ def test_kay_kajiya_fit_uses_the_cylinders_axis_and_coverage():
     r = fit_table(made_from(table, "kay-kajiya", truth), "kay-kajiya", "single")
     for name, value in zip(r.params, truth, strict=True):
         assert r.params[name] == pytest.approx(value, rel=0.02)
+    assert r.held == {"tangent_theta": 90.0, "tangent_phi": 90.0, "coverage": 0.5}
+    # one row per incidence, θi outer and φi inner, with the table's albedo
+    np.testing.assert_allclose([(row.theta_i, row.phi_i) for row in r.per_theta_i],
+                               [(20.0, 0.0), (20.0, 60.0), (50.0, 0.0), (50.0, 60.0)],
+                               rtol=0, atol=1e-12)
+    table = made_from(table, "kay-kajiya", truth)
+    for row, (k, j) in zip(r.per_theta_i, np.ndindex(2, 2), strict=True):
+        np.testing.assert_array_equal(row.albedo_table, table.albedo_of["single"][k, j])
+    assert r.held_sources == {"tangent_theta": "the cylinders' axis",
+                              "tangent_phi": "the cylinders' axis",
+                              "coverage": "2 radius / spacing of the recipe's surface"}
+
+
+def test_fibre_families_hold_the_tables_geometry_with_its_source():
+    """The fibre families hold their geometry: a key the defaults give is held at that
+    value with the defaults' source (``ModelDefaults.sources``), or "the table's" for a
+    plain mapping without sources; a key they do not give is held at the family's own
+    default, with source "default"."""
+    from microsim.table_models import ModelDefaults
+
+    given = ModelDefaults()
+    given.put("coverage", 0.4, "2 radius / spacing of the cylinders")
+    given.put("tangent_phi", 30.0, "the cylinders' axis")
+    _, fam = family("kay-kajiya", given)
+    assert fam.held == {"tangent_theta": 90.0, "tangent_phi": 30.0, "coverage": 0.4}
+    assert fam.held_sources == {"tangent_theta": "default",
+                                "tangent_phi": "the cylinders' axis",
+                                "coverage": "2 radius / spacing of the cylinders"}
+    _, fam = family("kay-kajiya", {"coverage": 0.4})
+    assert fam.held == {"tangent_theta": 90.0, "tangent_phi": 90.0, "coverage": 0.4}
+    assert fam.held_sources == {"tangent_theta": "default", "tangent_phi": "default",
+                                "coverage": "the table's"}
+    _, fam = family("microcylinder", {"slope": 0.3})
+    assert fam.held == {"slope": 0.3, "flat": 0.0}
+    assert fam.held_sources == {"slope": "the table's", "flat": "default"}
+    # without defaults: a straight thread along +y, fully covering
+    _, fam = family("kay-kajiya")
+    assert fam.held == {"tangent_theta": 90.0, "tangent_phi": 90.0, "coverage": 1.0}
+    _, fam = family("microcylinder")
+    assert fam.held == {"slope": 0.0, "flat": 0.0}
+    assert set(fam.held_sources.values()) == {"default"}
+
+
+def _directions(n, seed):
+    """n random directions in the upper hemisphere (z ≥ 0.05)."""
+    rng = np.random.default_rng(seed)
+    z = rng.uniform(0.05, 1.0, n)
+    phi = rng.uniform(0.0, 2 * np.pi, n)
+    s = np.sqrt(1 - z**2)
+    return np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=-1)
+
+
+def test_fibre_families_build_the_models_they_name():
+    """Each fibre family's model at a parameter vector, at random pairs of directions, is
+    the model it names built directly (to 1e-12 relative, the same arithmetic; the
+    spectral cloth to 1e-9, an affine combination of three RGB evaluations): Kay-Kajiya
+    per channel with kd, ks per channel and a shared n, about the held tangent (θ, φ in
+    degrees) with the held coverage; the microcylinder cloth with γ_s, γ_v in degrees
+    and the volume scales per family (warp, then weft) and channel, on the held weave's
+    tangent curves — for RGB channels and, channel by channel, for three wavelengths."""
+    from microsim.analytic.brdf import KayKajiya
+    from microsim.analytic.cloth import MicrocylinderCloth
+
+    wi, wo = _directions(100, 3), _directions(100, 4)
+    geometry = {"tangent_theta": 70.0, "tangent_phi": 30.0, "coverage": 0.4}
+    _, fam = family("kay-kajiya", geometry)
+    kd, ks, n = [0.02, 0.03, 0.04], [0.3, 0.2, 0.1], 40.0
+    got = fam.build(np.array([*kd, *ks, n])).eval(wi, wo)
+    th, ph = np.radians(70.0), np.radians(30.0)
+    t = [np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)]
+    expected = np.stack([KayKajiya(t, kd[c], ks[c], n, 0.4).eval(wi, wo)
+                         for c in range(3)], axis=-1)
+    assert np.ptp(expected) > 0
+    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=0)
+
+    weave = {"slope": 0.5, "flat": 1 / 3}
+    params = [0.7, 0.6, 1.6, 7.0, 17.0, 0.4, 0.2, 0.3, 0.8, 0.9, 0.8, 0.7]
+    albedo = np.array(params[6:]).reshape(2, 3)
+    expected = MicrocylinderCloth([0.7, 0.6], 1.6, np.radians(7.0), np.radians(17.0), 0.4,
+                                  albedo, 0.5, 1 / 3).eval(wi, wo)
+    assert expected.shape == (100, 3) and np.ptp(expected) > 0
+    _, fam = family("microcylinder", weave)
+    np.testing.assert_allclose(fam.build(np.array(params)).eval(wi, wo), expected,
+                               rtol=1e-12, atol=0)
+    spectral = ("450nm", "550nm", "650nm")
+    _, fam = family("microcylinder", weave, spectral)
+    assert fam.names[6:] == tuple(f"A_{p}_{c}" for p in ("warp", "weft") for c in spectral)
+    np.testing.assert_allclose(fam.build(np.array(params)).eval(wi, wo), expected,
+                               rtol=1e-9, atol=1e-15)
