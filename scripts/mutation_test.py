@@ -66,7 +66,11 @@ MODULES: dict[str, list[str]] = {
     "microsim/analytic/ndf.py": ["tests/test_analytic_ndf.py"],
     "microsim/fit.py": ["tests/test_fit.py",
                         # the fibre models' fits (_kay_kajiya, _microcylinder, _ClothPerChannel)
-                        "tests/test_fit_fibres.py"],
+                        "tests/test_fit_fibres.py",
+                        # a whole simulation (30 s) for each mutant of fit_table that
+                        # survives the fast tests, which test what it tests
+                        "--deselect=tests/test_fit.py::"
+                        "test_simulated_gaussian_fits_beckmann_at_its_realised_alpha"],
     "microsim/analytic/multiple_scattering.py": ["tests/test_multiple_scattering.py"],
     "microsim/analytic/brdf.py": ["tests/test_analytic_brdf.py",
                                   # flat_pairs and as_rgb serve the fibre models and compare
@@ -131,7 +135,8 @@ MODULES: dict[str, list[str]] = {
        for name in ("__init__", "base", "black", "coating", "conductor", "dielectric",
                     "lambertian", "mirror")},
 }
-"""Each module of the run and the fast tests that cover it (pytest node ids)."""
+"""Each module of the run and the fast tests that cover it (pytest node ids, and
+``--deselect`` for a slow test of a file that adds nothing its fast tests do not)."""
 
 SCORED = ("killed", "survived", "no_tests")
 
