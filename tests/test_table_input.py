@@ -607,6 +607,28 @@ def test_a_bad_header_is_refused_with_its_whole_message(case):
     assert _refused(lambda: validation.check_header(make(), WHERE)) == message
 
 
+def test_a_meta_that_cannot_be_read_shows_its_exception_on_one_line_cut_with_an_ellipsis(
+        monkeypatch):
+    """The reason a header's meta cannot be read is the exception's message without
+    quotes, escaped onto one line (a newline shown as \\n) and cut to 60 characters, the
+    last one "…" where it was cut; a short one whole."""
+    from microsim.tables.meta import TableMeta
+
+    def raising(message):
+        def from_json(_):
+            raise ValueError(message)
+        return from_json
+
+    long = "a reason on\ntwo lines, " + "x" * 80
+    monkeypatch.setattr(TableMeta, "from_json", staticmethod(raising(long)))
+    shown = (r"a reason on\ntwo lines, " + "x" * 80)[:59] + "…"
+    assert _refused(lambda: validation.check_header(header(), WHERE)) == (
+        f"t.exr: header meta cannot be read (ValueError: {shown})")
+    monkeypatch.setattr(TableMeta, "from_json", staticmethod(raising("short")))
+    assert _refused(lambda: validation.check_header(header(), WHERE)) == (
+        "t.exr: header meta cannot be read (ValueError: short)")
+
+
 def _nudge(path: str, index: int, delta: float) -> Callable[[dict], None]:
     """An edit adding ``delta`` to item ``index`` of the list at the dotted ``path``."""
     def edit(info: dict) -> None:

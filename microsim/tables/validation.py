@@ -62,10 +62,14 @@ SHOWN = 60
 """Characters of a bad value an error message shows."""
 
 
+def _cut(text: str) -> str:
+    """``text`` cut to ``SHOWN`` characters, the last one "…" where it was cut."""
+    return text if len(text) <= SHOWN else text[:SHOWN - 1] + "…"
+
+
 def _shown(value: Any) -> str:
     """A value as an error message shows it: its repr, cut to ``SHOWN`` characters."""
-    text = repr(value)
-    return text if len(text) <= SHOWN else text[:SHOWN - 1] + "…"
+    return _cut(repr(value))
 
 
 class _Where:
@@ -319,7 +323,7 @@ def check_header(info: Any, path: Any) -> dict[str, Any]:
     except (KeyError, TypeError, ValueError, AttributeError, IndexError,
             OverflowError) as exc:
         raise InputError(f"{path}: header meta cannot be read ({type(exc).__name__}: "
-                         f"{_shown(str(exc))[1:-1]})") from None
+                         f"{_cut(repr(str(exc))[1:-1])})") from None
     return {"components": components, "bins": bins, "theta_i": np.array(theta_i),
             "phi_i": np.array(phi_i), "isotropic": isotropic, "shape": shape,
             "rays": rays, "realisations": realisations, "channels": channels,
