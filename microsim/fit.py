@@ -365,8 +365,9 @@ def fit_table(table: Any, spec: str, component: str = "total",
     component : str
         A component of the table (``"total"``, ``"single"``, ``"order2"``, …).
     start : sequence of float, optional
-        Start values (default: the family's; for microfacet models α starts at the
-        table's realised roughness when it has one).
+        Start values, one per parameter within its range (``Family.lower``, ``upper``;
+        an ``InputError`` otherwise) (default: the family's; for microfacet models α
+        starts at the table's realised roughness when it has one).
     progress : callable or None
         Called after every evaluation of the model over the table with a
         ``FitProgress`` (the evaluations so far and that evaluation's χ²/dof).
@@ -390,6 +391,13 @@ def fit_table(table: Any, spec: str, component: str = "total",
     alpha = None if surface is None else surface.alpha_realised
     if start is None and fam.names[0] == "alpha" and alpha is not None and alpha.isotropic:
         x0[0] = alpha.alpha
+    if len(x0) != len(fam.names):
+        raise InputError(f"fit {name}: {len(x0)} start values for the {len(fam.names)} "
+                         f"parameters ({', '.join(fam.names)})")
+    for n, v, lo, hi in zip(fam.names, x0, fam.lower, fam.upper, strict=True):
+        if v < lo or v > hi:  # a NaN start is the residuals' error (not finite) below
+            raise InputError(f"fit {name}: start {n} = {v:g} outside its range "
+                             f"[{lo:g}, {hi:g}]")
 
     if keep.sum() <= len(x0):
         raise InputError(f"fit {name}: the {component} of this table has {int(keep.sum())} "

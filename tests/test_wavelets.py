@@ -519,3 +519,192 @@ def test_a_damaged_wavelet_part_is_refused_by_name() -> None:
     for info, data, message in cases:
         with pytest.raises(ValueError, match=re.escape(message)):
             wavelets.from_part(info, data, ("total",), (1, 1))
+
+
+# --- exact outputs: counts, orders, refusals, the part and evaluation by hand -------------
+def test_an_index_takes_two_bytes_up_to_65536_coefficients_then_four() -> None:
+    """``index_bytes``: 2 bytes for up to 2¹⁶ = 65 536 coefficients (the default 256²
+    grid), 4 from one more, and for 2¹⁷ and 512²."""
+    assert wavelets.index_bytes(16) == 2
+    assert wavelets.index_bytes(65_535) == 2
+    assert wavelets.index_bytes(65_536) == 2
+    assert wavelets.index_bytes(65_537) == 4
+    assert wavelets.index_bytes(1 << 17) == 4
+    assert wavelets.index_bytes(512 * 512) == 4
+
+
+def test_wavelets_and_resolutions_are_refused_by_their_whole_message() -> None:
+    """``wavelet_of`` gives PyWavelets' wavelet for the orthogonal families and refuses an
+    unknown name, a biorthogonal wavelet and the discrete Meyer one (orthogonal, but not of
+    the families named) by their whole messages; ``check_resolution`` takes the powers of
+    two 4 and 1024 at its ends and refuses the others by its whole message."""
+    for name in ("haar", "db2", "sym4", "coif1"):
+        assert wavelets.wavelet_of(name).name == name
+    unknown = ("wavelet 'nope': not a discrete wavelet PyWavelets knows; use an orthogonal "
+               "one: haar, db1..db38, sym2..sym20, coif1..coif17")
+    with pytest.raises(ValueError, match=f"^{re.escape(unknown)}$"):
+        wavelets.wavelet_of("nope")
+    for name in ("bior2.2", "dmey"):
+        other = (f"wavelet {name!r}: not of the orthogonal families haar, db<N>, sym<N>, "
+                 "coif<N> (a biorthogonal transform is not orthonormal)")
+        with pytest.raises(ValueError, match=f"^{re.escape(other)}$"):
+            wavelets.wavelet_of(name)
+    for n in (4, 8, 512, 1024):
+        assert wavelets.check_resolution(n) == n
+    for n in (1, 2, 3, 6, 100, 1023, 2048):
+        with pytest.raises(ValueError, match=f"^resolution {n}: must be a power of two "
+                                             "from 4 to 1024$"):
+            wavelets.check_resolution(n)
+
+
+def test_ranks_are_by_magnitude_with_ties_in_index_order() -> None:
+    """``ranks`` of rows with many equal magnitudes (integers −3…3, seed 6) are each index's
+    place in Python's ``sorted`` by (−|c|, index), a stable order written out here."""
+    c = np.random.default_rng(6).integers(-3, 4, (3, 200)).astype(float)
+    got = wavelets.ranks(c)
+    for row in range(3):
+        order = sorted(range(200), key=lambda k: (-abs(c[row, k]), k))
+        want = np.empty(200, int)
+        want[order] = np.arange(200)
+        np.testing.assert_array_equal(got[row], want)
+
+
+def test_kept_for_counts_each_row_of_a_stack() -> None:
+    """``kept_for`` along the last axis of a (2, 3, 16) stack of integer coefficients
+    (seed 8; exact energies, so the comparison has no rounding) is, row by row, the fewest
+    largest whose dropped energy is at most target² of the total, found here by a loop
+    over the counts; a row of zeros keeps 0; a row of small coefficients (total energy
+    0.328 < 1, exact binary fractions) keeps its count; a target met exactly (four equal
+    coefficients, target ½: dropping one leaves a quarter of the energy) is reached."""
+    c = np.random.default_rng(8).integers(-9, 10, (2, 3, 16)).astype(float)
+    c[1, 2] = 0.0
+    for target in (0.6, 0.3, 0.1, 0.01):
+        got = wavelets.kept_for(c, target)
+        assert got.shape == (2, 3) and got.dtype.kind == "i"
+        for i in range(2):
+            for j in range(3):
+                energy = sorted((x * x for x in c[i, j]), reverse=True)
+                total = sum(energy)
+                want = 0 if total == 0 else next(
+                    k for k in range(1, 17) if sum(energy[k:]) <= target ** 2 * total)
+                assert got[i, j] == want, (target, i, j)
+    assert wavelets.kept_for(np.array([0.5, -0.25, 0.125, 0.0]), 0.5) == 1
+    assert wavelets.kept_for(np.array([0.5, -0.25, 0.125, 0.0]), 0.25) == 2
+    assert wavelets.kept_for(np.ones(4), 0.5) == 3
+    assert wavelets.kept_for(np.array([[1.0, -1.0, 1.0, 1.0], [0.0, 0.0, 0.0, 0.0]]),
+                             0.5).tolist() == [3, 0]
+
+
+def test_grid_bins_of_a_constant_grid_are_its_value_over_each_bins_mean_cosine() -> None:
+    """A grid constant per incidence and channel reads back into the bins as that value
+    over the bin's mean cos θ, ½ (sin²θ₁ − sin²θ₀) / (cos θ₀ − cos θ₁), written out from
+    the bin edges, in the table's (a, b, nt, np, C) shape, to 1e-12."""
+    bins = HemisphereBins(4, 8)
+    grids = np.array([1.0, 2.0, 3.0])[None, None, :, None, None] * np.array(
+        [1.0, 0.5])[:, None, None, None, None] * np.ones((2, 1, 3, 8, 8))
+    got = wavelets.grid_bins(grids, Resampling(8, bins))
+    assert got.shape == (2, 1, 4, 8, 3)
+    t = bins.theta_edges
+    ring = 0.5 * (np.sin(t[1:]) ** 2 - np.sin(t[:-1]) ** 2) / (np.cos(t[:-1]) - np.cos(t[1:]))
+    for i in range(2):
+        for k in range(3):
+            want = grids[i, 0, k, 0, 0] / ring[:, None] * np.ones((4, 8))
+            np.testing.assert_allclose(got[i, 0, :, :, k], want, rtol=1e-12)
+
+
+def test_kept_counts_the_non_zero_values_of_each_incidence_and_channel() -> None:
+    """``Wavelets.kept`` of hand-made (2, 3, 4, 2) values is, per (incidence, channel), the
+    number of non-zero entries among the four columns, counted here by a loop."""
+    values = np.random.default_rng(12).normal(size=(2, 3, 4, 2))
+    values[np.random.default_rng(13).random((2, 3, 4, 2)) < 0.4] = 0.0
+    stored = wavelets.Wavelets("haar", 4, {"total": values},
+                               {"total": np.zeros(values.shape, int)}, keep=4)
+    got = stored.kept("total")
+    assert got.shape == (2, 3, 2)
+    for i in range(2):
+        for j in range(3):
+            for k in range(2):
+                assert got[i, j, k] == sum(values[i, j, m, k] != 0 for m in range(4))
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({}, "give one of target_error and keep"),
+    ({"target_error": 0.1, "keep": 3}, "give one of target_error and keep"),
+    ({"target_error": 0.0}, "target error 0.0: must be > 0"),
+    ({"target_error": -0.5}, "target error -0.5: must be > 0"),
+    ({"target_error": math.nan}, "target error nan: must be > 0"),
+    ({"keep": 0}, "keep 0: must be >= 1"),
+    ({"keep": 3, "channels": ("550nm", "650nm")},
+     "values['total'] have 3 channels, the names 2"),
+])
+def test_encode_refuses_by_the_whole_message(kwargs: dict, message: str) -> None:
+    """Each refusal of ``encode``, by its whole message (the values' channel count is the
+    last axis': here 3 of (1, 2, 4, 8, 3), against two names)."""
+    bins = HemisphereBins(4, 8)
+    values = {"total": np.ones((1, 2, 4, 8, 3))}
+    with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+        wavelets.encode(values, bins, 8, "haar", **kwargs)
+
+
+def reference_coefficients(grid: np.ndarray, name: str) -> np.ndarray:
+    """PyWavelets' own 2-D transform of one n × n grid, its arrays laid out by
+    ``coeffs_to_array`` and flattened row by row (the documented index)."""
+    import pywt
+
+    level = pywt.dwt_max_level(grid.shape[-1], pywt.Wavelet(name).dec_len)
+    coeffs = pywt.wavedec2(grid, name, mode="periodization", level=level)
+    return pywt.coeffs_to_array(coeffs)[0].ravel()
+
+
+def test_encode_keeps_the_largest_first_with_ties_by_index_and_pads_with_zero() -> None:
+    """Per incidence and channel, the kept values and indices are those of PyWavelets' own
+    transform of the resampled grid sorted by (−|c|, index) in Python: for ``keep`` 1 and
+    5 (the lobe at normal incidence is symmetric, so its coefficients tie in magnitude in
+    groups of four and eight, and the fifth cuts one), one column and five, exactly; for a
+    target error, each row's count is the fewest whose dropped energy is at most target² of
+    the total (a loop over the counts), the rest of the row value 0 at index 0, in the
+    documented (a, b, K, C) shape; the names of a spectral table's channels are kept."""
+    bins = HemisphereBins(8, 16)
+    values = lobe_values([0.0, 0.6], bins)
+    grids = wavelets.table_grids(values, Resampling(8, bins))
+
+    def by_magnitude(i: int, k: int) -> tuple[np.ndarray, list[int]]:
+        c = reference_coefficients(grids[i, 0, k], "haar")
+        return c, sorted(range(64), key=lambda m: (-abs(c[m]), m))
+
+    for keep in (1, 5):
+        stored = wavelets.encode({"total": values}, bins, 8, "haar", keep=keep)
+        assert stored.values["total"].shape == (2, 1, keep, 3)
+        assert stored.indices["total"].shape == (2, 1, keep, 3)
+        assert stored.keep == keep and stored.target_error is None
+        for i in range(2):
+            for k in range(3):
+                c, order = by_magnitude(i, k)
+                assert stored.indices["total"][i, 0, :, k].tolist() == order[:keep]
+                np.testing.assert_array_equal(stored.values["total"][i, 0, :, k],
+                                              c[order[:keep]])
+    target = 0.05
+    stored = wavelets.encode({"total": values}, bins, 8, "haar", target_error=target)
+    assert stored.target_error == target and stored.keep is None
+    counts = {}
+    for i in range(2):
+        for k in range(3):
+            c, order = by_magnitude(i, k)
+            energy = [c[m] ** 2 for m in order]
+            counts[i, k] = next(n for n in range(1, 65)
+                                if sum(energy[n:]) <= target ** 2 * sum(energy))
+    width = max(counts.values())
+    assert len(set(counts.values())) > 1
+    assert stored.values["total"].shape == (2, 1, width, 3)
+    for (i, k), count in counts.items():
+        c, order = by_magnitude(i, k)
+        got_values = stored.values["total"][i, 0, :, k]
+        got_indices = stored.indices["total"][i, 0, :, k]
+        np.testing.assert_array_equal(got_values[:count], c[order[:count]])
+        assert got_indices[:count].tolist() == order[:count]
+        assert (got_values[count:] == 0).all() and (got_indices[count:] == 0).all()
+    np.testing.assert_array_equal(stored.kept("total"),
+                                  [[[counts[i, k] for k in range(3)]] for i in range(2)])
+    spectral = wavelets.encode({"total": values[..., :2]}, bins, 8, "haar", keep=2,
+                               channels=("550nm", "650nm"))
+    assert spectral.channels == ("550nm", "650nm")
