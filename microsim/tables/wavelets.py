@@ -320,7 +320,7 @@ def encode(values: Mapping[str, np.ndarray], bins: HemisphereBins, resolution: i
         width = max(1, int(count.max()))
         order = np.argsort(-np.abs(coeffs), axis=-1, kind="stable")[..., :width]
         top = np.take_along_axis(coeffs, order, axis=-1)
-        top = np.where(np.arange(width) < count[..., None], top, 1.0)
+        top = np.where(np.arange(width) < count[..., None], top, 0.0)
         kept_values[c] = np.moveaxis(top, -2, -1)
         kept_indices[c] = np.moveaxis(np.where(top != 0, order, 0), -2, -1)
     return Wavelets(wavelet, resolution, kept_values, kept_indices, target_error, keep,
