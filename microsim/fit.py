@@ -395,7 +395,7 @@ def fit_table(table: Any, spec: str, component: str = "total",
         raise InputError(f"fit {name}: {len(x0)} start values for the {len(fam.names)} "
                          f"parameters ({', '.join(fam.names)})")
     for n, v, lo, hi in zip(fam.names, x0, fam.lower, fam.upper, strict=True):
-        if v < lo or v > hi:  # a NaN start is the residuals' error (not finite) below
+        if not lo <= v <= hi:  # NaN too
             raise InputError(f"fit {name}: start {n} = {v:g} outside its range "
                              f"[{lo:g}, {hi:g}]")
 

@@ -166,3 +166,62 @@ def test_fibre_families_build_the_models_they_name():
     assert fam.names[6:] == tuple(f"A_{p}_{c}" for p in ("warp", "weft") for c in spectral)
     np.testing.assert_allclose(fam.build(np.array(params)).eval(wi, wo), expected,
                                rtol=1e-9, atol=1e-15)
+
+
+def test_fibre_families_name_their_parameters_and_start_from_the_tables_geometry():
+    """The fibre families' parameters by name, in the order their builders read them
+    (docs/compare.md, docs/surfaces.md): Kay-Kajiya's kd and ks per channel, then n; the
+    cloth's a_warp, a_weft, η, γ_s, γ_v, k_d, then A per yarn family and channel. The
+    starts a table's defaults set: Kay-Kajiya's kd at the table's (its Lambertian fibres'
+    albedo / π²), else a mid-grey fibre's 0.5 / π² (0.05, to 1e-3); the cloth's coverages
+    at yarn width / spacing (the weave's defaults 0.8 and 1 when the table has none),
+    below 0.95 (as a weave's yarns are: ``surfaces.rules``), and each family's volume
+    scales at the mean albedo of its yarns (0.5 without). Every start is finite and
+    within the family's range."""
+    rgb = ("R", "G", "B")
+    _, fam = family("kay-kajiya", {"kd": 0.02})
+    assert fam.names == ("kd_R", "kd_G", "kd_B", "ks_R", "ks_G", "ks_B", "n")
+    assert fam.start[:3] == (0.02, 0.02, 0.02)
+    _, fam = family("kay-kajiya")
+    assert fam.start[:3] == pytest.approx([0.5 / np.pi**2] * 3, abs=1e-3)
+    starts = [fam]
+    _, fam = family("microcylinder")
+    assert fam.names == ("a_warp", "a_weft", "eta", "gamma_s", "gamma_v", "kd",
+                         *(f"A_{p}_{c}" for p in ("warp", "weft") for c in rgb))
+    assert fam.start[:2] == pytest.approx((0.8, 0.8), rel=1e-12)
+    assert fam.start[6:] == pytest.approx([0.5] * 6, rel=1e-12)
+    starts.append(fam)
+    weave = {"yarn_width": 0.6, "spacing": 2.0, "albedo_warp": [0.2, 0.4, 0.6],
+             "albedo_weft": [0.1, 0.2, 0.3]}
+    _, fam = family("microcylinder", weave)
+    assert fam.start[:2] == pytest.approx((0.3, 0.3), rel=1e-12)
+    assert fam.start[6:] == pytest.approx([0.4] * 3 + [0.2] * 3, rel=1e-12)
+    starts.append(fam)
+    _, fam = family("microcylinder", {"yarn_width": 1.2, "spacing": 1.0})
+    assert fam.start[:2] == (0.95, 0.95)
+    for f in [*starts, fam]:
+        start = np.array(f.start)
+        assert np.all(np.isfinite(start))
+        assert np.all(np.array(f.lower) <= start) and np.all(start <= np.array(f.upper))
+
+
+def test_cloth_of_two_wavelengths_is_the_rgb_model_channel_by_channel():
+    """The cloth family of a two-wavelength table (neither RGB nor three channels) at a
+    parameter vector is, per channel, ``MicrocylinderCloth`` built with that channel's
+    volume scales for all three of its channels (to 1e-9 relative, atol 1e-15: an affine
+    combination of three evaluations)."""
+    from microsim.analytic.cloth import MicrocylinderCloth
+
+    wi, wo = _directions(100, 7), _directions(100, 8)
+    weave = {"slope": 0.5, "flat": 1 / 3}
+    _, fam = family("microcylinder", weave, ("450nm", "650nm"))
+    params = [0.7, 0.6, 1.6, 7.0, 17.0, 0.4, 0.2, 0.8, 0.9, 0.3]
+    got = fam.build(np.array(params)).eval(wi, wo)
+    albedo = np.array(params[6:]).reshape(2, 2)
+    expected = np.stack([MicrocylinderCloth([0.7, 0.6], 1.6, np.radians(7.0),
+                                            np.radians(17.0), 0.4,
+                                            np.repeat(albedo[:, c:c + 1], 3, axis=1),
+                                            0.5, 1 / 3).eval(wi, wo)[..., 0]
+                         for c in range(2)], axis=-1)
+    assert got.shape == (100, 2) and np.ptp(expected) > 0
+    np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-15)
