@@ -146,10 +146,14 @@ def test_the_tables_alpha_out_of_range_is_refused_for_an_isotropic_spec():
     ("beckmann:eta=[1.5,1.4],k=[3,2.5]",
      {"alpha": 0.3, "shadowing": "smith-correlated", "eta": [1.5, 1.4], "k": [3.0, 2.5]}),
     ("lambertian:albedo=[0.1,0.2,0.3,0.4]", {"albedo": [0.1, 0.2, 0.3, 0.4]}),
+    # the model's own default albedo, a single number, beside a list
+    ("cylinders:kind=lambertian,base_albedo=[0.1,0.2,0.3]",
+     {"radius": 0.5, "spacing": 1.0, "sink": 0.0, "kind": "lambertian",
+      "albedo": [0.8, 0.8, 0.8], "base_albedo": [0.1, 0.2, 0.3]}),
 ])
 def test_a_single_number_takes_the_length_of_the_lists_beside_it(spec, params):
-    """A number (read as R, G, B) becomes as many copies as the lists given have values;
-    the lists keep their values."""
+    """A number (given, read as R, G, B, or a model's own default) becomes as many copies
+    as the lists given have values; the lists keep their values."""
     assert parse_model_spec(spec)[1] == params
 
 
