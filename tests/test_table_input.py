@@ -904,3 +904,25 @@ def test_a_value_is_shown_cut_to_sixty_characters():
     assert _refused(lambda: validation.check_header(
         _with(_set("error_model", text60 + "y"))(), WHERE)) == (
         "t.exr: header error_model = '" + "x" * 58 + "…: must be 'rays' or 'ensemble'")
+
+
+def test_numbers_without_a_lower_bound_and_of_an_empty_shape():
+    """``numbers`` with ``low=None`` takes any finite number (negative ones too) and, when
+    it refuses, says "numbers" or "integers" with no bound; and its array has the shape
+    asked for even where the nested lists do not show it: ``[]`` for (0, 3) is an empty
+    (0, 3) array, not a (0,) one."""
+    where = validation._Where(WHERE)
+    got = validation.numbers(where, [-1.5, 2.0], "x", (2,), low=None)
+    assert got.dtype == np.float64 and got.tolist() == [-1.5, 2.0]
+    got = validation.numbers(where, [[-3], [None]], "x", (2, 1), low=None, nulls=True)
+    assert got[0, 0] == -3.0 and np.isnan(got[1, 0])
+    assert _refused(lambda: validation.numbers(where, [1, "2"], "x", (2,), low=None)) == (
+        "t.exr: header x = [1, '2']: must be numbers, nested as [2]")
+    assert _refused(lambda: validation.numbers(where, [1.5], "n", (1,), low=None,
+                                               integer=True)) == (
+        "t.exr: header n = [1.5]: must be integers, nested as [1]")
+    assert validation.numbers(where, [-2], "n", (1,), low=None, integer=True).tolist() == [-2]
+    for shape in ((0, 3), (0,), (0, 2, 3)):
+        got = validation.numbers(where, [], "x", shape)
+        assert got.shape == shape and got.dtype == np.float64
+    assert validation.numbers(where, [], "n", (0, 3), integer=True).shape == (0, 3)
