@@ -70,6 +70,7 @@ def test_a_microfacet_spec_builds_torrance_sparrow_with_the_ndf_it_names(spec, c
 
 
 def test_an_anisotropic_spec_builds_the_ndf_with_both_alphas():
+    """alpha_x and alpha_y reach the NDF as given, and the isotropic default alpha is dropped."""
     _, params, model = parse_model_spec("ggx:alpha_x=0.1,alpha_y=0.4")
     assert params == {"alpha_x": 0.1, "alpha_y": 0.4, "shadowing": "smith-correlated"}
     assert type(model.ndf) is GGX
@@ -77,6 +78,7 @@ def test_an_anisotropic_spec_builds_the_ndf_with_both_alphas():
 
 
 def test_the_shadowing_given_is_the_models():
+    """The masking-shadowing choice reaches the model (its default is the other tests')."""
     _, _, model = parse_model_spec("beckmann:shadowing=v-groove")
     assert model.shadowing == "v-groove"
 
@@ -98,6 +100,8 @@ def test_eta_and_k_make_the_fresnel_argument(spec, kind, arrays):
 
 
 def test_multiple_scattering_gets_the_ndf_fresnel_samples_and_seed_given():
+    """The random-walk models get the NDF named by the model, the Fresnel argument, and the
+    samples and seed given (or their defaults 256 and 0); exact, all passed through."""
     _, _, model = parse_model_spec("ggx-ms:alpha=0.2,eta=1.4,samples=64,seed=7")
     assert type(model) is SmithMultipleScattering
     assert type(model.ndf) is GGX and model.ndf.alpha == 0.2
@@ -113,6 +117,7 @@ def test_multiple_scattering_gets_the_ndf_fresnel_samples_and_seed_given():
 # --- roughness: alpha against alpha_x/alpha_y ---------------------------------------------
 
 def test_one_anisotropic_alpha_alone_is_refused():
+    """The whole message of the refusal."""
     assert refusal("ggx:alpha_x=0.2") == "model: give both alpha_x and alpha_y, or alpha"
 
 
@@ -158,6 +163,7 @@ def test_a_single_number_takes_the_length_of_the_lists_beside_it(spec, params):
 
 
 def test_colour_lists_of_different_lengths_are_refused():
+    """The whole message, naming each list's length."""
     assert refusal("beckmann:eta=[1.5,1.4],k=[1,2,3]") == (
         "model beckmann: eta has 2 values, k has 3 values; give each colour parameter one "
         "number or one per channel, as many for each")
@@ -166,6 +172,7 @@ def test_colour_lists_of_different_lengths_are_refused():
 # --- names and spec syntax -------------------------------------------------------------------
 
 def test_an_unknown_model_is_refused_with_the_list_of_models():
+    """The whole message: the suggestion and every model's name, in the registry's order."""
     assert refusal("beckman") == (
         "model 'beckman': unknown (did you mean 'beckmann'?); models: beckmann, ggx, "
         "beckmann-ms, ggx-ms, torrance-sparrow, blinn, phong, blinn-phong, lambertian, "
@@ -181,10 +188,12 @@ def test_an_unknown_model_is_refused_with_the_list_of_models():
      "holding an integer of more than 4300 digits (Python's limit)"),
 ])
 def test_a_malformed_spec_is_refused_naming_the_model_and_key(spec, message):
+    """Whole messages: no '=', a key twice, a value past Python's limits."""
     assert refusal(spec) == message
 
 
 def test_split_spec_keeps_what_follows_the_first_equals_sign_and_names_its_flag():
+    """A value holding '=' is kept whole; the refusal names the flag it was given for."""
     assert split_spec('point:name="a=b", power = [1, 2]', "--light") == (
         "point", {"name": "a=b", "power": [1, 2]})
     with pytest.raises(InputError) as caught:
@@ -209,6 +218,8 @@ def table_defaults() -> ModelDefaults:
 
 
 def test_a_models_own_table_values_override_the_shared_ones():
+    """``for_model`` values win over the table's shared ones for that model only; a given
+    value wins over both."""
     d = table_defaults()
     assert parse_model_spec("lambertian", d)[1] == {"albedo": [0.4, 0.4, 0.4]}
     assert parse_model_spec("oren-nayar", d)[1] == {
@@ -217,6 +228,8 @@ def test_a_models_own_table_values_override_the_shared_ones():
 
 
 def test_sources_name_the_spec_the_tables_words_or_the_models_default():
+    """Each parameter's source: given, the table's own words for a shared or a one-model
+    value, "from the table" where it has none, or the model's default."""
     d = table_defaults()
     spec = "beckmann:shadowing=v-groove"
     _, params, _ = parse_model_spec(spec, d)
@@ -250,6 +263,7 @@ def test_sources_of_plain_defaults_and_of_none():
 # --- how parameters are printed ----------------------------------------------------------
 
 def test_parameter_units_are_those_the_spec_reads():
+    """Degrees and tile units as printed; none for a dimensionless model or an unknown name."""
     assert parameter_units("oren-nayar") == {"sigma": "°"}
     assert parameter_units("cylinders") == {
         "radius": " (tile units)", "spacing": " (tile units)", "sink": " (tile units)"}
@@ -276,6 +290,8 @@ def test_parameters_text_prints_each_value_with_its_unit_and_source():
 # --- fibre and cloth models ---------------------------------------------------------------
 
 def test_cylinders_get_the_geometry_facet_and_base_given():
+    """Radius, spacing, the axes' height r - sink, the facet constants and the base albedo
+    as given (0.4 - 0.1 written as the same float operation: exact)."""
     _, _, model = parse_model_spec(
         "cylinders:radius=0.4,spacing=1.2,sink=0.1,kind=conductor,eta=0.2,k=3,"
         "base_albedo=0.3")
@@ -296,6 +312,7 @@ def test_cylinders_get_the_geometry_facet_and_base_given():
     ("cylinders:kind=dielectric,k=3", "eta"),
 ])
 def test_cylinders_refuse_a_material_without_its_constants(spec, missing):
+    """The whole message names each missing constant of the kind."""
     kind = spec.split("kind=")[1].split(",")[0]
     assert refusal(spec) == f"model cylinders: kind = {kind} needs {missing}"
 
@@ -312,6 +329,7 @@ def test_cylinders_refuse_overlapping_or_buried_cylinders(spec):
 
 
 def test_cylinders_that_touch_or_are_almost_buried_are_built():
+    """The other side of the bounds: spacing = 2 radius and sink just below 2 radius."""
     _, _, model = parse_model_spec("cylinders:radius=0.5,spacing=1.0,sink=0.99")
     assert (model.r, model.s) == (0.5, 1.0)
     assert model.zc == pytest.approx(-0.49, abs=1e-15)  # 0.5 - 0.99, one rounding
@@ -326,6 +344,8 @@ def test_kay_kajiya_tangent_from_its_angles():
 
 
 def test_velvet_is_the_model_built_directly_with_the_values_given():
+    """Fields and quadrature nodes equal (exact: the same arguments) to the model built
+    directly with the spec's values in their documented order."""
     _, _, model = parse_model_spec(
         "velvet-sparse:azimuth=45,azimuth_spread=30,sides=4,albedo=0.5")
     direct = SparseVelvet(0.01, 0.15, 400.0, 10.0, 5.0, 45.0, 30.0, 0.5, sides=4)
@@ -338,6 +358,8 @@ def test_velvet_is_the_model_built_directly_with_the_values_given():
 
 @pytest.mark.parametrize("base", ["0.2", "[0, 0, 1]"])
 def test_velvet_refuses_a_base_that_is_not_black(base):
+    """The whole message, a number given shown as its R, G, B; a single lit channel is
+    enough to refuse."""
     shown = {"0.2": "[0.2, 0.2, 0.2]", "[0, 0, 1]": "[0.0, 0.0, 1.0]"}[base]
     assert refusal(f"velvet-sparse:base_albedo={base}") == (
         f"model velvet-sparse: base_albedo = {shown}: the model needs a black base "
@@ -345,6 +367,8 @@ def test_velvet_refuses_a_base_that_is_not_black(base):
 
 
 def test_cloth_is_the_model_built_directly_with_the_values_given():
+    """Fields and tangent families equal (exact: the same arguments) to the model built
+    directly, widths in radians and the albedos as one row per thread family."""
     _, _, model = parse_model_spec(
         "microcylinder:a_warp=0.7,a_weft=0.6,gamma_s=12,gamma_v=24,kd=0.3,"
         "albedo_warp=[0.1,0.2,0.3],albedo_weft=0.4,slope=0.5,flat=0.25")
