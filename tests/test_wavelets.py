@@ -25,6 +25,7 @@ from microsim.tables.equal_area import (
     to_hemisphere,
     to_square,
 )
+from microsim.tables.evaluate import Axes
 from microsim.tables.meta import TableMeta
 from microsim.tables.sh import size
 from microsim.tables.table import BRDFTable
@@ -708,3 +709,279 @@ def test_encode_keeps_the_largest_first_with_ties_by_index_and_pads_with_zero() 
     spectral = wavelets.encode({"total": values[..., :2]}, bins, 8, "haar", keep=2,
                                channels=("550nm", "650nm"))
     assert spectral.channels == ("550nm", "650nm")
+
+
+def f_r_by_hand(stored: wavelets.Wavelets, bins: HemisphereBins, theta_i: list[float],
+                phi_i: list[float], isotropic: bool, wi: np.ndarray, wo: np.ndarray
+                ) -> np.ndarray:
+    """f_r of each pair from the ``total`` coefficients, worked out pair by pair: each
+    grid by PyWavelets' own inverse of the dense coefficients, divided by the pixels' mean
+    cos θ (the bins' ½ Δsin²θ / Δcos θ spread by the overlaps, over 2π/n²), read
+    bilinearly between pixel centres a_j = −1 + (2j + 1)/n found by a loop (the nearest
+    centre past the outer ones), at the square point of ωo turned by −φi when isotropic,
+    then linear in θi (clamped) and in φi (periodic); 0 unless both z > 0."""
+    import pywt
+
+    n, name = stored.resolution, stored.wavelet
+    level = pywt.dwt_max_level(n, pywt.Wavelet(name).dec_len)
+    slices = pywt.coeffs_to_array(pywt.wavedec2(np.zeros((n, n)), name,
+                                                mode="periodization", level=level))[1]
+    values, indices = stored.values["total"], stored.indices["total"]
+    a, b, kept, count = values.shape
+    t = bins.theta_edges
+    ring = 0.5 * (np.sin(t[1:]) ** 2 - np.sin(t[:-1]) ** 2) / (np.cos(t[:-1]) - np.cos(t[1:]))
+    matrix = overlaps(n, bins.theta_bins, bins.phi_bins, bins.phi_period)
+    cos = (matrix @ np.repeat(ring, bins.phi_bins)).reshape(n, n) / (2 * math.pi / n ** 2)
+    f = np.zeros((a, b, n, n, count))
+    for i in range(a):
+        for j in range(b):
+            for k in range(count):
+                dense = np.zeros(n * n)
+                for m in range(kept):
+                    dense[indices[i, j, m, k]] += values[i, j, m, k]
+                coeffs = pywt.array_to_coeffs(dense.reshape(n, n), slices,
+                                              output_format="wavedec2")
+                f[i, j, :, :, k] = pywt.waverec2(coeffs, name, mode="periodization") / cos
+    centres = [-1.0 + (2 * j + 1) / n for j in range(n)]
+
+    def bracket(x: float, nodes: list[float]) -> tuple[int, int, float]:
+        if x <= nodes[0]:
+            return 0, 0, 0.0
+        if x >= nodes[-1]:
+            return len(nodes) - 1, len(nodes) - 1, 0.0
+        j = max(j for j in range(len(nodes) - 1) if nodes[j] <= x)
+        return j, j + 1, (x - nodes[j]) / (nodes[j + 1] - nodes[j])
+
+    out = np.zeros((len(wi), count))
+    for p, (i, o) in enumerate(zip(wi, wo, strict=True)):
+        if i[2] <= 0 or o[2] <= 0:
+            continue
+        phi = math.atan2(i[1], i[0])
+        if isotropic:
+            o = np.array([math.cos(phi) * o[0] + math.sin(phi) * o[1],
+                          -math.sin(phi) * o[0] + math.cos(phi) * o[1], o[2]])
+        x, y = (float(s[0]) for s in to_square(o[None]))
+        j0, j1, wx = bracket(x, centres)
+        i0, i1, wy = bracket(y, centres)
+        pixel = ((1 - wy) * ((1 - wx) * f[:, :, i0, j0] + wx * f[:, :, i0, j1])
+                 + wy * ((1 - wx) * f[:, :, i1, j0] + wx * f[:, :, i1, j1]))
+        t0, t1, wt = bracket(math.acos(i[2]), theta_i)
+        if b == 1:
+            p0 = p1 = 0
+            wp = 0.0
+        else:
+            az = phi % (2 * math.pi)
+            below = [q for q in range(b) if phi_i[q] <= az]
+            p0 = max(below) if below else b - 1
+            p1 = (p0 + 1) % b
+            span = (phi_i[p1] - phi_i[p0]) % (2 * math.pi)
+            wp = ((az - phi_i[p0]) % (2 * math.pi)) / span
+        out[p] = ((1 - wt) * ((1 - wp) * pixel[t0, p0] + wp * pixel[t0, p1])
+                  + wt * ((1 - wp) * pixel[t1, p0] + wp * pixel[t1, p1]))
+    return out
+
+
+def random_pairs(count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs over the hemisphere: wi at θ up to 69° (past the last incidence, so θi is
+    clamped too) and any azimuth, wo from uniform points of the whole square (so some lie
+    beyond the outer pixel centres)."""
+    rng = np.random.default_rng(seed)
+    theta, phi = rng.uniform(0.0, 1.2, count), rng.uniform(-math.pi, math.pi, count)
+    wi = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi),
+                   np.cos(theta)], -1)
+    return wi, to_hemisphere(*rng.uniform(-1.0, 1.0, (2, count)))
+
+
+@pytest.mark.parametrize("isotropic", [True, False])
+def test_evaluate_reads_the_grid_bilinearly_then_blends_the_incidences(isotropic: bool
+                                                                       ) -> None:
+    """``evaluate`` of a truncated set (20 of 256 coefficients per incidence and channel,
+    db2 on 16² pixels, 8 × 16 bins) at 300 random pairs is ``f_r_by_hand``'s, to 1e-12 of
+    the largest value (round-off of the reconstruction and of the weights): an isotropic
+    table (θi 0 and 0.6, ωo's azimuth taken relative to φi) and an anisotropic one (θi 0.2
+    and 0.7 by φi 0 and 1.5, absolute azimuths, periodic in φi)."""
+    bins = HemisphereBins(8, 16)
+    if isotropic:
+        theta_i, phi_i = [0.0, 0.6], [0.0]
+        values = lobe_values(theta_i, bins)
+    else:
+        theta_i, phi_i = [0.2, 0.7], [0.0, 1.5]
+        values = anisotropic_lobe_table(theta_i, phi_i, bins).values["total"]
+    stored = wavelets.encode({"total": values}, bins, 16, "db2", keep=20)
+    axes = Axes(bins, np.array(theta_i), np.array(phi_i), isotropic)
+    wi, wo = random_pairs(300, 21)
+    got = wavelets.evaluate(axes, stored, "total", wi, wo)
+    want = f_r_by_hand(stored, bins, theta_i, phi_i, isotropic, wi, wo)
+    assert got.shape == (300, 3)
+    assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
+    assert np.ptp(want[:, 0]) > 0.5 * np.abs(want[:, 0]).max()     # not a constant
+
+
+def test_evaluate_is_zero_off_the_hemisphere_keeps_the_shape_and_works_in_double() -> None:
+    """Pairs with ωi or ωo on the horizon (z = 0) or below it give exactly 0, beside a pair
+    above it that does not; (2, 3, 3) directions broadcast against one give (2, 3, C), the
+    values of the flattened pairs; float32 directions give the values of the same
+    directions in float64, to 1e-15 (float32 arithmetic would err by ~1e-7)."""
+    bins = HemisphereBins(8, 16)
+    theta_i = [0.0, 0.6]
+    stored = wavelets.encode({"total": lobe_values(theta_i, bins)}, bins, 16, "haar",
+                             keep=30)
+    axes = Axes(bins, np.array(theta_i), np.zeros(1), True)
+    up = np.array([0.0, 0.6, 0.8])
+    wi = np.array([[1.0, 0.0, 0.0], [0.6, 0.0, -0.8], up, up, up])
+    wo = np.array([up, up, [0.0, 1.0, 0.0], [0.0, 0.6, -0.8], [0.6, 0.0, 0.8]])
+    got = wavelets.evaluate(axes, stored, "total", wi, wo)
+    assert (got[:4] == 0.0).all()
+    assert (got[4] > 0.0).all()
+    wi, wo = random_pairs(6, 5)
+    got = wavelets.evaluate(axes, stored, "total", wi.reshape(2, 3, 3), wo[0])
+    assert got.shape == (2, 3, 3)
+    np.testing.assert_array_equal(
+        got.reshape(6, 3), wavelets.evaluate(axes, stored, "total", wi,
+                                             np.broadcast_to(wo[0], (6, 3))))
+    wi32, wo32 = (w.astype(np.float32) for w in random_pairs(50, 6))
+    np.testing.assert_allclose(
+        wavelets.evaluate(axes, stored, "total", wi32, wo32),
+        wavelets.evaluate(axes, stored, "total", wi32.astype(float), wo32.astype(float)),
+        rtol=1e-15, atol=0)
+
+
+HEADER_TEXT = {
+    "function": "f_r(wi, wo) cos(theta_o) averaged over each pixel of the square",
+    "map": "Shirley-Chiu concentric map of [-1, 1]^2 to the disk, then z = 1 - r^2, "
+           "sin(theta) = r sqrt(2 - r^2); pixel (i, j) centred at a = -1 + (2j+1)/n "
+           "(along +x), b = -1 + (2i+1)/n (along +y); each pixel 2 pi / n^2 sr",
+    "azimuth": "as the table's: phi_o - phi_i when isotropic, else phi_o",
+    "index": "flat (row-major) index into pywt.coeffs_to_array(pywt.wavedec2(grid, "
+             "wavelet, mode, levels)) of the n x n grid",
+    "rows": "i_theta_i * n_phi_i + i_phi_i",
+    "columns": "kept coefficients, largest first; value 0 (index 0) pads a row",
+}
+"""The descriptions the ``microsim_wavelet`` attribute carries (docs/table-format.md, "The
+part ``wavelet``": the function, the map, the index, the rows and the channels)."""
+
+
+def test_the_part_header_is_the_documented_attribute_key_by_key() -> None:
+    """``part_header`` of a spectral table's two components: the wavelet, the resolution,
+    mode ``periodization``, the levels (the most with no filter longer than the data,
+    ⌊log2(n / (filter length − 1))⌋: 3 for Haar on 8², 2 for db2 on 16²), the target or the
+    count (the other null), the descriptions, the shape, and the channels, each
+    component's values then its indices, one per channel name, as ``part_channels`` names
+    them; it is JSON and reads back the same."""
+    bins = HemisphereBins(4, 8)
+    v = lobe_values([0.0, 0.6], bins)[..., :2]
+    values = {"total": v, "specular": 0.5 * v}
+    channels = ("550nm", "650nm")
+    names = ["total.550nm", "total.650nm", "total_index.550nm", "total_index.650nm",
+             "specular.550nm", "specular.650nm", "specular_index.550nm",
+             "specular_index.650nm"]
+    for resolution, name, target, keep, levels in ((8, "haar", None, 3, 3),
+                                                   (16, "db2", 0.05, None, 2)):
+        stored = wavelets.encode(values, bins, resolution, name, target_error=target,
+                                 keep=keep, channels=channels)
+        header = wavelets.part_header(stored, (2, 1))
+        assert header == {"wavelet": name, "resolution": resolution,
+                          "mode": "periodization", "levels": levels,
+                          "target_error": target, "keep": keep, **HEADER_TEXT,
+                          "shape": [2, 1], "channels": names}
+        assert list(header) == ["wavelet", "resolution", "mode", "levels", "target_error",
+                                "keep", "function", "map", "azimuth", "index", "rows",
+                                "shape", "columns", "channels"]
+        assert json.loads(json.dumps(header)) == header
+        assert sorted(wavelets.part_channels(stored)) == sorted(names)
+
+
+def valid_part() -> tuple[dict, dict]:
+    """The header and channels of two incidences (shape (2, 1)), Haar on 8², 4 kept."""
+    bins = HemisphereBins(4, 8)
+    stored = wavelets.encode({"total": lobe_values([0.0, 0.6], bins)}, bins, 8, "haar",
+                             keep=4)
+    return wavelets.part_header(stored, (2, 1)), wavelets.part_channels(stored)
+
+
+ROWS = "channels total.R/G/B: missing, or not 2 rows of one width"
+TYPES = "channels total.R/G/B must be finite floats and total_index.R/G/B unsigned integers"
+
+
+def _without(d: dict, key: str) -> dict:
+    return {k: v for k, v in d.items() if k != key}
+
+
+def _each(pixels: dict, prefix: str, change) -> dict:
+    return {k: change(v) if k.startswith(prefix) else v for k, v in pixels.items()}
+
+
+def _nan_at_first(v: np.ndarray) -> np.ndarray:
+    v = v.copy()
+    v[0, 0] = np.nan
+    return v
+
+
+def _index_at_first(v: np.ndarray, index: int) -> np.ndarray:
+    v = v.copy()
+    v[1, 2] = index
+    return v
+
+
+@pytest.mark.parametrize("header_change, pixels_change, message", [
+    (lambda h: [h], None, "the wavelet attribute is not a JSON object"),
+    (lambda h: dict(h, wavelet=3), None,
+     "wavelet 3: must be the name of an orthogonal wavelet"),
+    (lambda h: dict(h, resolution=8.0), None,
+     "resolution 8.0: must be a power of two from 4 to 1024"),
+    (lambda h: dict(h, resolution="8"), None,
+     "resolution '8': must be a power of two from 4 to 1024"),
+    (lambda h: dict(h, resolution=True), None,
+     "resolution True: must be a power of two from 4 to 1024"),
+    (lambda h: dict(h, levels=1), None,
+     "mode 'periodization', levels 1: this microsim reads mode 'periodization' with 3 "
+     "levels"),
+    (lambda h: dict(h, mode="zero"), None,
+     "mode 'zero', levels 3: this microsim reads mode 'periodization' with 3 levels"),
+    (lambda h: _without(h, "shape"), None,
+     "shape None: must be the table's incidences [2, 1]"),
+    (None, lambda p: _without(p, "total.G"), ROWS),
+    (None, lambda p: _each(p, "total.", lambda v: np.vstack([v, v[:1]])), ROWS),
+    (None, lambda p: _each(p, "total.", lambda v: v[:, 0]), ROWS),
+    (None, lambda p: dict(p, **{"total.B": p["total.B"][:, :3]}), ROWS),
+    (None, lambda p: _each(p, "total_index.", lambda v: v.astype(np.float32)), TYPES),
+    (None, lambda p: dict(p, **{"total.R": _nan_at_first(p["total.R"])}), TYPES),
+    (None, lambda p: dict(p, **{"total_index.G": _index_at_first(p["total_index.G"], 64)}),
+     "channel total_index: holds 64, must be below 64 (n² coefficients)"),
+])
+def test_a_damaged_part_is_refused_by_the_whole_message(header_change, pixels_change,
+                                                        message: str) -> None:
+    """Each refusal of ``from_part``, by its whole message: an attribute that is not an
+    object, a wavelet name that is not a string, a resolution that is not an int (a float,
+    a string, a bool), levels or mode not as written, no shape, a missing channel (the
+    middle one), planes with a row too many, 1-D planes, planes of different widths,
+    float indices, a NaN value, an index of n² (one past the last)."""
+    header, pixels = valid_part()
+    info = header if header_change is None else header_change(header)
+    data = pixels if pixels_change is None else pixels_change(pixels)
+    with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+        wavelets.from_part(info, data, ("total",), (2, 1))
+
+
+def test_a_part_read_back_is_what_was_written() -> None:
+    """A spectral table's part (two wavelengths, 2 × 2 incidences, two components, kept to
+    a target) read by ``from_part`` from its JSON and its channels gives the wavelet,
+    resolution, target, count and channel names written, the values rounded to float32
+    and the indices as integers, each as written."""
+    bins = HemisphereBins(4, 8)
+    f = anisotropic_lobe_table([0.2, 0.7], [0.0, 1.5], bins).values["total"][..., :2]
+    channels = ("550nm", "650nm")
+    stored = wavelets.encode({"total": f, "diffuse": 0.3 * f}, bins, 8, "haar",
+                             target_error=0.1, channels=channels)
+    info = json.loads(json.dumps(wavelets.part_header(stored, (2, 2))))
+    back = wavelets.from_part(info, wavelets.part_channels(stored), ("total", "diffuse"),
+                              (2, 2), channels)
+    assert (back.wavelet, back.resolution, back.target_error, back.keep) == (
+        "haar", 8, 0.1, None)
+    assert back.channels == channels
+    for c in ("total", "diffuse"):
+        assert back.values[c].dtype == np.float64
+        np.testing.assert_array_equal(back.values[c],
+                                      stored.values[c].astype(np.float32).astype(float))
+        assert back.indices[c].dtype.kind == "i"
+        np.testing.assert_array_equal(back.indices[c], stored.indices[c])
