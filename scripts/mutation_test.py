@@ -81,7 +81,8 @@ MODULES: dict[str, list[str]] = {
                                   # flat_pairs and as_rgb serve the fibre models and compare
                                   "tests/test_fibre_models.py", "tests/test_compare.py"],
     "microsim/analytic/registry.py": ["tests/test_models_cli.py",
-                                      "tests/test_analytic_brdf.py"],
+                                      "tests/test_analytic_brdf.py",
+                                      "tests/test_model_registry.py"],
     "microsim/compare.py": ["tests/test_compare.py",
                             "tests/test_robustness.py::test_verdict_follows_the_error_bars"],
     "microsim/tables/estimator.py": [
@@ -113,11 +114,12 @@ MODULES: dict[str, list[str]] = {
     "microsim/tables/sh.py": ["tests/test_sh.py"],
     "microsim/tables/sh_matrix.py": ["tests/test_sh.py"],
     "microsim/tables/sh_error.py": ["tests/test_sh_error.py", "tests/test_sh.py"],
-    "microsim/tables/table.py": ["tests/test_tables_table.py", "tests/test_sh.py",
+    "microsim/tables/table.py": ["tests/test_brdf_table.py", "tests/test_tables_table.py",
+                                 "tests/test_sh.py",
                                  "tests/test_wavelets.py", "tests/test_table_input.py",
                                  "tests/test_export.py"],
     "microsim/tables/assemble.py": ["tests/test_tables_table.py", "tests/test_ensemble.py",
-                                    "tests/test_sh.py",
+                                    "tests/test_sh.py", "tests/test_tables_assemble.py",
                                     # 256 realisations (150 s under mutmut) for each
                                     # mutant of the ensemble's sums that survives the
                                     # rest; its running sums are tested by the fast ones
