@@ -122,9 +122,12 @@ class BRDFTable:
     sh_sums, sh_sums_sq : dict or None
         Raw sums Σ w Y_k (K, a, b, (L + 1)², 3) and Σ w² Y_K to order 2L
         (K, a, b, (2L + 1)², 3) of fresh estimates, merged alike.
-    realisation_albedo : dict of str to (K, a, b, 3) float, or None
-        Each realisation's albedo per component of a fresh estimate (NaN where a
-        realisation did not trace a direction).
+    realisation_albedo : dict of str to (R, a, b, 3) float, or None
+        Each realisation's albedo per component of a fresh estimate, per direction in
+        the order the realisations were added (index order): slot r of direction (l, k)
+        holds the albedo of the (r + 1)-th realisation that traced it, not necessarily
+        realisation r, and slots past that direction's ``realisations`` are NaN. R is
+        the most realisations of any direction (``microsim.tables.assemble.EnsembleSums``).
     wavelets : Wavelets or None
         Wavelet coefficients of f_r cos θo per incidence and component, kept by magnitude
         (``microsim.tables.wavelets``; ``microsim wavelets TABLE --store``), or None.
