@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from test_fit import _directions
 
 from microsim.compare import bin_averages
 from microsim.fit import family, fit_table
@@ -118,15 +119,6 @@ def test_fibre_families_hold_the_tables_geometry_with_its_source():
     _, fam = family("microcylinder")
     assert fam.held == {"slope": 0.0, "flat": 0.0}
     assert set(fam.held_sources.values()) == {"default"}
-
-
-def _directions(n, seed):
-    """n random directions in the upper hemisphere (z ≥ 0.05)."""
-    rng = np.random.default_rng(seed)
-    z = rng.uniform(0.05, 1.0, n)
-    phi = rng.uniform(0.0, 2 * np.pi, n)
-    s = np.sqrt(1 - z**2)
-    return np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=-1)
 
 
 def test_fibre_families_build_the_models_they_name():
