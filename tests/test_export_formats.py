@@ -4,6 +4,7 @@ draws, keeps and evaluates its direction pairs (docs/table-format.md)."""
 
 from __future__ import annotations
 
+import functools
 import json
 
 import numpy as np
@@ -13,10 +14,12 @@ from microsim.geometry import direction
 from microsim.spectra.channels import Channels
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.export import (
+    merl_directions,
     rgl_fields,
     rgl_phi_i,
     rgl_tensor,
     rgl_through_mitsuba,
+    write_merl,
     write_npz,
     write_rgl,
     write_tensor_file,
@@ -109,6 +112,80 @@ def test_npz_meta_writes_what_json_cannot_hold_as_its_text(tmp_path):
               tmp_path / "t.npz")
     assert json.loads(str(np.load(tmp_path / "t.npz")["meta"])) == {
         "seed": "12345678901234567890"}
+
+
+# --- MERL -------------------------------------------------------------------------------
+@functools.cache
+def merl_cells():
+    """(ωi, ωo) of every MERL cell (θh, θd, φd) = ((i/90)² π/2, j/90 · π/2, k/180 · π) by
+    explicit rotation: the difference vector at (θd, φd), and its mirror about the half
+    vector's axis, tilted by θh about y (φh = 0; Rusinkiewicz 1998)."""
+    i, j, k = np.meshgrid(np.arange(90.0), np.arange(90.0), np.arange(180.0),
+                          indexing="ij")
+    th, td, pd = (i / 90) ** 2 * np.pi / 2, j / 90 * np.pi / 2, k / 180 * np.pi
+    dx, dy, dz = np.sin(td) * np.cos(pd), np.sin(td) * np.sin(pd), np.cos(td)
+    c, s = np.cos(th), np.sin(th)
+    wi = np.stack([c * dx + s * dz, dy, -s * dx + c * dz], -1)
+    wo = np.stack([-c * dx + s * dz, -dy, s * dx + c * dz], -1)
+    return wi, wo
+
+
+def test_merl_directions_are_the_cells_half_and_difference_angles():
+    """Every cell's (ωi, ωo), (90, 90, 180, 3), equals the explicit rotation to float64
+    round-off (1e-15)."""
+    wi, wo = merl_directions()
+    want_i, want_o = merl_cells()
+    assert wi.shape == wo.shape == (90, 90, 180, 3)
+    np.testing.assert_allclose(wi, want_i, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(wo, want_o, rtol=0, atol=1e-15)
+
+
+def merl_file(path):
+    """Header and the three float64 planes of a MERL file, as stored."""
+    raw = path.read_bytes()
+    assert len(raw) == 12 + 3 * 8 * 90 * 90 * 180
+    return raw[:12], np.frombuffer(raw[12:], "<f8").reshape(3, 90, 90, 180)
+
+
+def check_merl(path, value):
+    """The header is int32 90, 90, 180 little-endian; each plane holds value / scale
+    (scales 1/1500, 1.15/1500, 1.66/1500) where both cell directions are above the
+    horizon and −1 elsewhere (about 346 000 cells), to float64 round-off."""
+    header, planes = merl_file(path)
+    assert header == bytes([90, 0, 0, 0, 90, 0, 0, 0, 180, 0, 0, 0])
+    wi, wo = merl_cells()
+    below = (wi[..., 2] <= 0) | (wo[..., 2] <= 0)
+    assert 300_000 < below.sum() < 400_000
+    for c, scale in enumerate((1.0, 1.15, 1.66)):
+        assert np.all(planes[c][below] == -1.0)
+        np.testing.assert_allclose(planes[c][~below], value[c] * 1500 / scale, rtol=1e-12)
+
+
+def test_merl_file_of_a_constant_table(tmp_path):
+    """The total by default, ``component`` order1 when asked (``check_merl``)."""
+    table = constant_table()
+    write_merl(table, tmp_path / "t.binary")
+    check_merl(tmp_path / "t.binary", TOTAL)
+    write_merl(table, tmp_path / "o.binary", "order1")
+    check_merl(tmp_path / "o.binary", ORDER1)
+
+
+def test_merl_file_of_a_spectral_table_holds_its_linear_srgb(tmp_path):
+    """A spectral table's planes hold colour-science's linear sRGB of its channels
+    (negatives 0), of the component asked for."""
+    from microsim.spectra.colour import to_srgb_linear
+
+    nm = (450.0, 550.0, 650.0)
+    table = constant_table(channels=Channels(nm))
+    write_merl(table, tmp_path / "s.binary", "order1")
+    check_merl(tmp_path / "s.binary", np.maximum(to_srgb_linear(nm, ORDER1), 0))
+
+
+def test_merl_refuses_an_anisotropic_table(tmp_path):
+    with pytest.raises(ValueError) as e:
+        write_merl(constant_table(isotropic=False), tmp_path / "a.binary")
+    assert str(e.value) == "MERL files hold isotropic BRDFs; this table is anisotropic"
+    assert not (tmp_path / "a.binary").exists()
 
 
 # --- the RGL tensor file ----------------------------------------------------------------
@@ -280,8 +357,8 @@ def lobe_f(wi, wo):
     return np.stack([1.0 + d**2, 2.0 + wo[..., 0], 0.5 + wi[..., 1] ** 2], axis=-1)
 
 
-def expected_tensor(theta_i, phi_i, h):
-    """rgb and luminance of ``lobe_f`` vertex by vertex: f_r cos θo at the mirror
+def expected_tensor(theta_i, phi_i, h, f=lobe_f):
+    """rgb and luminance of ``f`` vertex by vertex: f_r cos θo at the mirror
     direction of ωi about m (u = 0…1 in h steps, θm = u² π/2, φm = 2πu − π), and the
     albedo integrand Y(f_r cos θo) · 2π² u sin θm · 4 max(⟨ωi, m⟩, 0) with Rec. 709's
     Y = 0.2126 R + 0.7152 G + 0.0722 B, plus 1% of its mean over the grid (and 1e-30)."""
@@ -297,7 +374,7 @@ def expected_tensor(theta_i, phi_i, h):
                     m = np.array([np.sin(tm) * np.cos(pm), np.sin(tm) * np.sin(pm),
                                   np.cos(tm)])
                     wo = 2 * np.dot(m, wi) * m - wi
-                    v = lobe_f(wi, wo) * max(wo[2], 0.0)
+                    v = f(wi, wo) * max(wo[2], 0.0)
                     rgb[b, a, :, i, j] = v
                     y = 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]
                     lum[b, a, i, j] = (max(y, 0.0) * 2 * np.pi**2 * u * np.sin(tm) * 4
@@ -327,6 +404,23 @@ def test_rgl_tensor_fields_of_a_given_brdf():
     assert f["rgb"].dtype == np.float32 and f["luminance"].dtype == np.float32
     np.testing.assert_allclose(f["rgb"], rgb, rtol=1e-6, atol=1e-7)
     np.testing.assert_allclose(f["luminance"], lum, rtol=1e-6, atol=1e-30)
+
+
+def test_rgl_tensor_sampling_map_of_a_brdf_negative_somewhere_or_zero():
+    """Where Y(f_r cos θo) is negative (a truncated series can be) the map holds only the
+    floor: the integrand is taken as 0 there; a BRDF that is 0 everywhere gives the
+    positive 1e-30 at every node (float32 holds it), so the map stays a density."""
+    def signed(wi, wo):
+        return lobe_f(wi, wo) * np.sign(wo[..., :1] + 0.1)
+
+    theta = np.radians([0.0, 45.0])
+    f = rgl_tensor(signed, theta, None, 6, "")
+    rgb, lum = expected_tensor(theta, [0.0], 6, signed)
+    assert rgb.min() < 0
+    np.testing.assert_allclose(f["rgb"], rgb, rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(f["luminance"], lum, rtol=1e-6, atol=1e-30)
+    zero = rgl_tensor(lambda wi, wo: np.zeros(wo.shape), theta, None, 4, "")
+    assert np.all(zero["luminance"] == np.float32(1e-30))
 
 
 def test_rgl_tensor_isotropic_is_one_slice_at_phi_0():
