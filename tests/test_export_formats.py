@@ -182,6 +182,8 @@ def test_merl_file_of_a_spectral_table_holds_its_linear_srgb(tmp_path):
 
 
 def test_merl_refuses_an_anisotropic_table(tmp_path):
+    """The refusal's whole message (the format holds isotropic BRDFs only), and no file
+    left behind."""
     with pytest.raises(ValueError) as e:
         write_merl(constant_table(isotropic=False), tmp_path / "a.binary")
     assert str(e.value) == "MERL files hold isotropic BRDFs; this table is anisotropic"
@@ -582,6 +584,7 @@ def test_rgl_through_mitsuba_draws_the_documented_directions(mi, rgb_file):
 
 
 def test_rgl_through_mitsuba_refuses_a_spectral_variant_for_an_rgb_table(mi, rgb_file):
+    """The refusal's whole message: a spectral variant reads spectral files only."""
     with pytest.raises(ValueError) as e:
         rgl_through_mitsuba(Lobe([0.3], [0.0]), rgb_file, 1, np.random.default_rng(0),
                             variant="scalar_spectral")
