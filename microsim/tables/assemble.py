@@ -22,7 +22,6 @@ from microsim.tables.estimator import (
     GROUPS,
     RAYS,
     RunningEstimate,
-    realisation_moments,
 )
 from microsim.tables.meta import TableMeta
 from microsim.tables.table import BRDFTable, by_component, components_of, lobe_of
@@ -112,20 +111,16 @@ class EnsembleSums:
         harmonics, Σ w Y_k ((rows, (L + 1)², C)) and Σ w² Y_K to order 2L ((rows,
         (2L + 1)², C); None without ``sh_ray_variance``). Realisations are added in index
         order (the sums then do not depend on how the work was split)."""
-        m, v = realisation_moments(sums, sums_sq, np.int64(rays))
-        self.bins.add(r, m, v, rays, at)
-        m, v = realisation_moments(sums.sum(axis=-2, keepdims=True),
-                                   sums_sq.sum(axis=-2, keepdims=True), np.int64(rays))
-        self.albedo.add(r, m, v, rays, at)
-        self.realisation_albedo.setdefault(at, []).append(m[:, 0])
+        self.bins.add_sums(r, sums, sums_sq, rays, at)
+        albedo = sums.sum(axis=-2, keepdims=True)
+        self.albedo.add_sums(r, albedo, sums_sq.sum(axis=-2, keepdims=True), rays, at)
+        self.realisation_albedo.setdefault(at, []).append(albedo[:, 0] / rays)
         if self.sh is not None:
             if sh_sums_sq is None:
-                m, v = sh_sums / rays, None
+                self.sh.add(r, sh_sums / rays, None, rays, at)
             else:
-                m, v = realisation_moments(sh_sums, sh.second_moments(sh_sums_sq,
-                                                                      self.sh_order),
-                                           np.int64(rays))
-            self.sh.add(r, m, v, rays, at)
+                self.sh.add_sums(r, sh_sums, sh.second_moments(sh_sums_sq, self.sh_order),
+                                 rays, at)
         self.rays[at] += rays
         self.lost[at] += lost / rays
         self.realisation_rays.setdefault(at, []).append(int(rays))

@@ -328,32 +328,57 @@ class RunningEstimate:
         if (v is None) == self.ray_variance:
             raise ValueError("ray variances are given exactly when the sums keep them "
                              f"(ray_variance={self.ray_variance})")
+        self._add(r, m, v, None, rays, at)
+
+    def add_sums(self, r: int, s1: np.ndarray, s2: np.ndarray, rays: int,
+                 at: tuple[int, ...] = ()) -> None:
+        """Add realisation ``r`` from its sums over its ``rays`` (≥ 1) rays: ``add`` of
+        ``realisation_moments(s1, s2, rays)``, in one pass without either array.
+
+        Parameters
+        ----------
+        r : int
+        s1, s2 : (..., m, c) float
+            Σx and Σx² over its rays (of the entries ``at`` selects).
+        rays : int
+        at : tuple of int
+        """
+        if not self.ray_variance:
+            raise ValueError("sums bring ray variances; these running sums keep none")
+        self._add(r, s1, s2, int(rays), rays, at)
+
+    def _add(self, r: int, a: np.ndarray, b: np.ndarray | None, n: int | None,
+             rays: np.ndarray | int | None, at: tuple[int, ...]) -> None:
+        """``add`` (``n`` None: ``a``, ``b`` are m and v) or ``add_sums`` (``a``, ``b`` are
+        Σx and Σx² over ``n`` rays), by ``microsim.tables.accumulate``."""
+        from microsim.tables.accumulate import accumulate
+
         self._cached = None
-        m = np.asarray(m, float)
         ix = (*at, Ellipsis)  # views, also of 0-d leading shapes
-        present = ~np.isnan(m).all(axis=(-2, -1))
-        # where every row is present the masked additions below are the plain ones
-        keep = True if present.all() else np.broadcast_to(present[..., None, None],
-                                                          m.shape)
-        shift = self.shift[ix]
-        np.copyto(shift, m, where=keep & (self.count[ix] == 0)[..., None, None])
         g = r % self.groups
         if g not in self._sums:
             self._sums[g] = (np.zeros(self.shape), np.zeros(self.shape),
                              np.zeros(self.shape), np.zeros(self.shape[:-2], np.int64))
-        s1, s2, sv, n = (x[ix] for x in self._sums[g])
-        d = m - shift
-        np.add(s1, d, out=s1, where=keep)
-        np.add(s2, np.square(d, out=d), out=s2, where=keep)
-        if v is not None:  # without ray variances no v is known: Σ v and known stay 0
-            v = np.asarray(v, float)
-            known = keep & np.isfinite(v)
-            np.add(sv, v, out=sv, where=known)
-            self.known[ix] += known
-        n += present
-        self.count[ix] += present
+        lead = self.count[ix].shape
+        rows = math.prod(lead)
+
+        def flat(x: np.ndarray) -> np.ndarray:
+            """x[ix] as (rows, entries) or, for counts, (rows,): a view, which writes
+            go through (the running sums are C-contiguous)."""
+            view = x[ix]
+            if not view.flags.c_contiguous:
+                raise ValueError("running sums must be C-contiguous")
+            return view.reshape(rows, -1) if view.ndim > len(lead) else view.reshape(rows)
+
+        m_or_s1 = np.ascontiguousarray(a, float).reshape(rows, -1)
+        v_or_s2 = m_or_s1 if b is None else np.ascontiguousarray(b, float).reshape(rows, -1)
+        present = np.empty(rows, bool)
+        s1, s2, sv, group = (flat(x) for x in self._sums[g])
+        accumulate(m_or_s1, v_or_s2, 0.0 if n is None else float(n), n is not None,
+                   b is not None, flat(self.shift), flat(self.count), s1, s2, sv,
+                   flat(self.known), group, present)
         if rays is not None:
-            self.dof_one[ix] += np.where(present, rays, 0)
+            self.dof_one[ix] += np.where(present.reshape(lead), rays, 0)
 
     def absorb(self, other: RunningEstimate) -> None:
         """Add ``other``'s sums, of the same shape, whose leading indices (directions)
