@@ -259,13 +259,22 @@ def tile_section() -> str:
         opener.release(opener.open(r)[2])
     whole = (time.perf_counter() - start) / 16
     opener.close()
+    first, wall, cpu = tiles(0), [], []
+    for _ in range(8):  # a scene built anew: what the first realisations in flight pay
+        start, used = time.perf_counter(), time.process_time()
+        PeriodicScene(first, THREADS).close()
+        wall.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - used)
     return (f"One realisation of the 256² Gaussian tile (131,072 faces) as `simulate` "
             f"opens it (`microsim.simulation.Opener`, one after the other, nothing "
             f"traced beside): **{1e3 * whole:.1f} ms** (mean of 16), of which the tile's "
             f"generation and facts {1e3 * statistics.median(build):.1f} ms and the refit "
             f"of its scene {1e3 * statistics.median(refit):.1f} ms (medians of 16). "
             "`simulate` prepares the next realisation on a thread of its own while one "
-            "is traced.")
+            "is traced. A scene built anew (`PeriodicScene` of realisation 0's tile, its "
+            f"full BVH): {1e3 * statistics.median(wall):.1f} ms of wall and "
+            f"{1e3 * statistics.median(cpu):.1f} ms of CPU (medians of 8); a run builds "
+            "one for each realisation in flight, three, and refits them to the others.")
 
 
 PARTS = (("microsim.trace", "trace_chunk", "the kernel (trace_chunk)"),
