@@ -473,6 +473,33 @@ def test_cloth_tangents_of_a_straight_thread_are_one():
     np.testing.assert_allclose(w[1:], 0.7 / 16, rtol=1e-15)
 
 
+def test_rgb_models_refuse_other_channel_counts_by_name():
+    """The fibre models are RGB only: a colour parameter of one number is every channel,
+    of three values each one, and of two (or four) values a ValueError naming the
+    parameter, from the constructor rather than numpy's broadcasting later."""
+    from microsim.analytic.cloth import MicrocylinderCloth
+
+    two = [0.2, 0.4]
+    cases = [
+        ("base_albedo", lambda: CylinderArray(0.5, 1.5, 0.0, {"kind": "mirror"}, two)),
+        ("facet albedo", lambda: CylinderArray(0.5, 1.5, 0.0,
+                                               {"kind": "lambertian", "albedo": two})),
+        ("facet k", lambda: CylinderArray(0.5, 1.5, 0.0,
+                                          {"kind": "conductor", "eta": 0.2,
+                                           "k": [3.9, 2.4, 2.1, 2.0]})),
+        ("albedo", lambda: SparseVelvet(0.01, 0.2, 0.1, 0.3, 0.2, 0.0, 0.5, two)),
+        ("albedo", lambda: MicrocylinderCloth([0.5, 0.5], 1.6, 0.15, 0.3, 0.4,
+                                              [two, two], 0.55, 0.3)),
+    ]
+    for name, build in cases:
+        with pytest.raises(ValueError, match=rf"^{name} takes one number or 3 values \(RGB\)"):
+            build()
+    assert CylinderArray(0.5, 1.5, 0.0, {"kind": "mirror"}, 0.25).base_albedo.tolist() == [
+        0.25] * 3
+    cloth = MicrocylinderCloth([0.5, 0.5], 1.6, 0.15, 0.3, 0.4, [0.2, 0.3, 0.8], 0.55, 0.3)
+    assert cloth.albedo.tolist() == [[0.2, 0.3, 0.8]] * 2
+
+
 def test_microcylinder_cloth_refuses_other_than_two_families():
     """``coverage`` has one entry per thread family (warp, weft): three, or one, are refused
     with a ValueError when evaluated, not cut to the families there are."""

@@ -38,6 +38,25 @@ def as_rgb(values: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     return np.broadcast_to(values, shape + (channels,))
 
 
+def rgb(value: object, name: str, rows: int = 0) -> np.ndarray:
+    """A parameter of an RGB-only model as (3,) channels (or (rows, 3) with ``rows``): one
+    number for all channels, or three values (per row, or one set for every row).
+
+    Raises
+    ------
+    ValueError
+        If ``value`` has another number of values, naming ``name``.
+    """
+    shape = (rows, 3) if rows else (3,)
+    values = np.asarray(value, float)
+    try:
+        return np.broadcast_to(values, shape)
+    except ValueError:
+        raise ValueError(f"{name} takes one number or 3 values (RGB) per "
+                         f"{'row' if rows else 'model'}: this model has no other channels; "
+                         f"got shape {values.shape}") from None
+
+
 def flat_pairs(wi: np.ndarray, wo: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
     """Direction pairs broadcast together and flattened: ((n, 3), (n, 3), the broadcast

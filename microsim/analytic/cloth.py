@@ -56,7 +56,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from microsim.analytic.brdf import flat_pairs
+from microsim.analytic.brdf import flat_pairs, rgb
 from microsim.analytic.fresnel import fresnel_dielectric
 
 CORRELATION = math.radians(20.0)
@@ -130,7 +130,7 @@ class MicrocylinderCloth:
         self.coverage = np.asarray(coverage, float)
         self.eta, self.gamma_s, self.gamma_v, self.kd = float(eta), float(gamma_s), float(
             gamma_v), float(kd)
-        self.albedo = np.broadcast_to(np.asarray(albedo, float), (2, 3))
+        self.albedo = rgb(albedo, "albedo", rows=2)
         self.masking = masking
         self.families = [tangents([0.0, 1.0, 0.0], slope, flat, count),
                          tangents([1.0, 0.0, 0.0], slope, flat, count)]

@@ -59,7 +59,7 @@ from typing import Any
 
 import numpy as np
 
-from microsim.analytic.brdf import flat_pairs
+from microsim.analytic.brdf import flat_pairs, rgb
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
 
 IMPACTS = 2**16
@@ -177,8 +177,11 @@ class CylinderArray:
             raise ValueError(f"facet kind {facet['kind']!r}: mirror, conductor, dielectric "
                              "or lambertian")
         self.r, self.s, self.zc = float(radius), float(spacing), float(radius - sink)
+        for key in ("eta", "k", "albedo"):
+            if key in facet:
+                rgb(facet[key], f"facet {key}")
         self.facet = dict(facet)
-        self.base_albedo = np.broadcast_to(np.asarray(base_albedo, float), (3,))
+        self.base_albedo = rgb(base_albedo, "base_albedo")
         self.a0 = math.asin(max(-1.0, min(1.0, -self.zc / self.r)))
 
     def _arc(self, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

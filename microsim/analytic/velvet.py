@@ -44,7 +44,7 @@ import numpy as np
 from numba import njit
 from scipy.special import ndtr
 
-from microsim.analytic.brdf import flat_pairs
+from microsim.analytic.brdf import flat_pairs, rgb
 from microsim.geometry import FIBRE_MAX_TILT, section_axes
 from microsim.jit import JIT
 
@@ -164,7 +164,7 @@ class SparseVelvet:
         self.r, self.length, self.density = float(fibre_radius), float(fibre_length), float(
             density)
         self.sides = int(sides)
-        self.albedo = np.broadcast_to(np.asarray(albedo, float), (3,))
+        self.albedo = rgb(albedo, "albedo")
         if axes is not None:
             self.axes = np.ascontiguousarray(axes, float)
             self.weights = np.full(len(self.axes), 1.0 / len(self.axes))
