@@ -252,10 +252,10 @@ MODELS: dict[str, ModelSpec] = {
 
 
 def _cloth(p: Mapping[str, Any]) -> Any:
+    from microsim.analytic.brdf import rgb
     from microsim.analytic.cloth import MicrocylinderCloth
 
-    albedo = np.stack([np.broadcast_to(np.asarray(p[f"albedo_{part}"], float), (3,))
-                       for part in ("warp", "weft")])
+    albedo = np.stack([rgb(p[f"albedo_{part}"], f"albedo_{part}") for part in ("warp", "weft")])
     return MicrocylinderCloth([p["a_warp"], p["a_weft"]], p["eta"],
                               math.radians(p["gamma_s"]), math.radians(p["gamma_v"]),
                               p["kd"], albedo, p["slope"], p["flat"])
