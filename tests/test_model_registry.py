@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 import pytest
+from refusals import refused
 
 from microsim.analytic.brdf import KayKajiya, TorranceSparrow
 from microsim.analytic.cloth import MicrocylinderCloth
@@ -28,14 +29,6 @@ from microsim.analytic.registry import (
 from microsim.analytic.velvet import SparseVelvet
 from microsim.errors import InputError
 from microsim.table_models import ModelDefaults
-
-
-def refusal(spec: str, defaults=None) -> str:
-    """The whole message ``parse_model_spec`` refuses ``spec`` with (an ``InputError``,
-    not another ``ValueError`` from a model's constructor)."""
-    with pytest.raises(InputError) as caught:
-        parse_model_spec(spec, defaults)
-    return str(caught.value)
 
 
 def assert_fresnel(fresnel, kind: str, *arrays: list[float]) -> None:
@@ -118,7 +111,8 @@ def test_multiple_scattering_gets_the_ndf_fresnel_samples_and_seed_given():
 
 def test_one_anisotropic_alpha_alone_is_refused():
     """The whole message of the refusal."""
-    assert refusal("ggx:alpha_x=0.2") == "model: give both alpha_x and alpha_y, or alpha"
+    assert refused(InputError, parse_model_spec, "ggx:alpha_x=0.2") == (
+        "model: give both alpha_x and alpha_y, or alpha")
 
 
 @pytest.mark.parametrize(("spec", "table"), [
@@ -138,7 +132,8 @@ def test_a_given_anisotropic_alpha_sets_aside_the_tables_alpha_unchecked(spec, t
 def test_the_tables_alpha_out_of_range_is_refused_for_an_isotropic_spec():
     """The other side: without alpha_x or alpha_y given, the table's alpha is the model's
     and is checked."""
-    assert refusal("ggx", {"alpha": 5e-5}).startswith("model ggx: alpha = 5e-05")
+    assert refused(InputError, parse_model_spec, "ggx", {"alpha": 5e-5}).startswith(
+        "model ggx: alpha = 5e-05")
 
 
 # --- colour parameters: one count of channels ---------------------------------------------
@@ -164,7 +159,7 @@ def test_a_single_number_takes_the_length_of_the_lists_beside_it(spec, params):
 
 def test_colour_lists_of_different_lengths_are_refused():
     """The whole message, naming each list's length."""
-    assert refusal("beckmann:eta=[1.5,1.4],k=[1,2,3]") == (
+    assert refused(InputError, parse_model_spec, "beckmann:eta=[1.5,1.4],k=[1,2,3]") == (
         "model beckmann: eta has 2 values, k has 3 values; give each colour parameter one "
         "number or one per channel, as many for each")
 
@@ -173,7 +168,7 @@ def test_colour_lists_of_different_lengths_are_refused():
 
 def test_an_unknown_model_is_refused_with_the_list_of_models():
     """The whole message: the suggestion and every model's name, in the registry's order."""
-    assert refusal("beckman") == (
+    assert refused(InputError, parse_model_spec, "beckman") == (
         "model 'beckman': unknown (did you mean 'beckmann'?); models: beckmann, ggx, "
         "beckmann-ms, ggx-ms, torrance-sparrow, blinn, phong, blinn-phong, lambertian, "
         "coated-lambertian, oren-nayar, lafortune, kay-kajiya, cylinders, velvet-sparse, "
@@ -189,7 +184,7 @@ def test_an_unknown_model_is_refused_with_the_list_of_models():
 ])
 def test_a_malformed_spec_is_refused_naming_the_model_and_key(spec, message):
     """Whole messages: no '=', a key twice, a value past Python's limits."""
-    assert refusal(spec) == message
+    assert refused(InputError, parse_model_spec, spec) == message
 
 
 def test_split_spec_keeps_what_follows_the_first_equals_sign_and_names_its_flag():
@@ -314,7 +309,8 @@ def test_cylinders_get_the_geometry_facet_and_base_given():
 def test_cylinders_refuse_a_material_without_its_constants(spec, missing):
     """The whole message names each missing constant of the kind."""
     kind = spec.split("kind=")[1].split(",")[0]
-    assert refusal(spec) == f"model cylinders: kind = {kind} needs {missing}"
+    assert refused(InputError, parse_model_spec, spec) == (
+        f"model cylinders: kind = {kind} needs {missing}")
 
 
 @pytest.mark.parametrize("spec", [
@@ -325,7 +321,8 @@ def test_cylinders_refuse_a_material_without_its_constants(spec, missing):
 def test_cylinders_refuse_overlapping_or_buried_cylinders(spec):
     """At the bounds themselves: sink = 2 radius is refused (the cylinder would be
     buried), and spacing = 2 radius (touching) is the next test's."""
-    assert refusal(spec) == "model cylinders: need spacing >= 2 radius and sink < 2 radius"
+    assert refused(InputError, parse_model_spec, spec) == (
+        "model cylinders: need spacing >= 2 radius and sink < 2 radius")
 
 
 def test_cylinders_that_touch_or_are_almost_buried_are_built():
@@ -361,7 +358,7 @@ def test_velvet_refuses_a_base_that_is_not_black(base):
     """The whole message, a number given shown as its R, G, B; a single lit channel is
     enough to refuse."""
     shown = {"0.2": "[0.2, 0.2, 0.2]", "[0, 0, 1]": "[0.0, 0.0, 1.0]"}[base]
-    assert refusal(f"velvet-sparse:base_albedo={base}") == (
+    assert refused(InputError, parse_model_spec, f"velvet-sparse:base_albedo={base}") == (
         f"model velvet-sparse: base_albedo = {shown}: the model needs a black base "
         "(base_albedo = 0); simulate the velvet on one with --set material.base.kind=black")
 

@@ -25,6 +25,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from refusals import refused
 from test_robustness import GAUSSIAN, SMALL, one_error_line
 
 import microsim
@@ -474,10 +475,6 @@ def _with(*edits: Callable[[dict], Any], base: Callable[[], dict] = header
     return make
 
 
-def _refused(check: Callable[[], Any]) -> str:
-    with pytest.raises(InputError) as info:
-        check()
-    return str(info.value)
 ANGLES = "a non-empty list of distinct increasing angles >= 0 and "
 WAVES = ("null (RGB) or a non-empty list of distinct increasing wavelengths in [200, 5000] "
          "nm")
@@ -604,7 +601,7 @@ def test_a_bad_header_is_refused_with_its_whole_message(case):
     repr, cut to 60 characters with "…"), and what is allowed, as docs/table-format.md's
     rules say it."""
     make, message = HEADER_REFUSALS[case]
-    assert _refused(lambda: validation.check_header(make(), WHERE)) == message
+    assert refused(InputError, lambda: validation.check_header(make(), WHERE)) == message
 
 
 def test_a_meta_that_cannot_be_read_shows_its_exception_on_one_line_cut_with_an_ellipsis(
@@ -622,10 +619,10 @@ def test_a_meta_that_cannot_be_read_shows_its_exception_on_one_line_cut_with_an_
     long = "a reason on\ntwo lines, " + "x" * 80
     monkeypatch.setattr(TableMeta, "from_json", staticmethod(raising(long)))
     shown = (r"a reason on\ntwo lines, " + "x" * 80)[:59] + "…"
-    assert _refused(lambda: validation.check_header(header(), WHERE)) == (
+    assert refused(InputError, lambda: validation.check_header(header(), WHERE)) == (
         f"t.exr: header meta cannot be read (ValueError: {shown})")
     monkeypatch.setattr(TableMeta, "from_json", staticmethod(raising("short")))
-    assert _refused(lambda: validation.check_header(header(), WHERE)) == (
+    assert refused(InputError, lambda: validation.check_header(header(), WHERE)) == (
         "t.exr: header meta cannot be read (ValueError: short)")
 
 
@@ -769,7 +766,8 @@ def test_a_bad_harmonics_header_is_refused_with_its_whole_message(case):
     shape (2, 1, 8, 16): order an integer in [0, 4096], coefficients (order + 1)², shape
     the table's (n_theta_i, n_phi_i)."""
     sh, message = SH_REFUSALS[case]
-    assert _refused(lambda: validation.check_sh_header(sh, WHERE, (2, 1, 8, 16))) == message
+    assert refused(InputError,
+                   lambda: validation.check_sh_header(sh, WHERE, (2, 1, 8, 16))) == message
 
 
 @pytest.mark.parametrize(("sh", "coefficients"), [
@@ -860,7 +858,7 @@ def test_bad_pixels_are_refused_with_their_whole_message(case):
     harmonics, edit, message = PIXEL_REFUSALS[case]
     pixels = _pixels()
     edit(pixels)
-    assert _refused(lambda: validation.check_pixels(
+    assert refused(InputError, lambda: validation.check_pixels(
         pixels, ("total", "order1"), 2, 3, WHERE, harmonics=harmonics)) == message
 
 
@@ -885,7 +883,7 @@ def test_the_pixels_of_a_spectral_table_are_named_by_their_wavelength():
     validation.check_pixels(pixels, ("total", "order1"), 2, 3, WHERE,
                             names=("400nm", "552p5nm"))
     pixels["order1.552p5nm"][0, 0] = -1.0
-    assert _refused(lambda: validation.check_pixels(
+    assert refused(InputError, lambda: validation.check_pixels(
         pixels, ("total", "order1"), 2, 3, WHERE, names=("400nm", "552p5nm"))) == (
         "t.exr: channel order1.552p5nm holds -1.0 at row 0, column 0 (1 such pixels): "
         + VALUE)
@@ -901,7 +899,7 @@ def test_a_value_is_shown_cut_to_sixty_characters():
     assert validation._shown(list(range(21))) == (
         "[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, …")
     assert validation._shown([0.5]) == "[0.5]"
-    assert _refused(lambda: validation.check_header(
+    assert refused(InputError, lambda: validation.check_header(
         _with(_set("error_model", text60 + "y"))(), WHERE)) == (
         "t.exr: header error_model = '" + "x" * 58 + "…: must be 'rays' or 'ensemble'")
 
@@ -916,9 +914,10 @@ def test_numbers_without_a_lower_bound_and_of_an_empty_shape():
     assert got.dtype == np.float64 and got.tolist() == [-1.5, 2.0]
     got = validation.numbers(where, [[-3], [None]], "x", (2, 1), low=None, nulls=True)
     assert got[0, 0] == -3.0 and np.isnan(got[1, 0])
-    assert _refused(lambda: validation.numbers(where, [1, "2"], "x", (2,), low=None)) == (
+    assert refused(InputError,
+                   lambda: validation.numbers(where, [1, "2"], "x", (2,), low=None)) == (
         "t.exr: header x = [1, '2']: must be numbers, nested as [2]")
-    assert _refused(lambda: validation.numbers(where, [1.5], "n", (1,), low=None,
+    assert refused(InputError, lambda: validation.numbers(where, [1.5], "n", (1,), low=None,
                                                integer=True)) == (
         "t.exr: header n = [1.5]: must be integers, nested as [1]")
     assert validation.numbers(where, [-2], "n", (1,), low=None, integer=True).tolist() == [-2]

@@ -8,7 +8,7 @@ import copy
 import math
 
 import numpy as np
-import pytest
+from refusals import refused
 
 from microsim.spectra.channels import RGB, Channels
 from microsim.tables import sh
@@ -216,13 +216,6 @@ def realisations_table(rays=RAYS, seed=3, order=1, channels=TWO, meta=None,
     return t, data
 
 
-def refusal(call, *args, **kwargs) -> str:
-    """The message of the ValueError ``call`` raises."""
-    with pytest.raises(ValueError) as info:
-        call(*args, **kwargs)
-    return str(info.value)
-
-
 def test_a_table_of_realisations_is_the_mean_of_their_estimates_with_batch_means():
     """Realisations that trace only some directions, a one-ray direction, two spectral
     channels and harmonics of order 1: every bin's f_r, error and ray error, the albedo,
@@ -308,19 +301,19 @@ def test_realisations_refuse_bad_counts_and_shapes_with_their_messages():
         return from_realisations(BINS, list(theta_i), list(phi_i), True, rays, s, s,
                                  np.zeros(rays.shape + (3,)), TableMeta(), **harmonics)
 
-    assert refusal(table, [[[5], [5]]]) == (
+    assert refused(ValueError, table, [[[5], [5]]]) == (
         "rays must be (K, n_theta_i, n_phi_i) = (K, 1, 1) counts >= 0, each direction "
         "traced, got shape (1, 2, 1)")
-    assert refusal(table, [[[5]], [[-1]]]) == (
+    assert refused(ValueError, table, [[[5]], [[-1]]]) == (
         "rays must be (K, n_theta_i, n_phi_i) = (K, 1, 1) counts >= 0, each direction "
         "traced, got shape (2, 1, 1)")
-    assert refusal(table, [[[3, 0]]], phi_i=(0.0, 1.0)) == (
+    assert refused(ValueError, table, [[[3, 0]]], phi_i=(0.0, 1.0)) == (
         "rays must be (K, n_theta_i, n_phi_i) = (K, 1, 2) counts >= 0, each direction "
         "traced, got shape (1, 1, 2)")
     good = {c: np.ones((1, 1, 1, 4, 3)) for c in COMPONENTS}
     for bad in ({c: np.ones((1, 1, 1, 8, 3)) for c in COMPONENTS},
                 {"total": np.ones((1, 1, 1, 9, 3)), "order1": np.ones((1, 1, 1, 8, 3))}):
-        assert refusal(table, [[[5]]], sh_sums=good, sh_sums_sq=bad) == (
+        assert refused(ValueError, table, [[[5]]], sh_sums=good, sh_sums_sq=bad) == (
             "sh_sums['total'] and sh_sums_sq['total'] must have shapes (K, a, b, (L+1)^2, "
             "C) and (K, a, b, (2L+1)^2, C)" if bad["total"].shape[-2] != 9 else
             "sh_sums['order1'] and sh_sums_sq['order1'] must have shapes (K, a, b, "
@@ -489,7 +482,8 @@ def test_sums_of_disjoint_directions_absorb_into_the_whole_table():
     assert_fields(t, reference(RAYS, data))
     again = EnsembleSums((2, 2), COMPONENTS, BINS.size, 1, TWO.count)
     add_all(again, RAYS, data, [(1, 1)])
-    assert refusal(first.absorb, again) == "the same incident direction was measured twice"
+    assert refused(ValueError, first.absorb, again) == (
+        "the same incident direction was measured twice")
     plain, other = (EnsembleSums((2, 1), ("total",), 2) for _ in range(2))
     plain.add((0, 0), 0, 4, np.full((1, 2, 3), 1.0), np.full((1, 2, 3), 1.0), np.ones(3))
     other.add((1, 0), 0, 5, np.full((1, 2, 3), 2.0), np.full((1, 2, 3), 2.0), np.ones(3))
@@ -503,12 +497,12 @@ def test_the_ensemble_table_refuses_untraced_directions_and_other_channels():
     than the table's are refused with messages naming them."""
     s = EnsembleSums((1, 2), ("total",), 2)
     s.add((0, 0), 0, 5, np.ones((1, 2, 3)), np.ones((1, 2, 3)), np.zeros(3))
-    assert refusal(from_ensemble, BINS, [0.1], [0.0, 1.0], False, s, TableMeta()) == (
+    assert refused(ValueError, from_ensemble, BINS, [0.1], [0.0, 1.0], False, s, TableMeta()) == (
         "every one of the (1, 2) incident directions needs rays, got [[5, 0]]")
-    assert refusal(from_ensemble, BINS, [0.1, 0.2], [0.0], False, s, TableMeta()) == (
+    assert refused(ValueError, from_ensemble, BINS, [0.1, 0.2], [0.0], False, s, TableMeta()) == (
         "every one of the (2, 1) incident directions needs rays, got [[5, 0]]")
     s.add((0, 1), 0, 1, np.ones((1, 2, 3)), np.ones((1, 2, 3)), np.zeros(3))
-    assert refusal(from_ensemble, BINS, [0.1], [0.0, 1.0], False, s, TableMeta(),
+    assert refused(ValueError, from_ensemble, BINS, [0.1], [0.0, 1.0], False, s, TableMeta(),
                    channels=TWO) == "the sums have 3 channels, the table 2"
 
 
@@ -562,7 +556,8 @@ def test_tables_of_other_set_ups_do_not_merge_and_say_why():
     read = copy.copy(b)
     read.sums = None
     for x, y in ((a, read), (read, a)):
-        assert refusal(merge, x, y) == "only tables holding raw sums (fresh estimates) merge"
+        assert refused(ValueError, merge, x, y) == (
+            "only tables holding raw sums (fresh estimates) merge")
 
     def changed(**attributes):
         t = copy.copy(b)
@@ -573,14 +568,14 @@ def test_tables_of_other_set_ups_do_not_merge_and_say_why():
     for other in (changed(bins=HemisphereBins(2, 1)), changed(isotropic=False),
                   changed(theta_i=THETA_I + 0.1), changed(phi_i=np.array([0.5])),
                   changed(realisation_rays=MERGE_RAYS[1][:1])):
-        assert refusal(merge, a, other) == (
+        assert refused(ValueError, merge, a, other) == (
             "tables with different axes or realisations do not merge")
     total = {"total": np.ones((2, 2, 1, 2, 2))}
     only = from_realisations(BINS, THETA_I, [0.0], True, MERGE_RAYS[1], total, total,
                              np.zeros((2, 2, 1, 2)), TableMeta(), channels=TWO)
-    assert refusal(merge, a, only) == ("tables with different components do not merge: "
+    assert refused(ValueError, merge, a, only) == ("tables with different components do not merge: "
                                        "('total', 'order1') and ('total',)")
-    assert refusal(merge, a, changed(channels=Channels((450.0, 600.0)))) == (
+    assert refused(ValueError, merge, a, changed(channels=Channels((450.0, 600.0)))) == (
         "tables of different channels do not merge: 450nm, 550nm and 450nm, 600nm")
-    assert refusal(merge, changed(channels=RGB), a) == (
+    assert refused(ValueError, merge, changed(channels=RGB), a) == (
         "tables of different channels do not merge: R, G, B and 450nm, 550nm")
