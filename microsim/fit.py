@@ -37,6 +37,7 @@ from scipy.optimize import least_squares
 
 from microsim.analytic.brdf import KayKajiya, Lafortune, OrenNayar, Phong, TorranceSparrow
 from microsim.analytic.cloth import MicrocylinderCloth
+from microsim.analytic.fresnel import SchlickFresnel
 from microsim.analytic.ndf import GGX, Beckmann
 from microsim.compare import Model, bin_averages, channels_of, compare_table
 from microsim.errors import InputError
@@ -191,7 +192,7 @@ def _microfacet(ndf_name: str, channels: Sequence[str]) -> Family:
 
     def build(p: np.ndarray) -> Any:
         cls = Beckmann if ndf_name == "beckmann" else GGX
-        return TorranceSparrow(cls(p[0]), fresnel=("schlick", p[1:1 + count]),
+        return TorranceSparrow(cls(p[0]), fresnel=SchlickFresnel(p[1:1 + count]),
                                shadowing=held["shadowing"])
 
     return Family(("alpha", *_per_channel("F0", channels)), (0.3, *(0.9,) * count),

@@ -28,12 +28,13 @@ DOC = ROOT / "docs" / "performance.md"
 
 def smooth_table(path: Path) -> None:
     from microsim.analytic.brdf import TorranceSparrow
+    from microsim.analytic.fresnel import ConductorFresnel
     from microsim.analytic.ndf import Beckmann
     from microsim.compare import model_table
     from microsim.tables.binning import HemisphereBins
     from microsim.tables.exr import write_table
 
-    model = TorranceSparrow(Beckmann(0.3), fresnel=("conductor", np.array([0.2, 0.92, 1.1]),
+    model = TorranceSparrow(Beckmann(0.3), fresnel=ConductorFresnel(np.array([0.2, 0.92, 1.1]),
                                                     np.array([3.9, 2.45, 2.14])))
     write_table(model_table(model, np.radians([0, 15, 30, 45, 60, 70, 80, 87]),
                             HemisphereBins(32, 64)), path)

@@ -35,6 +35,7 @@ import numpy as np
 
 import microsim
 from microsim.analytic.brdf import TorranceSparrow
+from microsim.analytic.fresnel import ConductorFresnel
 from microsim.analytic.ndf import Beckmann
 from microsim.compare import model_table
 from microsim.files import measured_with, write_section
@@ -46,7 +47,7 @@ from microsim.tables.table import BRDFTable
 DOC = Path(__file__).resolve().parent.parent / "docs" / "table-format.md"
 THETA_I = np.radians([0.0, 20.0, 40.0, 60.0, 75.0])
 PHI_I = np.radians(np.arange(0.0, 360.0, 30.0))
-FRESNEL = ("conductor", np.array([0.2, 0.9, 1.1]), np.array([3.9, 2.4, 2.1]))
+FRESNEL = ConductorFresnel(np.array([0.2, 0.9, 1.1]), np.array([3.9, 2.4, 2.1]))
 GOLD_16 = {"surface": {"kind": "gaussian", "alpha": 0.3, "resolution": 128},
            "material": {"kind": "conductor", "data": "Au"},
            "table": {"wavelengths": list(range(400, 701, 20)), "theta_bins": 16,

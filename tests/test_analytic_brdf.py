@@ -18,7 +18,14 @@ from microsim.analytic.brdf import (
     Phong,
     TorranceSparrow,
 )
-from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
+from microsim.analytic.fresnel import (
+    CoatedFresnel,
+    ConductorFresnel,
+    DielectricFresnel,
+    SchlickFresnel,
+    fresnel_conductor,
+    fresnel_dielectric,
+)
 from microsim.analytic.ndf import GGX, Beckmann, Blinn
 from microsim.analytic.shadowing import smith_g2, vgroove_G
 from microsim.geometry import direction
@@ -30,8 +37,8 @@ RECIPROCAL = {
     "ts-ggx-separable": TorranceSparrow(GGX(0.6), shadowing="smith-separable"),
     "ts-aniso-vgroove": TorranceSparrow(Beckmann(alpha_x=0.2, alpha_y=0.5),
                                         shadowing="v-groove"),
-    "ts-conductor": TorranceSparrow(GGX(0.4), fresnel=("conductor", *GOLD)),
-    "ts-dielectric": TorranceSparrow(Beckmann(0.2), fresnel=("dielectric", 1.5)),
+    "ts-conductor": TorranceSparrow(GGX(0.4), fresnel=ConductorFresnel(*GOLD)),
+    "ts-dielectric": TorranceSparrow(Beckmann(0.2), fresnel=DielectricFresnel(1.5)),
     "phong": Phong(8.0),
     "phong-normalized": Phong(8.0, normalized=True),
     "blinn-phong": BlinnPhong(12.0),
@@ -120,10 +127,10 @@ def albedo_over_half_vectors(model, wi):
     c = np.clip(cos_d, 0.0, 1.0)
     if model.fresnel is None:
         f = np.ones(c.shape + (1,))
-    elif model.fresnel[0] == "conductor":
-        f = fresnel_conductor(c[..., None], *model.fresnel[1:])
+    elif isinstance(model.fresnel, ConductorFresnel):
+        f = fresnel_conductor(c[..., None], model.fresnel.eta, model.fresnel.k)
     else:
-        f = fresnel_dielectric(c, model.fresnel[1])[..., None]
+        f = fresnel_dielectric(c, model.fresnel.eta)[..., None]
     g = (model.ndf.D(h) * g2 * c / wi[2])[..., None] * f
     return float(np.max(np.sum(np.where(keep[..., None], g, 0.0) * dw[..., None],
                                axis=(0, 1))))
@@ -378,27 +385,27 @@ def test_torrance_sparrow_fresnel_and_shadowing_options():
     cos = np.array([0.05, 0.3, 0.7, 1.0])
     ndf = GGX(0.4)
     rgb = np.array([0.04, 0.5, 0.9])
-    cases = [(("schlick", 0.04), 0.04 + 0.96 * (1 - cos) ** 5),
-             (("schlick", rgb), rgb + (1 - rgb) * (1 - cos[:, None]) ** 5),
-             (("coated", 1.4, 300.0, [450.0, 550.0, 650.0], 1.5, 0.0),
+    cases = [(SchlickFresnel(0.04), 0.04 + 0.96 * (1 - cos) ** 5),
+             (SchlickFresnel(rgb), rgb + (1 - rgb) * (1 - cos[:, None]) ** 5),
+             (CoatedFresnel(1.4, 300.0, [450.0, 550.0, 650.0], 1.5, 0.0),
               fresnel_thin_film(cos[:, None], 1.4, 300.0, [450.0, 550.0, 650.0], 1.5, 0.0)),
-             (("conductor", 0.2, 3.9), fresnel_conductor(cos, 0.2, 3.9)),
-             (("conductor", [0.2, 0.9, 1.1], [3.9, 2.4, 2.1]),
+             (ConductorFresnel(0.2, 3.9), fresnel_conductor(cos, 0.2, 3.9)),
+             (ConductorFresnel([0.2, 0.9, 1.1], [3.9, 2.4, 2.1]),
               fresnel_conductor(cos[:, None], [0.2, 0.9, 1.1], [3.9, 2.4, 2.1])),
-             (("conductor", [0.2, 0.9, 1.1], 3.9),
+             (ConductorFresnel([0.2, 0.9, 1.1], 3.9),
               fresnel_conductor(cos[:, None], [0.2, 0.9, 1.1], 3.9)),
-             (("conductor", 0.2, [3.9, 2.4, 2.1]),
+             (ConductorFresnel(0.2, [3.9, 2.4, 2.1]),
               fresnel_conductor(cos[:, None], 0.2, [3.9, 2.4, 2.1])),
-             (("dielectric", 1.5), fresnel_dielectric(cos, 1.5)),
-             (("dielectric", [1.4, 1.5, 1.6]), fresnel_dielectric(cos[:, None], [1.4, 1.5, 1.6]))]
+             (DielectricFresnel(1.5), fresnel_dielectric(cos, 1.5)),
+             (DielectricFresnel([1.4, 1.5, 1.6]), fresnel_dielectric(cos[:, None], [1.4, 1.5, 1.6]))]
     for fresnel, expected in cases:
         f = TorranceSparrow(ndf, fresnel).F(cos)
         assert f.shape == np.shape(expected)
         np.testing.assert_allclose(f, expected, rtol=1e-14)
-    with pytest.raises(ValueError, match=r"^fresnel must be None, \('conductor', eta, k\), "
-                       r"\('dielectric', eta\), \('schlick', f0\) or \('coated', eta_film, "
-                       r"thickness_nm, wavelength_nm, eta, k\)$"):
-        TorranceSparrow(ndf, ("glass", 1.5))
+    with pytest.raises(ValueError, match=r"^fresnel must be None \(F = 1\) or a record of "
+                       r"microsim.analytic.fresnel \(ConductorFresnel, DielectricFresnel, "
+                       r"SchlickFresnel, CoatedFresnel\), not tuple$"):
+        TorranceSparrow(ndf, ("dielectric", 1.5))  # the tuples of before are refused
     with pytest.raises(ValueError, match=r"^shadowing must be one of \('smith-correlated', "
                                          r"'smith-separable', 'v-groove', 'none'\)$"):
         TorranceSparrow(ndf, None, "smith")

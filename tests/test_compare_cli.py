@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from microsim.analytic.fresnel import ConductorFresnel
 from microsim.analytic.registry import parse_model_spec
 from microsim.compare import compare_table
 from microsim.compare import model_table as analytic_table
@@ -96,7 +97,7 @@ def test_defaults_come_from_the_table():
     d = model_defaults(TableMeta.from_json(meta))
     assert d == {"alpha": 0.27, "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1]}
     _, params, model = parse_model_spec("beckmann", d)
-    assert params["alpha"] == 0.27 and model.fresnel[0] == "conductor"
+    assert params["alpha"] == 0.27 and isinstance(model.fresnel, ConductorFresnel)
     assert model_defaults(TableMeta.from_json({"surface": {"alpha_realised": [0.1, 0.2]}})) == {
         "alpha_x": 0.1, "alpha_y": 0.2}
 

@@ -11,6 +11,7 @@ import pytest
 
 import microsim
 from microsim.analytic.brdf import TorranceSparrow
+from microsim.analytic.fresnel import ConductorFresnel
 from microsim.analytic.ndf import Beckmann
 from microsim.compare import model_table
 from microsim.tables.binning import HemisphereBins
@@ -24,7 +25,7 @@ THETA_I = np.radians([0.0, 20.0, 40.0, 60.0, 75.0])
 @pytest.fixture(scope="module")
 def table_path(tmp_path_factory):
     """A smooth table: a conductor Beckmann α = 0.45 lobe averaged over 32 × 64 bins."""
-    model = TorranceSparrow(Beckmann(0.45), fresnel=("conductor", np.array([0.2, 0.9, 1.1]),
+    model = TorranceSparrow(Beckmann(0.45), fresnel=ConductorFresnel(np.array([0.2, 0.9, 1.1]),
                                                      np.array([3.9, 2.4, 2.1])))
     table = model_table(model, THETA_I, HemisphereBins(32, 64), meta=TableMeta.from_json({"surface": {"kind": "test"}}))
     path = tmp_path_factory.mktemp("export") / "t.exr"

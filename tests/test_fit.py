@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from microsim.analytic.brdf import OrenNayar, TorranceSparrow
+from microsim.analytic.fresnel import SchlickFresnel
 from microsim.analytic.ndf import Beckmann
 from microsim.compare import model_table
 from microsim.fit import fit_table
@@ -26,7 +27,7 @@ def table_of(model, sigma_rel=0.0, seed=0):
 
 
 def test_beckmann_without_noise_comes_back_within_one_percent():
-    truth = TorranceSparrow(Beckmann(0.4), fresnel=("schlick", np.array([0.9, 0.6, 0.3])))
+    truth = TorranceSparrow(Beckmann(0.4), fresnel=SchlickFresnel(np.array([0.9, 0.6, 0.3])))
     r = fit_table(table_of(truth), "beckmann")
     assert r.params["alpha"] == pytest.approx(0.4, rel=0.01)
     for ch, f0 in zip("RGB", (0.9, 0.6, 0.3), strict=True):
@@ -36,7 +37,7 @@ def test_beckmann_without_noise_comes_back_within_one_percent():
 def test_noisy_fit_within_two_sigma():
     """5% relative noise per bin: the fitted α lies within 2 reported σ of the truth
     (a 95% interval; fixed seed)."""
-    truth = TorranceSparrow(Beckmann(0.25), fresnel=("schlick", np.array([0.8, 0.8, 0.8])))
+    truth = TorranceSparrow(Beckmann(0.25), fresnel=SchlickFresnel(np.array([0.8, 0.8, 0.8])))
     r = fit_table(table_of(truth, 0.05, seed=5), "beckmann")
     a, s = r.params["alpha"], r.uncertainty["alpha"]
     assert 0 < s < 0.05 and abs(a - 0.25) < 2 * s
@@ -160,7 +161,7 @@ def _chi2_dof(table, model, nparams, component="total"):
 
 
 def _beckmann(alpha, f0):
-    return TorranceSparrow(Beckmann(alpha), fresnel=("schlick", np.asarray(f0, float)),
+    return TorranceSparrow(Beckmann(alpha), fresnel=SchlickFresnel(np.asarray(f0, float)),
                            shadowing="smith-correlated")
 
 
@@ -246,7 +247,7 @@ def test_families_build_the_models_they_name():
     f0 = np.array([0.9, 0.6, 0.3])
     cases = [
         ("beckmann", [0.3, *f0], _beckmann(0.3, f0).eval(wi, wo)),
-        ("ggx", [0.3, *f0], TorranceSparrow(GGX(0.3), fresnel=("schlick", f0),
+        ("ggx", [0.3, *f0], TorranceSparrow(GGX(0.3), fresnel=SchlickFresnel(f0),
                                             shadowing="smith-correlated").eval(wi, wo)),
         ("oren-nayar", [20.0, 0.7, 0.5, 0.3],
          OrenNayar(np.radians(20.0), [0.7, 0.5, 0.3], "full").eval(wi, wo)),

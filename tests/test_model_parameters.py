@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import astuple
 from datetime import timedelta
 from pathlib import Path
 
@@ -265,18 +266,19 @@ def test_a_diffuse_materials_albedo_is_the_lambertian_models_per_channel():
 
 
 def test_a_conductors_fresnel_and_model_defaults_are_its_indices_per_channel():
-    """A conductor's Fresnel record is ``("conductor", eta, k)`` per channel and its model
-    defaults the same η and k; coated (a spectral table), its record is the film's:
-    ``("coated", film index, thickness, wavelengths, eta, k)`` per channel, and its
+    """A conductor's Fresnel record is ``ConductorFresnel(eta, k)`` per channel and its
+    model defaults the same η and k; coated (a spectral table), its record is the film's:
+    ``CoatedFresnel(film index, thickness, wavelengths, eta, k)`` per channel, and its
     model defaults stay the facet's η and k."""
+    from microsim.analytic.fresnel import CoatedFresnel, ConductorFresnel
     from microsim.materials import Conductor
     from microsim.materials.coating import Coating
     from microsim.spectra.channels import RGB, Channels
 
     bare = Conductor(eta=(0.2, 0.9, 1.1), k=(3.9, 2.4, 2.1))
-    kind, eta, k = bare.fresnel(RGB)
-    assert kind == "conductor"
-    assert eta.tolist() == [0.2, 0.9, 1.1] and k.tolist() == [3.9, 2.4, 2.1]
+    record = bare.fresnel(RGB)
+    assert type(record) is ConductorFresnel
+    assert record.eta.tolist() == [0.2, 0.9, 1.1] and record.k.tolist() == [3.9, 2.4, 2.1]
     assert bare.model_defaults(RGB) == {"eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1]}
     assert recipe_defaults({"kind": "conductor", "eta": [0.2, 0.9, 1.1],
                             "k": [3.9, 2.4, 2.1]}) == {"eta": [0.2, 0.9, 1.1],
@@ -284,17 +286,18 @@ def test_a_conductors_fresnel_and_model_defaults_are_its_indices_per_channel():
     channels = Channels((450.0, 600.0))
     coated = Conductor(eta=0.5, k=2.0, coating=Coating(100.0, 1.45))
     record = coated.fresnel(channels)
-    assert record[0] == "coated"
-    assert [np.asarray(x).tolist() for x in record[1:]] == [
+    assert type(record) is CoatedFresnel
+    assert [np.asarray(x).tolist() for x in astuple(record)] == [
         [1.45, 1.45], [100.0, 100.0], [450.0, 600.0], [0.5, 0.5], [2.0, 2.0]]
     assert coated.model_defaults(channels) == {"eta": [0.5, 0.5], "k": [2.0, 2.0]}
 
 
 def test_a_dielectrics_fresnel_and_model_defaults_are_its_index():
-    """A dielectric's Fresnel record is ``("dielectric", eta)`` and its model default
+    """A dielectric's Fresnel record is ``DielectricFresnel(eta)`` and its model default
     ``eta``: one number where η is the same in every channel (also a table of one
-    wavelength), η per channel where it varies; coated, ``("coated", film index,
+    wavelength), η per channel where it varies; coated, ``CoatedFresnel(film index,
     thickness, wavelengths, eta, 0)`` per channel."""
+    from microsim.analytic.fresnel import CoatedFresnel, DielectricFresnel
     from microsim.materials import Dielectric
     from microsim.materials.coating import Coating
     from microsim.spectra.channels import RGB, Channels
@@ -302,19 +305,20 @@ def test_a_dielectrics_fresnel_and_model_defaults_are_its_index():
 
     glass = Dielectric(eta=1.6, refract=True)
     for channels in (RGB, Channels((550.0,))):
-        kind, eta = glass.fresnel(channels)
-        assert kind == "dielectric" and eta == 1.6 and np.ndim(eta) == 0
+        record = glass.fresnel(channels)
+        assert type(record) is DielectricFresnel
+        assert record.eta == 1.6 and np.ndim(record.eta) == 0
         assert glass.model_defaults(channels) == {"eta": 1.6}
         assert np.ndim(glass.model_defaults(channels)["eta"]) == 0
     two = Channels((450.0, 600.0))
     dispersive = Dielectric(eta=Spectrum((400.0, 700.0), (1.6, 1.5), "an index of the test"))
     sampled = pytest.approx([1.6 - 0.1 / 6, 1.6 - 0.2 / 3], abs=1e-15)  # linear in nm
-    kind, eta = dispersive.fresnel(two)
-    assert kind == "dielectric" and eta.tolist() == sampled
+    record = dispersive.fresnel(two)
+    assert type(record) is DielectricFresnel and record.eta.tolist() == sampled
     assert dispersive.model_defaults(two) == {"eta": sampled}
     assert isinstance(dispersive.model_defaults(two)["eta"], list)
     assert recipe_defaults({"kind": "dielectric", "eta": 1.6}) == {"eta": 1.6}
     record = Dielectric(eta=1.5, coating=Coating(100.0, 2.0)).fresnel(two)
-    assert record[0] == "coated"
-    assert [np.asarray(x).tolist() for x in record[1:]] == [
+    assert type(record) is CoatedFresnel
+    assert [np.asarray(x).tolist() for x in astuple(record)] == [
         [2.0, 2.0], [100.0, 100.0], [450.0, 600.0], [1.5, 1.5], [0.0, 0.0]]

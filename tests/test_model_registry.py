@@ -9,6 +9,7 @@ texts and sources. No simulation: the defaults a table would give are small
 from __future__ import annotations
 
 import math
+from dataclasses import astuple
 
 import numpy as np
 import pytest
@@ -17,6 +18,7 @@ from refusals import refused
 from microsim.analytic.brdf import KayKajiya, TorranceSparrow
 from microsim.analytic.cloth import MicrocylinderCloth
 from microsim.analytic.cylinders import CylinderArray
+from microsim.analytic.fresnel import ConductorFresnel, DielectricFresnel
 from microsim.analytic.multiple_scattering import SmithMultipleScattering
 from microsim.analytic.ndf import GGX, Beckmann, Blinn, TorranceSparrowGaussian
 from microsim.analytic.registry import (
@@ -31,11 +33,12 @@ from microsim.errors import InputError
 from microsim.table_models import ModelDefaults
 
 
-def assert_fresnel(fresnel, kind: str, *arrays: list[float]) -> None:
-    """``fresnel`` is ``(kind, *arrays)`` with each array exactly as given."""
-    assert fresnel[0] == kind
-    assert len(fresnel) == 1 + len(arrays)
-    for got, want in zip(fresnel[1:], arrays, strict=True):
+def assert_fresnel(fresnel, kind: type, *arrays: list[float]) -> None:
+    """``fresnel`` is a ``kind`` record whose fields are arrays exactly as given."""
+    assert type(fresnel) is kind
+    fields = astuple(fresnel)
+    assert len(fields) == len(arrays)
+    for got, want in zip(fields, arrays, strict=True):
         assert isinstance(got, np.ndarray)
         np.testing.assert_array_equal(got, want)
 
@@ -77,13 +80,13 @@ def test_the_shadowing_given_is_the_models():
 
 
 @pytest.mark.parametrize(("spec", "kind", "arrays"), [
-    ("beckmann:eta=[0.2,0.9,1.1],k=[3,2.5,2]", "conductor",
+    ("beckmann:eta=[0.2,0.9,1.1],k=[3,2.5,2]", ConductorFresnel,
      ([0.2, 0.9, 1.1], [3.0, 2.5, 2.0])),
     # k alone: the conductor's eta is 1.5 in every channel of k
-    ("beckmann:k=[3,2.5]", "conductor", ([1.5, 1.5], [3.0, 2.5])),
-    ("beckmann:k=2", "conductor", ([1.5, 1.5, 1.5], [2.0, 2.0, 2.0])),
-    ("ggx:eta=1.4", "dielectric", ([1.4, 1.4, 1.4],)),
-    ("ggx:eta=[1.4,1.5,1.6]", "dielectric", ([1.4, 1.5, 1.6],)),
+    ("beckmann:k=[3,2.5]", ConductorFresnel, ([1.5, 1.5], [3.0, 2.5])),
+    ("beckmann:k=2", ConductorFresnel, ([1.5, 1.5, 1.5], [2.0, 2.0, 2.0])),
+    ("ggx:eta=1.4", DielectricFresnel, ([1.4, 1.4, 1.4],)),
+    ("ggx:eta=[1.4,1.5,1.6]", DielectricFresnel, ([1.4, 1.5, 1.6],)),
 ])
 def test_eta_and_k_make_the_fresnel_argument(spec, kind, arrays):
     """k (with eta, or eta = 1.5) is a conductor, eta alone a dielectric; the arrays are
@@ -98,12 +101,12 @@ def test_multiple_scattering_gets_the_ndf_fresnel_samples_and_seed_given():
     _, _, model = parse_model_spec("ggx-ms:alpha=0.2,eta=1.4,samples=64,seed=7")
     assert type(model) is SmithMultipleScattering
     assert type(model.ndf) is GGX and model.ndf.alpha == 0.2
-    assert_fresnel(model.fresnel, "dielectric", [1.4, 1.4, 1.4])
+    assert_fresnel(model.fresnel, DielectricFresnel, [1.4, 1.4, 1.4])
     assert (model.samples, model.seed) == (64, 7)
     _, _, model = parse_model_spec("beckmann-ms:alpha_x=0.1,alpha_y=0.3,k=2")
     assert type(model.ndf) is Beckmann
     assert (model.ndf.alpha_x, model.ndf.alpha_y) == (0.1, 0.3)
-    assert_fresnel(model.fresnel, "conductor", [1.5, 1.5, 1.5], [2.0, 2.0, 2.0])
+    assert_fresnel(model.fresnel, ConductorFresnel, [1.5, 1.5, 1.5], [2.0, 2.0, 2.0])
     assert (model.samples, model.seed) == (256, 0)
 
 

@@ -19,6 +19,7 @@ import pytest
 from scipy import stats
 
 from microsim.analytic.brdf import TorranceSparrow
+from microsim.analytic.fresnel import ConductorFresnel, DielectricFresnel
 from microsim.analytic.multiple_scattering import SmithMultipleScattering
 from microsim.analytic.ndf import GGX, Beckmann
 from microsim.analytic.visible_normals import (
@@ -30,8 +31,8 @@ from microsim.analytic.visible_normals import (
 from microsim.geometry import direction
 
 Z_MAX = 3.5
-GOLD = ("conductor", np.array([0.2, 0.92, 1.1]), np.array([3.9, 2.45, 2.14]))
-GLASS = ("dielectric", 1.5)
+GOLD = ConductorFresnel(np.array([0.2, 0.92, 1.1]), np.array([3.9, 2.45, 2.14]))
+GLASS = DielectricFresnel(1.5)
 NDFS = [Beckmann(0.5), GGX(0.5), Beckmann(alpha_x=0.3, alpha_y=0.9),
         GGX(alpha_x=0.9, alpha_y=0.3)]
 

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from microsim.analytic.brdf import Lambertian, OrenNayar, TorranceSparrow
+from microsim.analytic.fresnel import ConductorFresnel, DielectricFresnel
 from microsim.analytic.ndf import GGX, Beckmann
 from microsim.compare import model_table
 from microsim.geometry import direction
@@ -156,9 +157,9 @@ def random_pairs(n, seed, max_deg=85.0):
      "roughconductor", 1e-4),
     # Mitsuba's Beckmann G1 is Walter et al. 2007's rational fit (eq. 27), within 0.35% of
     # the exact one per direction, so G1(wi) G1(wo) within 0.7%
-    (TorranceSparrow(Beckmann(0.3), fresnel=("conductor", ETA, K),
+    (TorranceSparrow(Beckmann(0.3), fresnel=ConductorFresnel(ETA, K),
                      shadowing="smith-separable"), "roughconductor", 7e-3),
-    (TorranceSparrow(Beckmann(0.4), fresnel=("dielectric", 1.5),
+    (TorranceSparrow(Beckmann(0.4), fresnel=DielectricFresnel(1.5),
                      shadowing="smith-separable"), "roughplastic", 7e-3),
 ])
 def test_mitsuba_equivalents_compute_the_model(mi, model, plugin, rtol):
@@ -235,7 +236,7 @@ def test_beckmann_table_renders_like_roughconductor(mi, sphere, tmp_path):
     75° (the last θo bin spans 10°), which the silhouette pixels of a 64 × 48 sphere
     sample; Mitsuba's measured tensor adds 0.25% (median), roughconductor 0.2%
     (Walter's G1 fit). Measured here: median 1.5%, mean +3.1%."""
-    model = TorranceSparrow(Beckmann(0.3), fresnel=("conductor", ETA, K),
+    model = TorranceSparrow(Beckmann(0.3), fresnel=ConductorFresnel(ETA, K),
                             shadowing="smith-separable")
     table = model_table(model, np.radians(np.linspace(0, 85, 10)), HemisphereBins(32, 64))
     cam = small_camera()
@@ -259,7 +260,7 @@ def test_rotated_anisotropic_table_renders_as_the_rotated_model(mi, sphere, tmp_
     interpolation between incidences 30° apart in φi and 32 × 64 bins put it 3.1%
     (median) from the model over the lobe, more on the lobe's flanks that the lit pixels
     see, and the resampled tensor adds 0.9%."""
-    model = TorranceSparrow(Beckmann(alpha_x=0.3, alpha_y=0.7), fresnel=("conductor", ETA, K),
+    model = TorranceSparrow(Beckmann(alpha_x=0.3, alpha_y=0.7), fresnel=ConductorFresnel(ETA, K),
                             shadowing="smith-separable")
     table = model_table(model, np.radians([0, 20, 40, 60, 75, 85]), HemisphereBins(32, 64),
                         phi_i=np.radians(np.arange(0, 360, 30)))
@@ -284,7 +285,7 @@ def test_rotated_anisotropic_table_renders_as_the_rotated_model(mi, sphere, tmp_
 # --- command line --------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def table_file(tmp_path_factory):
-    model = TorranceSparrow(Beckmann(0.3), fresnel=("conductor", ETA, K))
+    model = TorranceSparrow(Beckmann(0.3), fresnel=ConductorFresnel(ETA, K))
     table = model_table(model, np.radians([0, 30, 60, 80]), HemisphereBins(16, 32),
                         meta=TableMeta.from_json({"surface": {"kind": "analytic",
                                                                "alpha_realised": 0.3}}))
@@ -352,9 +353,9 @@ def test_a_tabulated_model_renders_like_its_plugin(mi, sphere, tmp_path):
     extrapolated: median |Δ| < 1% and |mean Δ| < 2% (isotropic), < 2% and < 4%
     (anisotropic). Measured: 0.26% and +0.5%; 0.84% and +1.8%."""
     for model, rotation, limits in (
-            (TorranceSparrow(Beckmann(0.3), fresnel=("conductor", ETA, K),
+            (TorranceSparrow(Beckmann(0.3), fresnel=ConductorFresnel(ETA, K),
                              shadowing="smith-separable"), 0.0, (0.01, 0.02)),
-            (TorranceSparrow(Beckmann(alpha_x=0.3, alpha_y=0.7), fresnel=("conductor", ETA, K),
+            (TorranceSparrow(Beckmann(alpha_x=0.3, alpha_y=0.7), fresnel=ConductorFresnel(ETA, K),
                              shadowing="smith-separable"), 90.0, (0.02, 0.04))):
         assert bsdfs.isotropic(model.eval) == (rotation == 0.0)
         cam = small_camera()

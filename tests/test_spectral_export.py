@@ -13,7 +13,7 @@ import pytest
 
 import microsim
 from microsim.analytic.brdf import Lambertian, TorranceSparrow
-from microsim.analytic.fresnel import fresnel_conductor
+from microsim.analytic.fresnel import ConductorFresnel, fresnel_conductor
 from microsim.analytic.ndf import Beckmann
 from microsim.geometry import direction
 from microsim.spectra import measured
@@ -286,7 +286,7 @@ def test_per_wavelength_models_reach_mitsuba_per_wavelength():
 
     mitsuba.set_variant("scalar_spectral")
     eta, k = measured.conductor("Au")
-    model = TorranceSparrow(Beckmann(0.3), fresnel=("conductor", eta.at(NM), k.at(NM)),
+    model = TorranceSparrow(Beckmann(0.3), fresnel=ConductorFresnel(eta.at(NM), k.at(NM)),
                             shadowing="smith-separable")
     rng = np.random.default_rng(2)
     pairs = [(direction(np.radians(rng.uniform(0, 70)), rng.uniform(-np.pi, np.pi)),

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric, fresnel_thin_film
+from microsim.analytic.fresnel import Fresnel
 from microsim.analytic.shadowing import smith_g2, vgroove_G
 
 SHADOWING = ("smith-correlated", "smith-separable", "v-groove", "none")
@@ -81,47 +81,31 @@ class TorranceSparrow:
     ----------
     ndf : NDF
         ``microsim.analytic.ndf`` distribution (``D``, ``Lambda``, ``G1``).
-    fresnel : None or tuple
-        None: F = 1 (a mirror facet); ``("conductor", eta, k)`` (RGB-able);
-        ``("dielectric", eta)``; ``("schlick", f0)`` (Schlick's approximation, RGB-able:
-        what model fits use); ``("coated", eta_film, thickness_nm, wavelength_nm, eta, k)``
-        (a thin dielectric film on the facets, per wavelength: ``fresnel_thin_film``).
+    fresnel : Fresnel or None
+        The facets' Fresnel factor (``microsim.analytic.fresnel``): ``ConductorFresnel``,
+        ``DielectricFresnel``, ``SchlickFresnel`` (what model fits use) or ``CoatedFresnel``
+        (a thin dielectric film on the facets, per wavelength); None: F = 1 (a mirror
+        facet).
     shadowing : str
         ``"smith-correlated"`` (default, Heitz 2014 eq. 99), ``"smith-separable"``,
         ``"v-groove"`` (Torrance-Sparrow's), or ``"none"`` (G = 1).
     """
 
-    def __init__(self, ndf: object, fresnel: tuple | None = None,
+    def __init__(self, ndf: object, fresnel: Fresnel | None = None,
                  shadowing: str = "smith-correlated") -> None:
         if shadowing not in SHADOWING:
             raise ValueError(f"shadowing must be one of {SHADOWING}")
-        if fresnel is not None and fresnel[0] not in ("conductor", "dielectric", "schlick",
-                                                      "coated"):
-            raise ValueError("fresnel must be None, ('conductor', eta, k), "
-                             "('dielectric', eta), ('schlick', f0) or ('coated', eta_film, "
-                             "thickness_nm, wavelength_nm, eta, k)")
+        if fresnel is not None and not isinstance(fresnel, Fresnel):
+            raise ValueError("fresnel must be None (F = 1) or a record of "
+                             "microsim.analytic.fresnel (ConductorFresnel, DielectricFresnel, "
+                             f"SchlickFresnel, CoatedFresnel), not {type(fresnel).__name__}")
         self.ndf, self.fresnel, self.shadowing = ndf, fresnel, shadowing
 
     def F(self, cos_d: np.ndarray) -> np.ndarray:  # noqa: N802
-        """Fresnel factor at ⟨ωi, h⟩: ``(...)`` or ``(..., 3)``."""
+        """Fresnel factor at ⟨ωi, h⟩: ``(...)`` or ``(..., C)``."""
         if self.fresnel is None:
             return np.ones_like(cos_d)
-        if self.fresnel[0] == "schlick":
-            # Schlick 1994, "An inexpensive BRDF model for physically-based rendering",
-            # eq. 15: F0 + (1 - F0)(1 - cos)^5, per channel
-            f0 = np.asarray(self.fresnel[1], float)
-            c = cos_d[..., None] if f0.ndim else cos_d
-            return f0 + (1.0 - f0) * (1.0 - c) ** 5
-        if self.fresnel[0] == "coated":
-            _, film, thickness, nm, eta, k = self.fresnel
-            return fresnel_thin_film(cos_d[..., None], film, thickness, nm, eta, k)
-        if self.fresnel[0] == "conductor":
-            _, eta, k = self.fresnel
-            if np.ndim(eta) or np.ndim(k):
-                return fresnel_conductor(cos_d[..., None], eta, k)
-            return fresnel_conductor(cos_d, eta, k)
-        eta = self.fresnel[1]
-        return fresnel_dielectric(cos_d[..., None] if np.ndim(eta) else cos_d, eta)
+        return self.fresnel.factor(cos_d)
 
     def G(self, wi: np.ndarray, wo: np.ndarray, h: np.ndarray) -> np.ndarray:  # noqa: N802
         """Masking-shadowing of the chosen model."""

@@ -5,9 +5,17 @@ towards where the light comes from) and the interface normal on the light's side
 lies in [0, 1]. Negative values are clamped to 0 (grazing). ``eta`` is the relative index
 n_t / n_i; for a dielectric, eta < 1 means the light is inside the denser medium and total
 internal reflection (F = 1) occurs beyond the critical angle.
+
+The records at the end (``ConductorFresnel``, ``DielectricFresnel``, ``SchlickFresnel``,
+``CoatedFresnel``) are what a
+microfacet model takes as its facets' Fresnel factor (``TorranceSparrow``'s ``fresnel``;
+None is F = 1, a mirror): the materials give them (``Material.fresnel``), the model
+registry and the fits build them, and each evaluates its own factor.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -137,3 +145,94 @@ def fresnel_thin_film(cos_i: np.ndarray | float, eta_film: np.ndarray | float,
             r = np.where(a1 == 0, limit, (r01 + r12 * phase) / (1.0 + r01 * r12 * phase))
             reflectance += 0.5 * np.abs(r) ** 2
     return np.where(graze, 1.0, np.clip(reflectance, 0.0, 1.0))
+
+
+@dataclass(frozen=True, eq=False)
+class ConductorFresnel:
+    """The Fresnel factor of a conductor of complex relative index η + ik
+    (``fresnel_conductor``).
+
+    Parameters
+    ----------
+    eta, k : float or (C,) float
+        One number for every channel, or one per channel (RGB, or one per wavelength).
+    """
+
+    eta: np.ndarray | float
+    k: np.ndarray | float
+
+    def factor(self, cos: np.ndarray) -> np.ndarray:
+        """F at ``cos`` (...,): (...) for numbers, (..., C) per channel."""
+        if np.ndim(self.eta) or np.ndim(self.k):
+            return fresnel_conductor(cos[..., None], self.eta, self.k)
+        return fresnel_conductor(cos, self.eta, self.k)
+
+
+@dataclass(frozen=True, eq=False)
+class DielectricFresnel:
+    """The Fresnel factor of reflection off a dielectric of relative index η
+    (``fresnel_dielectric``).
+
+    Parameters
+    ----------
+    eta : float or (C,) float
+    """
+
+    eta: np.ndarray | float
+
+    def factor(self, cos: np.ndarray) -> np.ndarray:
+        """F at ``cos`` (...,): (...) for a number, (..., C) per channel."""
+        return fresnel_dielectric(cos[..., None] if np.ndim(self.eta) else cos, self.eta)
+
+
+@dataclass(frozen=True, eq=False)
+class SchlickFresnel:
+    """Schlick's approximation F0 + (1 − F0)(1 − cos)⁵ (Schlick 1994, "An inexpensive BRDF
+    model for physically-based rendering", Comput. Graph. Forum 13(3), eq. 15): what model
+    fits use.
+
+    Parameters
+    ----------
+    f0 : float or (C,) float
+        Reflectance at normal incidence, per channel.
+    """
+
+    f0: np.ndarray | float
+
+    def factor(self, cos: np.ndarray) -> np.ndarray:
+        """F at ``cos`` (...,): (...) for a number, (..., C) per channel."""
+        f0 = np.asarray(self.f0, float)
+        c = cos[..., None] if f0.ndim else cos
+        return f0 + (1.0 - f0) * (1.0 - c) ** 5
+
+
+@dataclass(frozen=True, eq=False)
+class CoatedFresnel:
+    """The Fresnel factor of facets under a thin dielectric film, per wavelength
+    (``fresnel_thin_film``).
+
+    Parameters
+    ----------
+    eta_film : float or (C,) float
+        The film's index.
+    thickness_nm : float
+    wavelength_nm : (C,) float
+        The channels' wavelengths.
+    eta, k : float or (C,) float
+        The facet beneath (k = 0: a dielectric).
+    """
+
+    eta_film: np.ndarray | float
+    thickness_nm: float
+    wavelength_nm: np.ndarray
+    eta: np.ndarray | float
+    k: np.ndarray | float
+
+    def factor(self, cos: np.ndarray) -> np.ndarray:
+        """F at ``cos`` (...,): (..., C)."""
+        return fresnel_thin_film(cos[..., None], self.eta_film, self.thickness_nm,
+                                 self.wavelength_nm, self.eta, self.k)
+
+
+Fresnel = ConductorFresnel | DielectricFresnel | SchlickFresnel | CoatedFresnel
+"""A facet's Fresnel factor as the microfacet models take it (None besides: F = 1)."""

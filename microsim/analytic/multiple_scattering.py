@@ -45,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from microsim.analytic.brdf import TorranceSparrow
+from microsim.analytic.fresnel import Fresnel
 from microsim.analytic.visible_normals import projected_area, sample_visible
 from microsim.memory import check_memory
 
@@ -92,10 +93,10 @@ class SmithMultipleScattering:
     ----------
     ndf : Beckmann or GGX
         ``microsim.analytic.ndf`` distribution, isotropic or anisotropic.
-    fresnel : None or tuple
-        As ``TorranceSparrow``: None (F = 1, a mirror), ``("conductor", eta, k)``
-        (RGB-able) or ``("dielectric", eta)`` (reflection only: the transmitted light
-        leaves the walk).
+    fresnel : Fresnel or None
+        As ``TorranceSparrow``: None (F = 1, a mirror), or a record of
+        ``microsim.analytic.fresnel`` (a ``DielectricFresnel`` reflects only: the transmitted
+        light leaves the walk).
     min_order, max_order : int, int or None
         The scattering orders the model holds, inclusive (``max_order`` None: no limit).
         Default: all.
@@ -114,7 +115,7 @@ class SmithMultipleScattering:
         The deterministic part of the model (order 1 when held and ``analytic_single``).
     """
 
-    def __init__(self, ndf: object, fresnel: tuple | None = None, *, min_order: int = 1,
+    def __init__(self, ndf: object, fresnel: Fresnel | None = None, *, min_order: int = 1,
                  max_order: int | None = None, samples: int = 256, seed: int = 0,
                  analytic_single: bool = True) -> None:
         if min_order < 1 or (max_order is not None and max_order < min_order):

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from microsim.analytic.fresnel import ConductorFresnel, DielectricFresnel, Fresnel
 from microsim.errors import InputError
 from microsim.schema import Key, check_section, parse_value, suggest
 
@@ -29,8 +30,8 @@ class ModelSpec:
     build: Callable[[dict[str, Any]], Any]
 
 
-def _facets(p: dict[str, Any], ndf_name: str) -> tuple[Any, tuple | None]:
-    """The NDF and the Fresnel argument of a microfacet spec."""
+def _facets(p: dict[str, Any], ndf_name: str) -> tuple[Any, Fresnel | None]:
+    """The NDF and the Fresnel record of a microfacet spec."""
     from microsim.analytic import ndf as ndfs
 
     name = p.get("ndf", ndf_name)
@@ -42,12 +43,12 @@ def _facets(p: dict[str, Any], ndf_name: str) -> tuple[Any, tuple | None]:
         cls = ndfs.Beckmann if name == "beckmann" else ndfs.GGX
         dist = (cls(alpha_x=p["alpha_x"], alpha_y=p["alpha_y"])
                 if "alpha_x" in p else cls(p["alpha"]))
-    fresnel = None
+    fresnel: Fresnel | None = None
     if "k" in p:
-        fresnel = ("conductor", np.asarray(p.get("eta", [1.5] * len(p["k"]))),
-                   np.asarray(p["k"]))
+        fresnel = ConductorFresnel(np.asarray(p.get("eta", [1.5] * len(p["k"]))),
+                                   np.asarray(p["k"]))
     elif "eta" in p:
-        fresnel = ("dielectric", np.asarray(p["eta"]))
+        fresnel = DielectricFresnel(np.asarray(p["eta"]))
     return dist, fresnel
 
 

@@ -34,6 +34,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+from microsim.analytic.fresnel import Fresnel
 from microsim.errors import InputError
 from microsim.materials.coating import Coating
 from microsim.schema import Key, check_section, record_from_json, record_json, schema_of
@@ -220,9 +221,10 @@ class Material:
         return out
 
     # --- comparisons ----------------------------------------------------------------------
-    def fresnel(self, channels: Channels = RGB) -> tuple | None:
-        """The ``TorranceSparrow`` Fresnel argument of a specular facet: None for F = 1,
-        ``("conductor", eta, k)`` or ``("dielectric", eta)``.
+    def fresnel(self, channels: Channels = RGB) -> Fresnel | None:
+        """The Fresnel record a microfacet model of this specular facet takes
+        (``microsim.analytic.fresnel``; ``TorranceSparrow``'s ``fresnel``): None for
+        F = 1, a ``ConductorFresnel``, ``DielectricFresnel`` or ``CoatedFresnel``.
 
         Raises
         ------

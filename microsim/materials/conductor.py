@@ -8,6 +8,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from microsim.analytic.fresnel import CoatedFresnel, ConductorFresnel, Fresnel
 from microsim.errors import InputError
 from microsim.materials.base import P_WAVELENGTH, WEIGHTED, Material, kernel
 from microsim.materials.coating import Coating
@@ -110,13 +111,14 @@ class Conductor(Material):
             return tuple(columns)
         return (*columns, *self.coating.columns(channels, where + "coating"))
 
-    def fresnel(self, channels: Channels = RGB) -> tuple | None:
-        """``("conductor", eta, k)`` per channel; coated, ``("coated", eta_film,
+    def fresnel(self, channels: Channels = RGB) -> Fresnel | None:
+        """``ConductorFresnel(eta, k)`` per channel; coated, ``CoatedFresnel(eta_film,
         thickness, wavelength, eta, k)``."""
         eta, k, *film = (np.asarray(x) for x in self.parameters(channels))
         if film:
-            return ("coated", film[0], film[1], np.asarray(channels.wavelengths), eta, k)
-        return ("conductor", eta, k)
+            return CoatedFresnel(film[0], film[1], np.asarray(channels.wavelengths), eta,
+                                 k)
+        return ConductorFresnel(eta, k)
 
     def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
         """``eta`` and ``k``, per channel (a coated conductor has no model parameters of

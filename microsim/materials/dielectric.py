@@ -9,6 +9,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from microsim.analytic.fresnel import CoatedFresnel, DielectricFresnel, Fresnel
 from microsim.errors import InputError
 from microsim.materials.base import (
     DISPERSION_ALWAYS,
@@ -175,14 +176,14 @@ class Dielectric(Material):
         dispersive = len(set(self.parameters(channels)[0])) > 1
         return DISPERSION_REFRACTED if dispersive else DISPERSION_NONE
 
-    def fresnel(self, channels: Channels = RGB) -> tuple | None:
-        """``("dielectric", eta)``: a number, or η per channel where it varies; coated,
-        ``("coated", eta_film, thickness, wavelength, eta, 0)``."""
+    def fresnel(self, channels: Channels = RGB) -> Fresnel | None:
+        """``DielectricFresnel(eta)``: a number, or η per channel where it varies;
+        coated, ``CoatedFresnel(eta_film, thickness, wavelength, eta, 0)``."""
         eta, _, *film = (np.asarray(x) for x in self.parameters(channels))
         if film:
-            return ("coated", film[0], film[1], np.asarray(channels.wavelengths), eta,
-                    np.zeros_like(eta))
-        return ("dielectric", eta[0] if len(set(eta)) == 1 else eta)
+            return CoatedFresnel(film[0], film[1], np.asarray(channels.wavelengths), eta,
+                                 np.zeros_like(eta))
+        return DielectricFresnel(eta[0] if len(set(eta)) == 1 else eta)
 
     def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
         """``eta``: a number, or per channel where it varies."""

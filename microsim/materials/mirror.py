@@ -7,6 +7,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from microsim.analytic.fresnel import Fresnel
 from microsim.materials.base import KEPT, Material, kernel
 from microsim.materials.optics import reflect
 from microsim.spectra.channels import RGB, Channels
@@ -31,7 +32,7 @@ class Mirror(Material):
     scatter: ClassVar = scatter
     mirror: ClassVar[bool] = True
 
-    def fresnel(self, channels: Channels = RGB) -> tuple | None:
+    def fresnel(self, channels: Channels = RGB) -> Fresnel | None:
         """F = 1: no Fresnel factor."""
         return None
 

@@ -207,6 +207,7 @@ def mitsuba_equivalent(model: Any, rotation: float = 0.0,
     dict or None
     """
     from microsim.analytic.brdf import Lambertian, TorranceSparrow
+    from microsim.analytic.fresnel import ConductorFresnel, DielectricFresnel
     from microsim.analytic.ndf import GGX, Beckmann
 
     if isinstance(model, Lambertian):
@@ -231,13 +232,13 @@ def mitsuba_equivalent(model: Any, rotation: float = 0.0,
     fresnel = model.fresnel
     if fresnel is None:
         return {"type": "roughconductor", "material": "none", **rough}
-    if fresnel[0] == "conductor":
-        eta = _spectrum(fresnel[1], wavelengths, spectral, linear=False)
-        k = _spectrum(fresnel[2], wavelengths, spectral, linear=False)
+    if isinstance(fresnel, ConductorFresnel):
+        eta = _spectrum(fresnel.eta, wavelengths, spectral, linear=False)
+        k = _spectrum(fresnel.k, wavelengths, spectral, linear=False)
         if eta is None or k is None:
             return None
         return {"type": "roughconductor", "eta": eta, "k": k, **rough}
-    eta = _uniform(fresnel[1]) if fresnel[0] == "dielectric" else None
+    eta = _uniform(fresnel.eta) if isinstance(fresnel, DielectricFresnel) else None
     if eta is not None and ax == ay:
         return {"type": "roughplastic", "int_ior": eta, "ext_ior": 1.0,
                 "diffuse_reflectance": rgb_spectrum(0.0), "nonlinear": False, **rough}
