@@ -12,14 +12,14 @@ import mpmath
 import numpy as np
 import pytest
 
-from microsim.analytic.brdf import KayKajiya
+from microsim.analytic.brdf import KayKajiya, Lambertian
 from microsim.analytic.cylinders import CylinderArray
-from microsim.analytic.fresnel import fresnel_conductor
+from microsim.analytic.fresnel import ConductorFresnel, DielectricFresnel, fresnel_conductor
 from microsim.analytic.velvet import SparseVelvet
 from microsim.geometry import direction
 from microsim.surfaces.velvet import fibre_directions, tubes
 
-GOLD = {"kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]}
+GOLD = ConductorFresnel(np.array([0.2, 0.92, 1.1]), np.array([3.9, 2.45, 2.14]))
 
 
 def test_mirror_cylinder_cone_follows_marschners_r_lobe_with_fresnel():
@@ -42,7 +42,7 @@ def test_mirror_cylinder_cone_follows_marschners_r_lobe_with_fresnel():
         for c in range(3):
             def f(g, c=c):
                 cos = float(mpmath.cos(g))
-                return fresnel_conductor(cos, GOLD["eta"][c], GOLD["k"][c]) * mpmath.cos(g)
+                return fresnel_conductor(cos, GOLD.eta[c], GOLD.k[c]) * mpmath.cos(g)
             expect = r / s * float(mpmath.quad(f, [te[k] / 2, te[k + 1] / 2]))
             for side in (0, 8):
                 assert power[k, side, c] == pytest.approx(expect, abs=2 * r / s * 2 / 2**16)
@@ -88,7 +88,7 @@ def test_lambertian_cylinders_and_base_against_brute_force_geometry(sink):
     tests, at random direction pairs including grazing ones (spacing 3 r: neighbours
     shadow a lot). Agreement 2e-3 relative (the sampling's resolution)."""
     r, s = 0.5, 1.5
-    model = CylinderArray(r, s, sink, {"kind": "lambertian", "albedo": 1.0}, 1.0)
+    model = CylinderArray(r, s, sink, Lambertian(1.0), 1.0)
     rng = np.random.default_rng(4)
     checked = 0
     for _ in range(12):
@@ -105,7 +105,7 @@ def test_cylinder_array_refuses_bad_geometry_and_facets():
     """radius > 0, spacing ≥ 2 radius (touching allowed), 0 ≤ sink < 2 radius, and a
     specular or Lambertian facet; each refusal says what is allowed. The base is black
     unless given."""
-    mirror = {"kind": "mirror"}
+    mirror = None
     for r, s, sink in [(0.0, 1.0, 0.0), (-0.5, 1.0, 0.0), (0.5, 0.99, 0.0), (0.5, 1.5, -0.1),
                        (0.5, 1.5, 1.0), (0.5, 1.5, 1.2)]:
         with pytest.raises(ValueError, match=r"^need radius > 0, spacing >= 2 radius, "
@@ -113,9 +113,11 @@ def test_cylinder_array_refuses_bad_geometry_and_facets():
             CylinderArray(r, s, sink, mirror)
     for r, s, sink in [(0.5, 1.0, 0.0), (0.5, 1.5, 0.99), (0.5, np.inf, 0.5), (2.0, 4.0, 3.9)]:
         CylinderArray(r, s, sink, mirror)
-    with pytest.raises(ValueError, match=r"^facet kind 'velvet': mirror, conductor, "
-                                         r"dielectric or lambertian$"):
-        CylinderArray(0.5, 1.5, 0.0, {"kind": "velvet"})
+    with pytest.raises(ValueError, match=r"^facet must be None \(a mirror\), a "
+                                         r"ConductorFresnel or DielectricFresnel "
+                                         r"\(microsim.analytic.fresnel\) or a Lambertian "
+                                         r"\(microsim.analytic.brdf\), not dict$"):
+        CylinderArray(0.5, 1.5, 0.0, {"kind": "mirror"})
     assert CylinderArray(0.5, 1.5, 0.0, mirror).base_albedo.tolist() == [0.0, 0.0, 0.0]
 
 
@@ -130,7 +132,7 @@ def test_cylinder_array_eval_is_linear_in_the_albedos_and_zero_off_the_hemispher
     a, b = np.array([0.2, 0.5, 0.9]), np.array([0.7, 0.4, 0.1])
 
     def model(albedo, base):
-        return CylinderArray(0.5, 1.5, 0.3, {"kind": "lambertian", "albedo": albedo}, base)
+        return CylinderArray(0.5, 1.5, 0.3, Lambertian(albedo), base)
 
     f = model(a, b).eval(wi.reshape(2, 3, 3), wo.reshape(2, 3, 3))
     assert f.shape == (2, 3, 3)
@@ -148,9 +150,9 @@ def test_cylinder_array_singular_is_zero_where_nothing_is_specular():
     """``singular`` is zeros of the table's (nt, np, 3) shape for Lambertian cylinders and
     for light on (z = 0) or below the horizon, and measures φ from 0 unless told."""
     te, pe = np.radians(np.linspace(0, 90, 7)), np.radians(np.linspace(0, 360, 9))
-    lambertian = CylinderArray(0.5, 1.5, 0.0, {"kind": "lambertian", "albedo": 1.0})
+    lambertian = CylinderArray(0.5, 1.5, 0.0, Lambertian(1.0))
     assert np.all(lambertian.singular(direction(0.5, 0.3), te, pe) == np.zeros((6, 8, 3)))
-    mirror = CylinderArray(0.5, 1.5, 0.0, {"kind": "mirror"})
+    mirror = CylinderArray(0.5, 1.5, 0.0, None)
     for wi in ([1.0, 0.0, 0.0], [0.6, 0.0, -0.8]):
         assert np.all(mirror.singular(np.array(wi), te, pe) == np.zeros((6, 8, 3)))
     wi = direction(0.5, 0.3)
@@ -169,7 +171,7 @@ def test_dense_mirror_cylinders_reflect_what_tracing_the_section_says(phi):
     an impact's share (1/2¹⁴ of the beam) at each of the ≤ 4 arc ends; the masked share is
     tens of per cent here."""
     r, s, sink, n = 0.5, 1.1, 0.1, 2**14
-    model = CylinderArray(r, s, sink, {"kind": "mirror"})
+    model = CylinderArray(r, s, sink, None)
     te, pe = np.radians(np.linspace(0, 90, 10)), np.radians(np.linspace(0, 360, 13))
     omega = 0.5 * np.outer(np.diff(np.sin(te) ** 2), np.diff(pe))
     wi = direction(math.radians(70.0), phi)
@@ -210,12 +212,12 @@ def test_cylinder_facet_reflectance_and_bin_values():
     from microsim.analytic.fresnel import fresnel_dielectric
 
     cos = np.array([0.1, 0.5, 0.9])
-    assert np.array_equal(facet_reflectance({"kind": "mirror"}, cos), np.ones((3, 3)))
+    assert np.array_equal(facet_reflectance(None, cos), np.ones((3, 3)))
     gold = facet_reflectance(GOLD, cos)
     assert gold.shape == (3, 3)
-    np.testing.assert_allclose(gold, fresnel_conductor(cos[:, None], np.array(GOLD["eta"]),
-                                                       np.array(GOLD["k"])), rtol=1e-15)
-    glass = facet_reflectance({"kind": "dielectric", "eta": 1.5}, cos)
+    np.testing.assert_allclose(gold, fresnel_conductor(cos[:, None], GOLD.eta, GOLD.k),
+                               rtol=1e-15)
+    glass = facet_reflectance(DielectricFresnel(1.5), cos)
     assert glass.shape == (3, 3)
     np.testing.assert_allclose(glass, fresnel_dielectric(cos, 1.5)[:, None] * np.ones(3),
                                rtol=1e-15)
@@ -427,7 +429,7 @@ def test_microcylinder_thread_reduces_to_the_exact_cylinder_reflection():
     from microsim.compare import bin_average
 
     r, s = 0.5, 1e4
-    exact = CylinderArray(r, s, 0.0, {"kind": "dielectric", "eta": 1.5})
+    exact = CylinderArray(r, s, 0.0, DielectricFresnel(1.5))
     cloth = MicrocylinderCloth([2 * r / s, 0.0], 1.5, math.radians(0.5), 0.1, 0.0,
                                np.zeros((2, 3)), 0.0, 1.0, masking=False)
     te = np.arcsin(np.sqrt(np.linspace(0, 1, 9)))
@@ -481,12 +483,10 @@ def test_rgb_models_refuse_other_channel_counts_by_name():
 
     two = [0.2, 0.4]
     cases = [
-        ("base_albedo", lambda: CylinderArray(0.5, 1.5, 0.0, {"kind": "mirror"}, two)),
-        ("facet albedo", lambda: CylinderArray(0.5, 1.5, 0.0,
-                                               {"kind": "lambertian", "albedo": two})),
+        ("base_albedo", lambda: CylinderArray(0.5, 1.5, 0.0, None, two)),
+        ("facet albedo", lambda: CylinderArray(0.5, 1.5, 0.0, Lambertian(two))),
         ("facet k", lambda: CylinderArray(0.5, 1.5, 0.0,
-                                          {"kind": "conductor", "eta": 0.2,
-                                           "k": [3.9, 2.4, 2.1, 2.0]})),
+                                          ConductorFresnel(0.2, [3.9, 2.4, 2.1, 2.0]))),
         ("albedo", lambda: SparseVelvet(0.01, 0.2, 0.1, 0.3, 0.2, 0.0, 0.5, two)),
         ("albedo", lambda: MicrocylinderCloth([0.5, 0.5], 1.6, 0.15, 0.3, 0.4,
                                               [two, two], 0.55, 0.3)),
@@ -494,7 +494,7 @@ def test_rgb_models_refuse_other_channel_counts_by_name():
     for name, build in cases:
         with pytest.raises(ValueError, match=rf"^{name} takes one number or 3 values \(RGB\)"):
             build()
-    assert CylinderArray(0.5, 1.5, 0.0, {"kind": "mirror"}, 0.25).base_albedo.tolist() == [
+    assert CylinderArray(0.5, 1.5, 0.0, None, 0.25).base_albedo.tolist() == [
         0.25] * 3
     cloth = MicrocylinderCloth([0.5, 0.5], 1.6, 0.15, 0.3, 0.4, [0.2, 0.3, 0.8], 0.55, 0.3)
     assert cloth.albedo.tolist() == [[0.2, 0.3, 0.8]] * 2
@@ -619,7 +619,7 @@ def test_one_cylinder_over_a_lit_base_is_the_bases_lambertian_limit():
               for d in (rng.normal(size=(200, 3)) * [1, 1, 0.5] + [0, 0, 1.2]
                         for _ in range(2)))
     base = [0.2, 0.5, 0.8]
-    mirror = {"kind": "mirror"}  # its reflection is ``singular``'s: eval is the base's alone
+    mirror = None  # its reflection is ``singular``'s: eval is the base's alone
     one = CylinderArray(0.5, math.inf, 0.3, mirror, base).eval(wi, wo)
     above = (wi[:, 2] > 0) & (wo[:, 2] > 0)
     np.testing.assert_array_equal(one[above], np.broadcast_to(np.array(base) / math.pi,

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from refusals import refused
 
-from microsim.analytic.brdf import KayKajiya, TorranceSparrow
+from microsim.analytic.brdf import KayKajiya, Lambertian, TorranceSparrow
 from microsim.analytic.cloth import MicrocylinderCloth
 from microsim.analytic.cylinders import CylinderArray
 from microsim.analytic.fresnel import ConductorFresnel, DielectricFresnel
@@ -295,11 +295,13 @@ def test_cylinders_get_the_geometry_facet_and_base_given():
         "base_albedo=0.3")
     assert type(model) is CylinderArray
     assert (model.r, model.s, model.zc) == (0.4, 1.2, 0.4 - 0.1)
-    assert model.facet["kind"] == "conductor"
-    assert (model.facet["eta"], model.facet["k"]) == ([0.2] * 3, [3.0] * 3)
+    assert_fresnel(model.facet, ConductorFresnel, [0.2] * 3, [3.0] * 3)
     np.testing.assert_array_equal(model.base_albedo, [0.3, 0.3, 0.3])
     _, _, model = parse_model_spec("cylinders:kind=dielectric,eta=1.5")
-    assert model.facet["kind"] == "dielectric" and model.facet["eta"] == [1.5] * 3
+    assert_fresnel(model.facet, DielectricFresnel, [1.5] * 3)
+    assert parse_model_spec("cylinders")[2].facet is None  # a mirror
+    _, _, model = parse_model_spec("cylinders:kind=lambertian,albedo=0.3")
+    assert type(model.facet) is Lambertian and model.facet.albedo.tolist() == [0.3] * 3
 
 
 @pytest.mark.parametrize(("spec", "missing"), [

@@ -54,41 +54,39 @@ projected width k sin(π/k)/π of the circle's: 0.9999 at the default 128) and, 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from microsim.analytic.brdf import flat_pairs, rgb
-from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
+from microsim.analytic.brdf import Lambertian, flat_pairs, rgb
+from microsim.analytic.fresnel import ConductorFresnel, DielectricFresnel
 
 IMPACTS = 2**16
 """Impact parameters per incidence in ``singular`` (midpoint rule)."""
-SPECULAR = ("mirror", "conductor", "dielectric")
+Specular = ConductorFresnel | DielectricFresnel | None
+"""A specular cylinder's facets: a conductor, a non-refracting dielectric, or None (a
+mirror, F = 1)."""
 
 
-def facet_reflectance(material: Mapping[str, Any], cos: np.ndarray) -> np.ndarray:
-    """RGB reflectance of a specular facet at incidence cosines ``cos``: 1 (mirror), the
-    exact conductor Fresnel term, or the dielectric one (its transmitted part absorbed, as
-    a non-refracting ``dielectric`` facet does).
+def facet_reflectance(facet: Specular, cos: np.ndarray) -> np.ndarray:
+    """RGB reflectance of a specular facet at incidence cosines ``cos``: 1 (a mirror,
+    None), or its Fresnel record's factor (a ``DielectricFresnel``'s transmitted part
+    absorbed, as a non-refracting ``dielectric`` facet does).
 
     Parameters
     ----------
-    material : mapping
-        A resolved ``[material.<part>]``: ``kind`` and its ``eta``, ``k``.
+    facet : ConductorFresnel, DielectricFresnel or None
     cos : (n,) float
 
     Returns
     -------
     (n, 3) float
     """
-    cos = np.clip(cos, 0.0, 1.0)[:, None]
-    if material["kind"] == "conductor":
-        return fresnel_conductor(cos, np.asarray(material["eta"], float),
-                                 np.asarray(material["k"], float)) * np.ones(3)
-    if material["kind"] == "dielectric":
-        return fresnel_dielectric(cos, np.asarray(material["eta"], float)) * np.ones(3)
-    return np.ones((len(cos), 3))
+    cos = np.clip(cos, 0.0, 1.0)
+    if facet is None:
+        return np.ones((len(cos), 3))
+    f = facet.factor(cos)
+    return np.broadcast_to(f[:, None] if f.ndim == 1 else f, (len(cos), 3))
 
 
 def bin_values(wo: np.ndarray, weight: np.ndarray, theta_edges: np.ndarray,
@@ -162,25 +160,27 @@ class CylinderArray:
     radius, spacing, sink : float
         As the ``cylinders`` generator's (spacing ≥ 2 radius; sink < 2 radius); spacing
         may be ``inf`` (one cylinder: no neighbour shadows).
-    facet : mapping
-        The cylinders' material: ``kind`` mirror, conductor (``eta``, ``k``), dielectric
-        (``eta``) or lambertian (``albedo``).
+    facet : ConductorFresnel, DielectricFresnel, Lambertian or None
+        The cylinders' material: specular with the Fresnel record's factor
+        (``microsim.analytic.fresnel``; a dielectric does not refract), None for a mirror
+        (F = 1), or diffuse with a ``microsim.analytic.brdf.Lambertian``'s albedo.
     base_albedo : float or (3,) float
         Albedo of a Lambertian base (0: black).
     """
 
     def __init__(self, radius: float, spacing: float, sink: float,
-                 facet: Mapping[str, Any], base_albedo: float | Any = 0.0) -> None:
+                 facet: Specular | Lambertian = None, base_albedo: float | Any = 0.0
+                 ) -> None:
         if not (radius > 0 and spacing >= 2 * radius and 0 <= sink < 2 * radius):
             raise ValueError("need radius > 0, spacing >= 2 radius, 0 <= sink < 2 radius")
-        if facet["kind"] not in (*SPECULAR, "lambertian"):
-            raise ValueError(f"facet kind {facet['kind']!r}: mirror, conductor, dielectric "
-                             "or lambertian")
+        if not isinstance(facet, Specular | Lambertian):
+            raise ValueError("facet must be None (a mirror), a ConductorFresnel or "
+                             "DielectricFresnel (microsim.analytic.fresnel) or a Lambertian "
+                             f"(microsim.analytic.brdf), not {type(facet).__name__}")
         self.r, self.s, self.zc = float(radius), float(spacing), float(radius - sink)
-        for key in ("eta", "k", "albedo"):
-            if key in facet:
-                rgb(facet[key], f"facet {key}")
-        self.facet = dict(facet)
+        for name, value in vars(facet).items() if facet is not None else ():
+            rgb(value, f"facet {name}")
+        self.facet = facet
         self.base_albedo = rgb(base_albedo, "base_albedo")
         self.a0 = math.asin(max(-1.0, min(1.0, -self.zc / self.r)))
 
@@ -211,7 +211,7 @@ class CylinderArray:
         ci, co = np.where(above, wi[:, 2], 1.0), np.where(above, wo[:, 2], 1.0)
         ai, ao = np.arctan2(wi[:, 2], wi[:, 0]), np.arctan2(wo[:, 2], wo[:, 0])
         f = np.zeros((len(wi), 3))
-        if self.facet["kind"] == "lambertian":
+        if isinstance(self.facet, Lambertian):
             lo_i, hi_i = self._arc(np.where(above, ai, 1.0))
             lo_o, hi_o = self._arc(np.where(above, ao, 1.0))
             a, b = np.maximum(lo_i, lo_o), np.minimum(hi_i, hi_o)
@@ -219,7 +219,7 @@ class CylinderArray:
                 np.sin(2 * b - ai - ao) - np.sin(2 * a - ai - ao))), 0.0)
             cos_l = np.hypot(wi[:, 0], wi[:, 2]) * np.hypot(wo[:, 0], wo[:, 2])
             scale = self.r / (math.pi * self.s) * cos_l * integral / (ci * co)
-            f += scale[:, None] * np.asarray(self.facet["albedo"], float)
+            f += scale[:, None] * rgb(self.facet.albedo, "facet albedo")
         if np.any(self.base_albedo > 0):
             # one cylinder (spacing ∞) covers none of the base: the limit of the share, 1
             share = self._base_share(wi, wo, above) if math.isfinite(self.s) else 1.0
@@ -264,7 +264,7 @@ class CylinderArray:
         """
         nt, nphi = len(theta_edges) - 1, len(phi_edges) - 1
         wi = np.asarray(wi, float)
-        if self.facet["kind"] == "lambertian" or wi[2] <= 0:
+        if isinstance(self.facet, Lambertian) or wi[2] <= 0:
             return np.zeros((nt, nphi, 3))
         cos_l = math.hypot(wi[0], wi[2])
         alpha = math.atan2(wi[2], wi[0])

@@ -104,6 +104,24 @@ MULTIPLE = {
     "seed": Key("int", 0, "Seed of the random walks.", low=0, high=2**63 - 1),
 }
 
+
+def _lambertian_facet(p: Mapping[str, Any]) -> Any:
+    from microsim.analytic.brdf import Lambertian
+
+    return Lambertian(p["albedo"])
+
+
+CYLINDER_FACETS: dict[str, Callable[[Mapping[str, Any]], Any]] = {
+    "mirror": lambda p: None,
+    "conductor": lambda p: ConductorFresnel(np.asarray(p["eta"], float),
+                                            np.asarray(p["k"], float)),
+    "dielectric": lambda p: DielectricFresnel(np.asarray(p["eta"], float)),
+    "lambertian": _lambertian_facet,
+}
+"""The ``cylinders`` model's facet kinds and the record each makes of a spec's
+parameters (``CylinderArray``'s ``facet``)."""
+
+
 MODELS: dict[str, ModelSpec] = {
     "beckmann": ModelSpec("Torrance-Sparrow with a Beckmann NDF.", MICROFACET,
                           _microfacet("beckmann")),
@@ -197,7 +215,7 @@ MODELS: dict[str, ModelSpec] = {
          "sink": Key("float", 0.0, "Depth sunk into the base (< 2 radius).", unit="length",
                      low=0.0),
          "kind": Key("str", "mirror", "The cylinders' facet material.",
-                     choices=("mirror", "conductor", "dielectric", "lambertian")),
+                     choices=tuple(CYLINDER_FACETS)),
          "eta": Key("channels", None, "Index of refraction (conductor, dielectric).", low=0.0,
                     low_open=True, high=100.0),
          "k": Key("channels", None, "Extinction coefficient (conductor).", low=0.0, high=100.0),
@@ -284,7 +302,9 @@ def _cylinders(p: Mapping[str, Any]) -> Any:
         raise InputError(f"model cylinders: kind = {p['kind']} needs " + " and ".join(missing))
     if not (p["spacing"] >= 2 * p["radius"] and p["sink"] < 2 * p["radius"]):
         raise InputError("model cylinders: need spacing >= 2 radius and sink < 2 radius")
-    return CylinderArray(p["radius"], p["spacing"], p["sink"], p, p["base_albedo"])
+    return CylinderArray(p["radius"], p["spacing"], p["sink"], CYLINDER_FACETS[p["kind"]](p),
+                         p["base_albedo"])
+
 
 
 def _brdf(name: str) -> Any:
