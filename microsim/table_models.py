@@ -36,8 +36,16 @@ def microfacet_model(meta: TableMeta) -> TorranceSparrow:
 
 FIBRE_PARTS = ("cylinder", "fibre")
 """Parts whose material a fibre model describes (the rest is the base)."""
-FIBRE_SURFACES = ("cylinders", "velvet", "weave")
-"""Surfaces whose ``[surface]`` keys models of their geometry take as defaults."""
+FIBRE_SURFACE_KEYS = {
+    "cylinders": ("radius", "spacing", "sink"),
+    "velvet": ("fibre_radius", "fibre_length", "density", "tilt", "tilt_spread", "azimuth",
+               "azimuth_spread", "sides"),
+    "weave": ("spacing",),
+}
+"""The ``[surface]`` keys of each fibre surface that models of its geometry take as
+defaults of their parameters of the same name (the cylinders model, sparse velvet; a
+weave's spacing sets its yarns' slope), each a key of that surface kind and a parameter
+of a model (tested, so that renaming either cannot silently drop a default)."""
 
 
 class ModelDefaults(dict):
@@ -70,9 +78,9 @@ def model_defaults(meta: TableMeta) -> ModelDefaults:
     - Fresnel (``eta``, ``k``) or Lambertian ``albedo``: the material every part shares;
       on a fibre surface (a part ``cylinder`` or ``fibre``), that part's, with its
       ``kind``, and a diffuse (Lambertian or black) base's albedo as ``base_albedo``.
-    - On cylinders, velvet and weaves, the recipe's ``[surface]`` keys (``radius``,
-      ``spacing``, ``sink``, ``fibre_radius``, ``density``, …) for models of that
-      geometry.
+    - On cylinders, velvet and weaves, the recipe's ``[surface]`` keys that models of
+      that geometry take (``FIBRE_SURFACE_KEYS``: ``radius``, ``spacing``, ``sink``,
+      ``fibre_radius``, ``density``, …).
     - Kay-Kajiya on cylinders: the tangent of the surface's axis (``tangent_theta``,
       ``tangent_phi``, degrees), ``coverage`` = 2 radius / spacing, and for Lambertian
       fibres ``kd`` = albedo / π² (the energy-exact value: ``KayKajiya``).
@@ -84,10 +92,8 @@ def model_defaults(meta: TableMeta) -> ModelDefaults:
     out = ModelDefaults()
     recipe, facts = meta.recipe, meta.surface
     surface = None if recipe is None else recipe.surface
-    if surface is not None and surface.kind in FIBRE_SURFACES:
-        for k, v in surface.items():
-            if k not in ("kind", "seed", "size"):
-                out.put(k, v, f"the recipe's surface.{k}")
+    for k in () if surface is None else FIBRE_SURFACE_KEYS.get(surface.kind, ()):
+        out.put(k, surface[k], f"the recipe's surface.{k}")
     if facts is not None and facts.alpha_realised is not None:
         for k, v in facts.alpha_realised.params().items():
             out.put(k, v, "the table's realised alpha")

@@ -242,6 +242,35 @@ def test_any_model_spec_is_refused_in_one_line_or_evaluates_finite(spec):
 
 # --- what the comparisons read from a table's materials -----------------------------------
 
+def test_fibre_surfaces_give_their_models_the_keys_named_and_no_other():
+    """Every key a fibre surface gives its models (``FIBRE_SURFACE_KEYS``) is a
+    ``[surface]`` key of that kind and a parameter of some model, so renaming either
+    fails here instead of silently dropping a default; ``model_defaults`` of such a
+    recipe takes exactly those keys from its surface, with their values and sources (a
+    weave's ``sides``, a velvet-sparse parameter by name, is not one)."""
+    from microsim.analytic.registry import MODELS
+    from microsim.recipe import resolve
+    from microsim.surfaces.params import SURFACE_KINDS
+    from microsim.table_models import FIBRE_SURFACE_KEYS, model_defaults
+    from microsim.tables.meta import TableMeta
+
+    params = {name for spec in MODELS.values() for name in spec.params}
+    parts = {"cylinders": ("base", "cylinder"), "velvet": ("base", "fibre"),
+             "weave": ("warp", "weft")}
+    assert set(FIBRE_SURFACE_KEYS) == set(parts)
+    for kind, keys in FIBRE_SURFACE_KEYS.items():
+        assert set(keys) <= set(SURFACE_KINDS[kind].keys) and set(keys) <= params
+        recipe = resolve({"surface": {"kind": kind},
+                          "material": {p: {"kind": "lambertian", "albedo": 0.5}
+                                       for p in parts[kind]}})
+        defaults = model_defaults(TableMeta(recipe=recipe))
+        from_surface = {k for k, v in defaults.sources.items()
+                        if v.startswith("the recipe's surface.")}
+        assert from_surface == set(keys), kind
+        assert all(defaults[k] == recipe.surface[k]
+                   and defaults.sources[k] == f"the recipe's surface.{k}" for k in keys)
+
+
 def recipe_defaults(material: dict, table: dict | None = None) -> ModelDefaults:
     """``model_defaults`` of a flat tile's table of one material."""
     from microsim.recipe import resolve
