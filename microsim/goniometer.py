@@ -169,17 +169,18 @@ class Sums:
         ``loc`` their angles), (row, Σ w Y_k, Σ w² Y_K or None without
         ``sh_ray_variance``) in row order (the total row is their sum). The rays are
         grouped by row in one compiled pass (``microsim.kernel.tally.gather_rows``); a
-        row's rays are then one slice."""
+        row's rays are then one slice, its weights one slice of each channel's row
+        (channel-major, so the transforms take them without a transposing copy)."""
         n = len(index)
-        loc_rows, w = np.empty((n, 2)), np.empty((n, self.channels))
+        loc_rows, w = np.empty((n, 2)), np.empty((self.channels, n))
         ends = np.empty(self.orders + 1, np.int64)
         gather_rows(loc, paths.weight, paths.order, index, self.orders, loc_rows, w, ends)
         out = []
         for k in range(1, self.orders + 1):
             a, b = ends[k - 1], ends[k]
             if b > a:
-                out.append((k, *sh.moments(loc_rows[a:b], w[a:b], self.sh_order, mapper,
-                                           second=self.sh_ray_variance)))
+                out.append((k, *sh.moments(loc_rows[a:b], w[:, a:b].T, self.sh_order,
+                                           mapper, second=self.sh_ray_variance)))
         return out
 
     @property

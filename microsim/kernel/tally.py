@@ -204,9 +204,9 @@ def gather_rows(loc: np.ndarray, weight: np.ndarray, order: np.ndarray, index: n
         Each ray's bin (``bin_escapes``; -1: not binned, left out).
     orders : int
         N.
-    loc_rows, weight_rows : (n, 2) and (n, C) float
-        Filled, in their first rows, with the binned rays' angles and weights, row by
-        row.
+    loc_rows, weight_rows : (n, 2) and (C, n) float
+        Filled, in their first entries, with the binned rays' angles and (channel by
+        channel) weights, order row by order row.
     ends : (N + 1,) int
         Filled with the end of each row's rays (row 0, the total, holds none).
 
@@ -234,5 +234,5 @@ def gather_rows(loc: np.ndarray, weight: np.ndarray, order: np.ndarray, index: n
         loc_rows[j, 0] = loc[r, 0]
         loc_rows[j, 1] = loc[r, 1]
         for c in range(weight.shape[1]):
-            weight_rows[j, c] = weight[r, c]
+            weight_rows[c, j] = weight[r, c]
     return ends[orders]

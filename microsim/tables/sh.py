@@ -226,6 +226,8 @@ def moments(loc: np.ndarray, weights: np.ndarray, order: int, mapper: Mapper | N
     ----------
     loc : (n, 2) float
     weights : (n, c) float
+        Taken as they are where each column's entries are adjacent in memory (the
+        transpose of a channel-major (c, n) array: ``w[:, a:b].T``), else copied once.
     order : int
     mapper : Mapper or None
     second : bool
@@ -236,7 +238,9 @@ def moments(loc: np.ndarray, weights: np.ndarray, order: int, mapper: Mapper | N
     sums : ((L + 1)², c) float
     sums_sq_wide : ((2L + 1)², c) float, or None without ``second``
     """
-    columns = np.ascontiguousarray(weights.T, float)
+    columns = np.asarray(weights, float).T
+    if columns.strides[-1] != columns.itemsize:  # a column's entries apart: one copy
+        columns = np.ascontiguousarray(columns)
     first, which = _distinct(columns)
     squares = [columns[j] ** 2 for j in first] if second else []
     # weights that are their own squares (0 or 1: mirror facets) take their first moments
