@@ -306,7 +306,6 @@ def _cylinders(p: Mapping[str, Any]) -> Any:
                          p["base_albedo"])
 
 
-
 def _brdf(name: str) -> Any:
     from microsim.analytic import brdf
 
