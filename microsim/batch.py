@@ -26,7 +26,7 @@ import json
 import os
 import threading
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -36,10 +36,10 @@ from microsim.files import atomic_path, remove_stale_temporaries, replaceable
 from microsim.goniometer import Measurement, measure_directions
 from microsim.settings import Recipe
 from microsim.simulation import Tiles, assemble_table, measure_ensemble
-from microsim.surfaces import build_tile
+from microsim.surfaces import Surface, build_tile
 from microsim.surfaces.realisations import realisation as realisation_of
 from microsim.surfaces.tile import Tile
-from microsim.sweep import Point, Sweep, canonical
+from microsim.sweep import Point, Sweep
 from microsim.tables.exr import read_table, write_table
 from microsim.trace import PeriodicScene
 from microsim.version import __version__
@@ -60,19 +60,20 @@ _scenes = threading.local()
 
 
 @functools.lru_cache(maxsize=TILES_KEPT)
-def _tile(surface: str) -> Tile:
-    """The tile of a surface section (canonical JSON), built once per worker process."""
-    return build_tile(json.loads(surface))
+def _tile(surface: Surface) -> Tile:
+    """The tile of a surface section (a frozen record, so a key), built once per worker
+    process."""
+    return build_tile(surface)
 
 
-def _scene(surface: Mapping[str, Any], realisation: int, threads: int
+def _scene(surface: Surface, realisation: int, threads: int
            ) -> tuple[Tile, PeriodicScene]:
     """Realisation ``realisation``'s tile of a surface section and an open Embree scene
     of it, kept per worker thread (a scene is used by one job at a time) until another
     surface needs one. As in ``microsim.simulation.Opener``, the scene is built for
     realisation 0's tile and updated (its BVH refitted) to the others, so a job traces
     exactly what one ``simulate`` of all realisations does."""
-    base = canonical(realisation_of(surface, 0))
+    base = realisation_of(surface, 0)
     key = (base, threads)
     kept = getattr(_scenes, "kept", None)
     if kept is not None and kept[0] != key:
@@ -81,7 +82,7 @@ def _scene(surface: Mapping[str, Any], realisation: int, threads: int
     if kept is None:
         first = _tile(base)
         kept = _scenes.kept = [key, first, PeriodicScene(first, threads)]
-    tile = _tile(canonical(realisation_of(surface, realisation)))
+    tile = _tile(realisation_of(surface, realisation))
     if kept[1] is not tile:
         kept[2].update(tile)
         kept[1] = tile

@@ -97,7 +97,7 @@ def measure_ndf_recipe(recipe: Recipe, bins: int, memory_limit_gib: float | None
     d = np.array([h["D"] for h in histograms])[..., None]                # (K, bins, 1)
     v = np.array([h["stderr"] for h in histograms])[..., None] ** 2
     e = combine(d, v, SUB_TILES**2 - 1.0, np.isfinite(v).all(axis=0) if k > 1 else None)
-    seeds = [realisation_seed(recipe.surface.get("seed", 0), r) for r in range(k)]
+    seeds = [realisation_seed(recipe.surface.seed, r) for r in range(k)]
     return NdfMeasurement(histograms[0]["edges"], e.mean[:, 0], e.stderr[:, 0],
                           float(e.dof[0]), ENSEMBLE if k > 1 else SUB_TILES_MODEL, k,
                           SurfaceFacts.pool(facts, seeds))

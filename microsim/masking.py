@@ -190,7 +190,7 @@ def measure_g1_recipe(recipe: Recipe, thetas_deg: Sequence[float], rays: int,
         del tile
     s1 = np.array(hits)                                  # (K, angles, 1); x² = x
     e = estimate(s1, s1, np.full(k, n))
-    seeds = [realisation_seed(recipe.surface.get("seed", 0), r) for r in range(k)]
+    seeds = [realisation_seed(recipe.surface.seed, r) for r in range(k)]
     return G1Measurement(list(map(float, thetas_deg)), float(phi_deg), e.mean[:, 0].tolist(),
                          e.stderr[:, 0].tolist(), e.ray_stderr[:, 0].tolist(),
                          float(e.dof[0]), ENSEMBLE if k > 1 else RAYS, k, n * k, seed,

@@ -41,19 +41,16 @@ from microsim.schema import (
     parse_value,
     suggest,
     unknown_key,
-    unknown_kind,
 )
 from microsim.settings import (
     SIMULATION,
     TABLE,
     Recipe,
     Simulation,
-    SurfaceSection,
     TableSettings,
 )
 from microsim.spectra.channels import Channels
-from microsim.surfaces.params import SURFACE_KINDS
-from microsim.surfaces.rules import check_span
+from microsim.surfaces import SURFACES, Surface, parse_surface
 
 # --- materials --------------------------------------------------------------------------
 MATERIAL_KINDS: dict[str, dict[str, Key]] = {kind: cls.keys() for kind, cls in MATERIALS.items()}
@@ -90,12 +87,12 @@ def _materials(raw: Any, parts: tuple[str, ...]) -> dict[str, Material]:
             for p in parts}
 
 
-def _check_media(surface: Mapping[str, Any], materials: Mapping[str, Material]) -> None:
+def _check_media(surface: Surface, materials: Mapping[str, Material]) -> None:
     """A refracting part encloses a medium with air on its faces' front side: nested media
     (a refracting part inside another's medium) are not modelled. In paint only the
     binder may refract, and a dielectric binder must (else no light reaches the
     pigment)."""
-    if surface["kind"] != "paint":
+    if surface.kind != "paint":
         return
     for part in ("pigment", "substrate"):
         if materials[part].encloses_medium:
@@ -133,25 +130,16 @@ def resolve(raw: Mapping[str, Any]) -> Recipe:
         raise InputError(f"description = {description!r}: must be a string")
     if "surface" not in raw:
         raise InputError("surface: missing; a recipe needs a [surface] table with kind = "
-                         + " | ".join(repr(k) for k in SURFACE_KINDS))
-    surface = _table(raw["surface"], "surface")
-    kind = surface.get("kind")
-    if not isinstance(kind, str) or kind not in SURFACE_KINDS:
-        raise unknown_kind("surface.", kind, SURFACE_KINDS)
-    spec = SURFACE_KINDS[kind]
-    rest = {k: v for k, v in surface.items() if k != "kind"}
-    surf = {"kind": kind, **check_section(rest, spec.keys, "surface.")}
-    if spec.check is not None:
-        spec.check(surf)
-    check_span(surf, spec.keys)
-    materials = _materials(raw.get("material", {}), spec.parts)
-    _check_media(surf, materials)
+                         + " | ".join(repr(k) for k in SURFACES))
+    surface = parse_surface(_table(raw["surface"], "surface"))
+    materials = _materials(raw.get("material", {}), surface.parts)
+    _check_media(surface, materials)
     table = TableSettings(**check_section(_wavelength_range(_table(raw.get("table", {}),
                                                                    "table")), TABLE,
                                           "table."))
     _check_channels(materials, table.channels)
-    return Recipe(description, SurfaceSection.of(surf), materials,
-                  _simulation(raw.get("simulation", {}), surf), table)
+    return Recipe(description, surface, materials,
+                  _simulation(raw.get("simulation", {}), surface), table)
 
 
 MAX_WAVELENGTHS = 1000
@@ -193,17 +181,16 @@ def _check_channels(materials: Mapping[str, Material], channels: Channels) -> No
         material.medium(channels, where)
 
 
-def _simulation(raw: Any, surface: Mapping[str, Any]) -> Simulation:
+def _simulation(raw: Any, surface: Surface) -> Simulation:
     """Resolve ``[simulation]``; ``realisations`` defaults to the generator's choice for
     random geometry and must be 1 for deterministic geometry (every realisation would be
     the same tile: more rays, not more tiles, lower its error)."""
     sim = check_section(_table(raw, "simulation"), SIMULATION, "simulation.")
-    spec = SURFACE_KINDS[surface["kind"]]
-    default = spec.realisations(dict(surface)) if spec.realisations is not None else None
+    default = surface.realisations()
     given = sim.get("realisations")
     if default is None and given is not None and given > 1:
         raise InputError(f"simulation.realisations = {given!r}: must be 1 for this "
-                         f"{surface['kind']} surface, whose geometry has nothing random "
+                         f"{surface.kind} surface, whose geometry has nothing random "
                          "(every realisation would be the same tile); raise "
                          "simulation.rays instead")
     sim["realisations"] = given if given is not None else (default or 1)
@@ -213,7 +200,7 @@ def _simulation(raw: Any, surface: Mapping[str, Any]) -> Simulation:
                          f"be >= simulation.realisations = {sim['realisations']}")
     if default is None and sim.get("max_realisations", 1) > 1:
         raise InputError(f"simulation.max_realisations = {sim['max_realisations']!r}: must "
-                         f"be 1 for this {surface['kind']} surface, whose geometry has "
+                         f"be 1 for this {surface.kind} surface, whose geometry has "
                          "nothing random")
     return Simulation.from_json(sim)
 
@@ -394,8 +381,9 @@ def resolve_in(raw: Mapping[str, Any], folder: str | Path, overrides: Iterable[s
                              f"file ({path})")
         return path
 
-    surface = SurfaceSection.of({k: absolute(v, "surface.", k) if _is_path(
-        SURFACE_KINDS[recipe.surface.kind].keys, k) else v for k, v in recipe.surface.items()})
+    keys = recipe.surface.keys()
+    surface = replace(recipe.surface, **{k: absolute(recipe.surface.value(k), "surface.", k)
+                                         for k in keys if _is_path(keys, k)})
     materials = {part: replace(m, **{k: absolute(getattr(m, k), f"material.{part}.", k)
                                      for k in m.keys() if _is_path(m.keys(), k)})
                  for part, m in recipe.material.items()}
@@ -416,8 +404,8 @@ def path_keys(recipe: Recipe) -> list[tuple[str, str]]:
     list of (where, path)
         The key's dotted name (``"surface.path"``, ``"material.<part>.path"``) and the file.
     """
-    out = [(f"surface.{k}", v) for k, v in recipe.surface.items()
-           if _is_path(SURFACE_KINDS[recipe.surface.kind].keys, k)]
+    keys = recipe.surface.keys()
+    out = [(f"surface.{k}", recipe.surface.value(k)) for k in keys if _is_path(keys, k)]
     out += [(f"material.{part}.{k}", getattr(m, k)) for part, m in recipe.material.items()
             for k in m.keys() if _is_path(m.keys(), k)]
     return out
@@ -472,12 +460,12 @@ def schema_markdown() -> str:
 
     lines = ["## `[surface]`", "",
              "`kind` (required) chooses the generator: "
-             + ", ".join(f"`{k}`" for k in SURFACE_KINDS) + ".", ""]
-    for kind, spec in SURFACE_KINDS.items():
+             + ", ".join(f"`{k}`" for k in SURFACES) + ".", ""]
+    for kind, spec in SURFACES.items():
         lines += [f"### `kind = \"{kind}\"`", "", spec.doc, "",
                   "Parts (for `[material.<part>]`): "
                   + ", ".join(f"`{p}`" for p in spec.parts) + ".", ""]
-        lines += rows(spec.keys) + [""]
+        lines += rows(spec.keys()) + [""]
     lines += ["## `[material]`", "",
               "Either one material for every part (`[material]` with `kind`), or one "
               "sub-table per part (`[material.<part>]`). Without `[material]` every part "

@@ -109,6 +109,18 @@ class Key:
         return what
 
 
+LENGTH_MIN, LENGTH_MAX = 1e-9, 1e9
+"""Bounds of every length key (``unit = "length"``), in tile units: lengths are scale-free
+(only ratios matter), and this range holds any unit from nanometres to kilometres while
+squares and products of lengths stay far inside float64 (and a tile's coordinates inside
+float32)."""
+
+
+def length(doc: str, default: Any = REQUIRED, zero: bool = False) -> Key:
+    """A length key: in [LENGTH_MIN, LENGTH_MAX] tile units (or 0 with ``zero``)."""
+    return Key("float", default, doc, unit="length", low=0.0 if zero else LENGTH_MIN,
+               high=LENGTH_MAX)
+
 
 def key(kind: str, default: Any = REQUIRED, doc: str = "", **kw: Any) -> Any:
     """A dataclass field that is a recipe key: its ``Key`` in the field's metadata, its
@@ -119,13 +131,19 @@ def key(kind: str, default: Any = REQUIRED, doc: str = "", **kw: Any) -> Any:
     kind, default, doc, **kw
         As for ``Key``.
     """
-    spec = Key(kind, default, doc, **kw)
+    return key_field(Key(kind, default, doc, **kw))
+
+
+def key_field(spec: Key) -> Any:
+    """A dataclass field for the recipe key ``spec`` (see ``key``): one ``Key`` shared by
+    the records whose field it is."""
     metadata = {"key": spec}
+    default = spec.default
     if default is REQUIRED:
         return dataclasses.field(metadata=metadata)
     if isinstance(default, list):
         return dataclasses.field(default=tuple(default), metadata=metadata)
-    if kind in ("rgb", "spectrum", "channels") and isinstance(default, int | float):
+    if spec.kind in ("rgb", "spectrum", "channels") and isinstance(default, int | float):
         return dataclasses.field(default=(float(default),) * 3, metadata=metadata)
     return dataclasses.field(default=default, metadata=metadata)
 

@@ -3,23 +3,23 @@ stores of how it was made (``meta.recipe``).
 
 ``Simulation`` and ``TableSettings`` are the ``[simulation]`` and ``[table]`` sections: their
 fields are the recipe keys (each with its ``schema.Key``, so docs/recipes.md and the
-validator read the same definition). ``SurfaceSection`` is a ``[surface]`` section: its
-generator's ``kind`` and the values its keys (``microsim.surfaces.params``) validated, read
-like a mapping. The materials are ``microsim.materials`` records. ``microsim.recipe`` makes
-a ``Recipe`` of a TOML file; ``to_json``/``from_json`` are the JSON form a table file and
-``microsim check --json`` hold (a table written before a key existed reads with its
-default).
+validator read the same definition). The ``[surface]`` section is its kind's record
+(``microsim.surfaces``) and the materials are ``microsim.materials`` records.
+``microsim.recipe`` makes a ``Recipe`` of a TOML file; ``to_json``/``from_json`` are the
+JSON form a table file and ``microsim check --json`` hold (a table written before a key
+existed reads with its default).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from microsim.materials import Material, material_from_json
 from microsim.schema import key, record_from_json, record_json, schema_of
 from microsim.spectra.channels import Channels
+from microsim.surfaces import Surface, surface_from_json
 
 DEFAULT_ORDERS = 3
 """Order components a table holds by default (``table.orders``): orders 1, 2 and
@@ -126,59 +126,13 @@ TABLE = schema_of(TableSettings)
 
 
 @dataclass(frozen=True)
-class SurfaceSection(Mapping[str, Any]):
-    """A resolved ``[surface]`` section: the generator's ``kind`` and its keys' values (as
-    ``microsim.surfaces.params`` validated them), read as a mapping that includes
-    ``kind``.
-
-    Parameters
-    ----------
-    kind : str
-    values : tuple of (str, Any)
-        The keys and their values, in the order of the generator's keys.
-    """
-
-    kind: str
-    values: tuple[tuple[str, Any], ...] = ()
-
-    @classmethod
-    def of(cls, section: Mapping[str, Any]) -> SurfaceSection:
-        """A section from a mapping with ``kind`` (list values as tuples)."""
-        return cls(section["kind"], tuple((k, tuple(v) if isinstance(v, list) else v)
-                                          for k, v in section.items() if k != "kind"))
-
-    def __getitem__(self, name: str) -> Any:
-        if name == "kind":
-            return self.kind
-        for k, v in self.values:
-            if k == name:
-                return list(v) if isinstance(v, tuple) else v
-        raise KeyError(name)
-
-    def __iter__(self) -> Iterator[str]:
-        yield "kind"
-        yield from (k for k, _ in self.values)
-
-    def __len__(self) -> int:
-        return 1 + len(self.values)
-
-    def with_seed(self, seed: int) -> SurfaceSection:
-        """The same section with ``seed`` replaced (a realisation's)."""
-        return SurfaceSection.of({**self, "seed": int(seed)})
-
-    def to_json(self) -> dict[str, Any]:
-        """``kind`` and every key, as a recipe holds them."""
-        return dict(self)
-
-
-@dataclass(frozen=True)
 class Recipe:
     """A resolved recipe: every section validated, every default filled in.
 
     Attributes
     ----------
     description : str
-    surface : SurfaceSection or None
+    surface : Surface or None
         None in a table of a given tile (``microsim.simulation.simulate`` without a
         recipe).
     material : mapping of str to Material
@@ -188,7 +142,7 @@ class Recipe:
     """
 
     description: str
-    surface: SurfaceSection | None
+    surface: Surface | None
     material: Mapping[str, Material]
     simulation: Simulation = field(default_factory=Simulation)
     table: TableSettings = field(default_factory=TableSettings)
@@ -205,7 +159,7 @@ class Recipe:
         """Inverse of ``to_json`` (a table file's recipe; no validation)."""
         surface = data.get("surface")
         return cls(data.get("description", ""),
-                   None if surface is None else SurfaceSection.of(surface),
+                   None if surface is None else surface_from_json(surface),
                    {p: material_from_json(m) for p, m in data.get("material", {}).items()},
                    Simulation.from_json(data.get("simulation", {})),
                    TableSettings.from_json(data.get("table", {})))

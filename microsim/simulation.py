@@ -38,8 +38,8 @@ from microsim.goniometer import (
     trace_realisations,
 )
 from microsim.materials import Material
-from microsim.settings import Recipe, Simulation, SurfaceSection, TableSettings
-from microsim.surfaces import build_tile
+from microsim.settings import Recipe, Simulation, TableSettings
+from microsim.surfaces import Surface, build_tile
 from microsim.surfaces.facts import SurfaceFacts
 from microsim.surfaces.realisations import realisation, realisation_seed
 from microsim.surfaces.tile import Tile
@@ -56,7 +56,7 @@ class Tiles:
 
     Parameters
     ----------
-    surface : SurfaceSection or None
+    surface : Surface or None
         A resolved ``[surface]`` section: realisation r is built from
         ``microsim.surfaces.realisations.realisation(surface, r)``.
     tile : Tile or None
@@ -65,7 +65,7 @@ class Tiles:
         The memory guard's budget for each tile (``microsim.memory``).
     """
 
-    def __init__(self, surface: SurfaceSection | None = None, tile: Tile | None = None,
+    def __init__(self, surface: Surface | None = None, tile: Tile | None = None,
                  memory_limit_gib: float | None = None) -> None:
         self.surface, self.tile, self.memory_limit_gib = surface, tile, memory_limit_gib
 
@@ -438,7 +438,7 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
                            np.radians(phi_deg), first.isotropic, ensemble.take(chosen),
                            TableMeta(), raw, table.channels)
     surface = None if recipe is None else recipe.surface
-    seeds = [None if surface is None else realisation_seed(surface.get("seed", 0), r)
+    seeds = [None if surface is None else realisation_seed(surface.seed, r)
              for r in sorted(surfaces)]
     rel, share = direction_errors(result)
     rays = int(result.rays.sum())
@@ -574,7 +574,7 @@ def simulate(tile: Tile, materials: Mapping[str, Material], simulation: Simulati
     return _simulate(Tiles(tile=tile), materials, one, table, recipe, threads, progress)
 
 
-def simulate_surface(surface: SurfaceSection, materials: Mapping[str, Material],
+def simulate_surface(surface: Surface, materials: Mapping[str, Material],
                      simulation: Simulation, table: TableSettings, *,
                      recipe: Recipe | None = None, threads: int | None = None,
                      progress: Callable[[Progress], None] | None = None,

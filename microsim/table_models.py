@@ -36,16 +36,6 @@ def microfacet_model(meta: TableMeta) -> TorranceSparrow:
 
 FIBRE_PARTS = ("cylinder", "fibre")
 """Parts whose material a fibre model describes (the rest is the base)."""
-FIBRE_SURFACE_KEYS = {
-    "cylinders": ("radius", "spacing", "sink"),
-    "velvet": ("fibre_radius", "fibre_length", "density", "tilt", "tilt_spread", "azimuth",
-               "azimuth_spread", "sides"),
-    "weave": ("spacing",),
-}
-"""The ``[surface]`` keys of each fibre surface that models of its geometry take as
-defaults of their parameters of the same name (the cylinders model, sparse velvet; a
-weave's spacing sets its yarns' slope), each a key of that surface kind and a parameter
-of a model (tested, so that renaming either cannot silently drop a default)."""
 
 
 class ModelDefaults(dict):
@@ -79,7 +69,7 @@ def model_defaults(meta: TableMeta) -> ModelDefaults:
       on a fibre surface (a part ``cylinder`` or ``fibre``), that part's, with its
       ``kind``, and a diffuse (Lambertian or black) base's albedo as ``base_albedo``.
     - On cylinders, velvet and weaves, the recipe's ``[surface]`` keys that models of
-      that geometry take (``FIBRE_SURFACE_KEYS``: ``radius``, ``spacing``, ``sink``,
+      that geometry take (its kind's ``model_keys``: ``radius``, ``spacing``, ``sink``,
       ``fibre_radius``, ``density``, …).
     - Kay-Kajiya on cylinders: the tangent of the surface's axis (``tangent_theta``,
       ``tangent_phi``, degrees), ``coverage`` = 2 radius / spacing, and for Lambertian
@@ -92,8 +82,8 @@ def model_defaults(meta: TableMeta) -> ModelDefaults:
     out = ModelDefaults()
     recipe, facts = meta.recipe, meta.surface
     surface = None if recipe is None else recipe.surface
-    for k in () if surface is None else FIBRE_SURFACE_KEYS.get(surface.kind, ()):
-        out.put(k, surface[k], f"the recipe's surface.{k}")
+    for k in () if surface is None else surface.model_keys:
+        out.put(k, surface.value(k), f"the recipe's surface.{k}")
     if facts is not None and facts.alpha_realised is not None:
         for k, v in facts.alpha_realised.params().items():
             out.put(k, v, "the table's realised alpha")

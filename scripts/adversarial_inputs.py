@@ -538,11 +538,11 @@ def key_cases() -> list[Case]:
     """Every recipe key of every surface kind, material kind and section, given bad values:
     ``check`` reads most, every fifth goes through ``simulate`` or ``generate``."""
     from microsim.recipe import MATERIAL_KINDS, SIMULATION, TABLE
-    from microsim.surfaces.params import SURFACE_KINDS
+    from microsim.surfaces import SURFACES
 
     keys: list[tuple[str, str, str, tuple[str, ...]]] = []
     for kind, recipe in RECIPES.items():
-        for name, key in SURFACE_KINDS[kind].keys.items():
+        for name, key in SURFACES[kind].keys().items():
             keys.append((recipe, f"surface.{name}", key.kind, ()))
     for material, names in MATERIAL_KINDS.items():
         for name, key in names.items():
@@ -590,10 +590,10 @@ def bound_cases() -> list[Case]:
     """Every numeric surface, simulation and table key at its schema bounds, simulated to a
     table (tightly budgeted): accepted extremes must give finite tables or one error."""
     from microsim.recipe import SIMULATION, TABLE
-    from microsim.surfaces.params import SURFACE_KINDS
+    from microsim.surfaces import SURFACES
 
     out = []
-    groups = [(RECIPES[kind], "surface", SURFACE_KINDS[kind].keys) for kind in RECIPES]
+    groups = [(RECIPES[kind], "surface", SURFACES[kind].keys()) for kind in RECIPES]
     groups += [("gaussian-0.3.toml", "simulation", SIMULATION),
                ("gaussian-0.3.toml", "table", TABLE)]
     for recipe, section, keys in groups:

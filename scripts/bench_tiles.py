@@ -48,7 +48,6 @@ from microsim.recipe import load
 from microsim.surfaces import build_tile, gaussian
 from microsim.surfaces.faces import face_geometry
 from microsim.surfaces.realisations import realisation
-from microsim.surfaces.rules import correlation_lengths
 from microsim.surfaces.tile import Tile
 from microsim.trace import PeriodicScene
 
@@ -66,12 +65,12 @@ def timed(fn: Callable[..., T], *args: Any) -> tuple[T, dict[str, float]]:
     return result, {k: 1e3 * (clock() - start[k]) for k, clock in CLOCKS.items()}
 
 
-def gaussian_heights(surface: dict[str, Any]) -> np.ndarray:
+def gaussian_heights(surface: gaussian.Gaussian) -> np.ndarray:
     """The heights of a resolved Gaussian ``[surface]``, as its generator draws them."""
-    sigma, tau_x, tau_y = correlation_lengths(surface)
-    return gaussian.heights(int(surface["resolution"]), float(surface["size"]), sigma,
-                            tau_x, tau_y, math.radians(surface.get("rotation", 0.0)),
-                            np.random.default_rng(surface["seed"]))
+    sigma, tau_x, tau_y = surface.correlation_lengths()
+    return gaussian.heights(surface.resolution, surface.size, sigma, tau_x, tau_y,
+                            math.radians(surface.rotation),
+                            np.random.default_rng(surface.seed))
 
 
 def new_scene(tile: Tile, threads: int | None) -> None:
@@ -84,7 +83,7 @@ def new_embree_scene(tile: Tile) -> None:
     Scene(tile.vertices, tile.faces).close()
 
 
-def parts(surface: dict[str, Any], builds: int) -> dict[str, list[dict[str, float]]]:
+def parts(surface: gaussian.Gaussian, builds: int) -> dict[str, list[dict[str, float]]]:
     """Each part's times (ms per clock) over ``builds`` realisations, after two warm-ups."""
     out: dict[str, list[dict[str, float]]] = {}
     held = PeriodicScene(build_tile(surface), 2)
@@ -92,7 +91,7 @@ def parts(surface: dict[str, Any], builds: int) -> dict[str, list[dict[str, floa
     for r in range(1, builds + 3):
         s = realisation(surface, r)
         row: dict[str, dict[str, float]] = {}
-        if s["kind"] == "gaussian":
+        if s.kind == "gaussian":
             _, row["Gaussian heights"] = timed(gaussian_heights, s)
         tile, row["build_tile (generation, facts)"] = timed(build_tile, s)
         _, row["face normals, areas, planes"] = timed(face_geometry, tile.vertices,
@@ -117,7 +116,7 @@ def parts(surface: dict[str, Any], builds: int) -> dict[str, list[dict[str, floa
     return out
 
 
-def tracing(surface: dict[str, Any], rays: int, repeats: int) -> dict[str, object]:
+def tracing(surface: gaussian.Gaussian, rays: int, repeats: int) -> dict[str, object]:
     """CPU ns per query in a new and in a refitted scene of realisation 1, and the rays
     whose outcome differs between them."""
     first, tile = (build_tile(realisation(surface, r)) for r in range(2))
@@ -148,8 +147,8 @@ def section(recipe: str, builds: int, rays: int, repeats: int) -> str:
     """The Markdown of the measurement."""
     load_avg = os.getloadavg()[0]
     surface = load(recipe).surface
-    table = parts(dict(surface), builds)
-    trace = tracing(dict(surface), rays, repeats)
+    table = parts(surface, builds)
+    trace = tracing(surface, rays, repeats)
     lines = [f"Measured with `python scripts/bench_tiles.py {recipe} --builds {builds} "
              f"--rays {rays} --repeats {repeats} --write` on {platform.machine()}, "
              f"{os.cpu_count()} CPUs, Python {platform.python_version()}, numpy "

@@ -34,7 +34,6 @@ import numpy as np
 from microsim.files import write_section
 from microsim.recipe import load
 from microsim.simulation import simulate_recipe
-from microsim.surfaces.params import SURFACE_KINDS
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "performance.md"
@@ -55,8 +54,7 @@ def probe(path: Path, k: int) -> dict:
                     for x in inflation.reshape(-1, 3)])
     one = 1 + k * (rho - 1)
     need = float(np.nanmax(one - 1))
-    spec = SURFACE_KINDS[recipe.surface["kind"]]
-    default = spec.realisations(recipe.surface) if spec.realisations else None
+    default = recipe.surface.realisations()
     return {"recipe": path.name, "rays": int(recipe.simulation.rays),
             "directions": [f"{d.theta_i:g}/{d.phi_i:g}" for d in
                            table.meta.directions],

@@ -360,7 +360,7 @@ def dying_job(recipe: dict, thetas: tuple[int, ...], threads: int = 1,
     workers by name)."""
     from microsim.batch import run_job
 
-    if recipe.surface["alpha"] == 0.5:
+    if recipe.surface.alpha == 0.5:
         os._exit(1)
     return run_job(recipe, thetas, threads, realisation)
 
@@ -397,7 +397,7 @@ def test_a_raising_job_is_retried_once(tmp_path: Path, monkeypatch: pytest.Monke
 
     def flaky(recipe: dict, thetas: tuple[int, ...], threads: int = 1,
               realisation: int | None = 0) -> object:
-        alpha = recipe.surface["alpha"]
+        alpha = recipe.surface.alpha
         if realisation == 0:
             with open(log, "a", encoding="utf-8") as f:
                 f.write(f"{alpha}\n")

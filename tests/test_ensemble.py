@@ -14,9 +14,9 @@ from scipy.special import polygamma, psi
 from microsim.goniometer import measure_directions
 from microsim.recipe import resolve
 from microsim.simulation import Tiles, assemble_table, simulate_recipe
+from microsim.surfaces.base import ENSEMBLE_AREAS
 from microsim.surfaces.facts import PaintFacts, Roughness, SurfaceFacts
 from microsim.surfaces.realisations import realisation, realisation_seed
-from microsim.surfaces.rules import ENSEMBLE_AREAS
 from microsim.tables.estimator import Estimate, combine, inverse_trigamma, moderation_prior
 from microsim.tables.exr import write_table
 
@@ -767,10 +767,10 @@ def test_realisation_seeds_and_tiles() -> None:
     from microsim.surfaces import build_tile
 
     surface = small_gaussian(3, 100).surface
-    seeds = [realisation_seed(surface["seed"], r) for r in range(4)]
-    assert seeds[0] == surface["seed"] and len(set(seeds)) == 4
+    seeds = [realisation_seed(surface.seed, r) for r in range(4)]
+    assert seeds[0] == surface.seed and len(set(seeds)) == 4
     assert all(0 <= s < 2**63 for s in seeds)
-    assert seeds == [realisation_seed(surface["seed"], r) for r in range(4)]
+    assert seeds == [realisation_seed(surface.seed, r) for r in range(4)]
     zero = build_tile(realisation(surface, 0))
     assert np.array_equal(zero.vertices, build_tile(surface).vertices)
     assert not np.array_equal(zero.vertices, build_tile(realisation(surface, 1)).vertices)

@@ -32,7 +32,7 @@ from hypothesis import strategies as st
 
 from microsim.recipe import MATERIAL_KINDS, SIMULATION, TABLE
 from microsim.schema import Key
-from microsim.surfaces.params import SURFACE_KINDS
+from microsim.surfaces import SURFACES
 
 ROOT = Path(__file__).resolve().parent.parent
 RECIPES = {"gaussian-0.3.toml": "gaussian", "vgroove-30.toml": "vgroove",
@@ -78,7 +78,7 @@ def keys_of(kind: str) -> dict[str, Key | None]:
     """Every key a recipe of this surface kind can set, with its schema entry (None for
     ``material.kind`` and for names that are no key)."""
     keys: dict[str, Key | None] = {f"surface.{k}": v
-                                   for k, v in SURFACE_KINDS[kind].keys.items()}
+                                   for k, v in SURFACES[kind].keys().items()}
     keys.update({f"simulation.{k}": v for k, v in SIMULATION.items()})
     keys.update({f"table.{k}": v for k, v in TABLE.items()})
     keys.update({f"material.{k}": v for kind_keys in MATERIAL_KINDS.values()

@@ -243,23 +243,24 @@ def test_any_model_spec_is_refused_in_one_line_or_evaluates_finite(spec):
 # --- what the comparisons read from a table's materials -----------------------------------
 
 def test_fibre_surfaces_give_their_models_the_keys_named_and_no_other():
-    """Every key a fibre surface gives its models (``FIBRE_SURFACE_KEYS``) is a
+    """Every key a fibre surface gives its models (its kind's ``model_keys``) is a
     ``[surface]`` key of that kind and a parameter of some model, so renaming either
     fails here instead of silently dropping a default; ``model_defaults`` of such a
     recipe takes exactly those keys from its surface, with their values and sources (a
     weave's ``sides``, a velvet-sparse parameter by name, is not one)."""
     from microsim.analytic.registry import MODELS
     from microsim.recipe import resolve
-    from microsim.surfaces.params import SURFACE_KINDS
-    from microsim.table_models import FIBRE_SURFACE_KEYS, model_defaults
+    from microsim.surfaces import SURFACES
+    from microsim.table_models import model_defaults
     from microsim.tables.meta import TableMeta
 
     params = {name for spec in MODELS.values() for name in spec.params}
     parts = {"cylinders": ("base", "cylinder"), "velvet": ("base", "fibre"),
              "weave": ("warp", "weft")}
-    assert set(FIBRE_SURFACE_KEYS) == set(parts)
-    for kind, keys in FIBRE_SURFACE_KEYS.items():
-        assert set(keys) <= set(SURFACE_KINDS[kind].keys) and set(keys) <= params
+    assert {kind for kind, cls in SURFACES.items() if cls.model_keys} == set(parts)
+    for kind in parts:
+        keys = SURFACES[kind].model_keys
+        assert set(keys) <= set(SURFACES[kind].keys()) and set(keys) <= params
         recipe = resolve({"surface": {"kind": kind},
                           "material": {p: {"kind": "lambertian", "albedo": 0.5}
                                        for p in parts[kind]}})
@@ -267,7 +268,7 @@ def test_fibre_surfaces_give_their_models_the_keys_named_and_no_other():
         from_surface = {k for k, v in defaults.sources.items()
                         if v.startswith("the recipe's surface.")}
         assert from_surface == set(keys), kind
-        assert all(defaults[k] == recipe.surface[k]
+        assert all(defaults[k] == recipe.surface.value(k)
                    and defaults.sources[k] == f"the recipe's surface.{k}" for k in keys)
 
 

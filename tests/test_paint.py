@@ -16,13 +16,13 @@ from microsim.materials import material_from_json
 from microsim.materials.optics import refract
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile, estimate_bytes
-from microsim.surfaces.paint import _place, _Top, disc, polyhedron_volume, uv_sphere
+from microsim.surfaces.paint import Paint, _place, _Top, disc, polyhedron_volume, uv_sphere
 from microsim.surfaces.tile import Tile
 
 BINDER = {"kind": "dielectric", "eta": ETA, "refract": True}
 
 
-def paint_surface(**keys) -> dict:
+def paint_surface(**keys) -> Paint:
     return resolve({"surface": {"kind": "paint", **keys}}).surface
 
 
@@ -46,7 +46,7 @@ def test_particle_meshes_are_closed_and_wound_outward(make) -> None:
 ])
 def test_particles_stay_inside_the_binder_apart_and_periodic(shape: str, keys: dict) -> None:
     surface = paint_surface(pigment_shape=shape, seed=3, **keys)
-    rng = np.random.default_rng(surface["seed"])
+    rng = np.random.default_rng(surface.seed)
     top = _Top(surface, rng)
     unit = disc(12) if shape == "flake" else uv_sphere(12)
     centres, radii, axes, target, skipped, _ = _place(surface, top,
@@ -168,7 +168,7 @@ def test_aligned_mirror_flakes_give_a_lobe_that_follows_their_tilts() -> None:
     area = np.bincount(index.ravel(), areas[tops])
     sent = np.bincount(index.ravel()[sines.argmin(axis=1)], minlength=len(area))
     # which flakes are alone: the placement again (same seed), matched by normal
-    rng = np.random.default_rng(surface["seed"])
+    rng = np.random.default_rng(surface.seed)
     top = _Top(surface, rng)
     centres, radii, axes, _, _, _ = _place(surface, top, polyhedron_volume(*disc(12)),
                                            rng)

@@ -25,7 +25,7 @@ def test_the_documented_example_runs(tmp_path, monkeypatch, capsys):
     what the doc shows it printing (the same seeds give the same numbers) and writes the
     files it says."""
     blocks = python_blocks()
-    assert len(blocks) == 1
+    assert len(blocks) == 2
     monkeypatch.chdir(tmp_path)
     # as a fresh interpreter prints (a test that imported colour-science directly has set
     # numpy's legacy printing in this process)
@@ -37,6 +37,16 @@ def test_the_documented_example_runs(tmp_path, monkeypatch, capsys):
     assert printed == shown
     assert (tmp_path / "gaussian.exr").stat().st_size > 0
     assert (tmp_path / "gaussian.bsdf").stat().st_size > 0
+
+
+def test_the_documented_surface_example_runs(capsys):
+    """The second python block of docs/python.md (a surface record and its tile) prints
+    what the doc shows after it."""
+    exec(compile(python_blocks()[1], str(DOC), "exec"), {"__name__": "__docs__"})
+    printed = capsys.readouterr().out.strip().splitlines()
+    shown = re.search(r"It prints \(the realised .*?```\n(.*?)```",
+                      DOC.read_text(encoding="utf-8"), flags=re.S).group(1).strip().splitlines()
+    assert printed == shown
 
 
 def test_a_dict_recipe_is_the_file_recipe(tmp_path):

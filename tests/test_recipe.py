@@ -15,7 +15,7 @@ from microsim.materials import Black, Conductor, Dielectric, Lambertian, materia
 from microsim.schema import Key, check_value
 from microsim.spectra.channels import RGB
 from microsim.spectra.spectrum import Spectrum
-from microsim.surfaces.params import SURFACE_KINDS
+from microsim.surfaces import SURFACES
 
 ROOT = Path(__file__).resolve().parent.parent
 BASE = {"surface": {"kind": "gaussian", "alpha": 0.3}}
@@ -35,7 +35,7 @@ def error_of(raw: dict) -> str:
 
 def test_defaults_filled_in():
     r = recipe.resolve(BASE)
-    assert r.surface["resolution"] == SURFACE_KINDS["gaussian"].keys["resolution"].default
+    assert r.surface.resolution == SURFACES["gaussian"].keys()["resolution"].default
     assert {p: m.to_json() for p, m in r.material.items()} == {"base": {"kind": "mirror"}}
     assert set(r.simulation.to_json()) >= {"theta_i", "phi_i", "rays", "bounces", "seed"}
     assert r.simulation.target_error is None  # optional without default stays unset
@@ -47,7 +47,7 @@ def test_every_shipped_recipe_is_valid():
     assert recipes, "no shipped recipes"
     for path in recipes:
         resolved = recipe.load(path)
-        assert resolved.surface["kind"] in SURFACE_KINDS
+        assert resolved.surface.kind in SURFACES
 
 
 def test_resolved_recipe_round_trips_through_toml(tmp_path):
@@ -110,7 +110,7 @@ def test_per_part_materials():
 
 def test_one_material_applies_to_every_part():
     r = recipe.resolve({"surface": {"kind": "velvet"}, "material": {"kind": "lambertian"}})
-    assert set(r.material) == set(SURFACE_KINDS["velvet"].parts)
+    assert set(r.material) == set(SURFACES["velvet"].parts)
     assert all(m.kind == "lambertian" for m in r.material.values())
 
 
@@ -118,7 +118,7 @@ def test_overrides_parse_toml_values_and_bare_words():
     raw = recipe.apply_overrides(BASE, ["surface.alpha=0.5", "simulation.theta_i=[0, 45]",
                                         "material.kind=lambertian", "material.albedo=0.2"])
     r = recipe.resolve(raw)
-    assert r.surface["alpha"] == 0.5
+    assert r.surface.alpha == 0.5
     assert r.simulation.theta_i == (0.0, 45.0)
     assert r.material["base"].to_json() == {"kind": "lambertian", "albedo": [0.2] * 3}
     assert BASE == {"surface": {"kind": "gaussian", "alpha": 0.3}}  # input untouched
@@ -154,7 +154,7 @@ def test_relative_mesh_path_resolves_against_recipe_folder(tmp_path):
     (tmp_path / "sub").mkdir()
     path = tmp_path / "sub" / "r.toml"
     path.write_text('[surface]\nkind = "mesh"\npath = "tile.ply"\nperiod = [1, 2]\n')
-    assert recipe.load(path).surface["path"] == str((tmp_path / "sub" / "tile.ply").resolve())
+    assert recipe.load(path).surface.path == str((tmp_path / "sub" / "tile.ply").resolve())
 
 
 def test_recipe_docs_are_up_to_date():

@@ -309,7 +309,7 @@ def test_velvet_faces_carry_their_fibres_axis_into_the_facet_frame() -> None:
     assert side.mean() > 0.4  # the tubes' sides: half of a fibre's faces
     v = tile.vertices[tile.faces]
     xy = v[:, :, :2]
-    on_side = ((xy < 1e-9) | (xy > surface["size"] - 1e-9)).any(axis=(1, 2))
+    on_side = ((xy < 1e-9) | (xy > surface.size - 1e-9)).any(axis=(1, 2))
     whole = side & ~on_side
     assert whole.sum() > 0.5 * side.sum()
     v = v[whole]

@@ -181,7 +181,7 @@ def test_an_updated_scene_finds_what_a_new_one_finds() -> None:
 
     surface = resolve({"surface": {"kind": "gaussian", "alpha": 0.4, "resolution": 64,
                                    "correlation_length": 1 / 16}}).surface
-    a, b = (build_tile({**surface, "seed": seed}) for seed in (1, 2))
+    a, b = (build_tile(surface.with_seed(seed)) for seed in (1, 2))
     assert a.faces is b.faces
     n = 200_000
     with PeriodicScene(a, threads=2) as reused:

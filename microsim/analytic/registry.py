@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from microsim.analytic.fresnel import ConductorFresnel, DielectricFresnel, Fresnel
+from microsim.analytic.velvet_geometry import VELVET_GEOMETRY
 from microsim.errors import InputError
 from microsim.schema import Key, check_section, parse_value, suggest
 
@@ -227,19 +228,7 @@ MODELS: dict[str, ModelSpec] = {
         "velvet surface's pyramid tips) on a black base, no fibre shadowing another, "
         "averaged over the fibre axes by quadrature (Westin et al. 1992's velvet in the "
         "low-density limit).",
-        {"fibre_radius": Key("float", 0.01, "Fibre radius.", unit="length", low=0.0,
-                             low_open=True),
-         "fibre_length": Key("float", 0.15, "Fibre length.", unit="length", low=0.0,
-                             low_open=True),
-         "density": Key("float", 400.0, "Fibres per unit area.", low=0.0, low_open=True),
-         "tilt": Key("float", 10.0, "Mean tilt from +z.", unit="deg", low=0.0, high=89.0),
-         "tilt_spread": Key("float", 5.0, "Tilt standard deviation.", unit="deg", low=0.0,
-                            high=90.0),
-         "azimuth": Key("float", 0.0, "Mean tilt azimuth.", unit="deg", low=-360.0,
-                        high=360.0),
-         "azimuth_spread": Key("float", 360.0, "Azimuth standard deviation (360: uniform).",
-                               unit="deg", low=0.0, high=360.0),
-         "sides": Key("int", 6, "Faces of each fibre's tip.", low=3, high=64),
+        {**VELVET_GEOMETRY,
          "kind": Key("str", "lambertian", "The fibres' facet material.",
                      choices=("lambertian",)),
          "albedo": Key("channels", 0.8, "The fibres' albedo.", low=0.0, high=1.0),

@@ -27,13 +27,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Print the resolved recipe as TOML (or JSON with ``--json``); a surface file (a
     mesh) that does not exist is an error here, as building the tile would find."""
-    from microsim.surfaces.params import SURFACE_KINDS
-
     resolved = recipe.load(args.recipe, args.overrides)
     surface = resolved.surface
-    for name, key in SURFACE_KINDS[surface.kind].keys.items():
-        if key.kind == "path" and name in surface and not Path(surface[name]).is_file():
-            raise InputError(f"surface.{name} = {surface[name]!r}: no such file")
+    for name, key in surface.keys().items():
+        given = surface.value(name)
+        if key.kind == "path" and given is not None and not Path(given).is_file():
+            raise InputError(f"surface.{name} = {given!r}: no such file")
     if args.json:
         print_json(resolved.to_json())
     else:

@@ -176,7 +176,7 @@ def run(args: argparse.Namespace) -> int:
     elif suffix == ".toml":
         resolved = recipe.load(source, [*args.overrides, *flag_overrides(args, "surface", "seed")])
         surface = resolved.surface
-        title = f"{source.name}: {surface['kind']}"
+        title = f"{source.name}: {surface.kind}"
     elif suffix == ".exr":
         return view_table(args, source)
     else:

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import Any
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
+from microsim.errors import InputError
+from microsim.schema import key
+from microsim.surfaces.base import Surface, length_key, seed_key, smooth_key
 from microsim.surfaces.facts import CylinderFacts
 from microsim.surfaces.tile import Tile, grid_faces
 
@@ -50,7 +53,44 @@ def profile(radius: float, spacing: float, sink: float, segments: int
     return np.concatenate([points[:1], points[1:][keep]]), part[keep]
 
 
-def build(surface: Mapping[str, Any]) -> Tile:
+@dataclass(frozen=True, kw_only=True)
+class Cylinders(Surface):
+    """Parallel cylinders on a base plane (``kind = "cylinders"``)."""
+
+    kind: ClassVar[str] = "cylinders"
+    doc: ClassVar[str] = (
+        "Parallel circular cylinders along y lying on (or sunk into) a flat base plane: "
+        "brushed metal, hair-like anisotropic surfaces.")
+    parts: ClassVar[tuple[str, ...]] = ("base", "cylinder")
+    model_keys: ClassVar[tuple[str, ...]] = ("radius", "spacing", "sink")
+    radius: float = length_key("Cylinder radius.", 0.5)
+    spacing: float = length_key("Distance between cylinder axes (the tile period along x).",
+                                1.0)
+    sink: float = length_key("Depth the cylinders are sunk into the base plane.", 0.0,
+                             zero=True)
+    segments: int = key("int", 128, "Facets around a full circumference. A mirror "
+                        "reflection turns by twice the facet step, so 128 gives 5.6 degree "
+                        "steps: the default phi bin width.", low=6, high=65536)
+    length: float = length_key("Tile period along the cylinder axis (y).", 1.0)
+    smooth_normals: bool = smooth_key()
+    seed: int = seed_key()
+
+    def check(self) -> None:
+        if self.spacing < 2 * self.radius:
+            raise InputError(f"surface.spacing = {self.spacing!r}: must be >= 2 * radius "
+                             f"= {2 * self.radius:g} (cylinders must not overlap)")
+        if self.sink >= 2 * self.radius:
+            raise InputError(f"surface.sink = {self.sink!r}: must be < 2 * radius "
+                             f"= {2 * self.radius:g} (the cylinder would vanish)")
+
+    def triangles(self) -> float:
+        return 2 * (self.segments + 2)
+
+    def build(self) -> Tile:
+        return cylinder_tile(self)
+
+
+def cylinder_tile(surface: Cylinders) -> Tile:
     """One cylinder per period along x, extruded along y.
 
     Facet normals point out of the cylinder and up from the base: with profile edges e
@@ -59,8 +99,8 @@ def build(surface: Mapping[str, Any]) -> Tile:
 
     Parameters
     ----------
-    surface : mapping
-        Kind ``cylinders``: ``radius``, ``spacing`` (≥ 2 radius), ``sink`` (< 2 radius),
+    surface : Cylinders
+        With ``radius``, ``spacing`` (≥ 2 radius), ``sink`` (< 2 radius),
         ``segments``, ``length``, ``smooth_normals`` (the cylinder faces carry their
         circle in ``Tile.curved``; default true).
 
@@ -70,18 +110,18 @@ def build(surface: Mapping[str, Any]) -> Tile:
         Parts ``base`` and ``cylinder``; anisotropic. The surface is open (a sheet, not a
         closed solid): the tracer only needs the boundary that light can reach.
     """
-    r, s = float(surface["radius"]), float(surface["spacing"])
-    length = float(surface["length"])
-    points, part = profile(r, s, float(surface["sink"]), int(surface["segments"]))
+    r, s = float(surface.radius), float(surface.spacing)
+    length = float(surface.length)
+    points, part = profile(r, s, float(surface.sink), int(surface.segments))
     k = len(points)
     vertices = np.column_stack([np.repeat(points[:, 0], 2), np.tile([0.0, length], k),
                                 np.repeat(points[:, 1], 2)])
     faces = grid_faces(k, 2)
     material = np.concatenate([part, part]).astype(np.int32)  # grid_faces: two halves
     curved = None
-    if surface.get("smooth_normals", True):
+    if surface.smooth_normals:
         # the circle of radius r about the axis (s/2, ·, r − sink) along y
-        tube = np.array([[s / 2, 0.0, r - float(surface["sink"])], [1 / r, 0.0, 0.0],
+        tube = np.array([[s / 2, 0.0, r - float(surface.sink)], [1 / r, 0.0, 0.0],
                          [0.0, 0.0, 1 / r]])
         curved = np.where((material == 1)[:, None, None], tube, 0.0)
     return Tile(vertices, faces, material, ("base", "cylinder"), (s, length),

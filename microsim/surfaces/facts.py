@@ -86,6 +86,11 @@ class Roughness:
         return cls(float(x), float(y))
 
 
+FACTS: dict[str, type[TileFacts]] = {}
+"""The facts record of every generator, by ``kind`` (each registers itself: a generator's
+``TileFacts`` subclass with its ``KIND``, in the generator's module or here)."""
+
+
 def _fact(pool: str = "mean", roughness: bool = False) -> Any:
     """An optional fact (None: not reported); ``pool`` is how realisations pool it:
     ``"mean"``, or ``"rms"`` for root-mean-square quantities over the tile's area (α² is
@@ -120,6 +125,12 @@ class TileFacts:
     alpha_target_y: float | None = _fact()
     alpha_realised_x: float | None = _fact("rms")
     alpha_realised_y: float | None = _fact("rms")
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Register a generator's facts record by its ``KIND`` (for ``from_json``)."""
+        super().__init_subclass__(**kwargs)
+        if cls.KIND:
+            FACTS[cls.KIND] = cls
 
     def __post_init__(self) -> None:
         if not self.kind and self.KIND:
@@ -237,12 +248,6 @@ class MeshFacts(TileFacts):
 
     KIND: ClassVar[str] = "mesh"
     source: str | None = _fact()
-
-
-FACTS: dict[str, type[TileFacts]] = {cls.KIND: cls for cls in (
-    FlatFacts, GaussianFacts, VGrooveFacts, FaceRoughnessFacts, CylinderFacts, VelvetFacts,
-    WeaveFacts, PaintFacts, MeshFacts)}
-"""The facts record of every generator, by ``kind``."""
 
 
 @dataclass(frozen=True)

@@ -16,14 +16,25 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Mapping
-from dataclasses import replace
-from typing import Any
+from dataclasses import dataclass, replace
+from typing import ClassVar
 
 import numpy as np
 
+from microsim.errors import InputError
+from microsim.schema import key
+from microsim.surfaces.base import (
+    DEFAULT_CELLS,
+    SURFACE_ALPHA_MIN,
+    Surface,
+    area_realisations,
+    check_correlation,
+    length_key,
+    roughness_key,
+    seed_key,
+    size_key,
+)
 from microsim.surfaces.facts import GaussianFacts, Roughness
-from microsim.surfaces.rules import correlation_lengths
 from microsim.surfaces.tile import Tile, grid_faces, height_field_vertices
 
 MIN_CELLS = 4
@@ -95,54 +106,117 @@ def root_power(n: int, size: float, sigma: float, tau_x: float, tau_y: float,
     return root
 
 
-def build(surface: Mapping[str, Any]) -> Tile:
-    """The Gaussian height-field tile of a resolved ``[surface]`` section.
+@dataclass(frozen=True, kw_only=True)
+class Gaussian(Surface):
+    """A Gaussian random height field (``kind = "gaussian"``)."""
 
-    Parameters
-    ----------
-    surface : mapping
-        Kind ``gaussian``: ``resolution``, ``size``, ``rotation`` (degrees), ``seed`` and
-        one of ``alpha``; ``alpha_x`` + ``alpha_y``; ``sigma`` + ``correlation_length``.
+    kind: ClassVar[str] = "gaussian"
+    doc: ClassVar[str] = (
+        "A Gaussian random height field with autocorrelation sigma^2 exp(-r^2/tau^2), made "
+        "by spectral (FFT) synthesis on a periodic grid. Roughness alpha = 2 sigma / tau "
+        "(Walter et al. 2007's alpha, the lecture's m). Anisotropic: alpha_x, alpha_y set "
+        "different correlation lengths along the rotated x and y axes.")
+    alpha: float | None = roughness_key("Target roughness (isotropic).")
+    alpha_x: float | None = roughness_key("Target roughness along the (rotated) x axis.")
+    alpha_y: float | None = roughness_key("Target roughness along the (rotated) y axis.")
+    sigma: float | None = length_key("RMS height (with correlation_length instead of "
+                                     "alpha).")
+    correlation_length: float | None = length_key(
+        "Correlation length tau (of the larger roughness axis when anisotropic). Default: "
+        "8 grid cells.")
+    rotation: float = key("float", 0.0, "Rotation of the anisotropy axes about +z.",
+                          unit="deg", low=-360.0, high=360.0)
+    resolution: int = key("int", 256, "Vertices per tile side.", low=4, high=8192)
+    size: float = size_key()
+    seed: int = seed_key()
 
-    Returns
-    -------
-    Tile
-        (resolution + 1)² vertices (the last row and column repeat the first, so opposite
-        edges are equal bit for bit), 2·resolution² faces; ``facts`` holds
-        ``alpha_target``, ``alpha_realised`` (and per-axis values when anisotropic),
-        ``sigma``, ``correlation_length_x/_y``, ``isotropic``.
-    """
-    n, size = int(surface["resolution"]), float(surface["size"])
-    rotation = math.radians(surface.get("rotation", 0.0))
-    sigma, tau_x, tau_y = correlation_lengths(surface)
-    h = heights(n, size, sigma, tau_x, tau_y, rotation, np.random.default_rng(surface["seed"]))
-    vertices = height_field_vertices(h, size)
-    faces = grid_faces(n + 1, n + 1)
-    isotropic = math.isclose(tau_x, tau_y)
-    tile = Tile(vertices, faces, np.zeros(len(faces), np.int32), ("base",), (size, size),
-                facts=GaussianFacts(isotropic=isotropic, sigma=sigma,
-                                    correlation_length_x=tau_x, correlation_length_y=tau_y,
-                                    rotation_deg=math.degrees(rotation)))
-    ax, ay = 2 * sigma / tau_x, 2 * sigma / tau_y
-    rx, ry = tile.realised_alpha(rotation)
-    if isotropic:
-        tile.facts = replace(tile.facts, alpha_target=Roughness(ax),
-                             alpha_realised=Roughness(math.sqrt((rx**2 + ry**2) / 2)))
-    else:
-        tile.facts = replace(tile.facts, alpha_target=Roughness(ax, ay),
-                             alpha_realised=Roughness(rx, ry), alpha_target_x=ax,
-                             alpha_target_y=ay, alpha_realised_x=rx, alpha_realised_y=ry)
-    cell = size / n
-    if min(tau_x, tau_y) < MIN_CELLS * cell:
-        cells = min(tau_x, tau_y) / cell
-        tile.warnings.append(
-            f"surface: the correlation length spans {cells:.1f} grid cells (< {MIN_CELLS}): "
-            f"facets under-resolve the slopes, so the realised roughness falls "
-            f"{100 * (1 - discretised_alpha_ratio(cells)):.0f}% below the target; raise "
-            "resolution or correlation_length")
-    if size / max(tau_x, tau_y) < MIN_LENGTHS:
-        tile.warnings.append(
-            f"surface: the tile holds {size / max(tau_x, tau_y):.1f} correlation lengths "
-            f"per side (< {MIN_LENGTHS}): few independent slopes, so the realised facet "
-            "distribution is noisy; raise resolution or lower correlation_length")
-    return tile
+    def correlation_lengths(self) -> tuple[float, float, float]:
+        """(σ, τx, τy): RMS height and the correlation lengths along the rotated axes
+        (tile units) from whichever of alpha / alpha_x, alpha_y / sigma the section
+        gives; α = 2σ/τ."""
+        tau = (self.correlation_length if self.correlation_length is not None
+               else DEFAULT_CELLS * self.size / self.resolution)
+        if self.sigma is not None:
+            return self.sigma, tau, tau
+        if self.alpha is not None:
+            return self.alpha * tau / 2, tau, tau
+        ax, ay = self.alpha_x, self.alpha_y
+        sigma = max(ax, ay) * tau / 2  # the rougher axis gets tau, the smoother a longer one
+        return sigma, 2 * sigma / ax, 2 * sigma / ay
+
+    def check(self) -> None:
+        """Exactly one of: ``alpha``; ``alpha_x`` and ``alpha_y``; ``sigma`` (with
+        ``correlation_length``); correlation lengths between a grid cell and the tile."""
+        given = [k for k in ("alpha", "alpha_x", "alpha_y", "sigma") if self.given(k)]
+        if given not in (["alpha"], ["alpha_x", "alpha_y"], ["sigma"]):
+            raise InputError("surface: a gaussian surface takes exactly one of: alpha; "
+                             "alpha_x and alpha_y; sigma (with correlation_length); got "
+                             + (", ".join(given) or "none of them"))
+        if self.sigma is not None and self.correlation_length is None:
+            raise InputError("surface.correlation_length: missing; sigma needs it "
+                             "(alpha = 2 sigma / correlation_length)")
+        sigma, tau_x, tau_y = self.correlation_lengths()
+        cell = self.size / self.resolution
+        if self.sigma is not None and not SURFACE_ALPHA_MIN <= 2 * sigma / tau_x <= 10:
+            raise InputError(f"surface.sigma = {sigma!r}: gives alpha = 2 sigma / "
+                             f"correlation_length = {2 * sigma / tau_x:.3g}; must be in "
+                             f"[{SURFACE_ALPHA_MIN:g}, 10]")
+        base = "correlation_length" if self.correlation_length is not None else "resolution"
+        for axis, tau in (("x", tau_x), ("y", tau_y)):
+            # the smoother axis of an anisotropic surface gets the longer correlation length
+            name = f"alpha_{axis}" if self.alpha_x is not None and tau > self.size else base
+            check_correlation(name, self.value(name), tau, cell, self.size)
+
+    def triangles(self) -> float:
+        return 2 * self.resolution**2
+
+    def realisations(self) -> int:
+        """Enough realisations for ``ENSEMBLE_AREAS`` correlation areas."""
+        _, tau_x, tau_y = self.correlation_lengths()
+        return area_realisations(self.size**2, tau_x * tau_y)
+
+    def build(self) -> Tile:
+        """The Gaussian height-field tile.
+
+        Returns
+        -------
+        Tile
+            (resolution + 1)² vertices (the last row and column repeat the first, so
+            opposite edges are equal bit for bit), 2·resolution² faces; ``facts`` holds
+            ``alpha_target``, ``alpha_realised`` (and per-axis values when anisotropic),
+            ``sigma``, ``correlation_length_x/_y``, ``isotropic``.
+        """
+        n, size = int(self.resolution), float(self.size)
+        rotation = math.radians(self.rotation)
+        sigma, tau_x, tau_y = self.correlation_lengths()
+        h = heights(n, size, sigma, tau_x, tau_y, rotation, np.random.default_rng(self.seed))
+        vertices = height_field_vertices(h, size)
+        faces = grid_faces(n + 1, n + 1)
+        isotropic = math.isclose(tau_x, tau_y)
+        tile = Tile(vertices, faces, np.zeros(len(faces), np.int32), ("base",), (size, size),
+                    facts=GaussianFacts(isotropic=isotropic, sigma=sigma,
+                                        correlation_length_x=tau_x, correlation_length_y=tau_y,
+                                        rotation_deg=math.degrees(rotation)))
+        ax, ay = 2 * sigma / tau_x, 2 * sigma / tau_y
+        rx, ry = tile.realised_alpha(rotation)
+        if isotropic:
+            tile.facts = replace(tile.facts, alpha_target=Roughness(ax),
+                                 alpha_realised=Roughness(math.sqrt((rx**2 + ry**2) / 2)))
+        else:
+            tile.facts = replace(tile.facts, alpha_target=Roughness(ax, ay),
+                                 alpha_realised=Roughness(rx, ry), alpha_target_x=ax,
+                                 alpha_target_y=ay, alpha_realised_x=rx, alpha_realised_y=ry)
+        cell = size / n
+        if min(tau_x, tau_y) < MIN_CELLS * cell:
+            cells = min(tau_x, tau_y) / cell
+            tile.warnings.append(
+                f"surface: the correlation length spans {cells:.1f} grid cells (< {MIN_CELLS}): "
+                f"facets under-resolve the slopes, so the realised roughness falls "
+                f"{100 * (1 - discretised_alpha_ratio(cells)):.0f}% below the target; raise "
+                "resolution or correlation_length")
+        if size / max(tau_x, tau_y) < MIN_LENGTHS:
+            tile.warnings.append(
+                f"surface: the tile holds {size / max(tau_x, tau_y):.1f} correlation lengths "
+                f"per side (< {MIN_LENGTHS}): few independent slopes, so the realised facet "
+                "distribution is noisy; raise resolution or lower correlation_length")
+        return tile

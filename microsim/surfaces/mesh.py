@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import ClassVar
 
 import numpy as np
 
 from microsim.errors import InputError
+from microsim.schema import LENGTH_MAX, LENGTH_MIN, REQUIRED, key
+from microsim.surfaces.base import Surface, seed_key
 from microsim.surfaces.facts import MeshFacts, Roughness
 from microsim.surfaces.tile import Tile
 
@@ -17,7 +18,24 @@ TOLERANCE = 1e-6
 """Vertices may lie this far (relative to the period) outside [0, L]: export round-off."""
 
 
-def build(surface: Mapping[str, Any]) -> Tile:
+@dataclass(frozen=True, kw_only=True)
+class Mesh(Surface):
+    """A user's tile read from a mesh file (``kind = "mesh"``)."""
+
+    kind: ClassVar[str] = "mesh"
+    doc: ClassVar[str] = (
+        "A user tile (PLY, OBJ or STL, read by trimesh) with its period given here. The "
+        "mesh must lie within [0, period_x] x [0, period_y] and tile seamlessly.")
+    path: str = key("path", REQUIRED, "Mesh file (relative to the recipe's folder).")
+    period: tuple[float, float] = key("pair", REQUIRED, "Tile period [Lx, Ly].",
+                                      unit="length", low=LENGTH_MIN, high=LENGTH_MAX)
+    seed: int = seed_key()
+
+    def build(self) -> Tile:
+        return mesh_tile(self)
+
+
+def mesh_tile(surface: Mesh) -> Tile:
     """Load and check a tile.
 
     The mesh must load, have faces, finite vertices and a non-zero area, and lie within
@@ -27,8 +45,8 @@ def build(surface: Mapping[str, Any]) -> Tile:
 
     Parameters
     ----------
-    surface : mapping
-        Kind ``mesh``: ``path`` (absolute after recipe loading), ``period`` [Lx, Ly].
+    surface : Mesh
+        With ``path`` (absolute after recipe loading), ``period`` [Lx, Ly].
 
     Returns
     -------
@@ -38,7 +56,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
     """
     import trimesh
 
-    path = Path(surface["path"])
+    path = Path(surface.path)
     if not path.is_file():
         raise InputError(f"surface.path = {str(path)!r}: no such file")
     try:
@@ -52,7 +70,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
         raise InputError(f"surface.path = {str(path)!r}: the mesh has no faces")
     if not np.isfinite(vertices).all():
         raise InputError(f"surface.path = {str(path)!r}: vertices contain NaN or inf")
-    lx, ly = surface["period"]
+    lx, ly = surface.period
     for axis, (name, length) in enumerate((("x", lx), ("y", ly))):
         lo, hi = vertices[:, axis].min(), vertices[:, axis].max()
         slack = TOLERANCE * length

@@ -26,18 +26,26 @@ crossing a side are cut there and continue from the opposite side: the tile is p
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import replace
-from typing import Any
+from dataclasses import dataclass, replace
+from typing import ClassVar
 
 import numpy as np
 
 from microsim.errors import InputError
 from microsim.geometry import orthonormal_basis
+from microsim.schema import key
+from microsim.surfaces.base import (
+    DEFAULT_CELLS,
+    SURFACE_ALPHA_MIN,
+    Surface,
+    check_correlation,
+    length_key,
+    seed_key,
+    size_key,
+)
 from microsim.surfaces.facts import PaintFacts
 from microsim.surfaces.gaussian import MIN_LENGTHS, heights
 from microsim.surfaces.periodic import wrap_into_box
-from microsim.surfaces.rules import DEFAULT_CELLS
 from microsim.surfaces.tile import Tile, grid_faces, height_field_vertices
 
 GAP = 0.01
@@ -139,16 +147,17 @@ class _Top:
     """The binder's top surface: heights on a periodic grid (or flat), and the lowest
     height over a square window, which bounds the triangulated surface from below."""
 
-    def __init__(self, surface: Mapping[str, Any], rng: np.random.Generator) -> None:
-        self.size = float(surface["size"])
-        self.thickness = float(surface["binder_thickness"])
-        alpha = float(surface["top_alpha"])
-        self.n = int(surface["resolution"]) if alpha > 0 else 1
+    def __init__(self, surface: Paint, rng: np.random.Generator) -> None:
+        self.size = float(surface.size)
+        self.thickness = float(surface.binder_thickness)
+        alpha = float(surface.top_alpha)
+        self.n = int(surface.resolution) if alpha > 0 else 1
         self.cell = self.size / self.n
         self.h = np.full((self.n, self.n), self.thickness)
         self.tau = 0.0
         if alpha > 0:
-            self.tau = surface.get("top_correlation_length", DEFAULT_CELLS * self.cell)
+            self.tau = (surface.top_correlation_length if surface.top_correlation_length is not None
+                        else DEFAULT_CELLS * self.cell)
             sigma = alpha * self.tau / 2
             self.h += heights(self.n, self.size, sigma, self.tau, self.tau, 0.0, rng)
 
@@ -168,7 +177,7 @@ class _Top:
         return height_field_vertices(self.h, self.size), grid_faces(self.n + 1, self.n + 1)
 
 
-def _place(surface: Mapping[str, Any], top: _Top, unit_volume: float,
+def _place(surface: Paint, top: _Top, unit_volume: float,
            rng: np.random.Generator
            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, int, bool]:
     """Random sequential addition of particles (see the module docstring).
@@ -191,21 +200,21 @@ def _place(surface: Mapping[str, Any], top: _Top, unit_volume: float,
         ``JAMMED`` particles in a row were given up, which ended the placement.
     """
     size = top.size
-    flakes = surface["pigment_shape"] == "flake"
-    r0, spread = float(surface["pigment_radius"]), float(surface["radius_spread"])
-    thick = float(surface["flake_thickness"])
+    flakes = surface.pigment_shape == "flake"
+    r0, spread = float(surface.pigment_radius), float(surface.radius_spread)
+    thick = float(surface.flake_thickness)
 
     def volume(r: float) -> float:
         return unit_volume * (r * r * thick if flakes else r**3)
 
     binder_volume = size * size * float(top.h.mean())
-    target = float(surface["pigment_fraction"]) * binder_volume
+    target = float(surface.pigment_fraction) * binder_volume
     tries = int(ATTEMPTS * max(target / volume(r0), 1)) if target > 0 else 0
     # every random number is drawn up front, in a fixed order: the same seed gives the
     # same tile whatever the acceptance pattern; the radius is lognormal (median r0,
     # log-standard deviation ``spread``) clipped at two standard deviations
     radii = r0 * np.exp(np.clip(rng.normal(0.0, 1.0, tries), -2.0, 2.0) * spread)
-    axes = flake_axes(tries, surface["flake_tilt_spread"], rng) if flakes else \
+    axes = flake_axes(tries, surface.flake_tilt_spread, rng) if flakes else \
         np.tile([0.0, 0.0, 1.0], (tries, 1))
     u = rng.random((tries, 3))
     z_max = float(top.h.max())
@@ -255,13 +264,103 @@ def _place(surface: Mapping[str, Any], top: _Top, unit_volume: float,
     return centres, radii[idx], axes[idx], target, skipped, streak == JAMMED
 
 
-def build(surface: Mapping[str, Any]) -> Tile:
+PAINT_REALISATIONS = 8
+"""Default realisations of a paint tile with particles or a rough top: balances the
+realisations' and the rays' variance of paint.toml at grazing incidence."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Paint(Surface):
+    """A pigmented coating over a substrate (``kind = "paint"``)."""
+
+    kind: ClassVar[str] = "paint"
+    doc: ClassVar[str] = (
+        "A pigmented coating (Gondek, Meyer & Newman 1994): a dielectric binder layer with "
+        "a flat or Gaussian rough top, pigment spheres or thin flakes inside it (seeded "
+        "random sequential addition, no overlaps, periodic), over a flat substrate at "
+        "z = 0. Give the binder a dielectric material with refract = true.")
+    parts: ClassVar[tuple[str, ...]] = ("binder", "pigment", "substrate")
+    binder_thickness: float = length_key("Mean thickness of the binder layer.", 0.2)
+    top_alpha: float = key("float", 0.0, "Roughness alpha of the binder's top (a Gaussian "
+                           "height field); 0 = flat.", low=0.0, high=2.0)
+    top_correlation_length: float | None = length_key(
+        "Correlation length of the top's heights. Default: 8 grid cells.")
+    resolution: int = key("int", 256, "Vertices per tile side of a rough top.", low=4,
+                          high=8192)
+    pigment_fraction: float = key("float", 0.1, "Pigment volume over binder volume (pigment "
+                                  "included); 0 = none.", low=0.0, high=0.4)
+    pigment_shape: str = key("str", "sphere", "Particle shape: spheres, or thin discs "
+                             "(flakes) with tilted normals.", choices=("sphere", "flake"))
+    pigment_radius: float = length_key("Median particle radius (a flake's disc radius).",
+                                       0.03)
+    radius_spread: float = key("float", 0.2, "Log-standard deviation of the lognormal radius "
+                               "(clipped at 2 standard deviations); 0 = all equal.", low=0.0,
+                               high=1.0)
+    flake_thickness: float = length_key("Thickness of a flake.", 0.002)
+    flake_tilt_spread: float = key("float", 10.0, "RMS tilt of the flake normals from +z "
+                                   "(tilt vector Gaussian, azimuth uniform).", unit="deg",
+                                   low=0.0, high=60.0)
+    sides: int = key("int", 12, "Facets around a particle (sphere meridians, disc edges).",
+                     low=4, high=256)
+    size: float = size_key()
+    seed: int = seed_key()
+
+    def check(self) -> None:
+        """Particles must fit in the binder (by ``GAP`` of their radius on both sides) and
+        be small against the tile (the periodic wrap moves a cut piece by one period at
+        most)."""
+        r_max = self.pigment_radius * math.exp(2 * self.radius_spread)  # radii clip there
+        flake = self.pigment_shape == "flake"
+        height = self.flake_thickness if flake else 2 * r_max
+        if self.pigment_fraction > 0 and height * (1 + 2 * GAP) >= self.binder_thickness:
+            raise InputError(f"surface.binder_thickness = {self.binder_thickness!r}: must "
+                             f"exceed the largest particle's height {height:g} "
+                             "(pigment_radius e^(2 radius_spread), doubled for spheres); "
+                             "raise it or lower pigment_radius")
+        if r_max > 0.25 * self.size:
+            raise InputError(f"surface.pigment_radius = {self.pigment_radius!r}: the largest "
+                             f"radius {r_max:g} must be <= a quarter of the tile size "
+                             f"({0.25 * self.size:g}); raise size")
+        if 0 < self.top_alpha < SURFACE_ALPHA_MIN:
+            raise InputError(f"surface.top_alpha = {self.top_alpha!r}: must be 0 (flat) or "
+                             f"at least {SURFACE_ALPHA_MIN:g}")
+        if self.top_alpha > 0 and self.top_correlation_length is not None:
+            check_correlation("top_correlation_length", self.top_correlation_length,
+                              self.top_correlation_length, self.size / self.resolution,
+                              self.size)
+        if flake and self.flake_thickness >= self.pigment_radius:
+            raise InputError(f"surface.flake_thickness = {self.flake_thickness!r}: must be "
+                             f"below pigment_radius = {self.pigment_radius!r} (a flake is "
+                             "thin)")
+
+    def triangles(self) -> float:
+        """Top grid, substrate, and the particles the fraction asks for at the smallest
+        radius (each cut by the wrap into at most a few pieces: times 2)."""
+        top = 2 * self.resolution**2 if self.top_alpha > 0 else 2
+        r = self.pigment_radius * math.exp(-2 * self.radius_spread)
+        flake = self.pigment_shape == "flake"
+        volume = (math.pi * r * r * self.flake_thickness if flake
+                  else 4 / 3 * math.pi * r**3)
+        count = self.pigment_fraction * self.size**2 * self.binder_thickness / volume
+        per = 4 * self.sides if flake else 2 * self.sides * (self.sides // 2 - 1)
+        return top + 2 + 2 * count * per
+
+    def realisations(self) -> int | None:
+        """Particles or a rough top make a paint random."""
+        random = self.pigment_fraction > 0 or self.top_alpha > 0
+        return PAINT_REALISATIONS if random else None
+
+    def build(self) -> Tile:
+        return paint_tile(self)
+
+
+def paint_tile(surface: Paint) -> Tile:
     """The paint tile of a resolved ``[surface]`` section.
 
     Parameters
     ----------
-    surface : mapping
-        Kind ``paint``: ``size``, ``binder_thickness``, ``top_alpha``,
+    surface : Paint
+        With ``size``, ``binder_thickness``, ``top_alpha``,
         ``top_correlation_length`` (optional), ``resolution``, ``pigment_fraction``,
         ``pigment_shape``, ``pigment_radius``, ``radius_spread``, ``flake_thickness``,
         ``flake_tilt_spread`` (degrees), ``sides``, ``seed``.
@@ -274,20 +373,20 @@ def build(surface: Mapping[str, Any]) -> Tile:
         pigment volume fractions, the mean radius, and for flakes the realised RMS tilt
         with its standard error as an estimate of the tilt distribution's.
     """
-    size = float(surface["size"])
-    rng = np.random.default_rng(surface["seed"])
+    size = float(surface.size)
+    rng = np.random.default_rng(surface.seed)
     top = _Top(surface, rng)
     if top.h.min() <= GAP * top.thickness:
-        raise InputError(f"surface.top_alpha = {surface['top_alpha']!r}: the rough top "
+        raise InputError(f"surface.top_alpha = {surface.top_alpha!r}: the rough top "
                          f"reaches down to the substrate (lowest height "
                          f"{top.h.min():.3g}); lower top_alpha or top_correlation_length, "
                          "or raise binder_thickness")
-    flakes = surface["pigment_shape"] == "flake"
-    sides = int(surface["sides"])
+    flakes = surface.pigment_shape == "flake"
+    sides = int(surface.sides)
     unit_v, unit_f = disc(sides) if flakes else uv_sphere(sides)
     centres, radii, axes, target, skipped, jammed = _place(surface, top, polyhedron_volume(
         unit_v, unit_f), rng)
-    thick = float(surface["flake_thickness"])
+    thick = float(surface.flake_thickness)
     u, v = orthonormal_basis(axes)
     scale = np.column_stack([radii, radii, np.full(len(radii), thick) if flakes else radii])
     local = unit_v[None] * scale[:, None]  # (n, p, 3)
@@ -310,23 +409,23 @@ def build(surface: Mapping[str, Any]) -> Tile:
     binder_volume = size * size * float(top.h.mean())
     if jammed and pigment_volume < INFEASIBLE * target:
         raise InputError(
-            f"surface.pigment_fraction = {surface['pigment_fraction']:g}: the particles "
+            f"surface.pigment_fraction = {surface.pigment_fraction:g}: the particles "
             f"jam at {100 * pigment_volume / binder_volume:.1f}% of the binder ({JAMMED} "
             f"particles in a row found no room in {PER_PARTICLE} positions each); lower "
             f"pigment_fraction to at most {pigment_volume / binder_volume:.3g}, or lower "
             "pigment_radius" + (" or flake_tilt_spread" if flakes else "")
             + ", or raise binder_thickness")
     facts = PaintFacts(
-        isotropic=True, binder_thickness=float(surface["binder_thickness"]),
+        isotropic=True, binder_thickness=float(surface.binder_thickness),
         binder_volume=binder_volume, particles=int(n_part),
-        pigment_shape=surface["pigment_shape"],
-        pigment_fraction_target=float(surface["pigment_fraction"]),
+        pigment_shape=surface.pigment_shape,
+        pigment_fraction_target=float(surface.pigment_fraction),
         pigment_fraction_realised=pigment_volume / binder_volume,
         pigment_radius_mean=float(radii.mean()) if n_part else 0.0)
     if top.n > 1:
         top_tile = Tile(top_v, top_f, np.zeros(len(top_f), int), ("binder",), (size, size))
         ax, ay = top_tile.realised_alpha()
-        facts = replace(facts, top_alpha_target=float(surface["top_alpha"]),
+        facts = replace(facts, top_alpha_target=float(surface.top_alpha),
                         top_alpha_realised=math.sqrt((ax**2 + ay**2) / 2),
                         top_correlation_length=top.tau)
     else:
@@ -348,7 +447,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
         n_eff = area.sum() ** 2 / np.sum(area**2)
         spread = float(np.sqrt(np.sum(area * (tilt**2 - mean_sq) ** 2) / area.sum()))
         se = spread / math.sqrt(n_eff) / (2 * rms) if rms > 0 else 0.0
-        facts = replace(facts, flake_tilt_rms_target_deg=float(surface["flake_tilt_spread"]),
+        facts = replace(facts, flake_tilt_rms_target_deg=float(surface.flake_tilt_spread),
                         flake_tilt_rms_deg=math.degrees(rms),
                         flake_tilt_rms_stderr_deg=math.degrees(se))
     if skipped:
@@ -359,7 +458,7 @@ def build(surface: Mapping[str, Any]) -> Tile:
     if pigment_volume < (1 - 1e-9) * target:  # the unit volumes scale exactly
         warnings.append(
             f"surface: {n_part} particles fill {100 * pigment_volume / binder_volume:.1f}% "
-            f"of the binder, short of pigment_fraction = {surface['pigment_fraction']:g} "
+            f"of the binder, short of pigment_fraction = {surface.pigment_fraction:g} "
             f"(the pigment's target volume {target:.4g}); random sequential addition "
             "jams near 38% for spheres, less in a thin layer: lower pigment_fraction or "
             "pigment_radius, or raise binder_thickness")

@@ -11,10 +11,13 @@ realisations as the ensemble table sees them (``microsim.surfaces.facts.SurfaceF
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any
+from typing import TypeVar
 
 import numpy as np
+
+from microsim.surfaces.base import Surface
+
+S = TypeVar("S", bound=Surface)
 
 
 def realisation_seed(seed: int, r: int) -> int:
@@ -38,6 +41,6 @@ def realisation_seed(seed: int, r: int) -> int:
     return int(state[0] >> np.uint64(1))
 
 
-def realisation(surface: Mapping[str, Any], r: int) -> dict[str, Any]:
+def realisation(surface: S, r: int) -> S:
     """The resolved ``[surface]`` section of realisation ``r`` (its seed replaced)."""
-    return {**surface, "seed": realisation_seed(surface.get("seed", 0), r)}
+    return surface.with_seed(realisation_seed(surface.seed, r))

@@ -3,12 +3,16 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import Any
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
+from microsim.analytic.velvet_geometry import VELVET_GEOMETRY
+from microsim.errors import InputError
 from microsim.geometry import FIBRE_MAX_TILT, section_axes
+from microsim.schema import key_field
+from microsim.surfaces.base import Surface, seed_key, size_key, smooth_key
 from microsim.surfaces.facts import VelvetFacts
 from microsim.surfaces.periodic import wrap_into_box
 from microsim.surfaces.tile import Tile
@@ -76,7 +80,58 @@ def tubes(roots: np.ndarray, axes: np.ndarray, radius: float, start: np.ndarray,
     return verts.reshape(-1, 3), faces
 
 
-def build(surface: Mapping[str, Any]) -> Tile:
+VELVET_REALISATIONS = 4
+"""Default realisations of a velvet tile: its fibres' spread is small against the ray noise
+of velvet.toml, and 4 is the fewest with which the moderated error estimates its own
+degrees of freedom (docs/ensembles.md; measured by scripts/ensemble_defaults.py)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Velvet(Surface):
+    """Short fibres standing on a base (``kind = "velvet"``); the fibre keys are the
+    sparse-velvet model's (``microsim.analytic.velvet_geometry``)."""
+
+    kind: ClassVar[str] = "velvet"
+    doc: ClassVar[str] = (
+        "Dense short fibres standing on a flat base (Westin et al. 1992's velvet), placed "
+        "by a seeded jittered-grid process, periodic; fibres are closed tubes with tips.")
+    parts: ClassVar[tuple[str, ...]] = ("base", "fibre")
+    model_keys: ClassVar[tuple[str, ...]] = tuple(VELVET_GEOMETRY)
+    fibre_radius: float = key_field(VELVET_GEOMETRY["fibre_radius"])
+    fibre_length: float = key_field(VELVET_GEOMETRY["fibre_length"])
+    density: float = key_field(VELVET_GEOMETRY["density"])
+    tilt: float = key_field(VELVET_GEOMETRY["tilt"])
+    tilt_spread: float = key_field(VELVET_GEOMETRY["tilt_spread"])
+    azimuth: float = key_field(VELVET_GEOMETRY["azimuth"])
+    azimuth_spread: float = key_field(VELVET_GEOMETRY["azimuth_spread"])
+    sides: int = key_field(VELVET_GEOMETRY["sides"])
+    smooth_normals: bool = smooth_key()
+    size: float = size_key()
+    seed: int = seed_key()
+
+    def check(self) -> None:
+        """Fibres must be small against the tile: the periodic wrap moves a cut piece by
+        one period at most, and a fibre's root reaches radius · (tan 80° + 1) below the
+        base."""
+        if self.fibre_length > 0.5 * self.size:
+            raise InputError(f"surface.fibre_length = {self.fibre_length!r}: must be <= half "
+                             f"the tile size ({0.5 * self.size:g}); raise size for longer "
+                             "fibres")
+        if self.fibre_radius > 0.02 * self.size:
+            raise InputError(f"surface.fibre_radius = {self.fibre_radius!r}: must be <= 2% "
+                             f"of the tile size ({0.02 * self.size:g})")
+
+    def triangles(self) -> float:
+        return 2 + 8 * self.sides * self.density * self.size**2
+
+    def realisations(self) -> int:
+        return VELVET_REALISATIONS
+
+    def build(self) -> Tile:
+        return velvet_tile(self)
+
+
+def velvet_tile(surface: Velvet) -> Tile:
     """A velvet tile: a flat base at z = 0 and closed fibres rooted in it.
 
     Fibres are placed by jittered sampling at ``density`` per unit area; each is a tube of
@@ -87,8 +142,8 @@ def build(surface: Mapping[str, Any]) -> Tile:
 
     Parameters
     ----------
-    surface : mapping
-        Kind ``velvet``: ``fibre_radius``, ``fibre_length``, ``density``, ``tilt``,
+    surface : Velvet
+        With ``fibre_radius``, ``fibre_length``, ``density``, ``tilt``,
         ``tilt_spread``, ``azimuth``, ``azimuth_spread`` (degrees), ``sides``, ``size``,
         ``seed``, ``smooth_normals`` (the fibres' side faces carry their cylinder in
         ``Tile.curved``; default true).
@@ -98,13 +153,13 @@ def build(surface: Mapping[str, Any]) -> Tile:
     Tile
         Parts ``base`` and ``fibre``; isotropic when the azimuth spread is 360°.
     """
-    size = float(surface["size"])
-    rng = np.random.default_rng(surface["seed"])
-    n = max(1, round(surface["density"] * size * size))
-    radius, length, sides = surface["fibre_radius"], surface["fibre_length"], surface["sides"]
+    size = float(surface.size)
+    rng = np.random.default_rng(surface.seed)
+    n = max(1, round(surface.density * size * size))
+    radius, length, sides = surface.fibre_radius, surface.fibre_length, surface.sides
     roots = np.column_stack([jittered_points(n, size, rng), np.zeros(n)])
-    axes = fibre_directions(n, surface["tilt"], surface["tilt_spread"], surface["azimuth"],
-                            surface["azimuth_spread"], rng)
+    axes = fibre_directions(n, surface.tilt, surface.tilt_spread, surface.azimuth,
+                            surface.azimuth_spread, rng)
     tan_tilt = np.sqrt(1 - axes[:, 2] ** 2) / axes[:, 2]
     start = -radius * (tan_tilt + 1.0)
     fv, ff = tubes(roots, axes, radius, start, length, sides)
@@ -123,10 +178,10 @@ def build(surface: Mapping[str, Any]) -> Tile:
     # per face: the base's +y, a fibre's axis (its side faces contain it)
     tangents = np.where((group > 0)[:, None], axes[fibre], [0.0, 1.0, 0.0])
     curved = None
-    if surface.get("smooth_normals", True):
+    if surface.smooth_normals:
         curved = _fibre_tubes(vertices, faces, (group > 0) & (group % 2 == 1), roots[fibre]
                               + 0.5 * length * axes[fibre], axes[fibre], radius, size)
-    isotropic = surface["azimuth_spread"] >= 360.0 or surface["tilt"] == 0
+    isotropic = surface.azimuth_spread >= 360.0 or surface.tilt == 0
     return Tile(vertices, faces, material, ("base", "fibre"), (size, size),
                 facts=VelvetFacts(isotropic=bool(isotropic), fibres=n),
                 tangents=tangents, curved=curved)

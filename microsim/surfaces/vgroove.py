@@ -9,19 +9,95 @@ a two-level hierarchy of scale (docs/materials.md).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import replace
-from typing import Any
+from dataclasses import dataclass, replace
+from typing import ClassVar
 
 import numpy as np
 
+from microsim.errors import InputError
+from microsim.schema import key
+from microsim.surfaces.base import (
+    DEFAULT_CELLS,
+    Surface,
+    check_correlation,
+    length_key,
+    roughness_key,
+    seed_key,
+    size_key,
+)
 from microsim.surfaces.facts import FaceRoughnessFacts, Roughness, VGrooveFacts
 from microsim.surfaces.gaussian import heights
-from microsim.surfaces.rules import DEFAULT_CELLS, MICRO_RESOLUTION
 from microsim.surfaces.tile import Tile, grid_faces
 
+MICRO_RESOLUTION = 512
+"""Default grid of a ``vgroove`` tile with micro-roughness (columns and rows)."""
+VGROOVE_REALISATIONS = 8
+"""Default realisations of V-grooves with random slopes or micro-roughness: balances them
+for vgroove-rough-direct.toml."""
 
-def build(surface: Mapping[str, Any]) -> Tile:
+
+@dataclass(frozen=True, kw_only=True)
+class VGroove(Surface):
+    """Symmetric V-grooves along y (``kind = "vgroove"``)."""
+
+    kind: ClassVar[str] = "vgroove"
+    doc: ClassVar[str] = (
+        "Symmetric V-grooves along y (Torrance-Sparrow cavities): one slope angle for "
+        "every groove, or slopes drawn from a Beckmann distribution of roughness alpha; "
+        "with slope, optionally Gaussian micro-roughness on every face (micro_alpha).")
+    slope: float | None = key("float", None, "Slope angle of every groove face (give slope "
+                              "or alpha).", unit="deg", low=0.0, low_open=True, high=89.0)
+    alpha: float | None = roughness_key("Draw each groove's slope from a Beckmann slope "
+                                        "distribution of this roughness (give slope or "
+                                        "alpha).")
+    grooves: int = key("int", 64, "Grooves per tile.", low=1, high=1_000_000)
+    micro_alpha: float | None = roughness_key(
+        "Gaussian micro-roughness alpha of every groove face, displaced along the face's "
+        "normal (with slope); optional.", high=2.0)
+    micro_resolution: int | None = key(
+        "int", None, "Grid columns (and rows) of a tile with micro_alpha; a multiple of 2 * "
+        f"grooves. Default: {MICRO_RESOLUTION}.", low=8, high=8192)
+    micro_correlation: float | None = length_key(
+        "Correlation length of the micro-roughness along a face. Default: 8 grid cells "
+        "measured along the face.")
+    size: float = size_key()
+    seed: int = seed_key()
+
+    @property
+    def grid(self) -> int:
+        """Grid columns (and rows) of a tile with micro-roughness."""
+        return MICRO_RESOLUTION if self.micro_resolution is None else self.micro_resolution
+
+    def check(self) -> None:
+        if self.given("slope") == self.given("alpha"):
+            raise InputError("surface: a vgroove surface takes exactly one of slope, alpha")
+        if self.micro_alpha is None:
+            return
+        if self.slope is None:
+            raise InputError("surface.micro_alpha: needs slope (one slope for every "
+                             "groove), not alpha")
+        n = self.grid
+        if n % (2 * self.grooves):
+            raise InputError(f"surface.micro_resolution = {n!r}: must be a multiple of 2 * "
+                             f"grooves = {2 * self.grooves} (whole grid columns per groove "
+                             "face)")
+        if self.micro_correlation is not None:
+            check_correlation("micro_correlation", self.micro_correlation,
+                              self.micro_correlation, self.size / n, self.size)
+
+    def triangles(self) -> float:
+        return 2 * self.grid**2 if self.micro_alpha is not None else 4 * self.grooves
+
+    def realisations(self) -> int | None:
+        """Random slopes (``alpha``) or micro-roughness make the grooves random."""
+        random = self.alpha is not None or self.micro_alpha is not None
+        return VGROOVE_REALISATIONS if random else None
+
+    def build(self) -> Tile:
+        return groove_tile(self)
+
+
+def groove_tile(surface: VGroove) -> Tile:
     """V-grooves of equal width across x, each with its own slope.
 
     Every groove spans width w = size / grooves: its first face falls from the peak to
@@ -35,8 +111,8 @@ def build(surface: Mapping[str, Any]) -> Tile:
 
     Parameters
     ----------
-    surface : mapping
-        Kind ``vgroove``: ``slope`` (degrees) or ``alpha``, ``grooves``, ``size``, ``seed``,
+    surface : VGroove
+        ``slope`` (degrees) or ``alpha``, ``grooves``, ``size``, ``seed``,
         optionally ``micro_alpha``, ``micro_resolution``, ``micro_correlation``.
 
     Returns
@@ -45,15 +121,15 @@ def build(surface: Mapping[str, Any]) -> Tile:
         Anisotropic (``facts.isotropic`` False); ``facts.slopes_deg`` summarises
         the grooves' slopes (``slope_facts``).
     """
-    size, grooves = float(surface["size"]), int(surface["grooves"])
-    if "micro_alpha" in surface:
+    size, grooves = float(surface.size), int(surface.grooves)
+    if surface.micro_alpha is not None:
         return rough_faces(surface)
-    if "slope" in surface:
-        tan_s = np.full(grooves, math.tan(math.radians(surface["slope"])))
-        slopes = np.full(grooves, float(surface["slope"]))
+    if surface.slope is not None:
+        tan_s = np.full(grooves, math.tan(math.radians(surface.slope)))
+        slopes = np.full(grooves, float(surface.slope))
     else:
-        rng = np.random.default_rng(surface["seed"])
-        tan_s = np.abs(rng.normal(0.0, surface["alpha"] / math.sqrt(2.0), grooves))
+        rng = np.random.default_rng(surface.seed)
+        tan_s = np.abs(rng.normal(0.0, surface.alpha / math.sqrt(2.0), grooves))
         slopes = np.degrees(np.arctan(tan_s))
     width = size / grooves
     x = np.arange(2 * grooves + 1) * (width / 2)
@@ -65,9 +141,9 @@ def build(surface: Mapping[str, Any]) -> Tile:
     faces = grid_faces(len(x), 2)
     tile = Tile(vertices, faces, np.zeros(len(faces), np.int32), ("base",),
                 (size, size), facts=VGrooveFacts(slopes_deg=slope_facts(slopes)))
-    if "alpha" in surface:
+    if surface.alpha is not None:
         rx, ry = tile.realised_alpha()
-        tile.facts = replace(tile.facts, alpha_target=Roughness(surface["alpha"]),
+        tile.facts = replace(tile.facts, alpha_target=Roughness(surface.alpha),
                              alpha_realised_x=rx)
     return tile
 
@@ -91,19 +167,20 @@ def slope_facts(slopes_deg: np.ndarray) -> dict[str, float | int]:
             "rms": float(np.sqrt(np.mean(slopes_deg**2))), "max": float(slopes_deg.max())}
 
 
-def _face_field(surface: Mapping[str, Any]) -> tuple[int, float, float, np.ndarray]:
+def _face_field(surface: VGroove) -> tuple[int, float, float, np.ndarray]:
     """The micro-roughness of a rough V-groove tile: grid size n, slope s (radians),
     correlation length τ along a face, and the heights h (n, n) (see ``rough_faces``)."""
-    size = float(surface["size"])
-    n = int(surface.get("micro_resolution", MICRO_RESOLUTION))
-    s = math.radians(surface["slope"])
-    tau = surface.get("micro_correlation", DEFAULT_CELLS * size / n / math.cos(s))
-    h = heights(n, size, surface["micro_alpha"] * tau / 2, tau * math.cos(s), tau, 0.0,
-                np.random.default_rng(surface["seed"]))
+    size = float(surface.size)
+    n = surface.grid
+    s = math.radians(surface.slope)
+    tau = (surface.micro_correlation if surface.micro_correlation is not None
+           else DEFAULT_CELLS * size / n / math.cos(s))
+    h = heights(n, size, surface.micro_alpha * tau / 2, tau * math.cos(s), tau, 0.0,
+                np.random.default_rng(surface.seed))
     return n, s, tau, h
 
 
-def face_roughness_tile(surface: Mapping[str, Any]) -> Tile:
+def face_roughness_tile(surface: VGroove) -> Tile:
     """The micro-roughness a rough V-groove tile lays on its faces, laid flat instead.
 
     The lower level of the matching two-level hierarchy of scale: the same heights h on
@@ -113,15 +190,15 @@ def face_roughness_tile(surface: Mapping[str, Any]) -> Tile:
 
     Parameters
     ----------
-    surface : mapping
-        A resolved ``vgroove`` section with ``micro_alpha`` (see ``rough_faces``).
+    surface : VGroove
+        A section with ``micro_alpha`` (see ``rough_faces``).
 
     Returns
     -------
     Tile
         Period (size / cos s, size); isotropic; ``facts.alpha_realised``.
     """
-    size = float(surface["size"])
+    size = float(surface.size)
     n, s, tau, h = _face_field(surface)
     g = np.linspace(0.0, size, n + 1)
     x, y = np.meshgrid(g / math.cos(s), g, indexing="ij")
@@ -130,13 +207,13 @@ def face_roughness_tile(surface: Mapping[str, Any]) -> Tile:
     tile = Tile(np.column_stack([x.ravel(), y.ravel(), z.ravel()]), faces,
                 np.zeros(len(faces), np.int32), ("base",), (size / math.cos(s), size),
                 facts=FaceRoughnessFacts(isotropic=True,
-                                         alpha_target=Roughness(surface["micro_alpha"]),
+                                         alpha_target=Roughness(surface.micro_alpha),
                                          correlation_length=tau))
     tile.facts = replace(tile.facts, alpha_realised=Roughness(*tile.realised_alpha()))
     return tile
 
 
-def rough_faces(surface: Mapping[str, Any]) -> Tile:
+def rough_faces(surface: VGroove) -> Tile:
     """V-grooves of one slope s whose faces carry Gaussian micro-roughness.
 
     An n × n grid (n = ``micro_resolution``, columns x_i = i·size/n) follows the grooves;
@@ -150,8 +227,8 @@ def rough_faces(surface: Mapping[str, Any]) -> Tile:
 
     Parameters
     ----------
-    surface : mapping
-        Kind ``vgroove`` with ``slope`` (degrees), ``micro_alpha``, optional
+    surface : VGroove
+        With ``slope`` (degrees), ``micro_alpha``, optional
         ``micro_resolution`` (a multiple of 2·grooves; default ``MICRO_RESOLUTION``) and
         ``micro_correlation``, ``grooves``, ``size``, ``seed``.
 
@@ -162,7 +239,7 @@ def rough_faces(surface: Mapping[str, Any]) -> Tile:
         (from the facet normals in their face's frame, x' and y; see
         ``Tile.realised_alpha``).
     """
-    size, grooves = float(surface["size"]), int(surface["grooves"])
+    size, grooves = float(surface.size), int(surface.grooves)
     n, s, tau, h = _face_field(surface)
     cell = size / n
     m = n // (2 * grooves)  # grid columns per face
@@ -181,8 +258,8 @@ def rough_faces(surface: Mapping[str, Any]) -> Tile:
     tile = Tile(np.column_stack([x.ravel(), y.ravel(), z.ravel()]), faces,
                 np.zeros(len(faces), np.int32), ("base",), (size, size),
                 facts=VGrooveFacts(
-                    slopes_deg=slope_facts(np.full(grooves, float(surface["slope"]))),
-                    micro_alpha_target=surface["micro_alpha"], micro_correlation_length=tau))
+                    slopes_deg=slope_facts(np.full(grooves, float(surface.slope))),
+                    micro_alpha_target=surface.micro_alpha, micro_correlation_length=tau))
     # facet normals in their face's frame (face of the grid column a facet starts in)
     normals, areas = tile.face_normals_areas()
     face_side = np.where(k < m, 1.0, -1.0)[faces[:, 0] // (n + 1)]

@@ -4,11 +4,14 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import Any
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
+from microsim.errors import InputError
+from microsim.schema import key
+from microsim.surfaces.base import Surface, length_key, seed_key, smooth_key
 from microsim.surfaces.facts import WeaveFacts
 from microsim.surfaces.tile import Tile
 
@@ -101,13 +104,54 @@ def yarn(position: float, heights: np.ndarray, spacing: float, width: float,
     return vertices, faces, curved
 
 
-def build(surface: Mapping[str, Any]) -> Tile:
+@dataclass(frozen=True, kw_only=True)
+class Weave(Surface):
+    """Woven cloth, one pattern repeat (``kind = "weave"``)."""
+
+    kind: ClassVar[str] = "weave"
+    doc: ClassVar[str] = (
+        "Woven cloth, one pattern repeat: warp yarns along y and weft yarns along x as "
+        "swept tubes of elliptical cross-section on crimped (sinusoidal) paths.")
+    parts: ClassVar[tuple[str, ...]] = ("warp", "weft")
+    model_keys: ClassVar[tuple[str, ...]] = ("spacing",)
+    pattern: str = key("str", "plain", "Weave pattern.", choices=("plain", "twill"))
+    float: tuple[float, float] = key("floats", [2.0, 1.0], "Twill float: yarns passed "  # noqa: A003
+                                     "over, then under (e.g. [2, 1] for 2/1 twill, [2, 2] "
+                                     "for 2/2).", low=1, high=16, length=2)
+    yarn_width: float = length_key("Yarn cross-section width.", 0.8)
+    yarn_thickness: float = length_key("Yarn cross-section thickness.", 0.3)
+    spacing: float = length_key("Distance between neighbouring yarns (warp and weft).", 1.0)
+    segments: int = key("int", 16, "Path samples per yarn crossing.", low=4, high=1024)
+    sides: int = key("int", 24, "Facets around each yarn's cross-section (with smooth "
+                     "normals, 12 trap mirror light between crossing yarns: "
+                     "docs/surfaces.md).", low=4, high=256)
+    smooth_normals: bool = smooth_key()
+    seed: int = seed_key()
+
+    def check(self) -> None:
+        if self.yarn_width > 0.95 * self.spacing:
+            raise InputError(f"surface.yarn_width = {self.yarn_width!r}: must be <= 0.95 * "
+                             f"spacing = {0.95 * self.spacing:g} (neighbouring yarns would "
+                             "touch)")
+        if any(v != int(v) for v in self.float):
+            raise InputError(f"surface.float = {list(self.float)!r}: must be whole numbers "
+                             "of yarns")
+
+    def triangles(self) -> float:
+        up, down = self.float
+        return 4 * self.segments * self.sides * (up + down) ** 2
+
+    def build(self) -> Tile:
+        return weave_tile(self)
+
+
+def weave_tile(surface: Weave) -> Tile:
     """One repeat of a plain or twill weave.
 
     Parameters
     ----------
-    surface : mapping
-        Kind ``weave``: ``pattern``, ``float`` ([over, under] for twill), ``yarn_width``,
+    surface : Weave
+        With ``pattern``, ``float`` ([over, under] for twill), ``yarn_width``,
         ``yarn_thickness``, ``spacing``, ``segments`` (path samples per crossing),
         ``sides``, ``smooth_normals`` (the yarn faces carry their elliptic cylinders in
         ``Tile.curved``; default true).
@@ -119,17 +163,17 @@ def build(surface: Mapping[str, Any]) -> Tile:
         (twill). There is nothing below the cloth: light passing through the gaps between
         yarns leaves downwards and is reported as lost energy (transmission).
     """
-    if surface["pattern"] == "plain":
+    if surface.pattern == "plain":
         up, down = 1, 1
     else:
-        up, down = (int(v) for v in surface["float"])
+        up, down = (int(v) for v in surface.float)
     n = up + down
-    s, w, th = float(surface["spacing"]), float(surface["yarn_width"]), float(
-        surface["yarn_thickness"])
+    s, w, th = float(surface.spacing), float(surface.yarn_width), float(
+        surface.yarn_thickness)
     amp = crimp_amplitude(w, th, s)
     top = over(n, up)  # top[i, j]: warp i over weft j
-    samples = n * int(surface["segments"])
-    sides = int(surface["sides"])
+    samples = n * int(surface.segments)
+    sides = int(surface.sides)
     verts, faces, material, curved = [], [], [], []
     count = 0
     for k in range(n):
@@ -144,5 +188,5 @@ def build(surface: Mapping[str, Any]) -> Tile:
     return Tile(np.concatenate(verts), np.concatenate(faces).astype(np.int64),
                 np.concatenate(material), ("warp", "weft"), (n * s, n * s),
                 facts=WeaveFacts(repeat=n, crimp_amplitude=amp),
-                curved=np.concatenate(curved) if surface.get("smooth_normals", True)
+                curved=np.concatenate(curved) if surface.smooth_normals
                 else None)
