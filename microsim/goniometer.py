@@ -222,8 +222,7 @@ class _Batch(NamedTuple):
 
 
 def _batches(work: Mapping[Direction, int], runs: dict[RunKey, Run], new_run: Callable[[], Run],
-             seed: int, theta_deg: Sequence[float], phi_deg: Sequence[float],
-             isotropic: bool, realisation: int,
+             seed: int, axes: Incidences, realisation: int,
              progress: Callable[[Progress], None] | None) -> Iterator[_Batch]:
     """The batches of every direction of ``work`` in order, each direction's continuing its
     run in ``runs`` (``new_run()`` where there is none yet).
@@ -237,11 +236,11 @@ def _batches(work: Mapping[Direction, int], runs: dict[RunKey, Run], new_run: Ca
     for (l, k), rays in work.items():
         key = RunKey(l, k, realisation)
         run = runs[key] = runs.get(key) or new_run()
-        phi_ref = math.radians(phi_deg[k]) if isotropic else 0.0
-        wi = direction(math.radians(theta_deg[l]), math.radians(phi_deg[k]))
+        phi_ref = axes.phi_ref(k)
+        wi = axes.incident(l, k)
         dirs = np.ascontiguousarray(np.broadcast_to(-wi, (min(BATCH, rays), 3)))
         report = None if progress is None else _reporter(
-            progress, theta_deg[l], phi_deg[k], realisation, run.sums)
+            progress, axes.theta_deg[l], axes.phi_deg[k], realisation, run.sums)
         first = run.batches  # grows as the batches are added, while later ones are made
         for index, start in enumerate(range(0, rays, BATCH)):
             number = first + index
@@ -297,6 +296,62 @@ class Run:
 
 Direction = tuple[int, int]
 """An incident direction (l, k): polar angle index l, azimuth index k."""
+
+
+@dataclass(frozen=True)
+class Incidences:
+    """The axes of a measurement: its incident directions and the outgoing bins it
+    tallies into, made once from the recipe's sections and carried by the measurement,
+    so that the table is assembled from it (``microsim.simulation.assemble_table``).
+
+    Attributes
+    ----------
+    theta_deg, phi_deg : tuple of float
+        Every incident polar angle of the simulation (index l) and the incident azimuths
+        measured (index k; ``(0,)`` for an isotropic surface), degrees as the recipe
+        gives them (the table's records keep these).
+    isotropic : bool
+        One incident azimuth, and outgoing azimuths binned relative to it.
+    bins : HemisphereBins
+        The outgoing bins.
+    """
+
+    theta_deg: tuple[float, ...]
+    phi_deg: tuple[float, ...]
+    isotropic: bool
+    bins: HemisphereBins
+
+    @classmethod
+    def of(cls, simulation: Simulation, table: TableSettings, isotropic: bool
+           ) -> Incidences:
+        """The axes of ``simulation`` and ``table`` for a surface of that symmetry."""
+        phi = (0.0,) if isotropic else tuple(float(p) for p in simulation.phi_i)
+        return cls(tuple(float(t) for t in simulation.theta_i), phi, bool(isotropic),
+                   HemisphereBins(table.theta_bins, table.phi_bins))
+
+    @property
+    def theta_i(self) -> np.ndarray:
+        """(a,) float: the incident polar angles, radians."""
+        return np.radians(self.theta_deg)
+
+    @property
+    def phi_i(self) -> np.ndarray:
+        """(b,) float: the incident azimuths, radians."""
+        return np.radians(self.phi_deg)
+
+    @property
+    def directions(self) -> list[Direction]:
+        """Every (l, k)."""
+        return [(l, k) for l in range(len(self.theta_deg)) for k in range(len(self.phi_deg))]
+
+    def incident(self, l: int, k: int) -> np.ndarray:
+        """(3,) float: the unit direction ωi towards the light of direction (l, k)."""
+        return direction(math.radians(self.theta_deg[l]), math.radians(self.phi_deg[k]))
+
+    def phi_ref(self, k: int) -> float:
+        """The azimuth (radians) outgoing azimuths are binned from: the incident one for
+        an isotropic table, 0 (absolute) otherwise."""
+        return math.radians(self.phi_deg[k]) if self.isotropic else 0.0
 
 
 class RunKey(NamedTuple):
@@ -359,8 +414,8 @@ class Measurement:
         The facts of each realisation's tile.
     inputs : list of TableInput
         Provenance of the tables its facet materials read (``FacetMaterials.inputs``).
-    isotropic : bool
-        Whether one incident azimuth (0) was measured.
+    axes : Incidences
+        Its incident directions (the indices of ``runs``' keys) and outgoing bins.
     segments : int
         Embree queries traced.
     offset : float
@@ -384,7 +439,7 @@ class Measurement:
     runs: dict[RunKey, Run]
     surfaces: dict[int, TileFacts]
     inputs: list[TableInput]
-    isotropic: bool
+    axes: Incidences
     segments: int = 0
     offset: float = math.nan
     scene_time: float = 0.0
@@ -396,6 +451,11 @@ class Measurement:
     energies: dict[Direction, Energies] = field(default_factory=dict)
 
     @property
+    def isotropic(self) -> bool:
+        """Whether one incident azimuth (0) was measured."""
+        return self.axes.isotropic
+
+    @property
     def rays(self) -> int:
         """Rays traced over every run, folded ones included."""
         folded = 0 if self.ensemble is None else int(self.ensemble.rays.sum())
@@ -405,7 +465,7 @@ class Measurement:
         """Move run ``key`` into the running sums (realisations of a direction in index
         order)."""
         if self.ensemble is None:
-            self.ensemble = new_ensemble(simulation, table, self.isotropic)
+            self.ensemble = new_ensemble(self.axes, simulation, table)
         fold(self.ensemble, self.energies.setdefault(key[:2], Energies()), key,
              self.runs.pop(key).sums)
 
@@ -418,13 +478,12 @@ def fold(ensemble: EnsembleSums, energies: Energies, key: RunKey, sums: Sums) ->
     energies.add(sums)
 
 
-def new_ensemble(simulation: Simulation, table: TableSettings, isotropic: bool
+def new_ensemble(axes: Incidences, simulation: Simulation, table: TableSettings
                  ) -> EnsembleSums:
-    """Empty running sums for every incident direction of a simulation's table."""
-    return EnsembleSums((len(simulation.theta_i), len(incident_azimuths(isotropic, simulation))),
-                        components_for(table.orders), table.theta_bins * table.phi_bins,
-                        table.sh_order, table.channels.count,
-                        harmonic_ray_variance(simulation))
+    """Empty running sums for every incident direction of a measurement's axes."""
+    return EnsembleSums((len(axes.theta_deg), len(axes.phi_deg)),
+                        components_for(table.orders), axes.bins.size, table.sh_order,
+                        table.channels.count, harmonic_ray_variance(simulation))
 
 
 def harmonic_ray_variance(simulation: Simulation) -> bool:
@@ -438,11 +497,6 @@ def harmonic_ray_variance(simulation: Simulation) -> bool:
     return simulation.realisations_or_one == 1
 
 
-def incident_azimuths(isotropic: bool, simulation: Simulation) -> list[float]:
-    """Incident azimuths (degrees) a table measures: ``[0]`` when isotropic."""
-    return [0.0] if isotropic else [float(p) for p in simulation.phi_i]
-
-
 class Part(NamedTuple):
     """One realisation's share of a measurement (``trace_realisations``): its index, an
     open scene of its tile (``scene.tile``; the part holds no tile of its own, so a scene
@@ -454,7 +508,7 @@ class Part(NamedTuple):
 
 
 def trace_realisations(parts: Iterable[Part], materials: Mapping[str, Material],
-                       simulation: Simulation, table: TableSettings,
+                       simulation: Simulation, table: TableSettings, axes: Incidences,
                        runs: dict[RunKey, Run], *,
                        progress: Callable[[Progress], None] | None = None,
                        ended: Callable[[Part, int, list[TableInput]], None] | None = None
@@ -470,6 +524,8 @@ def trace_realisations(parts: Iterable[Part], materials: Mapping[str, Material],
         may open each realisation then).
     materials, simulation, table
         As for ``measure_directions``.
+    axes : Incidences
+        The measurement's directions and bins (of the parts' surface).
     runs : dict of RunKey to Run
         Runs to continue or start (their sums grow).
     progress : callable or None
@@ -479,8 +535,7 @@ def trace_realisations(parts: Iterable[Part], materials: Mapping[str, Material],
         Embree queries it made and the provenance of the tables its facet materials read
         (its scene is free again).
     """
-    theta_deg = [float(t) for t in simulation.theta_i]
-    bins = HemisphereBins(table.theta_bins, table.phi_bins)
+    bins = axes.bins
     left: dict[int, list] = {}  # per realisation: batches not added, part, segments, inputs
 
     def new_run() -> Run:
@@ -493,9 +548,8 @@ def trace_realisations(parts: Iterable[Part], materials: Mapping[str, Material],
             tile = scene.tile
             facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
                                     tile.curved, table.channels)
-            items = list(_batches(part.work, runs, new_run, int(simulation.seed), theta_deg,
-                                  incident_azimuths(bool(tile.facts.isotropic), simulation),
-                                  bool(tile.facts.isotropic), part.realisation, progress))
+            items = list(_batches(part.work, runs, new_run, int(simulation.seed), axes,
+                                  part.realisation, progress))
             state = left[part.realisation] = [len(items), part, scene.segments,
                                               facets.inputs]
             del tile
@@ -561,14 +615,13 @@ def measure_directions(tile: Tile, materials: Mapping[str, Material], simulation
         With the runs of this realisation that were traced (continued ones included).
     """
     start = time.perf_counter()
-    isotropic = bool(tile.facts.isotropic)
-    phi_deg = incident_azimuths(isotropic, simulation)
+    axes = Incidences.of(simulation, table, bool(tile.facts.isotropic))
     if isinstance(rays, Mapping):
         work = dict(rays)
     else:
         n = simulation.rays_per_realisation if rays is None else int(rays)
-        work = {(l, k): n for l in (range(len(simulation.theta_i)) if thetas is None
-                                    else thetas) for k in range(len(phi_deg))}
+        work = {(l, k): n for l in (range(len(axes.theta_deg)) if thetas is None
+                                    else thetas) for k in range(len(axes.phi_deg))}
     runs = {} if runs is None else runs
     done: dict[str, object] = {}
 
@@ -580,10 +633,10 @@ def measure_directions(tile: Tile, materials: Mapping[str, Material], simulation
             scene = stack.enter_context(PeriodicScene(tile, threads))
         built = time.perf_counter()
         trace_realisations([Part(realisation, scene, work)], materials, simulation,
-                           table, runs, progress=progress, ended=ended)
+                           table, axes, runs, progress=progress, ended=ended)
         eps = scene.eps
     traced = {key: runs[key] for key in (RunKey(l, k, realisation) for l, k in work)}
-    return Measurement(traced, {realisation: tile.facts}, done["inputs"], isotropic,
+    return Measurement(traced, {realisation: tile.facts}, done["inputs"], axes,
                        done["segments"], eps, built - start, time.perf_counter() - built,
                        warnings=list(dict.fromkeys(tile.warnings)))
 

@@ -25,6 +25,7 @@ from microsim.goniometer import (
     BATCH,
     Direction,
     Energies,
+    Incidences,
     Measurement,
     Part,
     Progress,
@@ -32,7 +33,6 @@ from microsim.goniometer import (
     RunKey,
     Sums,
     fold,
-    incident_azimuths,
     lost_energy_warnings,
     new_ensemble,
     trace_realisations,
@@ -44,7 +44,6 @@ from microsim.surfaces.facts import SurfaceFacts
 from microsim.surfaces.realisations import realisation, realisation_seed
 from microsim.surfaces.tile import Tile
 from microsim.tables.assemble import from_ensemble
-from microsim.tables.binning import HemisphereBins
 from microsim.tables.meta import DirectionRecord, TableInput, TableMeta, Timing
 from microsim.tables.table import BRDFTable
 from microsim.trace import PeriodicScene
@@ -118,20 +117,20 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
     k0, n0 = simulation.realisations_or_one, simulation.rays_per_realisation
     ensemble = k0 > 1
     target = simulation.target_error
-    done = Measurement({}, {}, [], False)
+    done = Measurement({}, {}, [], Incidences.of(simulation, table, False))
     held: tuple[int, Tile, PeriodicScene] | None = None
     opener = Opener(tiles, threads, done)
     plan: dict[Direction, tuple[int, int]] = {}   # (realisations, rays of each new one)
     traced: dict[Direction, list[int]] = {}       # rays of each realisation traced
     batches = [0, 0]                              # of the measurement: done, planned
-    bins = HemisphereBins(table.theta_bins, table.phi_bins)
     try:
         while True:
             if not plan:  # the first round: the tile says whether it is isotropic
                 held = opener.open(0)
                 faces = len(held[1].faces)
-                azimuths = incident_azimuths(done.isotropic, simulation)
-                plan = {(l, k): (k0, n0) for l in chosen for k in range(len(azimuths))}
+                done.axes = Incidences.of(simulation, table, bool(held[1].facts.isotropic))
+                plan = {(l, k): (k0, n0) for l in chosen
+                        for k in range(len(done.axes.phi_deg))}
                 traced = {d: [] for d in plan}
             work: dict[int, dict[Direction, int]] = {}
             for d, (k, n) in plan.items():
@@ -148,8 +147,7 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
                                 batches=batches)
             if target is None:
                 break
-            current = assemble_table([done], materials, simulation, table, thetas=chosen,
-                                     bins=bins)
+            current = assemble_table([done], materials, simulation, table, thetas=chosen)
             rel, share = direction_errors(current)
             cost = _tile_cost(done, sum(d not in done.stops for d in plan), faces)
             for d in plan:
@@ -251,7 +249,6 @@ class Opener:
         done.scene_time += seconds
         done.tiles += 1
         done.surfaces.setdefault(r, tile.facts)
-        done.isotropic = bool(tile.facts.isotropic)
         done.warnings += [w for w in tile.warnings if w not in done.warnings]
         if r == 0:
             done.offset = scene.eps
@@ -351,7 +348,7 @@ def _trace_round(held: tuple[int, Tile, PeriodicScene] | None, opener: Opener,
         held = None
     start = time.perf_counter()
     try:
-        trace_realisations(parts(), materials, simulation, table, done.runs,
+        trace_realisations(parts(), materials, simulation, table, done.axes, done.runs,
                            progress=None if progress is None else report, ended=ended)
     except BaseException:
         for _, _, scene in opened.values():
@@ -364,8 +361,7 @@ def _trace_round(held: tuple[int, Tile, PeriodicScene] | None, opener: Opener,
 def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Material],
                    simulation: Simulation, table: TableSettings, *,
                    recipe: Recipe | None = None, wall_time: float | None = None,
-                   thetas: Sequence[int] | None = None, bins: HemisphereBins | None = None
-                   ) -> BRDFTable:
+                   thetas: Sequence[int] | None = None) -> BRDFTable:
     """The table of measurements that together trace every direction's realisations once.
 
     Parameters
@@ -381,9 +377,7 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
         (``wall_time``, ``scene_time``, ``rays_per_second``, ``segments_per_second``);
         None leaves them out, so the table depends on nothing but the recipe.
     thetas : sequence of int or None
-        The polar angle indices the table holds (default: all of ``simulation``).
-    bins : HemisphereBins or None
-        The table's bins (default: from ``table``).
+        The polar angle indices the table holds (default: all of the parts' axes).
 
     Returns
     -------
@@ -399,11 +393,14 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
         are not 0, 1, ..., K − 1.
     """
     first = parts[0]
+    axes = first.axes
+    if any(part.axes != axes for part in parts):
+        raise ValueError("the measurements do not share their incident directions and bins")
     summed = [part for part in parts if part.ensemble is not None]
     if len(summed) == 1 and not any(part.runs for part in parts):
         ensemble, energies = summed[0].ensemble, summed[0].energies  # read, not changed
     else:
-        ensemble, energies = new_ensemble(simulation, table, first.isotropic), {}
+        ensemble, energies = new_ensemble(axes, simulation, table), {}
         for part in summed:
             ensemble.absorb(part.ensemble)
             energies.update({d: Energies(e.energy.copy(), dict(e.fates))
@@ -417,9 +414,8 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
             runs[key] = run
     surfaces = {r: facts for part in parts for r, facts in part.surfaces.items()}
     stops = {d: stop for part in parts for d, stop in part.stops.items()}
-    theta_all = [float(t) for t in simulation.theta_i]
+    theta_all, phi_deg = axes.theta_deg, axes.phi_deg
     chosen = list(range(len(theta_all)) if thetas is None else thetas)
-    phi_deg = incident_azimuths(first.isotropic, simulation)
     directions = [(l, k) for l in chosen for k in range(len(phi_deg))]
     folded = {d: len(ensemble.realisation_rays.get(d, ())) for d in directions}
     open_runs = {d: sorted(key.realisation for key in runs if key[:2] == d)
@@ -431,11 +427,10 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
                          "with realisations 0 .. K-1")
     for key in sorted(runs, key=lambda key: (key.realisation, key.theta, key.phi)):
         fold(ensemble, energies.setdefault(key[:2], Energies()), key, runs[key].sums)
-    bins = bins or HemisphereBins(table.theta_bins, table.phi_bins)
     single = not any(folded.values()) and all(len(r) == 1 for r in open_runs.values())
     raw = raw_sums(runs, chosen, len(phi_deg), ensemble.components) if single else None
-    result = from_ensemble(bins, np.radians([theta_all[l] for l in chosen]),
-                           np.radians(phi_deg), first.isotropic, ensemble.take(chosen),
+    result = from_ensemble(axes.bins, axes.theta_i[chosen], axes.phi_i, axes.isotropic,
+                           ensemble.take(chosen),
                            TableMeta(), raw, table.channels)
     surface = None if recipe is None else recipe.surface
     seeds = [None if surface is None else realisation_seed(surface.seed, r)
@@ -457,7 +452,7 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
                                                         simulation, table),
         microsim_version=__version__,
         surface=SurfaceFacts.pool([surfaces[r] for r in sorted(surfaces)], seeds),
-        inputs=tuple(first.inputs), seed=int(simulation.seed), isotropic=first.isotropic,
+        inputs=tuple(first.inputs), seed=int(simulation.seed), isotropic=axes.isotropic,
         error_model=result.error_model, realisations=int(result.realisations.max()),
         directions=records, stop=tuple(sorted({stops.get(d, "rays") for d in directions})),
         segments=segments, batch=BATCH,

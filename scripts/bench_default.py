@@ -54,7 +54,7 @@ import numpy as np
 from microsim.bench import bare_rays_per_second, bare_scene, run_child, surface_rays
 from microsim.files import write_section
 from microsim.geometry import direction
-from microsim.goniometer import Measurement
+from microsim.goniometer import Incidences, Measurement
 from microsim.kernel.beam import CELLS, beam_origins
 from microsim.kernel.packing import FacetMaterials
 from microsim.recipe import load, resolve, to_toml
@@ -255,7 +255,7 @@ def tile_section() -> str:
             scene.update(tile)
             refit.append(time.perf_counter() - built)
             build.append(built - start)
-    done = Measurement({}, {}, [], False)
+    done = Measurement({}, {}, [], Incidences.of(recipe.simulation, recipe.table, True))
     opener = Opener(tiles, THREADS, done)
     opener.release(opener.open(0)[2])
     start = time.perf_counter()

@@ -12,6 +12,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -418,7 +419,8 @@ def test_a_raising_job_is_retried_once(tmp_path: Path, monkeypatch: pytest.Monke
 
 def test_measurements_of_disjoint_angles_merge_into_simulate() -> None:
     """Angles traced apart (one in a shared scene, in another order) assemble into the
-    sums of ``simulate``; a set of parts that misses or repeats an angle is refused."""
+    sums of ``simulate``; a set of parts that misses or repeats an angle, or whose parts
+    were binned differently, is refused."""
     tile = random_tile(16, rms_slope=0.4, cells=3.0, seed=2)
     recipe = resolve({"surface": {"kind": "flat"}, "material": {"kind": "lambertian"},
                       "simulation": {"theta_i": [0, 30, 60], "rays": 700, "seed": 9},
@@ -439,3 +441,10 @@ def test_measurements_of_disjoint_angles_merge_into_simulate() -> None:
         assemble_table([first], *sections)
     with pytest.raises(ValueError, match="traced twice"):
         assemble_table([first, last, last], *sections)
+    other = replace(recipe.table, phi_bins=16)
+    with PeriodicScene(tile, 1) as scene:
+        binned_apart = measure_directions(tile, recipe.material, recipe.simulation, other,
+                                          [2], scene=scene)
+    assert binned_apart.axes.bins.shape == (4, 16) and first.axes.bins.shape == (4, 8)
+    with pytest.raises(ValueError, match="do not share their incident directions"):
+        assemble_table([binned_apart, first], *sections)

@@ -56,6 +56,16 @@ class HemisphereBins:
         self.projected_solid_angle = 0.5 * np.outer(np.diff(self.u_edges),
                                                     np.diff(self.phi_edges))
 
+    def __eq__(self, other: object) -> bool:
+        """Bins are equal when their counts and azimuth period are (their edges follow)."""
+        if not isinstance(other, HemisphereBins):
+            return NotImplemented
+        return (self.theta_bins, self.phi_bins, self.phi_period) == (
+            other.theta_bins, other.phi_bins, other.phi_period)
+
+    def __hash__(self) -> int:
+        return hash((self.theta_bins, self.phi_bins, self.phi_period))
+
     @property
     def shape(self) -> tuple[int, int]:
         """(theta_bins, phi_bins)."""
