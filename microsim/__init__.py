@@ -7,9 +7,7 @@ and turned into BRDF tables with per-bin error bars, compared with analytic mode
 The Python API (docs/python.md) is the functions of this module: ``load_recipe``,
 ``simulate``, ``read_table``, ``write_table``, ``model``, ``compare_model``,
 ``fit_model`` and ``export``; a table evaluates itself (``BRDFTable.eval``). Each imports
-what it needs when first called, so ``import microsim`` stays light. (``compare`` and
-``fit`` are the names of the modules ``microsim.compare`` and ``microsim.fit``, which an
-import binds on the package, hence the longer names of the functions.)
+what it needs when first called, so ``import microsim`` stays light.
 """
 
 from __future__ import annotations
@@ -23,9 +21,9 @@ if TYPE_CHECKING:
     from pathlib import Path
     from typing import Any
 
-    from microsim.comparison import Comparison
-    from microsim.fit import FitResult
-    from microsim.goniometer import Progress
+    from microsim.comparison.fit import FitResult
+    from microsim.comparison.records import Comparison
+    from microsim.measurement.goniometer import Progress
     from microsim.settings import Recipe
     from microsim.tables.table import BRDFTable
 
@@ -117,7 +115,7 @@ def simulate(recipe: Recipe, threads: int | None = None,
     threads : int or None
         Tracing threads (default: every core); the table is the same for any number.
     progress : callable or None
-        Called after every batch with a ``microsim.goniometer.Progress``.
+        Called after every batch with a ``microsim.measurement.goniometer.Progress``.
     memory_limit_gib : float or None
         The memory guard's budget (docs/recipes.md; default $MICROSIM_MEMORY_LIMIT or 2).
 
@@ -127,7 +125,7 @@ def simulate(recipe: Recipe, threads: int | None = None,
         ``table.values[component]`` (a, b, nt, np, 3) with ``table.errors``, the
         albedo, the harmonics and ``table.meta`` (the realised surface, the recipe).
     """
-    from microsim.simulation import simulate_recipe
+    from microsim.measurement.simulation import simulate_recipe
 
     return simulate_recipe(recipe, progress, threads, memory_limit_gib)
 
@@ -151,7 +149,7 @@ def model(spec: str, table: BRDFTable | None = None, component: str = "total") -
         With ``eval(wi, wo) -> (..., 3)`` f_r in 1/sr for (..., 3) unit directions.
     """
     from microsim.analytic.registry import parse_model_spec
-    from microsim.table_models import table_defaults
+    from microsim.comparison.table_models import table_defaults
 
     defaults = None if table is None else table_defaults(table, component)
     return parse_model_spec(spec, defaults)[2]
@@ -170,11 +168,11 @@ def compare_model(table: BRDFTable, spec: str, component: str = "total") -> Comp
 
     Returns
     -------
-    microsim.comparison.Comparison
+    microsim.comparison.records.Comparison
         Pooled and per-incidence metrics: relative error and z against both error bars
         over the lobe bins, the verdict's numbers.
     """
-    from microsim.compare import compare_table
+    from microsim.comparison.metrics import compare_table
 
     return compare_table(table, model(spec, table, component), component)
 
@@ -191,10 +189,10 @@ def fit_model(table: BRDFTable, spec: str, component: str = "total") -> FitResul
 
     Returns
     -------
-    microsim.fit.FitResult
+    microsim.comparison.fit.FitResult
         Parameters with 1σ uncertainties, χ²/dof, the fitted model.
     """
-    from microsim.fit import fit_table
+    from microsim.comparison.fit import fit_table
 
     return fit_table(table, spec, component)
 

@@ -2,9 +2,10 @@
 
 A sweep point is one table; its incident polar angles are cut into jobs of
 ``Sweep.thetas_per_job`` angles, and each job traces one realisation of the surface
-(``microsim.goniometer.measure_directions``), so the realisations of one table run on as
-many workers as there are. With ``simulation.target_error`` a job traces its angles over
-all the realisations its adaptive stop asks for (``microsim.simulation.measure_ensemble``).
+(``microsim.measurement.goniometer.measure_directions``), so the realisations of one
+table run on as many workers as there are. With ``simulation.target_error`` a job traces
+its angles over all the realisations its adaptive stop asks for
+(``microsim.measurement.simulation.measure_ensemble``).
 The client merges a table's jobs with ``assemble_table`` and writes it. Direction (l, k) of
 realisation r draws its batches from ``SeedSequence(seed, spawn_key=(l, k, r, b))``
 whichever job traces it, and the merge combines realisations in index order, so a table is
@@ -33,15 +34,15 @@ from typing import TYPE_CHECKING, Any
 
 from microsim.errors import InputError
 from microsim.files import atomic_path, remove_stale_temporaries, replaceable
-from microsim.goniometer import Measurement, measure_directions
+from microsim.measurement.goniometer import Measurement, measure_directions
+from microsim.measurement.scene import PeriodicScene
+from microsim.measurement.simulation import Tiles, assemble_table, measure_ensemble
 from microsim.settings import Recipe
-from microsim.simulation import Tiles, assemble_table, measure_ensemble
 from microsim.surfaces import Surface, build_tile
 from microsim.surfaces.realisations import realisation as realisation_of
 from microsim.surfaces.tile import Tile
 from microsim.sweep import Point, Sweep
 from microsim.tables.exr import read_table, write_table
-from microsim.trace import PeriodicScene
 from microsim.version import __version__
 
 if TYPE_CHECKING:
@@ -70,7 +71,7 @@ def _scene(surface: Surface, realisation: int, threads: int
            ) -> tuple[Tile, PeriodicScene]:
     """Realisation ``realisation``'s tile of a surface section and an open Embree scene
     of it, kept per worker thread (a scene is used by one job at a time) until another
-    surface needs one. As in ``microsim.simulation.Opener``, the scene is built for
+    surface needs one. As in ``microsim.measurement.simulation.Opener``, the scene is built for
     realisation 0's tile and updated (its BVH refitted) to the others, so a job traces
     exactly what one ``simulate`` of all realisations does."""
     base = realisation_of(surface, 0)

@@ -50,18 +50,18 @@ from embreex.rtcore_scene import EmbreeScene
 from microsim.analytic.multiple_scattering import SmithMultipleScattering
 from microsim.analytic.ndf import Beckmann
 from microsim.analytic.shadowing import vcavity_G1
-from microsim.compare import compare_table, lobe_residuals
+from microsim.comparison.metrics import compare_table, lobe_residuals
+from microsim.comparison.table_models import microfacet_model
 from microsim.files import atomic_path
 from microsim.geometry import direction
 from microsim.kernel.packing import FacetMaterials
-from microsim.masking import measure_g1, sample_faces
 from microsim.materials import Lambertian
+from microsim.measurement.masking import measure_g1, sample_faces
+from microsim.measurement.scene import PeriodicScene
+from microsim.measurement.simulation import simulate
 from microsim.plots.layout import save
 from microsim.recipe import resolve
-from microsim.simulation import simulate
 from microsim.surfaces import build_tile
-from microsim.table_models import microfacet_model
-from microsim.trace import PeriodicScene
 
 COLUMNS = ("case", "rays", "tile_resolution", "cells_per_correlation", "table_bins",
            "wall_s", "segments", "segments_per_s", "bare_rays_per_s", "ratio", "error",

@@ -133,7 +133,7 @@ class Recipe:
     ----------
     description : str
     surface : Surface or None
-        None in a table of a given tile (``microsim.simulation.simulate`` without a
+        None in a table of a given tile (``microsim.measurement.simulation.simulate`` without a
         recipe).
     material : mapping of str to Material
         The material of every part of the surface.

@@ -14,8 +14,8 @@ from microsim.files import atomic_path
 from microsim.geometry import direction
 from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.slots import ESCAPED, O_FATE, O_ORDER, S_DX
+from microsim.measurement.scene import PeriodicScene
 from microsim.surfaces.tile import Tile
-from microsim.trace import PeriodicScene
 
 WINDOW = (800, 600)
 GLASS = 0.3
@@ -266,7 +266,7 @@ def show_lobe(table: Any, theta_i: float, model: Any = None,
     if model is not None:
         g = np.asarray(model.eval(np.broadcast_to(wi, wo.shape), wo), float)
         if g.ndim == 3:
-            from microsim.compare import channels_of
+            from microsim.comparison.metrics import channels_of
 
             g = one_value(channels_of(g, channels.count), channels)
         rel = np.where(g > 0, (f - g) / np.where(g > 0, g, 1.0), 0.0)

@@ -29,9 +29,9 @@ Sections (``--only`` picks some):
   from neighbouring origins) and one direction's 65 536 (the demo's batches); medians
   over interleaved rounds.
 - ``tile``: the cost of one realisation of the 256² Gaussian tile, as ``simulate`` opens
-  one (``microsim.simulation.Opener.open``, one after the other: the tile's generation and
-  facts, then the refit of a scene built for realisation 0), mean of 16 after realisation
-  0, with the medians of the two parts.
+  one (``microsim.measurement.simulation.Opener.open``, one after the other: the tile's
+  generation and facts, then the refit of a scene built for realisation 0), mean of 16
+  after realisation 0, with the medians of the two parts.
 
 ``--write`` puts the figures at the head of docs/performance.md (marked section).
 """
@@ -54,13 +54,13 @@ import numpy as np
 from microsim.bench import bare_rays_per_second, bare_scene, run_child, surface_rays
 from microsim.files import write_section
 from microsim.geometry import direction
-from microsim.goniometer import Incidences, Measurement
 from microsim.kernel.beam import CELLS, beam_origins
 from microsim.kernel.packing import FacetMaterials
+from microsim.measurement.goniometer import Incidences, Measurement
+from microsim.measurement.scene import PeriodicScene
+from microsim.measurement.simulation import Opener, Tiles
 from microsim.recipe import load, resolve, to_toml
-from microsim.simulation import Opener, Tiles
 from microsim.surfaces import build_tile
-from microsim.trace import PeriodicScene
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "performance.md"
@@ -270,7 +270,7 @@ def tile_section() -> str:
         wall.append(time.perf_counter() - start)
         cpu.append(time.process_time() - used)
     return (f"One realisation of the 256² Gaussian tile (131,072 faces) as `simulate` "
-            f"opens it (`microsim.simulation.Opener`, one after the other, nothing "
+            f"opens it (`microsim.measurement.simulation.Opener`, one after the other, nothing "
             f"traced beside): **{1e3 * whole:.1f} ms** (mean of 16), of which the tile's "
             f"generation and facts {1e3 * statistics.median(build):.1f} ms and the refit "
             f"of its scene {1e3 * statistics.median(refit):.1f} ms (medians of 16). "
@@ -281,16 +281,16 @@ def tile_section() -> str:
             "one for each realisation in flight, three, and refits them to the others.")
 
 
-PARTS = (("microsim.trace", "trace_chunk", "the kernel (trace_chunk)"),
-         ("microsim.paths", "summarise", "summaries of outcomes"),
-         ("microsim.goniometer", "bin_escapes", "binning"),
+PARTS = (("microsim.measurement.scene", "trace_chunk", "the kernel (trace_chunk)"),
+         ("microsim.measurement.paths", "summarise", "summaries of outcomes"),
+         ("microsim.measurement.goniometer", "bin_escapes", "binning"),
          ("microsim.tables.sh", "_transform", "harmonic transforms (ducc0)"),
-         ("microsim.goniometer.Sums", "tally", "a batch's tally in all"),
-         ("microsim.goniometer", "beam_origins", "start points of the beam"),
-         ("microsim.goniometer.Sums", "add_tally", "adding tallies"),
-         ("microsim.goniometer.Measurement", "fold", "folding realisations"),
-         ("microsim.simulation.Opener", "_build", "tiles and scenes (beside)"),
-         ("microsim.simulation", "assemble_table", "assembling tables"))
+         ("microsim.measurement.goniometer.Sums", "tally", "a batch's tally in all"),
+         ("microsim.measurement.goniometer", "beam_origins", "start points of the beam"),
+         ("microsim.measurement.goniometer.Sums", "add_tally", "adding tallies"),
+         ("microsim.measurement.goniometer.Measurement", "fold", "folding realisations"),
+         ("microsim.measurement.simulation.Opener", "_build", "tiles and scenes (beside)"),
+         ("microsim.measurement.simulation", "assemble_table", "assembling tables"))
 """What ``--breakdown`` times: (module or class, function, label)."""
 
 
@@ -304,7 +304,7 @@ def breakdown_section() -> str:
     import threading
     from collections import defaultdict
 
-    from microsim.simulation import simulate_recipe
+    from microsim.measurement.simulation import simulate_recipe
 
     spent: defaultdict[str, float] = defaultdict(float)
     lock = threading.Lock()

@@ -30,7 +30,7 @@ def smooth_table(path: Path) -> None:
     from microsim.analytic.brdf import TorranceSparrow
     from microsim.analytic.fresnel import ConductorFresnel
     from microsim.analytic.ndf import Beckmann
-    from microsim.compare import model_table
+    from microsim.comparison.metrics import model_table
     from microsim.tables.binning import HemisphereBins
     from microsim.tables.exr import write_table
 

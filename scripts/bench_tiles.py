@@ -44,12 +44,12 @@ from microsim.kernel import slots as ks
 from microsim.kernel.embree import Scene
 from microsim.kernel.packing import FacetMaterials
 from microsim.materials import Mirror
+from microsim.measurement.scene import PeriodicScene
 from microsim.recipe import load
 from microsim.surfaces import build_tile, gaussian
 from microsim.surfaces.faces import face_geometry
 from microsim.surfaces.realisations import realisation
 from microsim.surfaces.tile import Tile
-from microsim.trace import PeriodicScene
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "performance.md"

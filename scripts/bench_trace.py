@@ -39,13 +39,13 @@ import numpy as np
 
 from microsim.bench import bare_rays_per_second, bare_scene, gaussian, surface_rays
 from microsim.files import write_section
-from microsim.goniometer import measure_directions
 from microsim.kernel.beam import CELLS, cell_steps
+from microsim.measurement.goniometer import measure_directions
+from microsim.measurement.scene import CHUNK, PeriodicScene
+from microsim.measurement.simulation import simulate
 from microsim.recipe import load, resolve
 from microsim.settings import Recipe
-from microsim.simulation import simulate
 from microsim.surfaces import build_tile
-from microsim.trace import CHUNK, PeriodicScene
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "performance.md"

@@ -41,11 +41,11 @@ import time
 from pathlib import Path
 
 from microsim.bench import run_child
-from microsim.compare import compare_table
+from microsim.comparison.metrics import compare_table
+from microsim.comparison.table_models import microfacet_model
 from microsim.files import write_section
+from microsim.measurement.simulation import Tiles, assemble_table, measure_ensemble
 from microsim.recipe import load, to_toml
-from microsim.simulation import Tiles, assemble_table, measure_ensemble
-from microsim.table_models import microfacet_model
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "performance.md"

@@ -32,8 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from microsim.files import write_section
+from microsim.measurement.simulation import simulate_recipe
 from microsim.recipe import load
-from microsim.simulation import simulate_recipe
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "performance.md"

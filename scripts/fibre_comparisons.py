@@ -22,17 +22,17 @@ from pathlib import Path
 import numpy as np
 
 from microsim.analytic.registry import parse_model_spec
-from microsim.compare import Comparison, compare_table
+from microsim.comparison.fit import FitResult, family, fit_table
+from microsim.comparison.metrics import Comparison, compare_table
+from microsim.comparison.table_models import model_defaults
 from microsim.files import measured_with, write_section
-from microsim.fit import FitResult, family, fit_table
 from microsim.materials import Lambertian, Mirror
+from microsim.measurement.simulation import simulate
 from microsim.plots import incidence_plane
 from microsim.recipe import load, resolve
 from microsim.settings import Recipe
-from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.tile import Tile
-from microsim.table_models import model_defaults
 from microsim.tables.table import BRDFTable
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -26,8 +26,8 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
+from microsim.comparison.difference import table_difference
 from microsim.files import measured_with, write_section
-from microsim.table_difference import table_difference
 from microsim.tables.exr import read_table
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "materials.md"

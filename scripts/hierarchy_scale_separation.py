@@ -11,10 +11,10 @@ The one-level tile is ``vgroove`` with ``micro_alpha`` (gold facets); the lower 
 ``microsim.surfaces.vgroove.face_roughness_tile``, the very field the faces carry laid
 flat, simulated every 5 degrees from 0 to 85 (16 x 32 bins, ``--rays`` / 1.5 rays per
 node); both upper tables have 8 x 16 bins and ``--rays`` rays per incidence (0, 30, 60
-degrees, across the grooves). Prints ``microsim.table_difference.table_difference`` per incidence
-(docs/materials.md explains the figures). ``--write`` runs the defaults and the variations
-of ``VARIATIONS`` instead (each flag changed alone; under a minute on 2 cores) and puts their
-table into docs/materials.md (marked section ``hierarchy-scale-separation``).
+degrees, across the grooves). Prints ``microsim.comparison.difference.table_difference``
+per incidence (docs/materials.md explains the figures). ``--write`` runs the defaults and
+the variations of ``VARIATIONS`` instead (each flag changed alone; under a minute on 2
+cores) and puts their table into docs/materials.md (marked section ``hierarchy-scale-separation``).
 """
 
 from __future__ import annotations
@@ -27,14 +27,14 @@ import sys
 import tempfile
 from pathlib import Path
 
+from microsim.comparison.difference import table_difference
 from microsim.files import measured_with, write_section
 from microsim.materials import Table, material_from_json
+from microsim.measurement.simulation import simulate
 from microsim.recipe import resolve
 from microsim.settings import Simulation, TableSettings
-from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.vgroove import face_roughness_tile
-from microsim.table_difference import table_difference
 from microsim.tables.exr import write_table
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "materials.md"

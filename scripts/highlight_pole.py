@@ -26,9 +26,9 @@ import numpy as np
 from scipy.ndimage import gaussian_filter
 
 from microsim.files import measured_with, write_section
+from microsim.measurement.simulation import simulate_recipe
 from microsim.recipe import load
 from microsim.render import backend, bsdfs, objects, scene
-from microsim.simulation import simulate_recipe
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "render.md"

@@ -25,8 +25,8 @@ import numpy as np
 from scipy.special import polygamma
 
 from microsim.files import measured_with, write_section
+from microsim.measurement.simulation import Tiles, measure_ensemble, raw_sums
 from microsim.recipe import load
-from microsim.simulation import Tiles, measure_ensemble, raw_sums
 from microsim.tables.components import components_for
 from microsim.tables.estimator import realisation_moments
 

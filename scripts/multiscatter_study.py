@@ -11,7 +11,7 @@ The recipes in scripts/study/ are the published study (docs/compare.md, "Smith a
 multiple scattering against Gaussian surfaces, per order"). Each argument is a recipe
 (``.toml``: simulated here, every ``--set`` applied) or a table already simulated
 (``.exr``); tables must hold an order split (``[table] orders`` ≥ 2). The references and
-estimators are ``microsim.order_residuals``'s: Smith (``beckmann``) for order 1 and the
+estimators are ``microsim.comparison.orders``'s: Smith (``beckmann``) for order 1 and the
 total, Heitz et al.'s walk (``beckmann-ms``) for every order and the total, at the
 realised α pooled over the surface's realisations; albedo residuals with α-adjusted
 batch-means errors (a table read from a file: its own albedo error), median lobe errors
@@ -40,11 +40,11 @@ from typing import Any
 import numpy as np
 
 import microsim
+from microsim.comparison.orders import compare_orders
 from microsim.files import write_section
-from microsim.order_residuals import compare_orders
+from microsim.measurement.simulation import simulate_recipe
 from microsim.plots import incidence_plane
 from microsim.recipe import load
-from microsim.simulation import simulate_recipe
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "compare.md"

@@ -58,7 +58,7 @@ MODULES: dict[str, list[str]] = {
     "microsim/analytic/layered.py": [
         "tests/test_dielectric.py::test_internal_reflectance_quadrature_is_consistent",
         "tests/test_dielectric.py::test_coated_lambertian_model_agrees_with_the_quadrature"],
-    "microsim/agreement.py": [
+    "microsim/comparison/agreement.py": [
         "tests/test_robustness.py::test_verdict_follows_the_error_bars",
         "tests/test_robustness.py::test_agreement_bounds_are_the_documented_quantiles",
         "tests/test_compare.py"],
@@ -69,7 +69,7 @@ MODULES: dict[str, list[str]] = {
     "microsim/analytic/velvet.py": ["tests/test_fibre_models.py"],
     "microsim/analytic/cylinders.py": ["tests/test_fibre_models.py"],
     "microsim/analytic/ndf.py": ["tests/test_analytic_ndf.py"],
-    "microsim/fit.py": ["tests/test_fit.py",
+    "microsim/comparison/fit.py": ["tests/test_fit.py",
                         # the fibre models' fits (_kay_kajiya, _microcylinder, _ClothPerChannel)
                         "tests/test_fit_fibres.py",
                         # a whole simulation (30 s) for each mutant of fit_table that
@@ -83,7 +83,7 @@ MODULES: dict[str, list[str]] = {
     "microsim/analytic/registry.py": ["tests/test_models_cli.py",
                                       "tests/test_analytic_brdf.py",
                                       "tests/test_model_registry.py"],
-    "microsim/compare.py": ["tests/test_compare.py",
+    "microsim/comparison/metrics.py": ["tests/test_compare.py",
                             "tests/test_robustness.py::test_verdict_follows_the_error_bars"],
     "microsim/tables/estimator.py": [
         "tests/test_ensemble.py::test_inverse_trigamma_inverts_trigamma",

@@ -29,8 +29,8 @@ from microsim.analytic.multiple_scattering import SmithMultipleScattering
 from microsim.analytic.ndf import Beckmann
 from microsim.files import measured_with, write_section
 from microsim.geometry import direction
+from microsim.measurement.simulation import simulate
 from microsim.recipe import resolve
-from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.tables.components import order_range
 

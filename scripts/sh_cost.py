@@ -4,7 +4,7 @@ Usage::
 
     python scripts/sh_cost.py [RECIPE] [--repeats 7] [--write]
 
-Traces one batch (``microsim.goniometer.BATCH`` rays) of the recipe's tile (default
+Traces one batch (``microsim.measurement.goniometer.BATCH`` rays) of the recipe's tile (default
 surfaces/gaussian-0.3.toml) at θi = 30°, then times ``Sums.add`` on it without harmonics
 and with orders 8, 16, 32, 64 (median of the repeats), for the recipe's grey mirror
 facets (RGB weights equal: per scattering order of the table's default three, one
@@ -33,16 +33,16 @@ import numpy as np
 from microsim.bench import median_time
 from microsim.files import write_section
 from microsim.geometry import direction
-from microsim.goniometer import BATCH, Sums
 from microsim.kernel.beam import CELLS, beam_origins
 from microsim.kernel.packing import FacetMaterials
 from microsim.materials import Conductor, Mirror
-from microsim.paths import trace_paths
+from microsim.measurement.goniometer import BATCH, Sums
+from microsim.measurement.paths import trace_paths
+from microsim.measurement.scene import PeriodicScene
 from microsim.recipe import load
 from microsim.surfaces import build_tile
 from microsim.tables import sh
 from microsim.tables.binning import HemisphereBins
-from microsim.trace import PeriodicScene
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "performance.md"

@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from microsim.files import write_section
+from microsim.measurement.simulation import simulate
 from microsim.recipe import resolve
-from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.tables.sh_error import order_errors
 from microsim.tables.table import BRDFTable

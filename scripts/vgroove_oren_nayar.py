@@ -25,11 +25,11 @@ from pathlib import Path
 import numpy as np
 
 from microsim.analytic.brdf import OrenNayar
-from microsim.compare import bin_average, metrics
+from microsim.comparison.metrics import bin_average, metrics
 from microsim.files import measured_with, write_section
 from microsim.geometry import direction
+from microsim.measurement.simulation import simulate
 from microsim.recipe import resolve
-from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "goniometer.md"

@@ -75,7 +75,7 @@ def test_bin_averages_take_bounded_memory_whatever_the_bins(monkeypatch):
     512 × 1024 one (which simulate writes within its default 2 GiB). Rows of bins at a
     time (``CHUNK_POINTS`` directions, about 84 MB) give the same averages bit for bit and
     peak at 91 MB here; bound 150 MB."""
-    import microsim.compare as compare
+    import microsim.comparison.metrics as compare
     from microsim.analytic.registry import parse_model_spec
 
     _, _, model = parse_model_spec("beckmann:eta=[0.2,0.9,1.1],k=[3.9,2.4,2.1]")
@@ -123,14 +123,14 @@ SWEEP = str(ROOT / "scripts" / "sweep-roughness.toml")
 
 @pytest.mark.parametrize(("argv", "name", "flag", "patch"), [
     (["simulate", GAUSSIAN, "-o", "{target}"], "t.exr", "--output",
-     "microsim.simulation.simulate_recipe"),
+     "microsim.measurement.simulation.simulate_recipe"),
     (["generate", GAUSSIAN, "-o", "{target}"], "t.ply", "--output",
      "microsim.surfaces.build_tile"),
     (["export", "{table}", "--format", "npz", "-o", "{target}"], "t.npz", "--output",
      "microsim.tables.export.write_npz"),
     (["measure", "ndf", GAUSSIAN, "--plot", "{target}"], "n.png", "--plot",
-     "microsim.facets.measure_ndf_recipe"),
-    (["demo", "-o", "{target}"], "d.exr", "--output", "microsim.simulation.simulate_recipe"),
+     "microsim.measurement.facets.measure_ndf_recipe"),
+    (["demo", "-o", "{target}"], "d.exr", "--output", "microsim.measurement.simulation.simulate_recipe"),
 ])
 def test_an_output_that_cannot_be_replaced_is_refused_before_the_work(
         cli, tmp_path, unreplaceable, monkeypatch, argv, name, flag, patch):
@@ -300,7 +300,7 @@ def test_a_fit_over_the_memory_limit_is_refused_before_it_runs(small_table, monk
     512 x 1024 bins and 4 incidences, 6.3 million residuals in RGB, needed 4.6 GB, with no
     guard; over the budget it is refused before the first evaluation."""
     import microsim
-    from microsim import fit
+    from microsim.comparison import fit
     from microsim.errors import InputError
 
     table = microsim.read_table(small_table)
@@ -399,7 +399,7 @@ def test_a_file_of_an_output_folder_that_is_a_folder_is_refused_before_the_work(
 
     out = tmp_path / "out"
     (out / name).mkdir(parents=True)
-    monkeypatch.setattr("microsim.compare.compare_table", _no_work)
+    monkeypatch.setattr("microsim.comparison.metrics.compare_table", _no_work)
     monkeypatch.setattr("microsim.bench.sweep", _no_work)
     code, _, err = cli(*[a.format(table=small_table, out=out) for a in argv])
     one_error_line(code, err, "--out", f"{name}: is a folder")

@@ -19,12 +19,12 @@ import numpy as np
 import pytest
 from tilefixtures import random_tile
 
-from microsim.goniometer import measure_directions
+from microsim.measurement.goniometer import measure_directions
+from microsim.measurement.scene import PeriodicScene
+from microsim.measurement.simulation import assemble_table, simulate, simulate_recipe
 from microsim.recipe import resolve
-from microsim.simulation import assemble_table, simulate, simulate_recipe
 from microsim.sweep import load_sweep, point_seed
 from microsim.tables.exr import read_table
-from microsim.trace import PeriodicScene
 
 BASE = """
 [base.surface]

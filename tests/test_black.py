@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from tilefixtures import flat_tile, sections, simulate_sections
 
+from microsim.comparison.table_models import model_defaults
 from microsim.errors import InputError
 from microsim.kernel.packing import FacetMaterials
 from microsim.materials import Black, parse_material
 from microsim.recipe import resolve
-from microsim.table_models import model_defaults
 from microsim.tables.meta import TableMeta
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from microsim.compare import bin_average, metrics
+from microsim.comparison.metrics import bin_average, metrics
 from microsim.geometry import direction
 
 
@@ -113,7 +113,7 @@ def test_normal_z_is_the_normal_quantile_of_the_student_t_probability():
     at ν = 30: F's tail ~1e-340) and for an all-normal array (as floats)."""
     import mpmath as mp
 
-    from microsim.compare import NORMAL_DOF, normal_z
+    from microsim.comparison.metrics import NORMAL_DOF, normal_z
 
     mp.mp.dps = 30
 
@@ -137,7 +137,7 @@ def test_normal_z_is_the_normal_quantile_of_the_student_t_probability():
 def test_channels_of_keeps_repeats_or_refuses():
     """channels_of: the table's count as it is; a grey model's (channels equal) repeated
     to the count; differing channels not the table's refused, naming both counts."""
-    from microsim.compare import channels_of
+    from microsim.comparison.metrics import channels_of
     from microsim.errors import InputError
 
     rgb = np.arange(4 * 5 * 3, dtype=float).reshape(4, 5, 3)
@@ -159,10 +159,10 @@ def test_check_model_channels_refuses_what_rgb_only_models_cannot_compute():
     the table's defaults, a model's own defaults over the shared ones); grey values, three
     values without a spectral table, values that are not numbers (the spec's parser says
     what is allowed), keys the model does not take and other models pass."""
-    from microsim.compare import check_model_channels
+    from microsim.comparison.metrics import check_model_channels
+    from microsim.comparison.table_models import ModelDefaults
     from microsim.errors import InputError
     from microsim.spectra.channels import Channels
-    from microsim.table_models import ModelDefaults
 
     spectral = Channels((400.0, 500.0, 600.0, 700.0))
     four = "cylinders:albedo=[0.1,0.2,0.3,0.4]"
@@ -204,7 +204,7 @@ def test_check_model_channels_refuses_what_rgb_only_models_cannot_compute():
 def test_singular_albedo_is_pi_times_the_hemisphere_average_of_the_singular_part():
     """singular_albedo: 0 without a singular part; π × the singular part's average over the
     hemisphere as one bin (θ edges 0, π/2; φ edges 0, 2π) otherwise."""
-    from microsim.compare import singular_albedo
+    from microsim.comparison.metrics import singular_albedo
 
     wi = direction(0.4, 0.3)
     assert singular_albedo(Lobe(), wi) == 0.0
@@ -220,7 +220,7 @@ def test_bin_average_adds_the_singular_part_and_its_defaults():
     """bin_average adds a singular part's bin averages (called with the same incidence,
     edges and φi) to the regular part's; its defaults are φi = 0 and 8 midpoints; split
     into rows of θ bins (a small CHUNK_POINTS) it gives the same numbers."""
-    import microsim.compare as compare
+    import microsim.comparison.metrics as compare
 
     te, pe = edges(4, 5)
     wi = direction(0.5, 0.2)
@@ -271,7 +271,7 @@ def test_bin_average_at_the_horizon_is_exact_for_a_lobe_growing_as_one_over_cos(
 def test_bin_averages_follow_the_axes():
     """bin_averages: bin_average at every (θi, φi) of the axes with their n, outgoing
     azimuths relative to φi when isotropic and absolute (φi = 0 added) otherwise."""
-    from microsim.compare import bin_averages
+    from microsim.comparison.metrics import bin_averages
     from microsim.tables.binning import HemisphereBins
     from microsim.tables.evaluate import Axes
 
@@ -311,7 +311,7 @@ def test_bin_estimate_adds_the_exact_part_and_carries_the_random_errors():
     stochastic one's random_bin_average (same incidence, edges, φi), a single channel
     repeated to three, plus the exact part's bin_average, with the random part's errors;
     defaults φi = 0, n = 8."""
-    from microsim.compare import bin_estimate
+    from microsim.comparison.metrics import bin_estimate
 
     te, pe = edges(3, 4)
     wi = direction(0.6, 0.4)
@@ -351,7 +351,7 @@ def test_lobe_residuals_welch_satterthwaite_and_the_bins_kept():
     kept."""
     from scipy import stats
 
-    from microsim.compare import lobe_residuals
+    from microsim.comparison.metrics import lobe_residuals
 
     model = np.zeros((3, 4, 3))
     model[..., 0] = [[1.0, 0.5, 0.05, 0.2], [0.3, 0.01, 0.9, 0.15], [0.02, 0.4, 0.6, 0.08]]
@@ -396,7 +396,7 @@ def test_normal_z_of_no_degrees_of_freedom_is_undefined():
     """ν ≤ 0 (an error that says nothing of its spread) gives NaN, not t: the Student-t
     tail at ν = 0 is NaN, and the fallback for a non-finite z (an underflowing tail) would
     otherwise score the bin as if its error were exact."""
-    from microsim.compare import normal_z
+    from microsim.comparison.metrics import normal_z
 
     z = normal_z(np.array([2.0, -1.0, 2.0, 2.0]), np.array([0.0, -1.0, 4.0, np.inf]))
     assert np.isnan(z[:2]).all() and np.isfinite(z[2:]).all() and z[3] == 2.0
@@ -407,7 +407,7 @@ def test_metrics_are_their_documented_sums():
     bin, albedos Σ f Ω_proj, their difference, the model's albedo error √Σ (σ Ω_proj)²
     (zeros without a model error, one per channel), lobe bins counted in channel 0, and
     the z-scores of lobe_residuals with the given model error and degrees of freedom."""
-    from microsim.compare import lobe_residuals, residual_statistics
+    from microsim.comparison.metrics import lobe_residuals, residual_statistics
 
     rng = np.random.default_rng(3)
     te, pe = edges(4, 5)
@@ -438,7 +438,7 @@ def test_metrics_are_their_documented_sums():
 def test_residual_statistics_of_few_values():
     """residual_statistics: NaN for no relative error or z, and for the spread of one z;
     with two or more the sample standard deviation (ddof = 1) and the 90th percentile."""
-    from microsim.compare import residual_statistics
+    from microsim.comparison.metrics import residual_statistics
 
     empty = np.zeros(0)
     assert all(np.isnan(residual_statistics(empty, empty)))
@@ -455,7 +455,7 @@ def test_model_table_holds_the_bin_averages_as_documented():
     Gaussian noise clipped at 0 with σ_rel > 0, albedo Σ f Ω_proj of the values with zero
     error, no lost energy, degrees of freedom of normal z-scores (≥ NORMAL_DOF), a surface
     of kind "analytic" unless given, and the given channels, a grey model filling them."""
-    from microsim.compare import NORMAL_DOF, bin_averages, model_table
+    from microsim.comparison.metrics import NORMAL_DOF, bin_averages, model_table
     from microsim.errors import InputError
     from microsim.spectra.channels import Channels
     from microsim.tables.binning import HemisphereBins
@@ -516,7 +516,7 @@ def test_compare_table_pools_every_incidence_and_reports_the_table():
     statistics of every incidence's lobe residuals; the table's error model, most
     realisations and fewest degrees of freedom; the model's averages and errors; a model
     with chosen orders restricted to the component's; progress after every incidence."""
-    from microsim.compare import (
+    from microsim.comparison.metrics import (
         bin_estimate,
         compare_table,
         lobe_residuals,

@@ -9,9 +9,9 @@ import pytest
 
 from microsim.analytic.fresnel import ConductorFresnel
 from microsim.analytic.registry import parse_model_spec
-from microsim.compare import compare_table
-from microsim.compare import model_table as analytic_table
-from microsim.table_models import model_defaults
+from microsim.comparison.metrics import compare_table
+from microsim.comparison.metrics import model_table as analytic_table
+from microsim.comparison.table_models import model_defaults
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import write_table
 from microsim.tables.meta import TableMeta
@@ -58,8 +58,8 @@ def test_json_of_a_comparison_has_the_documented_keys_in_order():
     multiple-scattering share; bins compared on their own have no incidence keys; the
     verdict's keys. Every value is plain JSON (no numpy scalars or arrays), and NaN
     stays NaN (``print_json`` prints it as null)."""
-    from microsim.agreement import agreement
-    from microsim.compare import metrics
+    from microsim.comparison.agreement import agreement
+    from microsim.comparison.metrics import metrics
 
     _, _, model = parse_model_spec("beckmann:alpha=0.3")
     table = model_table("beckmann:alpha=0.3", 0.02, seed=3)

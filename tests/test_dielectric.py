@@ -14,10 +14,10 @@ from microsim.geometry import direction
 from microsim.kernel.packing import FacetMaterials
 from microsim.materials import material_from_json
 from microsim.materials.optics import reflect, refract
-from microsim.paths import trace_paths
+from microsim.measurement.paths import trace_paths
+from microsim.measurement.scene import PeriodicScene
 from microsim.surfaces.facts import TileFacts
 from microsim.surfaces.tile import Tile
-from microsim.trace import PeriodicScene
 
 Z_MAX = 4.0
 """Two-sided z bound per comparison: with at most a dozen comparisons per test the chance

@@ -11,9 +11,9 @@ import pytest
 from scipy import stats
 from scipy.special import polygamma, psi
 
-from microsim.goniometer import measure_directions
+from microsim.measurement.goniometer import measure_directions
+from microsim.measurement.simulation import Tiles, assemble_table, simulate_recipe
 from microsim.recipe import resolve
-from microsim.simulation import Tiles, assemble_table, simulate_recipe
 from microsim.surfaces.base import ENSEMBLE_AREAS
 from microsim.surfaces.facts import PaintFacts, Roughness, SurfaceFacts
 from microsim.surfaces.realisations import realisation, realisation_seed
@@ -177,7 +177,7 @@ def test_ensemble_estimators_are_unbiased_and_moderation_has_normal_z(spread: fl
         assert abs(zm.std() - 1) < 0.03 and stats.kurtosis(zm.ravel()) < 0.3
         assert np.median(mod.dof) > 30
     else:
-        from microsim.compare import normal_z
+        from microsim.comparison.metrics import normal_z
 
         dof = np.broadcast_to(mod.dof, zm.shape)
         assert np.median(mod.dof) < 100
@@ -698,7 +698,7 @@ def test_ensemble_errors_are_calibrated(k: int, rays: int) -> None:
     The albedo's and the harmonics' batch-means errors: the harmonics' mean ratio over
     the coefficients likewise (its standard error is larger, 0.06-0.16); the two albedos' ratios (19 degrees of freedom each)
     within [0.4, 2.2] (the chi-square 0.1% and 99.9% points)."""
-    from microsim.compare import normal_z
+    from microsim.comparison.metrics import normal_z
 
     r = ensemble_runs(k, 20, rays)
     f, e, n = r["f"], r["e"], len(r["f"])
@@ -722,7 +722,7 @@ def test_ensemble_harmonics_are_batch_means_without_order_2l_transforms() -> Non
     in two passes from each realisation's own Σ w Y_k / n (kept runs) to 1e-12; its runs
     make no order-2L sums of w² (``harmonic_ray_variance``). One realisation keeps them:
     its harmonic errors are its ray errors, finite and positive."""
-    from microsim.simulation import measure_ensemble
+    from microsim.measurement.simulation import measure_ensemble
 
     k = 6
     recipe = small_gaussian(k, 6000)
@@ -822,7 +822,7 @@ def test_tiles_are_built_one_at_a_time() -> None:
     0's (whose BVH the scenes refit), those with batches under way (at most DEPTH, when
     realisations have fewer batches than the pipeline holds) and the next, prepared
     beside them."""
-    from microsim.goniometer import DEPTH
+    from microsim.measurement.goniometer import DEPTH
 
     alive: list[weakref.ref] = []
 
@@ -833,7 +833,7 @@ def test_tiles_are_built_one_at_a_time() -> None:
             alive.append(weakref.ref(tile))
             return tile
 
-    from microsim.simulation import measure_ensemble
+    from microsim.measurement.simulation import measure_ensemble
 
     recipe = small_gaussian(8, 4000)
     measured = measure_ensemble(Counting(recipe.surface), recipe.material,
@@ -845,8 +845,8 @@ def test_split_realisations_merge_bit_for_bit_whatever_the_threads() -> None:
     """Realisations traced apart (each its own job, in any order, one or two threads, on
     a scene built for realisation 0 and refitted to it, as simulate's are) assemble into
     exactly the table of one run: the combination is in realisation order."""
+    from microsim.measurement.scene import PeriodicScene
     from microsim.surfaces import build_tile
-    from microsim.trace import PeriodicScene
 
     recipe = small_gaussian(3, 3000)
     sections = recipe.material, recipe.simulation, recipe.table

@@ -13,7 +13,7 @@ import microsim
 from microsim.analytic.brdf import TorranceSparrow
 from microsim.analytic.fresnel import ConductorFresnel
 from microsim.analytic.ndf import Beckmann
-from microsim.compare import model_table
+from microsim.comparison.metrics import model_table
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.export import rgl_through_mitsuba
 from microsim.tables.exr import write_table

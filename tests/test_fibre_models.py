@@ -426,7 +426,7 @@ def test_microcylinder_thread_reduces_to_the_exact_cylinder_reflection():
     within 0.5%, L1 distance over the bins within 3% — at incidences whose cone does not
     run along a bin edge."""
     from microsim.analytic.cloth import MicrocylinderCloth
-    from microsim.compare import bin_average
+    from microsim.comparison.metrics import bin_average
 
     r, s = 0.5, 1e4
     exact = CylinderArray(r, s, 0.0, DielectricFresnel(1.5))

@@ -11,9 +11,9 @@ from microsim.analytic.brdf import KayKajiya, Lambertian
 from microsim.analytic.cylinders import CylinderArray
 from microsim.analytic.fresnel import ConductorFresnel
 from microsim.analytic.velvet import SparseVelvet
-from microsim.compare import compare_table
+from microsim.comparison.metrics import compare_table
+from microsim.measurement.simulation import simulate
 from microsim.recipe import resolve
-from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 
 P_MIN = 1e-3
@@ -127,7 +127,7 @@ def test_microcylinder_cloth_fitted_to_a_simulated_weave_misses_it():
     is left is real: the χ² over the lobe bins has a p-value below ``P_MIN``. (Oren-Nayar,
     fitted to the same table, does better: 3.3% median, χ²/dof 1.5 against 14.8% and 25;
     docs/testing.md.)"""
-    from microsim.fit import fit_table
+    from microsim.comparison.fit import fit_table
 
     _, table = table_of({"kind": "weave", "pattern": "twill", "segments": 4, "sides": 8},
                         {"kind": "lambertian", "albedo": 0.5}, [20.0, 50.0], [45.0], 20_000,

@@ -50,7 +50,7 @@ def synthetic_table(n: int, path: Path) -> Path:
     directions (as an adaptive run's do), written to ``path``."""
     import microsim
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import model_table
+    from microsim.comparison.metrics import model_table
     from microsim.tables import sh
     from microsim.tables.binning import HemisphereBins
 
@@ -78,7 +78,7 @@ def spectral_synthetic_table(n: int, path: Path) -> Path:
     the shipped gold indices at five wavelengths (400-700 nm), one channel each."""
     import microsim
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import model_table
+    from microsim.comparison.metrics import model_table
     from microsim.spectra import measured
     from microsim.spectra.channels import Channels
     from microsim.tables import sh
@@ -132,7 +132,7 @@ def test_anisotropic_compare_figures(cli, tmp_path, figures, theta, phi):
     and the albedo (no half-difference view: it needs an isotropic table)."""
     import microsim
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import model_table
+    from microsim.comparison.metrics import model_table
     from microsim.tables.binning import HemisphereBins
 
     spec = "beckmann:alpha_x=0.2,alpha_y=0.4"
@@ -273,7 +273,7 @@ def test_lobe_view_shows_the_model_inside_the_lobe(tmp_path, monkeypatch):
     import pyvista as pv
 
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import model_table
+    from microsim.comparison.metrics import model_table
     from microsim.tables.binning import HemisphereBins
     from microsim.view import LOBE_OPACITY, show_lobe
 
@@ -326,7 +326,7 @@ def test_the_half_difference_band_is_the_last_theta_o_ring(tmp_path, figures):
     ring, whose bins hold the grazing mirror peak), yet within 10% of it at θh = 10°,
     θd = 40°. The figure marks the ring's edge with a dashed line and says so."""
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import model_table
+    from microsim.comparison.metrics import model_table
     from microsim.geometry import half_difference
     from microsim.plots import half_difference_slices
     from microsim.plots.layout import luminance

@@ -12,8 +12,8 @@ import pytest
 from microsim.analytic.brdf import OrenNayar, TorranceSparrow
 from microsim.analytic.fresnel import SchlickFresnel
 from microsim.analytic.ndf import Beckmann
-from microsim.compare import model_table
-from microsim.fit import fit_table
+from microsim.comparison.fit import fit_table
+from microsim.comparison.metrics import model_table
 from microsim.tables.binning import HemisphereBins
 
 THETA_I = np.radians([0.0, 30.0, 60.0])
@@ -62,7 +62,7 @@ def test_other_families_recover_their_own_parameters(spec, truth):
     midpoints per bin) comes back within 1% per parameter: the fit's coarser bin averages
     (5² midpoints) are the only difference, and moved no parameter by more than 0.2% when
     this was written."""
-    from microsim.fit import family
+    from microsim.comparison.fit import family
 
     _, fam = family(spec)
     model = fam.build(np.array([truth[name] for name in fam.names]))
@@ -148,7 +148,7 @@ def _chi2_dof(table, model, nparams, component="total"):
     written out: r = (ln(m + ε) − ln(s + ε)) / √((σ / (s + ε))² + ρ²) over the bins with a
     defined error, ε = 10⁻³ × the peak, ρ = 1%, m the model's bin averages over 5²
     midpoints (as the fit's), dof = bins − parameters (at least 1)."""
-    from microsim.compare import bin_averages, channels_of
+    from microsim.comparison.metrics import bin_averages, channels_of
 
     sim, err = table.values[component], table.errors[component]
     eps = 1e-3 * np.nanmax(sim)
@@ -216,7 +216,7 @@ def test_fit_json_is_the_result_with_one_row_per_incidence():
 def test_families_hold_their_fixed_parameters_by_default(spec, held):
     """The analytic families hold one fixed choice each, the one their models are built
     with (``test_families_build_the_models_they_name``), from the family's default."""
-    from microsim.fit import family
+    from microsim.comparison.fit import family
 
     _, fam = family(spec)
     assert fam.held == held
@@ -241,7 +241,7 @@ def test_families_build_the_models_they_name():
     arithmetic."""
     from microsim.analytic.brdf import Lafortune, Phong
     from microsim.analytic.ndf import GGX
-    from microsim.fit import family
+    from microsim.comparison.fit import family
 
     wi, wo = _directions(200, 1), _directions(200, 2)
     f0 = np.array([0.9, 0.6, 0.3])
@@ -281,7 +281,7 @@ def test_chi2_and_uncertainties_are_the_documented_ones(reported):
     assert r.chi2_dof == pytest.approx(_chi2_dof(table, _beckmann(p[0], p[1:]), 4), rel=1e-9)
     assert r.chi2_dof > (0.5 if reported == 1.0 else 1.5)
 
-    from microsim.compare import bin_averages
+    from microsim.comparison.metrics import bin_averages
 
     sim, err = table.values["total"], table.errors["total"]
     eps = 1e-3 * sim.max()
@@ -318,7 +318,7 @@ def test_microfacet_fits_start_at_the_tables_realised_alpha():
     ``start``. Each compared with the docstring's χ²/dof of the model built directly at
     that start, to 1e-9 relative; evaluations count from 1."""
     from microsim.analytic.brdf import Phong
-    from microsim.fit import family
+    from microsim.comparison.fit import family
     from microsim.surfaces.facts import Roughness, SurfaceFacts, TileFacts
 
     table = table_of(_beckmann(0.4, [0.9, 0.6, 0.3]))
@@ -470,8 +470,8 @@ def test_a_start_outside_a_parameters_range_is_refused_naming_the_range():
     refused naming them."""
     import re
 
+    from microsim.comparison.fit import family
     from microsim.errors import InputError
-    from microsim.fit import family
 
     table = model_table(OrenNayar(0.3, 0.5), np.radians([30.0]), HemisphereBins(4, 8))
     for spec, ranges in RANGES.items():
@@ -499,8 +499,8 @@ def test_a_start_outside_a_parameters_range_is_refused_naming_the_range():
 def test_lafortune_takes_one_to_four_lobes(k):
     """``lafortune:1`` to ``lafortune:4`` are K lobes of three parameters each (1 and 4
     here, the ends); 0, 5, a sign or a word are refused with the range and an example."""
+    from microsim.comparison.fit import family
     from microsim.errors import InputError
-    from microsim.fit import family
 
     name, fam = family(f"lafortune:{k}")
     assert name == "lafortune"

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from test_fit import _directions
 
-from microsim.compare import bin_averages
-from microsim.fit import family, fit_table
+from microsim.comparison.fit import family, fit_table
+from microsim.comparison.metrics import bin_averages
+from microsim.comparison.table_models import model_defaults
+from microsim.measurement.simulation import simulate
 from microsim.recipe import resolve
-from microsim.simulation import simulate
 from microsim.surfaces import build_tile
-from microsim.table_models import model_defaults
 
 
 def template(surface: dict, materials: dict, phi: list) -> object:
@@ -96,7 +96,7 @@ def test_fibre_families_hold_the_tables_geometry_with_its_source():
     value with the defaults' source (``ModelDefaults.sources``), or "the table's" for a
     plain mapping without sources; a key they do not give is held at the family's own
     default, with source "default"."""
-    from microsim.table_models import ModelDefaults
+    from microsim.comparison.table_models import ModelDefaults
 
     given = ModelDefaults()
     given.put("coverage", 0.4, "2 radius / spacing of the cylinders")

@@ -11,17 +11,17 @@ from tilefixtures import beckmann_vgroove_tile, flat_tile, random_tile, vgroove_
 
 import microsim
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
-from microsim.compare import bin_average, metrics
+from microsim.comparison.metrics import bin_average, metrics
+from microsim.comparison.table_models import microfacet_model
 from microsim.geometry import direction
 from microsim.kernel.packing import FacetMaterials
-from microsim.masking import measure_g1, measure_g1_recipe
 from microsim.materials import Mirror, material_from_json
-from microsim.paths import trace_paths
+from microsim.measurement.masking import measure_g1, measure_g1_recipe
+from microsim.measurement.paths import trace_paths
+from microsim.measurement.scene import PeriodicScene
+from microsim.measurement.simulation import simulate, simulate_recipe
 from microsim.recipe import resolve
-from microsim.simulation import simulate, simulate_recipe
-from microsim.table_models import microfacet_model
 from microsim.tables.binning import HemisphereBins
-from microsim.trace import PeriodicScene
 
 Z_MAX = 4.0
 """Two-sided z bound per comparison: with at most a dozen comparisons per test the chance
@@ -329,7 +329,7 @@ def test_gaussian_g1_matches_smith_at_the_realised_alpha(alpha: float) -> None:
     (30 deg, and 60 deg for alpha 0.2) the error is 0, G1 exactly 1, and Smith's 1 - 1e-4
     or closer (the Gaussian's far slope tail, which a finite tile does not have)."""
     from microsim.analytic.ndf import Beckmann
-    from microsim.compare import normal_z
+    from microsim.comparison.metrics import normal_z
 
     recipe = resolve({"surface": {"kind": "gaussian", "alpha": alpha, "resolution": 256,
                                   "seed": 1},

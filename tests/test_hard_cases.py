@@ -16,14 +16,14 @@ from microsim.analytic.fresnel import fresnel_conductor
 from microsim.analytic.ndf import Beckmann
 from microsim.geometry import direction
 from microsim.kernel.packing import FacetMaterials
-from microsim.masking import measure_g1
 from microsim.materials import Mirror
-from microsim.paths import trace_paths
+from microsim.measurement.masking import measure_g1
+from microsim.measurement.paths import trace_paths
+from microsim.measurement.scene import PeriodicScene
+from microsim.measurement.simulation import simulate
 from microsim.recipe import resolve
-from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.tile import Tile
-from microsim.trace import PeriodicScene
 
 
 def recipe(surface, material="mirror", theta=(0.0,), rays=20_000, bounces=64, bins=8):

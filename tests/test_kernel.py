@@ -9,12 +9,12 @@ import pytest
 from tilefixtures import random_tile, sections
 
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_dielectric
-from microsim.goniometer import measure_directions
 from microsim.kernel import rng, tally
 from microsim.materials import optics
-from microsim.simulation import assemble_table
+from microsim.measurement.goniometer import measure_directions
+from microsim.measurement.scene import PeriodicScene
+from microsim.measurement.simulation import assemble_table
 from microsim.tables.binning import HemisphereBins
-from microsim.trace import PeriodicScene
 
 
 @pytest.mark.parametrize("key", [(0, 0), (123456789, 987654321), (2**64 - 1, 2**63 + 5)])

@@ -19,8 +19,8 @@ from test_robustness import GAUSSIAN, SMALL, one_error_line
 import microsim
 from microsim.analytic.brdf import OrenNayar
 from microsim.analytic.registry import parameter_sources, parameters_text, parse_model_spec
+from microsim.comparison.table_models import ModelDefaults, table_defaults
 from microsim.errors import InputError
-from microsim.table_models import ModelDefaults, table_defaults
 
 
 @pytest.fixture(scope="module")
@@ -79,7 +79,7 @@ def test_velvet_sparse_on_a_base_that_is_not_black_says_how_to_simulate_one(cli,
 def test_fit_prints_angles_in_the_degrees_the_model_spec_reads(cli, tmp_path):
     """A fitted Oren-Nayar sigma is printed in degrees with its unit, and given back to
     the model spec it is the same model."""
-    from microsim.compare import model_table
+    from microsim.comparison.metrics import model_table
     from microsim.tables.binning import HemisphereBins
     from microsim.tables.exr import write_table
 
@@ -135,7 +135,7 @@ def test_fit_prints_the_parameters_it_holds_with_their_units_and_sources(cli, tm
     shadowing, were not said. It prints them held, as compare prints parameters (unit,
     source), and its JSON holds them with their sources; held from a cylinders table,
     they are ``model_defaults``'s values."""
-    from microsim.table_models import model_defaults
+    from microsim.comparison.table_models import model_defaults
 
     path = tmp_path / "cylinders.exr"
     code, _, err = cli("simulate", str(Path(GAUSSIAN).with_name("cylinders.toml")),
@@ -249,9 +249,9 @@ def test_fibre_surfaces_give_their_models_the_keys_named_and_no_other():
     recipe takes exactly those keys from its surface, with their values and sources (a
     weave's ``sides``, a velvet-sparse parameter by name, is not one)."""
     from microsim.analytic.registry import MODELS
+    from microsim.comparison.table_models import model_defaults
     from microsim.recipe import resolve
     from microsim.surfaces import SURFACES
-    from microsim.table_models import model_defaults
     from microsim.tables.meta import TableMeta
 
     params = {name for spec in MODELS.values() for name in spec.params}
@@ -274,8 +274,8 @@ def test_fibre_surfaces_give_their_models_the_keys_named_and_no_other():
 
 def recipe_defaults(material: dict, table: dict | None = None) -> ModelDefaults:
     """``model_defaults`` of a flat tile's table of one material."""
+    from microsim.comparison.table_models import model_defaults
     from microsim.recipe import resolve
-    from microsim.table_models import model_defaults
     from microsim.tables.meta import TableMeta
 
     return model_defaults(TableMeta(recipe=resolve({"surface": {"kind": "flat"},

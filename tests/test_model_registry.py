@@ -29,8 +29,8 @@ from microsim.analytic.registry import (
     split_spec,
 )
 from microsim.analytic.velvet import SparseVelvet
+from microsim.comparison.table_models import ModelDefaults
 from microsim.errors import InputError
-from microsim.table_models import ModelDefaults
 
 
 def assert_fresnel(fresnel, kind: type, *arrays: list[float]) -> None:

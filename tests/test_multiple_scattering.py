@@ -341,7 +341,7 @@ def test_random_bin_average_is_the_bin_average_of_torrance_sparrow_at_order_one(
     near 3e-4, a tenth of the walks' 0.2-1.3%), each of the 24 bins' z per colour within
     Z_MAX, and Σ z² of the red channel within the 0.1% quantiles of
     χ²(24) (the errors are neither too small nor too large)."""
-    from microsim.compare import bin_average
+    from microsim.comparison.metrics import bin_average
 
     ndf, phi_i = GGX(alpha_x=0.3, alpha_y=0.6), 0.7
     wi = direction(math.radians(40.0), phi_i)

@@ -1,5 +1,5 @@
 """The per-order comparison of tables with Smith and Heitz et al. 2016's walk
-(``microsim.order_residuals``, run by scripts/multiscatter_study.py): it runs end to end,
+(``microsim.comparison.orders``, run by scripts/multiscatter_study.py): it runs end to end,
 says "no lobe" where a model has none, refuses a table without orders, and its
 α-adjusted albedo residual errors are calibrated over independent ensembles."""
 
@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from microsim.order_residuals import compare_orders, lobe_errors
+from microsim.comparison.orders import compare_orders, lobe_errors
+from microsim.measurement.simulation import simulate_recipe
 from microsim.recipe import resolve
-from microsim.simulation import simulate_recipe
 from microsim.tables.exr import write_table
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -13,9 +13,9 @@ import pytest
 import microsim
 from microsim.analytic.multiple_scattering import SmithMultipleScattering
 from microsim.analytic.ndf import Beckmann
-from microsim.compare import compare_table, direction
+from microsim.comparison.metrics import compare_table, direction
+from microsim.measurement.simulation import simulate, simulate_recipe
 from microsim.recipe import resolve
-from microsim.simulation import simulate, simulate_recipe
 from microsim.surfaces import build_tile
 from microsim.tables.components import canonical_component, components_for, order_range
 from microsim.tables.exr import write_table

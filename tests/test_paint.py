@@ -287,7 +287,7 @@ def test_view_renders_the_paint_layer_headless(cli, tmp_path) -> None:
 def test_paint_tables_do_not_depend_on_threads_and_repeat_bit_for_bit() -> None:
     """Media and Fresnel choices draw from the per-chunk streams: 1 or 2 threads, and a
     second run, give the same sums exactly; another seed gives other numbers."""
-    from microsim.simulation import simulate
+    from microsim.measurement.simulation import simulate
 
     recipe = resolve({"surface": {"kind": "paint", "pigment_fraction": 0.1},
                       "material": {"binder": {**BINDER, "absorption": 0.5},

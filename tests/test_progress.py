@@ -10,7 +10,7 @@ import sys
 
 from microsim import load_recipe, simulate
 from microsim.commands.simulate import progress_bar
-from microsim.goniometer import BATCH
+from microsim.measurement.goniometer import BATCH
 
 RAW = {"surface": {"kind": "gaussian", "alpha": 0.3, "resolution": 32, "seed": 1},
        "material": {"kind": "mirror"},
@@ -54,7 +54,7 @@ def test_compare_reports_every_incidence():
     import numpy as np
 
     from microsim.analytic.brdf import Lambertian
-    from microsim.compare import compare_table, model_table
+    from microsim.comparison.metrics import compare_table, model_table
     from microsim.tables.binning import HemisphereBins
 
     model = Lambertian([0.5, 0.5, 0.5])

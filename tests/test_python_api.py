@@ -72,7 +72,7 @@ def test_model_is_the_registry_model_and_export_checks_the_format(tmp_path):
     formats ``microsim export`` writes and refuses others."""
     from microsim.analytic.brdf import TorranceSparrow
     from microsim.analytic.ndf import Beckmann
-    from microsim.compare import model_table
+    from microsim.comparison.metrics import model_table
     from microsim.tables.binning import HemisphereBins
 
     beckmann = microsim.model("beckmann:alpha=0.2")

@@ -20,7 +20,7 @@ import pytest
 from microsim.analytic.brdf import Lambertian, OrenNayar, TorranceSparrow
 from microsim.analytic.fresnel import ConductorFresnel, DielectricFresnel
 from microsim.analytic.ndf import GGX, Beckmann
-from microsim.compare import model_table
+from microsim.comparison.metrics import model_table
 from microsim.geometry import direction
 from microsim.render import bsdfs, figure, objects, scene
 from microsim.tables.binning import HemisphereBins

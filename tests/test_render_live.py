@@ -18,9 +18,9 @@ import math
 import numpy as np
 import pytest
 
+from microsim.measurement.simulation import Tiles, simulate_recipe
 from microsim.recipe import load
 from microsim.render import live
-from microsim.simulation import Tiles, simulate_recipe
 
 RECIPE = """description = "small gold Gaussian"
 [surface]

@@ -160,19 +160,19 @@ def _no_work(*args, **kwargs):
 @pytest.mark.parametrize(
     ("argv", "flag", "patch"),
     [
-        (["simulate", GAUSSIAN, "-o", "{file}/t.exr"], "--output", "microsim.simulation.simulate_recipe"),
-        (["simulate", GAUSSIAN, "-o", "{folder}"], "--output", "microsim.simulation.simulate_recipe"),
-        (["demo", "-o", "{file}/t.exr"], "--output", "microsim.simulation.simulate_recipe"),
-        (["demo", "-o", "{tmp}/d.exr", "--plot", "{file}/p.png"], "--plot", "microsim.simulation.simulate_recipe"),
+        (["simulate", GAUSSIAN, "-o", "{file}/t.exr"], "--output", "microsim.measurement.simulation.simulate_recipe"),
+        (["simulate", GAUSSIAN, "-o", "{folder}"], "--output", "microsim.measurement.simulation.simulate_recipe"),
+        (["demo", "-o", "{file}/t.exr"], "--output", "microsim.measurement.simulation.simulate_recipe"),
+        (["demo", "-o", "{tmp}/d.exr", "--plot", "{file}/p.png"], "--plot", "microsim.measurement.simulation.simulate_recipe"),
         (["generate", GAUSSIAN, "-o", "{file}/t.ply"], "--output", "microsim.surfaces.build_tile"),
         (["export", "{table}", "--format", "npz", "-o", "{file}/t.npz"], "--output", "microsim.tables.export.write_npz"),
-        (["compare", "{table}", "--model", "beckmann", "--out", "{file}"], "--out", "microsim.compare.compare_table"),
-        (["compare", "{table}", "--model", "beckmann", "--out", "{file}/r"], "--out", "microsim.compare.compare_table"),
+        (["compare", "{table}", "--model", "beckmann", "--out", "{file}"], "--out", "microsim.comparison.metrics.compare_table"),
+        (["compare", "{table}", "--model", "beckmann", "--out", "{file}/r"], "--out", "microsim.comparison.metrics.compare_table"),
         (["bench", "--quick", "--out", "{file}/b"], "--out", "microsim.bench.sweep"),
-        (["fit", "{table}", "--model", "ggx", "--plot", "{file}/f.png"], "--plot", "microsim.fit.fit_table"),
+        (["fit", "{table}", "--model", "ggx", "--plot", "{file}/f.png"], "--plot", "microsim.comparison.fit.fit_table"),
         (["sh", "{table}", "--plot", "{file}/s.png"], "--plot", "microsim.tables.sh_error.order_errors"),
         (["sh", "{table}", "--matrix", "{folder}"], "--matrix", "microsim.tables.sh_error.order_errors"),
-        (["measure", "ndf", GAUSSIAN, "--plot", "{file}/n.png"], "--plot", "microsim.facets.measure_ndf_recipe"),
+        (["measure", "ndf", GAUSSIAN, "--plot", "{file}/n.png"], "--plot", "microsim.measurement.facets.measure_ndf_recipe"),
         (["view", GAUSSIAN, "--screenshot", "{file}/v.png"], "--screenshot", "microsim.surfaces.build_tile"),
         (["batch", str(ROOT / "scripts" / "sweep-roughness.toml"), "-o", "{file}"], "--output", "microsim.batch.run_batch"),
         (["render", "{table}", "-o", "{file}/r.png"], "--output", "microsim.render.scene.render"),
@@ -195,7 +195,7 @@ def test_unwritable_output_is_refused_before_the_work(cli, small_table, tmp_path
 def test_read_only_folder_is_refused_before_the_work(cli, tmp_path, monkeypatch):
     locked = tmp_path / "locked"
     locked.mkdir(mode=0o500)
-    monkeypatch.setattr("microsim.simulation.simulate_recipe", _no_work)
+    monkeypatch.setattr("microsim.measurement.simulation.simulate_recipe", _no_work)
     code, _, err = cli("simulate", GAUSSIAN, "-o", str(locked / "t.exr"))
     one_error_line(code, err, "--output", "cannot write")
 
@@ -247,8 +247,8 @@ def test_memory_guard_refuses_before_the_work(cli, capsys, small_table, tmp_path
     traps), with the estimate in 3 significant figures and a flag the command has."""
     # the tracers where the commands use them (modules that import them by name hold their
     # own reference), the cluster and the exporter
-    for trap in ("microsim.trace.PeriodicScene", "microsim.masking.PeriodicScene",
-                 "microsim.simulation.PeriodicScene", "microsim.commands.batch.dask_client",
+    for trap in ("microsim.measurement.scene.PeriodicScene", "microsim.measurement.masking.PeriodicScene",
+                 "microsim.measurement.simulation.PeriodicScene", "microsim.commands.batch.dask_client",
                  "microsim.tables.export.write_rgl", "microsim.tables.export.write_merl",
                  "microsim.view.show_tile"):
         monkeypatch.setattr(trap, _no_work)
@@ -397,7 +397,7 @@ def test_lost_energy_is_warned_and_recorded_in_the_table(cli, tmp_path):
     table's metadata carries the warning and compare repeats it; a closed surface (the
     small Gaussian tile) carries none."""
     import microsim
-    from microsim.goniometer import LOST_WARNING
+    from microsim.measurement.goniometer import LOST_WARNING
 
     recipe = leaky_mesh(tmp_path)
     out = tmp_path / "leaky.exr"
@@ -440,10 +440,10 @@ def test_verdict_follows_the_error_bars():
     1 + z_(1-alpha) / sqrt(2N) (asymptotic; N > 500 here)."""
     from scipy.stats import norm
 
-    from microsim.agreement import agreement, verdict_text
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import compare_table
-    from microsim.compare import model_table as analytic_table
+    from microsim.comparison.agreement import agreement, verdict_text
+    from microsim.comparison.metrics import compare_table
+    from microsim.comparison.metrics import model_table as analytic_table
     from microsim.tables.binning import HemisphereBins
 
     _, _, model = parse_model_spec("beckmann:alpha=0.3")
@@ -485,8 +485,8 @@ def test_demo_ends_with_a_verdict_line_per_model(cli, tmp_path):
     it wrote (recomputed from the file, to the printed two decimals; the file holds
     float32 values, so 0.006)."""
     import microsim
-    from microsim.agreement import agreement
     from microsim.commands.demo import comparison, total_comparison
+    from microsim.comparison.agreement import agreement
 
     out_table = tmp_path / "d.exr"
     code, out, err = cli("demo", "--rays", "3000", "-o", str(out_table))
@@ -513,7 +513,7 @@ def test_fit_reports_progress_and_rounds_to_its_uncertainty(small_table):
     to the decimal place of their uncertainty's second significant figure."""
     import microsim
     from microsim.commands.common import with_error
-    from microsim.fit import fit_table
+    from microsim.comparison.fit import fit_table
 
     seen = []
     result = fit_table(microsim.read_table(small_table), "beckmann", progress=seen.append)
@@ -529,7 +529,7 @@ def test_fit_json_is_the_records_json_then_the_tables_keys(cli, small_table):
     lists, in that order) followed by the table's error model, realisations and realised
     alpha; the fit is deterministic, so the command's values equal a second fit's."""
     import microsim
-    from microsim.fit import fit_table
+    from microsim.comparison.fit import fit_table
 
     code, out, err = cli("fit", str(small_table), "--model", "beckmann", "--json")
     assert code == 0, err
@@ -644,9 +644,9 @@ def test_comparison_figures_keep_their_texts_apart(small_table, tmp_path, monkey
     import microsim
     from microsim.analytic.registry import parse_model_spec
     from microsim.commands.compare import title_of
-    from microsim.compare import compare_table
+    from microsim.comparison.metrics import compare_table
+    from microsim.comparison.table_models import model_defaults
     from microsim.plots import albedo_plot, half_difference_slices, incidence_plane, z_maps
-    from microsim.table_models import model_defaults
 
     faults, legends = {}, {}
     close = plt.close
@@ -679,8 +679,8 @@ def test_half_difference_ratio_covers_the_lobe_at_every_theta_d(small_table, tmp
 
     import microsim
     from microsim.analytic.registry import parse_model_spec
+    from microsim.comparison.table_models import model_defaults
     from microsim.plots import half_difference_slices
-    from microsim.table_models import model_defaults
 
     images = []
     close = plt.close
@@ -713,7 +713,7 @@ def test_half_difference_ratio_covers_the_lobe_at_every_theta_d(small_table, tmp
     ],
 )
 def test_inputs_the_fuzzer_found(cli, small_table, tmp_path, monkeypatch, argv, needle):
-    monkeypatch.setattr("microsim.simulation.simulate_recipe", _no_work)
+    monkeypatch.setattr("microsim.measurement.simulation.simulate_recipe", _no_work)
     code, _, err = cli(*[a.format(table=small_table, tmp=tmp_path) for a in argv])
     one_error_line(code, err, needle)
 
@@ -751,7 +751,7 @@ def test_agreement_bounds_are_the_documented_quantiles():
 
     from scipy.stats import chi2
 
-    from microsim.agreement import agreement, verdict_text
+    from microsim.comparison.agreement import agreement, verdict_text
 
     def comparison(n: int, z_mean: float, z_std: float) -> SimpleNamespace:
         return SimpleNamespace(per_theta_i=[SimpleNamespace(lobe_bins=n)], z_mean=z_mean,

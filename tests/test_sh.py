@@ -15,10 +15,10 @@ from scipy.special import sph_harm_y
 import microsim
 from microsim.commands.sh import MATRIX_MAX_ORDER as CLI_MATRIX_MAX_ORDER
 from microsim.commands.sh import WINDOWS as CLI_WINDOWS
-from microsim.goniometer import Energies, RunKey, Sums, fold
-from microsim.paths import Paths
+from microsim.measurement.goniometer import Energies, RunKey, Sums, fold
+from microsim.measurement.paths import Paths
+from microsim.measurement.simulation import simulate
 from microsim.recipe import resolve
-from microsim.simulation import simulate
 from microsim.tables import sh
 from microsim.tables.assemble import EnsembleSums, from_ensemble, merge
 from microsim.tables.binning import HemisphereBins

@@ -9,11 +9,11 @@ from tilefixtures import with_floor
 
 from microsim.kernel.shading import CURVED, FALLBACK, FLAT, curved_table, shade
 from microsim.materials import material_from_json
+from microsim.measurement.scene import HIT, PeriodicScene
+from microsim.measurement.simulation import simulate
 from microsim.recipe import resolve
-from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.surfaces.tile import Tile
-from microsim.trace import HIT, PeriodicScene
 
 
 def tile_of(**surface):

@@ -10,13 +10,13 @@ import pytest
 from scipy.stats import chi2
 
 import microsim
-from microsim.agreement import agreement
 from microsim.analytic.fresnel import fresnel_conductor, fresnel_thin_film
-from microsim.compare import compare_table
+from microsim.comparison.agreement import agreement
+from microsim.comparison.metrics import compare_table
+from microsim.comparison.table_models import microfacet_model
 from microsim.errors import InputError
 from microsim.spectra import measured
 from microsim.spectra.channels import Channels
-from microsim.table_models import microfacet_model
 from microsim.tables.table import BRDFTable
 
 NM16 = [float(x) for x in np.linspace(400.0, 700.0, 16)]

@@ -263,7 +263,7 @@ def test_the_cloth_model_in_any_channels_is_the_rgb_one() -> None:
     evaluations of the RGB cloth model (its f_r is affine in the volume scales): with the
     scales of an RGB cloth model it gives that model's f_r (1e-12: round-off)."""
     from microsim.analytic.cloth import MicrocylinderCloth
-    from microsim.fit import _ClothPerChannel
+    from microsim.comparison.fit import _ClothPerChannel
 
     parts = np.array([0.7, 0.5, 1.45, 0.3, 0.6, 0.4])
     albedo = np.array([[0.2, 0.5, 0.9], [1.3, 0.1, 0.7]])
@@ -381,7 +381,7 @@ def test_merge_and_difference_keep_the_channels_and_refuse_others() -> None:
     """Two one-tile spectral tables of independent rays merge into their ray-weighted
     mean per channel (1e-12) and stay spectral; table_difference gives each channel's
     albedo difference; both refuse an RGB table of the same axes."""
-    from microsim.table_difference import table_difference
+    from microsim.comparison.difference import table_difference
     from microsim.tables.assemble import merge
 
     a, b = (_simulate(_recipe(GAUSSIAN, [30.0], 1500, seed=s, sh_order=2)) for s in (1, 2))
@@ -402,9 +402,9 @@ def test_merge_and_difference_keep_the_channels_and_refuse_others() -> None:
 
 
 def test_order_residuals_of_a_spectral_table(tables) -> None:
-    """The orders study (microsim.order_residuals) runs on a spectral table's orders;
+    """The orders study (microsim.comparison.orders) runs on a spectral table's orders;
     its albedos are the means over the wavelengths."""
-    from microsim.order_residuals import compare_orders
+    from microsim.comparison.orders import compare_orders
 
     _, table = tables["rough"]
     rows, _ = compare_orders(table, "gold", 8, 500, 1, 4)
@@ -457,7 +457,7 @@ def test_rgb_tables_do_not_import_colour_science(tmp_path) -> None:
     import sys
 
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import model_table
+    from microsim.comparison.metrics import model_table
     from microsim.tables.binning import HemisphereBins
 
     _, _, model = parse_model_spec("beckmann:alpha=0.3,eta=[0.2,0.9,1.1],k=[3.9,2.4,2.1]")

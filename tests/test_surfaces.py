@@ -187,7 +187,7 @@ def test_velvet_tile_is_periodic_inside_its_box_and_closed():
     """All faces inside the box, both parts, no zero-area faces; the fibres that cross a
     side are cut and wrapped, so a mirror white furnace loses nothing through gaps:
     every ray escapes (albedo exactly 1 with 200 bounces)."""
-    from microsim.simulation import simulate
+    from microsim.measurement.simulation import simulate
     t = tile_of(kind="velvet", density=200, seed=3)
     v = t.vertices
     assert v[:, 0].min() >= 0 and v[:, 0].max() <= 1 and v[:, 1].min() >= 0
@@ -223,7 +223,7 @@ def test_weave_yarns_are_outward_tubes_that_do_not_intersect(pattern):
     times the period — its volume (the open ends carry no flux of F). (2) Crossing yarns do
     not intersect: a ray cast down from inside the upper yarn at a crossing first meets
     that same yarn's underside."""
-    from microsim.trace import PeriodicScene
+    from microsim.measurement.scene import PeriodicScene
     t = tile_of(kind="weave", sides=8, segments=8, **pattern)
     n, area = t.face_normals_areas()
     centre = t.vertices[t.faces].mean(axis=1)

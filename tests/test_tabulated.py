@@ -16,23 +16,23 @@ import pytest
 from tilefixtures import flat_tile, height_field_tile, random_tile, vgroove_tile
 from tilefixtures import simulate_sections as simulate
 
+from microsim.comparison.difference import table_difference
 from microsim.errors import InputError
 from microsim.geometry import direction
 from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.tabulated import TabulatedMaterial
 from microsim.materials import material_from_json
 from microsim.materials.table import facet_frame
-from microsim.paths import trace_paths
+from microsim.measurement.paths import trace_paths
+from microsim.measurement.scene import PeriodicScene
 from microsim.recipe import load as resolve_recipe
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
 from microsim.surfaces.vgroove import face_roughness_tile
-from microsim.table_difference import table_difference
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.exr import read_table, write_table
 from microsim.tables.meta import TableMeta
 from microsim.tables.table import BRDFTable
-from microsim.trace import PeriodicScene
 
 Z_MAX = 5.0
 """Two-sided bound on every single z (normal p = 5.7e-7): with at most ~2000 bins and

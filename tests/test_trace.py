@@ -7,8 +7,8 @@ import pytest
 from tilefixtures import bump_tile, cosine_directions, flat_tile, random_tile, vgroove_tile
 
 from microsim.bench import bare_scene
-from microsim.masking import sample_faces
-from microsim.trace import BACKFACE, ESCAPED, HIT, LEAKED, TRAPPED, PeriodicScene
+from microsim.measurement.masking import sample_faces
+from microsim.measurement.scene import BACKFACE, ESCAPED, HIT, LEAKED, TRAPPED, PeriodicScene
 
 
 def test_flat_tile_hits_below_every_start_point() -> None:

@@ -10,8 +10,8 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
+from microsim.measurement.simulation import simulate
 from microsim.recipe import resolve
-from microsim.simulation import simulate
 from microsim.surfaces import build_tile
 from microsim.tables.exr import write_table
 

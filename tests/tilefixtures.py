@@ -7,8 +7,8 @@ from typing import Any
 import numpy as np
 
 from microsim.materials import Material, material_from_json
+from microsim.measurement.simulation import simulate
 from microsim.settings import Simulation, TableSettings
-from microsim.simulation import simulate
 from microsim.surfaces.facts import TileFacts
 from microsim.surfaces.tile import Tile
 from microsim.tables.table import BRDFTable
@@ -160,5 +160,5 @@ def sections(materials: dict, simulation: dict, table: dict
 
 def simulate_sections(tile: Tile, materials: dict, simulation: dict, table: dict,
                       **kw: Any) -> BRDFTable:
-    """``microsim.simulation.simulate`` of sections written as dicts (``sections``)."""
+    """``microsim.measurement.simulation.simulate`` of sections written as dicts (``sections``)."""
     return simulate(tile, *sections(materials, simulation, table), **kw)

@@ -364,7 +364,7 @@ def parse_model_spec(spec: str, defaults: Mapping[str, Any] | None = None
         E.g. ``"beckmann:alpha=0.31"``, ``"oren-nayar:sigma=20,model=qualitative"``.
     defaults : mapping, optional
         Values used for keys the spec does not give (e.g. a table's realised alpha); a
-        ``microsim.table_models.ModelDefaults`` also holds keys for one model only
+        ``microsim.comparison.table_models.ModelDefaults`` also holds keys for one model only
         (``for_model``).
 
     Returns

@@ -1,7 +1,7 @@
 """The geometry of velvet's fibres as recipe keys: one definition for the ``velvet``
 surface's keys (``microsim.surfaces.velvet``) and the sparse-velvet model's parameters
 (``microsim.analytic.registry``), whose defaults a table's surface gives
-(``microsim.table_models``). Pure Python: the recipe validator reads it.
+(``microsim.comparison.table_models``). Pure Python: the recipe validator reads it.
 """
 
 from __future__ import annotations
@@ -25,4 +25,4 @@ VELVET_GEOMETRY = {
 }
 """The fibres of velvet: the keys of the ``velvet`` surface and the parameters of the
 sparse-velvet model, one definition for both (the model's defaults are a table's
-surface keys, ``microsim.table_models``)."""
+surface keys, ``microsim.comparison.table_models``)."""

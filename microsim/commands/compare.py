@@ -24,8 +24,8 @@ from microsim.commands.common import (
 from microsim.files import atomic_path, replaceable, writable_folder
 
 if TYPE_CHECKING:
-    from microsim.agreement import Agreement
-    from microsim.comparison import Comparison, IncidenceMetrics
+    from microsim.comparison.agreement import Agreement
+    from microsim.comparison.records import Comparison, IncidenceMetrics
 
 REPORT = "report.md"
 """The report ``--out`` writes beside the figures."""
@@ -121,7 +121,7 @@ def write_report(out: Path, title: str, model: str, params: str,
     Path
         ``out / "report.md"``.
     """
-    from microsim.agreement import verdict_text
+    from microsim.comparison.agreement import verdict_text
 
     lines = [f"# {title}", "", f"Model: `{model}` with parameters "
              f"{params} (component: {component}).", "",
@@ -178,11 +178,11 @@ def write_report(out: Path, title: str, model: str, params: str,
 def run(args: argparse.Namespace) -> int:
     """Compare, print, and draw."""
     import microsim
-    from microsim.agreement import agreement, verdict_text
     from microsim.analytic.registry import parameter_sources, parameters_text, parse_model_spec
-    from microsim.compare import check_model_channels, compare_table, model_for
+    from microsim.comparison.agreement import agreement, verdict_text
+    from microsim.comparison.metrics import check_model_channels, compare_table, model_for
+    from microsim.comparison.table_models import table_defaults
     from microsim.plots import albedo_plot, half_difference_slices, incidence_plane, z_maps
-    from microsim.table_models import table_defaults
 
     table = microsim.read_table(args.table)
     for warning in table.meta.warnings:

@@ -26,8 +26,8 @@ from microsim.files import PLOT_SUFFIXES, writable_file
 from microsim.tables.exr import write_table
 
 if TYPE_CHECKING:
-    from microsim.agreement import Agreement
-    from microsim.comparison import Comparison
+    from microsim.comparison.agreement import Agreement
+    from microsim.comparison.records import Comparison
     from microsim.tables.table import BRDFTable
 
 RECIPE = Path(microsim.__file__).resolve().parent.parent / "surfaces" / "gaussian-0.3.toml"
@@ -69,12 +69,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def comparison(table: BRDFTable) -> tuple[str, dict[str, Any], Comparison, Agreement]:
     """Simulated single scattering against ``SINGLE_MODEL`` with the table's parameters
-    (its realised alpha, its facets' Fresnel: ``microsim.table_models.model_defaults``):
+    (its realised alpha, its facets' Fresnel: ``microsim.comparison.table_models.model_defaults``):
     the model's name and parameters, the comparison and its verdict."""
-    from microsim.agreement import agreement
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import compare_table
-    from microsim.table_models import model_defaults
+    from microsim.comparison.agreement import agreement
+    from microsim.comparison.metrics import compare_table
+    from microsim.comparison.table_models import model_defaults
 
     name, params, model = parse_model_spec(SINGLE_MODEL, model_defaults(table.meta))
     result = compare_table(table, model, "single")
@@ -85,7 +85,7 @@ def sources_of(table: BRDFTable, spec: str, params: dict[str, Any]) -> dict[str,
     """Where each of a model's parameters came from, as ``compare`` says it
     (``microsim.analytic.registry.parameter_sources``)."""
     from microsim.analytic.registry import parameter_sources
-    from microsim.table_models import model_defaults
+    from microsim.comparison.table_models import model_defaults
 
     return parameter_sources(spec, params, model_defaults(table.meta))
 
@@ -95,10 +95,10 @@ def total_comparison(table: BRDFTable
     """All simulated orders against the multiple-scattering Smith microsurface at the
     realised alpha (``MS_SAMPLES`` walks per bin, seeded with the table's seed): the
     model's spec and parameters, the comparison and its verdict."""
-    from microsim.agreement import agreement
     from microsim.analytic.registry import parse_model_spec
-    from microsim.compare import compare_table
-    from microsim.table_models import model_defaults
+    from microsim.comparison.agreement import agreement
+    from microsim.comparison.metrics import compare_table
+    from microsim.comparison.table_models import model_defaults
 
     spec = f"beckmann-ms:samples={MS_SAMPLES},seed={table.meta.seed}"
     _, params, model = parse_model_spec(spec, model_defaults(table.meta))
@@ -108,9 +108,9 @@ def total_comparison(table: BRDFTable
 
 def run(args: argparse.Namespace) -> int:
     """Simulate, write, compare, print."""
-    from microsim.agreement import verdict_text
     from microsim.analytic.registry import parameters_text
     from microsim.commands.simulate import print_summary, simulate_resolved, summary
+    from microsim.comparison.agreement import verdict_text
 
     resolved = recipe.load(RECIPE, flag_overrides(args, "simulation", "seed", "rays"))
     writable_file(args.output, "--output", (".exr",))

@@ -23,7 +23,7 @@ from microsim.commands.common import (
 )
 
 if TYPE_CHECKING:
-    from microsim.fit import FitProgress
+    from microsim.comparison.fit import FitProgress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -33,7 +33,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "microcylinder to a table",
         description="Fit an analytic model's parameters to a BRDF table by weighted least "
                     "squares in log space, using the per-bin standard errors (bins without "
-                    "an error are skipped); see microsim/fit.py and docs/compare.md. Prints "
+                    "an error are skipped); see microsim/comparison/fit.py and docs/compare.md. "
+                    "Prints "
                     "the parameters with 1-sigma uncertainties, chi^2/dof, the median "
                     "relative error and the albedo of fit and table per incidence.")
     p.add_argument("table", metavar="TABLE", help="table file (.exr)")
@@ -70,8 +71,8 @@ def run(args: argparse.Namespace) -> int:
     """Fit and report."""
     import microsim
     from microsim.analytic.registry import parameter_units, parameters_text
+    from microsim.comparison.fit import family, fit_table
     from microsim.files import PLOT_SUFFIXES, writable_file
-    from microsim.fit import family, fit_table
 
     family(args.model)  # a bad name fails before the table is read
     if args.plot is not None:

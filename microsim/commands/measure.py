@@ -102,7 +102,7 @@ def run_g1(args: argparse.Namespace) -> int:
     import numpy as np
 
     from microsim.geometry import direction
-    from microsim.masking import G1_BYTES_PER_RAY, measure_g1_recipe
+    from microsim.measurement.masking import G1_BYTES_PER_RAY, measure_g1_recipe
     from microsim.memory import check_memory
 
     if not math.isfinite(args.phi):
@@ -156,7 +156,7 @@ def run_ndf(args: argparse.Namespace) -> int:
     import numpy as np
 
     from microsim.analytic.ndf import Beckmann, ndf_bin_average
-    from microsim.facets import measure_ndf_recipe
+    from microsim.measurement.facets import measure_ndf_recipe
 
     resolved = recipe.load(args.recipe, [*args.overrides, *flag_overrides(args, "surface", "seed"),
                                          *flag_overrides(args, "simulation", "realisations")])

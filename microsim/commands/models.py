@@ -68,7 +68,7 @@ def run_eval(args: argparse.Namespace) -> int:
         parameters_text,
         parse_model_spec,
     )
-    from microsim.compare import check_model_channels, singular_albedo
+    from microsim.comparison.metrics import check_model_channels, singular_albedo
     from microsim.geometry import direction
 
     spec = args.spec

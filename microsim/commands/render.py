@@ -129,8 +129,8 @@ def run(args: argparse.Namespace) -> int:
     import microsim
     from microsim.analytic.registry import parameter_sources, parameters_text, parse_model_spec
     from microsim.commands.common import print_json
+    from microsim.comparison.table_models import table_defaults
     from microsim.render import backend, bsdfs, figure, objects, scene, spectral
-    from microsim.table_models import table_defaults
 
     writable_file(args.output, "--output", (".png",))
     if args.live:
@@ -241,8 +241,8 @@ def run_live(args: argparse.Namespace) -> int:
     from microsim import recipe
     from microsim.commands.common import flag_overrides, print_json
     from microsim.commands.simulate import simulate_resolved
+    from microsim.measurement.simulation import Tiles
     from microsim.render import backend, bsdfs, figure, live, objects, scene
-    from microsim.simulation import Tiles
 
     if len(args.tables) != 1 or Path(args.tables[0]).suffix.lower() != ".toml":
         raise InputError("--live: give one RECIPE (.toml), not tables")

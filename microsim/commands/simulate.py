@@ -34,7 +34,7 @@ from microsim.surfaces.facts import SurfaceFacts
 from microsim.tables.exr import write_table
 
 if TYPE_CHECKING:
-    from microsim.goniometer import Progress
+    from microsim.measurement.goniometer import Progress
     from microsim.tables.table import BRDFTable
 
 TABLE_BYTES_PER_BIN = 450
@@ -206,7 +206,7 @@ def simulate_resolved(resolved: Recipe, threads: int | None, show_progress: bool
     """Run the goniophotometer over the recipe's realisations, one tile at a time. The
     first tile is built beforehand for the memory guard and its warnings (to stderr); the
     others' warnings follow the run."""
-    from microsim.simulation import simulate_recipe
+    from microsim.measurement.simulation import simulate_recipe
     from microsim.surfaces import build_tile
 
     tile = build_tile(resolved.surface, memory_limit_gib)

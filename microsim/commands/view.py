@@ -130,9 +130,9 @@ def view_table(args: argparse.Namespace, source: Path) -> int:
             parameters_text,
             parse_model_spec,
         )
-        from microsim.compare import check_model_channels, singular_albedo
+        from microsim.comparison.metrics import check_model_channels, singular_albedo
+        from microsim.comparison.table_models import model_defaults
         from microsim.geometry import direction
-        from microsim.table_models import model_defaults
 
         defaults = model_defaults(table.meta)
         check_model_channels(args.model, defaults, table.channels)

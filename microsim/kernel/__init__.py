@@ -6,7 +6,7 @@ threads run them side by side with Embree's queries: ``rng`` (counter-based rand
 dispatch), ``transport`` (one step of every live path after a query: hit point, media,
 scattering, side wrap, escape records and compaction; ``slots`` lays out a path's state)
 and ``tally`` (escape records into bin sums). ``packing`` and ``tabulated`` pack a tile's
-materials into the arrays the kernel reads. ``microsim.trace`` drives them.
+materials into the arrays the kernel reads. ``microsim.measurement.scene`` drives them.
 
 Compiled code is cached on disk (``microsim.jit``).
 """

@@ -11,7 +11,7 @@ type, default, range, meaning) and its class attributes say the rest:
   of four uniform random numbers the event reads;
 - ``parameters``, ``medium``, ``tabulated``: what the kernel packs for it;
 - ``fresnel``, ``diffuse_albedo``, ``model_defaults``: what the analytic models it is
-  compared with take from it (``microsim.compare``).
+  compared with take from it (``microsim.comparison.metrics``).
 
 The kernel's per-part parameters are a (PARAMS, C) block: a column per quantity, an entry
 per channel of the run (C = 3 for an RGB table, one per wavelength for a spectral one;

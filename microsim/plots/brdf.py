@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from microsim.compare import Model, channels_of
+from microsim.comparison.metrics import Model, channels_of
 from microsim.geometry import half_difference
 from microsim.plots.layout import (
     THETA_O_LABEL,

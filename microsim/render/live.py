@@ -50,10 +50,10 @@ import numpy as np
 from microsim.errors import InputError
 from microsim.kernel import slots as ks
 from microsim.kernel.packing import FacetMaterials
+from microsim.measurement.scene import PeriodicScene
 from microsim.memory import check_memory
 from microsim.render.bsdfs import rotation_z
 from microsim.settings import Recipe
-from microsim.trace import PeriodicScene
 
 SCENE_BYTES_PER_FACE = 400
 """Memory the guard counts for one open realisation per face of its tile: the tile's
@@ -77,7 +77,7 @@ class LiveSurface:
     realisations : int
         K, the realisations 0 … K − 1 opened (those a table of K realisations averages).
     tiles : callable
-        Realisation index → its tile (``microsim.simulation.Tiles``).
+        Realisation index → its tile (``microsim.measurement.simulation.Tiles``).
     seed : int
         Mixed into every sample's key.
     threads : int

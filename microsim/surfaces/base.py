@@ -9,7 +9,7 @@ given is None, and its class attributes and methods say the rest:
 - ``kind``, ``doc``, ``parts``: the recipe name, what it builds (docs/recipes.md), and its
   material part names (face material id ``i`` is ``parts[i]``);
 - ``model_keys``: the keys that models of its geometry take as defaults of their
-  parameters of the same name (``microsim.table_models``);
+  parameters of the same name (``microsim.comparison.table_models``);
 - ``check``: rules between keys; ``triangles``: the memory guard's estimate;
   ``realisations``: the default number of independent realisations of random geometry;
 - ``build``: the periodic tile (``microsim.surfaces.tile.Tile``) with its facts record.
@@ -47,7 +47,8 @@ S = TypeVar("S", bound="Surface")
 SPAN = 1e4
 """Largest ratio between two lengths of one tile (the period, heights, radii,
 thicknesses, correlation lengths): the tracer offsets secondary rays by 1e-6 of the
-tile's extent (microsim.trace.EPS_REL), so the smallest feature stays 100 offsets wide."""
+tile's extent (microsim.measurement.scene.EPS_REL), so the smallest feature stays 100
+offsets wide."""
 SURFACE_ALPHA_MIN = 1e-3
 """Smallest roughness a recipe asks for: below it a surface is a mirror at every bin
 resolution a table has (its lobe is narrower than 0.06 degrees)."""

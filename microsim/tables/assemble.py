@@ -68,7 +68,7 @@ class EnsembleSums:
         Whether the harmonics' order-2L sums of w² are added (``add``'s ``sh_sums_sq``):
         the ray variance of every coefficient, which one realisation's error is and which
         floors batch means. Without them the harmonics' errors are batch means alone
-        (``microsim.goniometer.harmonic_ray_variance`` says when a run needs them).
+        (``microsim.measurement.goniometer.harmonic_ray_variance`` says when a run needs them).
 
     Attributes
     ----------

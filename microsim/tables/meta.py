@@ -132,7 +132,7 @@ class Timing:
 @dataclass(frozen=True, kw_only=True)
 class TableMeta:
     """A table's metadata. Every field may be absent (None or empty): a table of an
-    analytic model (``microsim.compare.model_table``) holds little but its surface's
+    analytic model (``microsim.comparison.metrics.model_table``) holds little but its surface's
     kind.
 
     Attributes

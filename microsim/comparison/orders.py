@@ -47,9 +47,9 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from microsim.analytic.registry import parse_model_spec
-from microsim.compare import bin_averages, bin_estimate, lobe_residuals
+from microsim.comparison.metrics import bin_averages, bin_estimate, lobe_residuals
+from microsim.comparison.table_models import model_defaults
 from microsim.geometry import direction
-from microsim.table_models import model_defaults
 from microsim.tables.components import order_range
 from microsim.tables.table import lobe_of
 

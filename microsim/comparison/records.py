@@ -1,7 +1,7 @@
 """A comparison of a table with a model, as records: one incidence's metrics and the table's.
 
 ``microsim.compare.metrics`` measures one incidence's bins against a model's bin averages
-(``IncidenceMetrics``); ``microsim.compare.compare_table`` every incidence of a table and
+(``IncidenceMetrics``); ``microsim.comparison.metrics.compare_table`` every incidence of a table and
 the pooled numbers (``Comparison``). Their JSON form (``to_json``) is made here only: it is
 what ``microsim compare --json`` and ``microsim demo --json`` print, with the keys that
 docs/compare.md lists, in a fixed order.
@@ -28,7 +28,7 @@ class IncidenceMetrics:
         Root mean square of sim − model over every bin and channel, 1/sr.
     z_mean, z_std : float
         Mean and sample standard deviation of the z-scores
-        (``microsim.compare.lobe_residuals``) over lobe bins with a defined, non-zero
+        (``microsim.comparison.metrics.lobe_residuals``) over lobe bins with a defined, non-zero
         error; NaN with too few of them (none, or one for ``z_std``).
     lobe_bins : int
         Lobe bins of the green channel.
@@ -96,7 +96,7 @@ class Comparison:
         bins pooled; NaN without lobe bins.
     z_mean, z_std : float
         Mean and sample standard deviation of every incidence's lobe z-scores pooled (z
-        against both errors, ``microsim.compare.lobe_residuals``).
+        against both errors, ``microsim.comparison.metrics.lobe_residuals``).
     error_model : str
         The table's (``BRDFTable.error_model``).
     realisations : int

@@ -17,13 +17,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from microsim.geometry import direction
+from microsim.measurement.scene import ESCAPED, PeriodicScene
 from microsim.settings import Recipe
 from microsim.surfaces import build_tile
 from microsim.surfaces.facts import SurfaceFacts
 from microsim.surfaces.realisations import realisation, realisation_seed
 from microsim.surfaces.tile import Tile
 from microsim.tables.estimator import ENSEMBLE, RAYS, estimate
-from microsim.trace import ESCAPED, PeriodicScene
 
 G1_BYTES_PER_RAY = 200
 """Working memory per ray and angle of ``measure_g1`` (which traces them all at once):

@@ -1,11 +1,11 @@
 """The virtual goniophotometer on one tile: per incident direction, binned exit weights.
 
 It samples the tile as a real instrument does and counts what the paths over the periodic
-tracer (``microsim.paths``) return, into per-direction sums from which
-``microsim.tables.table.BRDFTable`` makes f_r and its errors; ``microsim.simulation``
+tracer (``microsim.measurement.paths``) return, into per-direction sums from which
+``microsim.tables.table.BRDFTable`` makes f_r and its errors; ``microsim.measurement.simulation``
 runs it over the realisations of a surface, with the adaptive stop, and assembles the
 table. docs/goniometer.md explains the sampling, the weights and the error bars. (Masking
-G1 is measured by ``microsim.masking``.)
+G1 is measured by ``microsim.measurement.masking``.)
 
 Rays -wi start at uniform points of the tile's top plane (uniform irradiance over
 the projected area, as a collimated beam gives) and scatter until they escape; an escaping
@@ -33,7 +33,8 @@ from microsim.kernel.beam import CELLS, beam_origins
 from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.tally import bin_escapes, gather_rows, in_blocks
 from microsim.materials import Material
-from microsim.paths import Paths, start_paths
+from microsim.measurement.paths import Paths, start_paths
+from microsim.measurement.scene import PeriodicScene
 from microsim.settings import DEFAULT_ORDERS, Simulation, TableSettings
 from microsim.surfaces.facts import TileFacts
 from microsim.surfaces.tile import Tile
@@ -42,7 +43,6 @@ from microsim.tables.assemble import EnsembleSums
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import components_for
 from microsim.tables.meta import DirectionRecord, TableInput
-from microsim.trace import PeriodicScene
 
 BATCH = 65536
 """Rays per batch: the unit of random streams, accumulation and the adaptive stop."""
@@ -302,7 +302,7 @@ Direction = tuple[int, int]
 class Incidences:
     """The axes of a measurement: its incident directions and the outgoing bins it
     tallies into, made once from the recipe's sections and carried by the measurement,
-    so that the table is assembled from it (``microsim.simulation.assemble_table``).
+    so that the table is assembled from it (``microsim.measurement.simulation.assemble_table``).
 
     Attributes
     ----------
@@ -400,7 +400,7 @@ class Energies:
 @dataclass
 class Measurement:
     """What tracing some incident directions of some realisations gives; the pieces a table
-    is assembled from (``microsim.simulation.assemble_table``).
+    is assembled from (``microsim.measurement.simulation.assemble_table``).
 
     Realisations a measurement will add no rays to are folded into running sums
     (``fold``), so its memory does not grow with their number; the others stay runs.
@@ -425,7 +425,7 @@ class Measurement:
     tiles : int
         Tiles built (and their scenes) in ``scene_time``.
     stops : dict of (int, int) to str
-        Why each direction's adaptive stop ended (``microsim.simulation``); directions
+        Why each direction's adaptive stop ended (``microsim.measurement.simulation``); directions
         traced with a fixed count are absent.
     warnings : list of str
         The tiles' warnings, each once.
@@ -604,7 +604,7 @@ def measure_directions(tile: Tile, materials: Mapping[str, Material], simulation
     runs : dict or None
         Runs to continue (their sums grow, batches keep their numbers); None: fresh ones.
     threads, progress
-        As for ``microsim.simulation.simulate``.
+        As for ``microsim.measurement.simulation.simulate``.
     scene : PeriodicScene or None
         An open scene of ``tile`` to trace in (left open; ``threads`` is then unused), or
         None to build one for this call. The numbers do not depend on it.

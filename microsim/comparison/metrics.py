@@ -19,12 +19,12 @@ from typing import Any, Protocol
 import numpy as np
 
 from microsim.analytic.brdf import as_rgb
-from microsim.comparison import Comparison, IncidenceMetrics
+from microsim.comparison.records import Comparison, IncidenceMetrics
+from microsim.comparison.table_models import microfacet_model, model_defaults
 from microsim.errors import InputError
 from microsim.geometry import direction
 from microsim.spectra.channels import Channels
 from microsim.surfaces.facts import SurfaceFacts, TileFacts
-from microsim.table_models import microfacet_model, model_defaults
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import order_range
 from microsim.tables.evaluate import Axes
@@ -36,8 +36,8 @@ __all__ = ["LOBE_FRACTION", "Comparison", "IncidenceMetrics", "Model", "Stochast
            "lobe_residuals", "metrics", "microfacet_model", "model_defaults", "model_for",
            "model_table", "normal_z", "residual_statistics", "singular_albedo"]
 """``direction``, ``LOBE_FRACTION``, ``microfacet_model`` and ``model_defaults`` are
-``microsim.geometry``'s, ``microsim.tables.table``'s and ``microsim.table_models``'s, and
-``Comparison`` and ``IncidenceMetrics`` ``microsim.comparison``'s, named here too for the
+``microsim.geometry``'s, ``microsim.tables.table``'s and ``microsim.comparison.table_models``'s, and
+``Comparison`` and ``IncidenceMetrics`` ``microsim.comparison.records``'s, named here too for the
 scripts that compare tables with models."""
 
 
@@ -243,7 +243,7 @@ def check_model_channels(spec: str, defaults: Mapping[str, Any] | None,
     spec : str
         The model spec, ``NAME[:key=value,...]``.
     defaults : mapping or None
-        The table's (``microsim.table_models.model_defaults``), or None.
+        The table's (``microsim.comparison.table_models.model_defaults``), or None.
     channels : Channels or None
         The table's channels; None without a table (``microsim models eval``).
     flag : str

@@ -1,7 +1,7 @@
 """Multi-bounce paths over a periodic tile: the goniophotometer's light transport.
 
-A path starts as a ray, is traced over the periodic tile (``microsim.trace``), scatters at
-each face it hits by that face's material (``microsim.materials``), and goes on until it
+A path starts as a ray, is traced over the periodic tile (``microsim.measurement.scene``),
+scatters at each face it hits by that face's material (``microsim.materials``), and goes on until it
 escapes through the top of the slab, is lost (leaked, trapped, a back-face hit, or alive
 after the bounce limit), or is absorbed. Each path remembers the medium it is in (air, or
 the inside of a refracting part), which decides which faces it may hit from behind and the
@@ -21,7 +21,7 @@ import numpy as np
 from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.slots import FATES, O_W
 from microsim.kernel.tally import in_blocks, summarise
-from microsim.trace import Outcomes, PeriodicScene, Tracing
+from microsim.measurement.scene import Outcomes, PeriodicScene, Tracing
 
 T = TypeVar("T")
 

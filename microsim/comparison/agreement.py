@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from microsim.comparison import Comparison
+from microsim.comparison.records import Comparison
 
 AGREEMENT_SIGNIFICANCE = 1e-3
 """Significance of the test whether a table agrees with a model within its error bars."""

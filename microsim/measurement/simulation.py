@@ -3,7 +3,7 @@ over rays and realisations, and the assembled table.
 
 A recipe with random geometry names a surface, not a tile: its table is the mean over
 ``simulation.realisations`` independent tiles (``microsim.surfaces.realisations``), each
-traced by the goniometer (``microsim.goniometer.measure_directions``) with
+traced by the goniometer (``microsim.measurement.goniometer.measure_directions``) with
 ``rays / realisations`` rays per incident direction, its errors the ensemble's
 (``microsim.tables.estimator``). Tiles are built and traced one at a time, so the memory
 is that of one tile. docs/ensembles.md explains the error bars and the adaptive stop.
@@ -20,8 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from microsim.adaptive import direction_errors, next_plan
-from microsim.goniometer import (
+from microsim.materials import Material
+from microsim.measurement.adaptive import direction_errors, next_plan
+from microsim.measurement.goniometer import (
     BATCH,
     Direction,
     Energies,
@@ -37,7 +38,7 @@ from microsim.goniometer import (
     new_ensemble,
     trace_realisations,
 )
-from microsim.materials import Material
+from microsim.measurement.scene import PeriodicScene
 from microsim.settings import Recipe, Simulation, TableSettings
 from microsim.surfaces import Surface, build_tile
 from microsim.surfaces.facts import SurfaceFacts
@@ -46,7 +47,6 @@ from microsim.surfaces.tile import Tile
 from microsim.tables.assemble import from_ensemble
 from microsim.tables.meta import DirectionRecord, TableInput, TableMeta, Timing
 from microsim.tables.table import BRDFTable
-from microsim.trace import PeriodicScene
 from microsim.version import __version__
 
 
@@ -89,7 +89,7 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
     With realisations (``simulation.realisations_or_one`` > 1) each tile is traced once,
     for every direction that plans it, and its runs are folded into running sums
     (``Measurement.fold``), so the memory does not grow with the realisations; the
-    adaptive stop adds realisations (``microsim.adaptive.next_plan``). With one
+    adaptive stop adds realisations (``microsim.measurement.adaptive.next_plan``). With one
     realisation its rays grow in place.
 
     Parameters

@@ -39,11 +39,11 @@ from microsim.analytic.brdf import KayKajiya, Lafortune, OrenNayar, Phong, Torra
 from microsim.analytic.cloth import MicrocylinderCloth
 from microsim.analytic.fresnel import SchlickFresnel
 from microsim.analytic.ndf import GGX, Beckmann
-from microsim.compare import Model, bin_averages, channels_of, compare_table
+from microsim.comparison.metrics import Model, bin_averages, channels_of, compare_table
+from microsim.comparison.table_models import model_defaults
 from microsim.errors import InputError
 from microsim.memory import check_memory
 from microsim.spectra.channels import RGB_NAMES
-from microsim.table_models import model_defaults
 
 EPS_FRACTION = 1e-3
 REL_FLOOR = 0.01

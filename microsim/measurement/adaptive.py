@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from microsim.goniometer import BATCH
+from microsim.measurement.goniometer import BATCH
 from microsim.settings import Simulation
 from microsim.tables.table import BRDFTable
 
@@ -72,7 +72,7 @@ def next_plan(rays: Sequence[int], rel: float, share: float, simulation: Simulat
     tile variance T, from ``rel`` and the ray share ``share``); new realisations get
     Cochran's (1977, Sampling Techniques, 3rd ed., sec. 10.6) optimum n* = √(R c / T) for
     a realisation costing c rays (``tile_cost``, counted on the run: faces and
-    segments, ``microsim.simulation.TILE_SEGMENTS_PER_FACE``), at least
+    segments, ``microsim.measurement.simulation.TILE_SEGMENTS_PER_FACE``), at least
     ``MIN_RAYS``, and K' is the least count with V ≤ target². K' grows by at most
     ``GROWTH`` per round (the variance split is itself an estimate); the caps
     ``max_rays`` (rays in all) and ``max_realisations`` bound the plan.
