@@ -223,6 +223,30 @@ def unknown_kind(where: str, kind: Any, kinds: Iterable[str]) -> InputError:
                       + suggest(str(kind), kinds))
 
 
+def parse_kind(kinds: Mapping[str, Any], raw: Mapping[str, Any], where: str) -> Any:
+    """A section with ``kind`` validated into that kind's record: ``kinds[kind].parse``
+    of the other keys (a material, a surface).
+
+    Raises
+    ------
+    InputError
+        For a missing or unknown kind (naming ``where`` and the kinds), or a bad key.
+    """
+    kind = raw.get("kind")
+    if not isinstance(kind, str) or kind not in kinds:
+        raise unknown_kind(where, kind, kinds)
+    return kinds[kind].parse({k: v for k, v in raw.items() if k != "kind"}, where)
+
+
+def kind_from_json(kinds: Mapping[str, Any], data: Mapping[str, Any], what: str) -> Any:
+    """The record of the JSON a table file holds of a section with ``kind``
+    (``kinds[kind].from_json`` of the other keys; ``what`` names the section)."""
+    kind = data.get("kind")
+    if kind not in kinds:
+        raise InputError(f"{what} kind {kind!r}: this microsim knows " + ", ".join(kinds))
+    return kinds[kind].from_json({k: v for k, v in data.items() if k != "kind"})
+
+
 def _number(value: Any, name: str, key: Key, integer: bool = False) -> float | int:
     """Check one number (type, finiteness, bounds) and return it."""
     bad = InputError(f"{name} = {value!r}: must be {key.allowed()}")

@@ -11,7 +11,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from microsim.errors import InputError
 from microsim.materials.base import Material
 from microsim.materials.black import Black
 from microsim.materials.conductor import Conductor
@@ -19,7 +18,7 @@ from microsim.materials.dielectric import Dielectric
 from microsim.materials.lambertian import Lambertian
 from microsim.materials.mirror import Mirror
 from microsim.materials.table import Table
-from microsim.schema import unknown_kind
+from microsim.schema import kind_from_json, parse_kind
 
 __all__ = ["KINDS", "MATERIALS", "Black", "Conductor", "Dielectric", "Lambertian", "Material",
            "Mirror", "Table", "code_of", "material_from_json", "parse_material"]
@@ -50,16 +49,9 @@ def parse_material(raw: Mapping[str, Any], where: str) -> Material:
     InputError
         For a missing or unknown kind, or a bad key of the kind.
     """
-    kind = raw.get("kind")
-    if not isinstance(kind, str) or kind not in MATERIALS:
-        raise unknown_kind(where, kind, MATERIALS)
-    return MATERIALS[kind].parse({k: v for k, v in raw.items() if k != "kind"}, where)
+    return parse_kind(MATERIALS, raw, where)
 
 
 def material_from_json(data: Mapping[str, Any]) -> Material:
     """A material from the recipe JSON a table file holds (``Material.to_json``)."""
-    kind = data.get("kind")
-    if kind not in MATERIALS:
-        raise InputError(f"material kind {kind!r}: this microsim knows "
-                         + ", ".join(MATERIALS))
-    return MATERIALS[kind].from_json({k: v for k, v in data.items() if k != "kind"})
+    return kind_from_json(MATERIALS, data, "material")

@@ -13,9 +13,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from microsim.errors import InputError
 from microsim.memory import check_memory
-from microsim.schema import unknown_kind
+from microsim.schema import kind_from_json, parse_kind
 from microsim.surfaces.base import Surface
 from microsim.surfaces.cylinders import Cylinders
 from microsim.surfaces.flat import Flat
@@ -47,19 +46,12 @@ def parse_surface(raw: Mapping[str, Any], where: str = "surface.") -> Surface:
     InputError
         For a missing or unknown kind, or a bad key of the kind (naming ``where`` + key).
     """
-    kind = raw.get("kind")
-    if not isinstance(kind, str) or kind not in SURFACES:
-        raise unknown_kind(where, kind, SURFACES)
-    return SURFACES[kind].parse({k: v for k, v in raw.items() if k != "kind"}, where)
+    return parse_kind(SURFACES, raw, where)
 
 
 def surface_from_json(data: Mapping[str, Any]) -> Surface:
     """A surface from the recipe JSON a table file holds (``Surface.to_json``)."""
-    kind = data.get("kind")
-    if kind not in SURFACES:
-        raise InputError(f"surface kind {kind!r}: this microsim knows "
-                         + ", ".join(SURFACES))
-    return SURFACES[kind].from_json({k: v for k, v in data.items() if k != "kind"})
+    return kind_from_json(SURFACES, data, "surface")
 
 
 BYTES_PER_TRIANGLE = 300

@@ -35,7 +35,7 @@ from microsim.surfaces.base import (
     size_key,
 )
 from microsim.surfaces.facts import GaussianFacts, Roughness
-from microsim.surfaces.tile import Tile, grid_faces, height_field_vertices
+from microsim.surfaces.tile import Tile, height_field_tile
 
 MIN_CELLS = 4
 """Below this many cells per correlation length the facets under-resolve the slopes."""
@@ -190,13 +190,10 @@ class Gaussian(Surface):
         rotation = math.radians(self.rotation)
         sigma, tau_x, tau_y = self.correlation_lengths()
         h = heights(n, size, sigma, tau_x, tau_y, rotation, np.random.default_rng(self.seed))
-        vertices = height_field_vertices(h, size)
-        faces = grid_faces(n + 1, n + 1)
         isotropic = math.isclose(tau_x, tau_y)
-        tile = Tile(vertices, faces, np.zeros(len(faces), np.int32), ("base",), (size, size),
-                    facts=GaussianFacts(isotropic=isotropic, sigma=sigma,
-                                        correlation_length_x=tau_x, correlation_length_y=tau_y,
-                                        rotation_deg=math.degrees(rotation)))
+        tile = height_field_tile(h, size, GaussianFacts(
+            isotropic=isotropic, sigma=sigma, correlation_length_x=tau_x,
+            correlation_length_y=tau_y, rotation_deg=math.degrees(rotation)))
         ax, ay = 2 * sigma / tau_x, 2 * sigma / tau_y
         rx, ry = tile.realised_alpha(rotation)
         if isotropic:

@@ -45,7 +45,7 @@ from microsim.surfaces.base import (
     size_key,
 )
 from microsim.surfaces.facts import Roughness, TileFacts, _fact
-from microsim.surfaces.tile import Tile, grid_faces, height_field_vertices
+from microsim.surfaces.tile import Tile, height_field_tile
 
 EXPONENT_MIN = 1.0
 """The fall-off exponent C must exceed this: at C ≤ 1 the continuum height variance
@@ -274,11 +274,9 @@ def abc_tile(n: int, size: float, alpha: float, correlation_length: float,
     check(n, size, alpha, correlation_length, exponent)
     sigma = alpha / alpha_per_sigma(n, size, correlation_length, exponent)
     h = heights(n, size, sigma, correlation_length, exponent, np.random.default_rng(seed))
-    faces = grid_faces(n + 1, n + 1)
-    tile = Tile(height_field_vertices(h, size), faces, np.zeros(len(faces), np.int32),
-                ("base",), (size, size),
-                facts=ABCFacts(isotropic=True, sigma=sigma,
-                               correlation_length=correlation_length, exponent=exponent))
+    tile = height_field_tile(h, size, ABCFacts(isotropic=True, sigma=sigma,
+                                               correlation_length=correlation_length,
+                                               exponent=exponent))
     rx, ry = tile.realised_alpha()
     tile.facts = replace(tile.facts, alpha_target=Roughness(alpha),
                          alpha_realised=Roughness(math.sqrt((rx**2 + ry**2) / 2)))

@@ -193,6 +193,30 @@ class Tile:
                 "stderr": np.where(total > 0, err, np.nan)}
 
 
+def height_field_tile(h: np.ndarray, size: float, facts: TileFacts) -> Tile:
+    """The tile of a periodic height field on [0, size]²: one part ``base``.
+
+    Parameters
+    ----------
+    h : (n, n) float
+        ``h[i, j]`` at x = i·size/n, y = j·size/n.
+    size : float
+        Period along x and y.
+    facts : TileFacts
+        What the generator reports of it.
+
+    Returns
+    -------
+    Tile
+        (n + 1)² vertices (``height_field_vertices``), 2n² faces (``grid_faces``, shared by
+        every field on the grid).
+    """
+    n = len(h)
+    faces = grid_faces(n + 1, n + 1)
+    return Tile(height_field_vertices(h, size), faces, np.zeros(len(faces), np.int32),
+                ("base",), (size, size), facts=facts)
+
+
 def height_field_vertices(h: np.ndarray, size: float) -> np.ndarray:
     """Vertices of a periodic height field on [0, size]², indexed as ``grid_faces`` expects.
 
