@@ -282,3 +282,27 @@ def test_the_limits_themselves_are_allowed():
     for args in ((256, 1.0, 0.3, 1 / 256, 1.0001), (256, 1.0, 10.0, 1.0, 10.0),
                  (256, 1.0, 0.001, 0.5, 3.0)):
         abc.check(*args)
+
+
+def test_the_facets_roughness_along_the_diagonals_is_reported_and_warned_of():
+    """A triangle's slope along x = y is the cell's diagonal difference (checked against
+    the heights) and across it the rest, so α_45² + α_135² = α_x² + α_y² exactly (the mean square slope summed over any
+    two orthogonal axes is the same; to 1e-12, round-off). Rough at the grid's scale
+    (C = 2, B = 8 cells) the two differ by 35% and the tile warns; smooth over a cell
+    (C = 10, B = 12 cells: 1.4% for this seed, a few percent between seeds) it does not
+    (``DIAGONAL_SPREAD`` 10%)."""
+    rough = abc.abc_tile(128, 1.0, 0.2, 8 / 128, 2.0, seed=4)
+    f = rough.facts
+    rx, ry = rough.realised_alpha()
+    # both triangles of a cell rise h[i+1, j+1] − h[i, j] over the diagonal's √2 δ:
+    # α_45² = 2 · mean slope² = mean (h[i+1, j+1] − h[i, j])² / δ², written out here
+    z = rough.vertices[:, 2].reshape(129, 129)
+    diagonal = np.mean((z[1:, 1:] - z[:-1, :-1]) ** 2) / (1 / 128) ** 2
+    assert f.alpha_realised_45 == pytest.approx(math.sqrt(diagonal), rel=1e-12)
+    assert f.alpha_realised_45**2 + f.alpha_realised_135**2 == pytest.approx(
+        rx**2 + ry**2, rel=1e-12)
+    assert f.alpha_realised_135 > (1 + 2 * abc.DIAGONAL_SPREAD) * f.alpha_realised_45
+    assert any("cell diagonals" in w for w in rough.warnings)
+    smooth = abc.abc_tile(256, 1.0, 0.2, 12 / 256, 10.0, seed=4)
+    s45, s135 = smooth.facts.alpha_realised_45, smooth.facts.alpha_realised_135
+    assert abs(s135 - s45) < abc.DIAGONAL_SPREAD * s45 and not smooth.warnings

@@ -64,12 +64,28 @@ ALPHA_MAX = 10.0
 @dataclass(frozen=True, kw_only=True)
 class ABCFacts(TileFacts):
     """A K-correlation height field: its RMS height on the grid, correlation length B and
-    fall-off exponent C (``alpha_target`` and ``alpha_realised`` as for every tile)."""
+    fall-off exponent C (``alpha_target`` and ``alpha_realised`` as for every tile), and
+    the facets' realised roughness along the cells' diagonals (x = y, the one every
+    cell is split along, and x = −y; ``DIAGONAL_SPREAD``)."""
 
     KIND: ClassVar[str] = "abc"
     sigma: float | None = _fact()
     correlation_length: float | None = _fact()
     exponent: float | None = _fact()
+    alpha_realised_45: float | None = _fact("rms")
+    alpha_realised_135: float | None = _fact("rms")
+
+
+DIAGONAL_SPREAD = 0.10
+"""Largest relative difference between the facets' roughness along the two cell diagonals
+before the tile warns. Heights rough at the grid's scale (the band's finest wavelengths
+carry the slopes for C < 3) make a triangle's two edge slopes anticorrelated, and every
+cell is split along x = y, so the facets are smoother along that diagonal than across it
+(0.168 against 0.226, 35%, at C = 2 with 8 cells per B; 12% at C = 5; docs/surfaces.md):
+an isotropic Beckmann model at one α then misfits single scattering. 10% is four times
+the seed-to-seed standard deviation of the difference on a 256² tile (2.5%: six seeds of
+the ``gaussian`` default, whose facets are smooth over a cell, and of C = 10 with 12
+cells per B)."""
 
 
 def check(n: int, size: float, alpha: float, correlation_length: float,
@@ -278,8 +294,18 @@ def abc_tile(n: int, size: float, alpha: float, correlation_length: float,
                                                correlation_length=correlation_length,
                                                exponent=exponent))
     rx, ry = tile.realised_alpha()
+    along, across = tile.realised_alpha(math.pi / 4)
     tile.facts = replace(tile.facts, alpha_target=Roughness(alpha),
-                         alpha_realised=Roughness(math.sqrt((rx**2 + ry**2) / 2)))
+                         alpha_realised=Roughness(math.sqrt((rx**2 + ry**2) / 2)),
+                         alpha_realised_45=along, alpha_realised_135=across)
+    if abs(across - along) > DIAGONAL_SPREAD * min(along, across):
+        tile.warnings.append(
+            "surface: the facets' roughness differs by more than "
+            f"{100 * DIAGONAL_SPREAD:g}% between the cell diagonals (the table's "
+            "alpha_realised_45 and alpha_realised_135): heights rough at the grid's scale "
+            "make the triangles anisotropic, so an isotropic Beckmann model misfits single "
+            "scattering (docs/surfaces.md); a higher exponent or a longer "
+            "correlation_length smooths them")
     return tile
 
 
