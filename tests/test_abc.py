@@ -266,8 +266,8 @@ def test_facts_read_back_as_abc_facts():
     ((256, 1.0, 0.3, 0.03, 1.0), "surface.exponent = 1.0: must be in (1, 10] (at or below 1 the height variance is the grid's, not the surface's; above 10 use kind gaussian)"),
     ((256, 1.0, 0.3, 0.03, 10.5), "surface.exponent = 10.5: must be in (1, 10]"),
     ((256, 1.0, 0.3, 0.03, math.nan), "surface.exponent = nan: must be in (1, 10]"),
-    ((256, 1.0, 0.3, 0.002, 2.0), "surface.correlation_length = 0.002: must lie between one grid cell (0.00391) and the tile (1)"),
-    ((256, 1.0, 0.3, 1.5, 2.0), "surface.correlation_length = 1.5: must lie between one grid cell (0.00391) and the tile (1)"),
+    ((256, 1.0, 0.3, 0.002, 2.0), "surface.correlation_length = 0.002: gives a correlation length of 0.002, which must lie between one grid cell (0.00391) and the tile (1)"),
+    ((256, 1.0, 0.3, 1.5, 2.0), "surface.correlation_length = 1.5: gives a correlation length of 1.5, which must lie between one grid cell (0.00391) and the tile (1)"),
     ((256, 1.0, 0.0, 0.03, 2.0), "surface.alpha = 0.0: must be in [0.001, 10]"),
 ])
 def test_bad_inputs_are_refused_in_one_line(args, message):
@@ -306,3 +306,13 @@ def test_the_facets_roughness_along_the_diagonals_is_reported_and_warned_of():
     smooth = abc.abc_tile(256, 1.0, 0.2, 12 / 256, 10.0, seed=4)
     s45, s135 = smooth.facts.alpha_realised_45, smooth.facts.alpha_realised_135
     assert abs(s135 - s45) < abc.DIAGONAL_SPREAD * s45 and not smooth.warnings
+
+
+def test_a_default_correlation_length_out_of_range_names_the_resolution():
+    """The default B is 8 grid cells, so on a 4² grid it is twice the tile: the error names
+    ``resolution``, the key the user gave, not ``correlation_length``, which they did not."""
+    from microsim.recipe import resolve
+
+    with pytest.raises(InputError) as error:
+        resolve({"surface": {"kind": "abc", "alpha": 0.2, "resolution": 4}})
+    assert str(error.value).startswith("surface.resolution = 4: gives a correlation length")

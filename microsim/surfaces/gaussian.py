@@ -72,9 +72,25 @@ def heights(n: int, size: float, sigma: float, tau_x: float, tau_y: float,
     (n, n) float
         ``h[i, j]`` at x = i·size/n, y = j·size/n.
     """
-    root = root_power(n, float(size), float(sigma), float(tau_x), float(tau_y),
-                      float(rotation))
-    noise = rng.standard_normal((n, n))
+    return synthesis(root_power(n, float(size), float(sigma), float(tau_x), float(tau_y),
+                                float(rotation)), rng)
+
+
+def synthesis(root: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """F⁻¹(root · F w) of white standard normal noise w: the periodic Gaussian field whose
+    circulant covariance has eigenvalues root² (Dietrich & Newsam 1997).
+
+    Parameters
+    ----------
+    root : (n, n) float
+        √ of the eigenvalues, symmetric under k → −k (so the field is real).
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    (n, n) float
+    """
+    noise = rng.standard_normal(root.shape)
     return np.fft.ifft2(np.fft.fft2(noise) * root).real
 
 

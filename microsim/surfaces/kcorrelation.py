@@ -40,11 +40,13 @@ from microsim.surfaces.base import (
     SURFACE_ALPHA_MIN,
     Surface,
     area_realisations,
+    check_correlation,
     length_key,
     seed_key,
     size_key,
 )
 from microsim.surfaces.facts import Roughness, TileFacts, _fact
+from microsim.surfaces.gaussian import synthesis
 from microsim.surfaces.tile import Tile, height_field_tile
 
 EXPONENT_MIN = 1.0
@@ -89,7 +91,7 @@ cells per B)."""
 
 
 def check(n: int, size: float, alpha: float, correlation_length: float,
-          exponent: float) -> None:
+          exponent: float, name: str = "correlation_length") -> None:
     """The rules of an ``abc`` surface's keys.
 
     Parameters
@@ -104,6 +106,9 @@ def check(n: int, size: float, alpha: float, correlation_length: float,
         B, tile units.
     exponent : float
         C.
+    name : str
+        The key that set B (``resolution`` for the default of 8 grid cells), which a
+        correlation length outside the tile's range is named by.
 
     Raises
     ------
@@ -120,10 +125,8 @@ def check(n: int, size: float, alpha: float, correlation_length: float,
                          f"{EXPONENT_MAX:g}] (at or below {EXPONENT_MIN:g} the height variance "
                          f"is the grid's, not the surface's; above {EXPONENT_MAX:g} use kind "
                          "gaussian)")
-    cell = size / n
-    if not cell <= correlation_length <= size:
-        raise InputError(f"surface.correlation_length = {correlation_length!r}: must lie "
-                         f"between one grid cell ({cell:.3g}) and the tile ({size:.3g})")
+    given = correlation_length if name == "correlation_length" else n
+    check_correlation(name, given, correlation_length, size / n, size)
 
 
 @functools.lru_cache(maxsize=4)
@@ -253,9 +256,8 @@ def heights(n: int, size: float, sigma: float, correlation_length: float, expone
     (n, n) float
         ``h[i, j]`` at x = i·size/n, y = j·size/n.
     """
-    root = root_power(n, float(size), float(correlation_length), float(exponent))
-    noise = rng.standard_normal((n, n))
-    return sigma * np.fft.ifft2(np.fft.fft2(noise) * root).real
+    return sigma * synthesis(root_power(n, float(size), float(correlation_length),
+                                        float(exponent)), rng)
 
 
 def abc_tile(n: int, size: float, alpha: float, correlation_length: float,
@@ -339,7 +341,8 @@ class ABC(Surface):
                 else DEFAULT_CELLS * self.size / self.resolution)
 
     def check(self) -> None:
-        check(self.resolution, self.size, self.alpha, self.knee, self.exponent)
+        check(self.resolution, self.size, self.alpha, self.knee, self.exponent,
+              "resolution" if self.correlation_length is None else "correlation_length")
 
     def triangles(self) -> float:
         return 2 * self.resolution**2
