@@ -339,11 +339,6 @@ class Incidences:
         """(b,) float: the incident azimuths, radians."""
         return np.radians(self.phi_deg)
 
-    @property
-    def directions(self) -> list[Direction]:
-        """Every (l, k)."""
-        return [(l, k) for l in range(len(self.theta_deg)) for k in range(len(self.phi_deg))]
-
     def incident(self, l: int, k: int) -> np.ndarray:
         """(3,) float: the unit direction ωi towards the light of direction (l, k)."""
         return direction(math.radians(self.theta_deg[l]), math.radians(self.phi_deg[k]))
