@@ -122,8 +122,8 @@ def simulate(recipe: Recipe, threads: int | None = None,
     Returns
     -------
     BRDFTable
-        ``table.values[component]`` (a, b, nt, np, 3) with ``table.errors``, the
-        albedo, the harmonics and ``table.meta`` (the realised surface, the recipe).
+        ``table[component].values`` (a, b, nt, np, 3) with its errors, the albedo, the
+        harmonics and ``table.meta`` (the realised surface, the recipe).
     """
     from microsim.measurement.simulation import simulate_recipe
 

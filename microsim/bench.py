@@ -244,8 +244,8 @@ def score_ms(table: Any, model: FrozenBins) -> tuple[float, float]:
     noise = []
     for (a, b), _ in np.ndenumerate(table.rays):
         avg, avg_err = result.model[a, b], result.model_err[a, b]
-        err = np.nan_to_num(table.errors["total"][a, b], nan=np.inf)
-        _, _, lobe = lobe_residuals(table.values["total"][a, b], err, avg, avg_err)
+        err = np.nan_to_num(table["total"].errors[a, b], nan=np.inf)
+        _, _, lobe = lobe_residuals(table["total"].values[a, b], err, avg, avg_err)
         noise.append(np.hypot(err, avg_err)[lobe] / avg[lobe])
     return result.median_rel_error, float(np.median(np.concatenate(noise)))
 

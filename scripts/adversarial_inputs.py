@@ -1523,8 +1523,8 @@ def check_file(path: Path) -> str | None:
 
             table = microsim.read_table(path)
             for c in table.components:
-                v, e = table.values[c], table.errors[c]
-                if not (np.isfinite(v).all() and np.isfinite(table.albedo_of[c]).all()):
+                v, e = table[c].values, table[c].errors
+                if not (np.isfinite(v).all() and np.isfinite(table[c].albedo).all()):
                     return f"{c}: values or albedo not finite"
                 if (np.isnan(e) & (v != 0)).any() or np.isinf(e).any():
                     return f"{c}: errors not finite where a ray landed"
@@ -1834,11 +1834,11 @@ def _same_table(a: Path, b: Path) -> bool:
     import microsim
 
     ta, tb = microsim.read_table(a), microsim.read_table(b)
-    same = all(np.array_equal(ta.values[c], tb.values[c], equal_nan=True)
-               and np.array_equal(ta.errors[c], tb.errors[c], equal_nan=True)
-               and np.array_equal(ta.albedo_of[c], tb.albedo_of[c]) for c in ta.components)
-    if ta.sh is not None:
-        same &= all(np.array_equal(ta.sh[c], tb.sh[c]) for c in ta.components)
+    same = all(np.array_equal(ta[c].values, tb[c].values, equal_nan=True)
+               and np.array_equal(ta[c].errors, tb[c].errors, equal_nan=True)
+               and np.array_equal(ta[c].albedo, tb[c].albedo) for c in ta.components)
+    if ta.has_sh:
+        same &= all(np.array_equal(ta[c].sh, tb[c].sh) for c in ta.components)
     return same and ta.components == tb.components
 
 

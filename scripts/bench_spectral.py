@@ -89,7 +89,7 @@ def channel_error(table) -> float:
     lobe = table.lobe_mask("total")
     medians = []
     for c in range(table.channels.count):
-        f, e = table.values["total"][..., c], table.errors["total"][..., c]
+        f, e = table["total"].values[..., c], table["total"].errors[..., c]
         rel = np.where(np.isfinite(e), e, np.inf)[lobe] / f[lobe]
         medians.append(float(np.median(rel)))
     return float(np.median(medians))

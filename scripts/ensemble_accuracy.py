@@ -192,7 +192,7 @@ def smith(k: int, rays: int) -> str:
         cells = []
         for i, r in enumerate(result.per_theta_i):
             sim, model = r.albedo_sim[0], r.albedo_model[0]
-            err = float(table.albedo_err_of["single"][i, 0, 0])
+            err = float(table["single"].albedo_err[i, 0, 0])
             cells.append(f"{100 * (sim / model - 1):+.2f} ± {100 * err / model:.2g}%")
         realised = table.meta.surface.alpha_realised.alpha
         lines.append(f"| {alpha} (realised {realised:.3f}) | " + " | ".join(cells) + " |")

@@ -49,7 +49,7 @@ def probe(path: Path, k: int) -> dict:
     start = time.perf_counter()
     table = simulate_recipe(recipe)
     seconds = time.perf_counter() - start
-    inflation = table.inflation["total"]
+    inflation = table["total"].inflation
     rho = np.array([np.median(x[np.isfinite(x)]) if np.isfinite(x).any() else np.nan
                     for x in inflation.reshape(-1, 3)])
     one = 1 + k * (rho - 1)

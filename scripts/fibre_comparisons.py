@@ -155,7 +155,7 @@ def velvet() -> dict[str, str]:
         else:
             result = compared(t, spec, "single")
         ratio = [row.albedo_sim[1] / row.albedo_model[1] for row in result.per_theta_i]
-        err = t.albedo_err_of["single"][:, 0, 1] / np.array(
+        err = t["single"].albedo_err[:, 0, 1] / np.array(
             [row.albedo_model[1] for row in result.per_theta_i])
         rows.append((density, ratio, err))
         density_rows.append(f"| {density:g} | " + " | ".join(
@@ -186,9 +186,9 @@ def velvet() -> dict[str, str]:
     dense, dense_row = report("`surfaces/velvet.toml`, 400 per unit area, black base", t,
                               "velvet-sparse", "single", "velvet-dense.png")
     single = [row.albedo_sim[0] for row in dense.per_theta_i]
-    single_err = t.albedo_err_of["single"][:, 0, 0]
+    single_err = t["single"].albedo_err[:, 0, 0]
     sparse = [row.albedo_model[0] for row in dense.per_theta_i]
-    total = t.albedo_of["total"][:, 0, 0]
+    total = t["total"].albedo[:, 0, 0]
     what = ("fibres r = 0.002, L = 0.15, tilt 30 ± 10°, 24 sides, tile of side 5, "
             "Lambertian fibres (ρ = 0.8) on a black base, single scattering, 8 × 16 bins")
     opening = measured_with(__file__, sys.argv[1:], load_before)

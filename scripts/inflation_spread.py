@@ -56,8 +56,8 @@ def lobe_spreads(k: int, rays: int) -> list[tuple[float, float, int]]:
                                 recipe.simulation, recipe.table, keep_runs=True)
     raw = raw_sums(measured.runs, range(len(THETAS)), 1,
                    components_for(recipe.table.orders))
-    m, v = realisation_moments(raw["sums"]["order1"], raw["sums_sq"]["order1"],
-                               raw["realisation_rays"])
+    m, v = realisation_moments(raw.sums["order1"]["sums"], raw.sums["order1"]["sums_sq"],
+                               raw.realisation_rays)
     out = []
     for l in range(len(THETAS)):
         f = np.nanmean(m[:, l, 0, :, 1], axis=0)

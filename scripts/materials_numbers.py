@@ -129,8 +129,8 @@ def clear_coat(load_before: float) -> str:
     closed = CoatedLambertian(0.9, 1.5).directional_albedo(np.cos(table.theta_i))
     rms, counted = [], set()
     for a, theta in enumerate(table.theta_i):
-        sim = table.values["total"][a, 0].reshape(table.bins.size, -1)
-        err = table.errors["total"][a, 0].reshape(table.bins.size, -1)
+        sim = table["total"].values[a, 0].reshape(table.bins.size, -1)
+        err = table["total"].errors[a, 0].reshape(table.bins.size, -1)
         model = comparison.model[a, 0].reshape(table.bins.size, -1)
         keep = np.isfinite(err) & (err > 0)
         keep[mirror_bin(table, theta, (sim - model).mean(axis=-1))] = False

@@ -54,7 +54,7 @@ def residuals(alpha: float, thetas: list[float], seed: int, resolution: int, ray
         ref, ref_err = reference.albedo(direction(math.radians(theta), 0.0), walks,
                                         [order_range(c) for c in table.components[1:]])
         for j, c in enumerate(table.components[1:]):
-            sim, err = table.albedo_of[c][k, 0, 1], table.albedo_err_of[c][k, 0, 1]
+            sim, err = table[c].albedo[k, 0, 1], table[c].albedo_err[k, 0, 1]
             rows.append({"seed": seed, "alpha_realised": realised, "theta_i": theta,
                          "component": c, "sim": sim, "sim_err": err, "ref": ref[j, 0],
                          "ref_err": ref_err[j, 0], "residual": sim - ref[j, 0]})

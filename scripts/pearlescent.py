@@ -73,8 +73,8 @@ def chromaticity(table) -> list[tuple[float, float, float, float, float]]:
     w = colour.xyz_weights(nm)
     out = []
     for a, theta in enumerate(np.degrees(table.theta_i)):
-        albedo = table.albedo_of["total"][a, 0]
-        err = table.albedo_err_of["total"][a, 0]
+        albedo = table["total"].albedo[a, 0]
+        err = table["total"].albedo_err[a, 0]
         xyz = albedo @ w
         s = xyz.sum()
         # d(x)/d(albedo_c) = (W_cX s − X Σ_k W_ck) / s², likewise y
@@ -99,7 +99,7 @@ def draw(table, path: Path) -> None:
     # reflection, a few cells, clips), so the flakes' and the base's colours show
     exposure = 1.0 / max(np.percentile(linear.max(axis=-1), 90.0), 1e-12)
     bright = colour.to_srgb_display(nm, rows * exposure)
-    albedo = table.albedo_of["total"][:, 0]
+    albedo = table["total"].albedo[:, 0]
     y = colour.luminance(nm, albedo)
     hue = colour.to_srgb_display(nm, albedo * (0.35 / np.maximum(y, 1e-12))[:, None])
     thetas = np.degrees(table.theta_i)

@@ -30,7 +30,7 @@ from microsim.measurement.simulation import simulate
 from microsim.recipe import resolve
 from microsim.surfaces import build_tile
 from microsim.tables.sh_error import order_errors
-from microsim.tables.table import BRDFTable
+from microsim.tables.table import BRDFTable, ComponentEstimate
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "performance.md"
@@ -41,14 +41,13 @@ TARGET = 0.05
 
 def incidence(table: BRDFTable, l: int) -> BRDFTable:
     """The table of incidence ``l`` alone."""
-    def one(d: dict) -> dict:
-        return {c: v[l:l + 1] for c, v in d.items()}
-
-    return BRDFTable(table.bins, table.theta_i[l:l + 1], table.phi_i, table.isotropic,
-                     one(table.values), one(table.errors), table.rays[l:l + 1],
-                     one(table.albedo_of), one(table.albedo_err_of),
-                     table.lost_energy[l:l + 1], table.meta, sh=one(table.sh),
-                     sh_err=one(table.sh_err))
+    rows = slice(l, l + 1)
+    return BRDFTable(table.bins, table.theta_i[rows], table.phi_i, table.isotropic,
+                     {c: ComponentEstimate(e.values[rows], e.errors[rows], e.albedo[rows],
+                                           e.albedo_err[rows], sh=e.sh[rows],
+                                           sh_err=e.sh_err[rows])
+                      for c, e in table.estimates.items()},
+                     table.rays[rows], table.lost_energy[rows], table.meta)
 
 
 def needed(rows: list[dict], key: str) -> str:

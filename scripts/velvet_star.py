@@ -45,8 +45,8 @@ def main() -> None:
     args = parser.parse_args()
     load_before = os.getloadavg()[0]
     table = microsim.simulate(microsim.load_recipe(ROOT / "surfaces" / "velvet.toml"))
-    f = table.values["total"][:, 0].mean(axis=-1)          # (θi, θo bins, φo bins)
-    e = table.errors["total"][:, 0].mean(axis=-1)
+    f = table["total"].values[:, 0].mean(axis=-1)          # (θi, θo bins, φo bins)
+    e = table["total"].errors[:, 0].mean(axis=-1)
     lobe = table.lobe_mask("total")[:, 0]
     rows = []
     for a, theta in enumerate(np.degrees(table.theta_i)):

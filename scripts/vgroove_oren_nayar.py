@@ -68,8 +68,8 @@ def main() -> None:
     for l, t in enumerate(theta):
         wi = direction(np.radians(t), 0.0)
         expected = bin_average(model, wi, table.bins.theta_edges, table.bins.phi_edges)
-        sim = table.values["total"][l, 0]
-        m = metrics(sim, table.errors["total"][l, 0], expected,
+        sim = table["total"].values[l, 0]
+        m = metrics(sim, table["total"].errors[l, 0], expected,
                     table.bins.projected_solid_angle)
         it = min(int(np.sin(np.radians(max(t, 30.0))) ** 2 * 8), 7)
         rows.append({"theta_i": t, "median_rel_dev": m.median_rel_error,

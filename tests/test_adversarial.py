@@ -304,7 +304,7 @@ def test_a_fit_over_the_memory_limit_is_refused_before_it_runs(small_table, monk
     from microsim.errors import InputError
 
     table = microsim.read_table(small_table)
-    residuals = int(np.isfinite(table.errors["total"]).sum())
+    residuals = int(np.isfinite(table["total"].errors).sum())
     monkeypatch.setenv("MICROSIM_MEMORY_LIMIT",
                        repr(0.5 * fit.FIT_BYTES_PER_RESIDUAL * residuals / 2**30))
     monkeypatch.setattr(fit, "least_squares", _no_work)

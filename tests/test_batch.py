@@ -148,8 +148,8 @@ def test_one_worker_gives_the_same_bytes_as_two(tmp_path: Path, cli: Callable,
     alone = simulate_recipe(point.recipe, threads=1)
     merged = read_table(ref / f"{point.name}.exr")
     for c in ("total", "single"):
-        assert np.array_equal(merged.values[c], alone.values[c].astype(np.float32))
-        assert np.array_equal(merged.errors[c], alone.errors[c].astype(np.float32),
+        assert np.array_equal(merged[c].values, alone[c].values.astype(np.float32))
+        assert np.array_equal(merged[c].errors, alone[c].errors.astype(np.float32),
                               equal_nan=True)
     assert merged.meta.recipe == point.recipe and merged.meta.timing is None
 
@@ -432,8 +432,8 @@ def test_measurements_of_disjoint_angles_merge_into_simulate() -> None:
         first = measure_directions(tile, *sections, [1, 0], scene=scene)
     merged = assemble_table([last, first], *sections)
     for c in ("total", "single"):
-        assert merged.values[c].tobytes() == whole.values[c].tobytes()
-        assert merged.errors[c].tobytes() == whole.errors[c].tobytes()
+        assert merged[c].values.tobytes() == whole[c].values.tobytes()
+        assert merged[c].errors.tobytes() == whole[c].errors.tobytes()
     assert merged.meta.segments == whole.meta.segments
     assert merged.meta.directions == whole.meta.directions
     assert whole.meta.timing is not None and merged.meta.timing is None

@@ -29,7 +29,7 @@ def test_black_floor_absorbs_every_ray_and_the_energy_balance_closes() -> None:
     table = simulate_sections(flat_tile(), {"base": {"kind": "black"}},
                               {"theta_i": [0.0, 60.0], "rays": rays, "bounces": 4},
                               {"theta_bins": 4, "phi_bins": 8})
-    assert np.all(table.values["total"] == 0.0) and np.all(table.albedo == 0.0)
+    assert np.all(table["total"].values == 0.0) and np.all(table.albedo == 0.0)
     for d in table.meta.directions:
         assert d.absorbed == (1.0, 1.0, 1.0)
         assert d.lost == d.transmitted == (0.0, 0.0, 0.0)

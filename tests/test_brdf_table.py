@@ -6,14 +6,16 @@ albedos of an estimate whose realisations skip a direction."""
 from __future__ import annotations
 
 import warnings
+from dataclasses import FrozenInstanceError, replace
 
 import numpy as np
 import pytest
+from tablefixtures import table_of
 
 from microsim.tables.assemble import from_realisations
 from microsim.tables.binning import HemisphereBins
 from microsim.tables.meta import TableMeta
-from microsim.tables.table import BRDFTable, by_component, components_of
+from microsim.tables.table import ComponentEstimate, by_component, components_of
 
 COMPONENTS = ("total", "order1", "order2+")
 
@@ -36,7 +38,7 @@ def small_table(values=None, errors=None, rays=((10,), (20,)), **kw):
         errors = {c: ints(per_bin, 10 * k) for k, c in enumerate(COMPONENTS)}
     albedo = {c: ints((a, b, 3), k) for k, c in enumerate(COMPONENTS)}
     albedo_err = {c: ints((a, b, 3), 5 + k) for k, c in enumerate(COMPONENTS)}
-    return BRDFTable(HemisphereBins(nt, nph), [0, 1], [0], True, values, errors,
+    return table_of(HemisphereBins(nt, nph), [0, 1], [0], True, values, errors,
                      [list(r) for r in rays], albedo, albedo_err, ints((a, b, 3)),
                      TableMeta(), **kw)
 
@@ -72,23 +74,18 @@ def test_table_stores_every_given_field_as_documented():
     same_floats(t.theta_i, [0, 1])
     same_floats(t.phi_i, [0])
     same_floats(t.lost_energy, ints(shape))
+    assert tuple(t.estimates) == COMPONENTS
     for field, start, per in (("values", 0, (2, 1, 2, 2, 3)), ("errors", None, None),
-                              ("albedo_of", 0, shape), ("albedo_err_of", 5, shape)):
-        stored = getattr(t, field)
-        assert tuple(stored) == COMPONENTS
+                              ("albedo", 0, shape), ("albedo_err", 5, shape)):
         for k, c in enumerate(COMPONENTS):
             expected = (ints((2, 1, 2, 2, 3), 10 * k) if field == "errors"
                         else ints(per, start + k))
-            same_floats(stored[c], expected)
+            same_floats(getattr(t[c], field), expected)
     for field, data in given.items():
-        stored = getattr(t, field)
-        assert tuple(stored) == COMPONENTS
         for c in COMPONENTS:
-            same_floats(stored[c], data[c])
+            same_floats(getattr(t[c], field), data[c])
     for field, data in raw.items():
-        stored = getattr(t, field)
-        assert tuple(stored) == COMPONENTS
-        assert all(stored[c] is data[c] for c in COMPONENTS)
+        assert all(getattr(t[c], field) is data[c] for c in COMPONENTS)
     assert t.realisation_rays is realisation_rays and t.lost is lost
     for got, expected in ((t.rays, [[10], [20]]), (t.realisations, [[2], [3]])):
         assert got.dtype == np.int64
@@ -102,14 +99,14 @@ def test_table_defaults_one_realisation_and_rays_minus_one_degrees_of_freedom():
     t = small_table(rays=((10,), (20,)))
     assert t.realisations.dtype == np.int64
     np.testing.assert_array_equal(t.realisations, [[1], [1]])
-    assert tuple(t.dof) == COMPONENTS
     for c in COMPONENTS:
-        assert t.dof[c].dtype == np.float64
-        np.testing.assert_array_equal(t.dof[c], [[[9.0] * 3], [[19.0] * 3]])
-    for field in ("inflation", "realisation_rays", "ray_errors", "sums", "sums_sq", "lost",
-                  "sh", "sh_err", "sh_sums", "sh_sums_sq", "realisation_albedo",
-                  "wavelets"):
+        assert t[c].dof.dtype == np.float64
+        np.testing.assert_array_equal(t[c].dof, [[[9.0] * 3], [[19.0] * 3]])
+    for field in ("realisation_rays", "lost", "wavelets"):
         assert getattr(t, field) is None, field
+    for field in ("inflation", "ray_errors", "sums", "sums_sq", "sh", "sh_err", "sh_sums",
+                  "sh_sums_sq", "realisation_albedo"):
+        assert all(getattr(t[c], field) is None for c in COMPONENTS), field
 
 
 def test_components_are_ordered_by_their_lowest_order():
@@ -156,7 +153,7 @@ def test_per_component_mappings_answer_to_both_names():
     """``in`` and ``get`` take ``single`` for ``order1`` and the stored names as they are;
     a component the table lacks, or a key that is no string, is not in it, and ``get``
     gives the default then (None unless given)."""
-    v = small_table().values
+    v = small_table().estimates
     for key in ("total", "order1", "single", "order2+"):
         assert key in v, key
         assert v.get(key) is v[key]
@@ -190,7 +187,7 @@ def lobe_table():
     e[0, 0] = np.array([[1.0, np.nan], [0.5, 0.1]])[..., None]
     values = {"total": f, "order1": f / 2}
     errors = {"total": e, "order1": e / 2}
-    return BRDFTable(HemisphereBins(2, 2), [0.0, 1.0], [0.0], True, values, errors,
+    return table_of(HemisphereBins(2, 2), [0.0, 1.0], [0.0], True, values, errors,
                      [[10], [10]], {c: np.zeros((2, 1, 3)) for c in values},
                      {c: np.zeros((2, 1, 3)) for c in values}, np.zeros((2, 1, 3)),
                      TableMeta())
@@ -216,7 +213,7 @@ def test_median_rel_stderr_counts_empty_bins_as_infinitely_uncertain():
     t = lobe_table()
     assert t.median_rel_stderr() == 0.5
     assert t.median_rel_stderr("single") == 0.5
-    empty = BRDFTable(HemisphereBins(2, 2), [0.0], [0.0], True,
+    empty = table_of(HemisphereBins(2, 2), [0.0], [0.0], True,
                       {"total": np.zeros((1, 1, 2, 2, 3))},
                       {"total": np.full((1, 1, 2, 2, 3), np.nan)}, [[10]],
                       {"total": np.zeros((1, 1, 3))}, {"total": np.zeros((1, 1, 3))},
@@ -258,5 +255,31 @@ def test_realisation_albedos_are_stored_in_the_order_the_realisations_traced():
                           TableMeta())
     np.testing.assert_array_equal(t.realisations, [[2], [1]])
     np.testing.assert_array_equal(
-        t.realisation_albedo["total"][..., 0],
+        t["total"].realisation_albedo[..., 0],
         [[[0.5], [0.25]], [[0.75], [np.nan]]])
+
+
+def test_a_table_is_one_frozen_estimate_per_component():
+    """``table[c]`` is the component's ``ComponentEstimate`` by either name; neither the
+    table nor an estimate can be assigned to; ``with_estimate`` changes the named fields
+    of one component in a copy and nothing else; ``dataclasses.replace`` of the table
+    keeps the estimates and recomputes the derived names."""
+    t = small_table()
+    assert t["single"] is t["order1"] is t.estimates["order1"]
+    assert isinstance(t["total"], ComponentEstimate)
+    with pytest.raises(FrozenInstanceError):
+        t.meta = TableMeta(seed=1)
+    with pytest.raises(FrozenInstanceError):
+        t["total"].values = np.zeros(1)
+    with pytest.raises(ValueError, match="component 'order3': this table holds total, "
+                       "order1, order2[+]"):
+        t["order3"]
+    halved = t.with_estimate("single", errors=t["order1"].errors / 2, albedo=[[[0.0] * 3]] * 2)
+    np.testing.assert_array_equal(halved["order1"].errors, t["order1"].errors / 2)
+    assert halved["order1"].albedo.dtype == np.float64 and not halved["order1"].albedo.any()
+    assert halved["order1"].values is t["order1"].values
+    assert halved["total"] is t["total"] and halved["order2+"] is t["order2+"]
+    assert t["order1"].albedo.any()
+    other = replace(t, meta=TableMeta(seed=5))
+    assert other.meta.seed == 5 and other.components == t.components
+    assert all(other[c] is t[c] for c in COMPONENTS)

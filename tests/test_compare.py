@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy import integrate
@@ -469,28 +471,28 @@ def test_model_table_holds_the_bin_averages_as_documented():
     assert table.isotropic and np.array_equal(table.phi_i, [0.0])
     assert table.components == ("total", "order1")
     for c in table.components:
-        assert np.array_equal(table.values[c], avg)
-        assert np.array_equal(table.errors[c], np.full(avg.shape, 1e-12))
-        np.testing.assert_allclose(table.albedo_of[c], np.einsum("abtpc,tp->abc", avg, proj),
+        assert np.array_equal(table[c].values, avg)
+        assert np.array_equal(table[c].errors, np.full(avg.shape, 1e-12))
+        np.testing.assert_allclose(table[c].albedo, np.einsum("abtpc,tp->abc", avg, proj),
                                    rtol=1e-14)
-        assert np.array_equal(table.albedo_err_of[c], np.zeros((2, 1, 3)))
-        assert np.all(table.dof[c] >= NORMAL_DOF)
+        assert np.array_equal(table[c].albedo_err, np.zeros((2, 1, 3)))
+        assert np.all(table[c].dof >= NORMAL_DOF)
     assert np.array_equal(table.lost_energy, np.zeros((2, 1, 3)))
     assert table.meta.surface.tile.kind == "analytic"
     noisy = model_table(Lobe(), theta, bins, 0.05, np.random.default_rng(1))
-    np.testing.assert_allclose(noisy.errors["total"], 0.05 * avg + 1e-12, rtol=1e-15)
-    z = (noisy.values["total"] - avg) / noisy.errors["total"]
-    assert np.all(noisy.values["total"] >= 0) and abs(z.mean()) < 4 / np.sqrt(z.size)
+    np.testing.assert_allclose(noisy["total"].errors, 0.05 * avg + 1e-12, rtol=1e-15)
+    z = (noisy["total"].values - avg) / noisy["total"].errors
+    assert np.all(noisy["total"].values >= 0) and abs(z.mean()) < 4 / np.sqrt(z.size)
     phi = np.array([0.0, 1.2])
     aniso = model_table(Lobe(), theta, bins, phi_i=phi, meta=TableMeta())
     assert not aniso.isotropic and np.array_equal(aniso.phi_i, phi)
     assert aniso.meta.surface is None
-    assert np.array_equal(aniso.values["total"],
+    assert np.array_equal(aniso["total"].values,
                           bin_averages(Lobe(), Axes(bins, theta, phi, False)))
     spectral = Channels((450.0, 550.0, 650.0, 750.0))
     four = model_table(Lobe(), theta, bins, channels=spectral)
-    assert four.channels == spectral and four.values["total"].shape == (2, 1, 3, 4, 4)
-    assert np.array_equal(four.values["total"], np.repeat(avg[..., :1], 4, axis=-1))
+    assert four.channels == spectral and four["total"].values.shape == (2, 1, 3, 4, 4)
+    assert np.array_equal(four["total"].values, np.repeat(avg[..., :1], 4, axis=-1))
     with pytest.raises(InputError, match="the model has 3 colour channels, the table 4"):
         model_table(Recorder(3, 4), theta, bins, channels=spectral)  # Lobe's are grey
 
@@ -527,11 +529,13 @@ def test_compare_table_pools_every_incidence_and_reports_the_table():
 
     bins, theta, phi = HemisphereBins(3, 4), np.array([0.3, 1.0]), np.array([0.0, 1.2, 2.0])
     table = model_table(Lobe(), theta, bins, 0.05, np.random.default_rng(2), phi_i=phi)
-    table.dof["order1"] = np.full((2, 3, 3), 4.0)
-    table.dof["order1"][1, 2] = 6.0
-    table.albedo_of["order1"] = 0.25 * table.albedo_of["total"]
-    table.albedo_of["total"][1, 1] = 0.0
-    table.error_model, table.realisations = "ensemble", np.array([[3, 5, 4], [2, 2, 2]])
+    dof = np.full((2, 3, 3), 4.0)
+    dof[1, 2] = 6.0
+    albedo = table["total"].albedo.copy()
+    albedo[1, 1] = 0.0
+    table = table.with_estimate("order1", dof=dof, albedo=0.25 * table["total"].albedo)
+    table = replace(table.with_estimate("total", albedo=albedo), error_model="ensemble",
+                    realisations=np.array([[3, 5, 4], [2, 2, 2]]))
     model, steps = Walker(Lobe(), 3), []
     result = compare_table(table, model, "single", lambda *a: steps.append(a))
     assert steps == [(k, 6) for k in range(1, 7)]
@@ -542,8 +546,8 @@ def test_compare_table_pools_every_incidence_and_reports_the_table():
                                 bins.phi_edges, 0.0)
         assert np.array_equal(result.model[a, b], avg)
         assert np.array_equal(result.model_err[a, b], err)
-        args = (table.values["order1"][a, b], table.errors["order1"][a, b], avg,
-                bins.projected_solid_angle, err, table.dof["order1"][a, b])
+        args = (table["order1"].values[a, b], table["order1"].errors[a, b], avg,
+                bins.projected_solid_angle, err, table["order1"].dof[a, b])
         assert row.z_mean == metrics(*args).z_mean and row.rms_error == metrics(*args).rms_error
         rel, z, _ = lobe_residuals(*args[:3], err, args[5])
         rels.append(rel)

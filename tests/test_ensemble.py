@@ -628,10 +628,10 @@ def ensemble_runs(k: int, runs: int, rays: int) -> dict[str, np.ndarray]:
     for j in range(runs):
         t = simulate_recipe(small_gaussian(k, rays, seed=j, surface_seed=1000 + j),
                             threads=2)
-        for name, x in (("f", t.values["total"]), ("e", t.errors["total"]),
-                        ("dof", t.dof["total"]), ("a", t.albedo_of["single"]),
-                        ("ae", t.albedo_err_of["single"]), ("sh", t.sh["total"]),
-                        ("she", t.sh_err["total"])):
+        for name, x in (("f", t["total"].values), ("e", t["total"].errors),
+                        ("dof", t["total"].dof), ("a", t["single"].albedo),
+                        ("ae", t["single"].albedo_err), ("sh", t["total"].sh),
+                        ("she", t["total"].sh_err)):
             out.setdefault(name, []).append(x[..., 0])
     return {name: np.array(x) for name, x in out.items()}
 
@@ -736,15 +736,15 @@ def test_ensemble_harmonics_are_batch_means_without_order_2l_transforms() -> Non
         m = np.array([done.runs[(l, 0, r)].sums.sh_sums[0] / done.runs[(l, 0, r)].sums.rays
                       for r in range(k)])                        # (K, (L+1)², C)
         batch = np.sqrt(m.var(axis=0, ddof=1) / k)
-        np.testing.assert_allclose(table.sh_err["total"][l, 0], batch, rtol=1e-12,
+        np.testing.assert_allclose(table["total"].sh_err[l, 0], batch, rtol=1e-12,
                                    atol=1e-15)
-        np.testing.assert_allclose(table.sh["total"][l, 0], m.mean(axis=0), rtol=1e-12,
+        np.testing.assert_allclose(table["total"].sh[l, 0], m.mean(axis=0), rtol=1e-12,
                                    atol=1e-15)
     one = small_gaussian(1, 6000)
     single = measure_ensemble(Tiles(one.surface), one.material, one.simulation,
                               one.table, keep_runs=True)
     assert all(run.sums.sh_sums_sq is not None for run in single.runs.values())
-    err = assemble_table([single], one.material, one.simulation, one.table).sh_err["total"]
+    err = assemble_table([single], one.material, one.simulation, one.table)["total"].sh_err
     assert np.all(np.isfinite(err)) and np.all(err[..., 0, :] >= 0) and np.all(
         err[..., 1:, :] > 0)
 
@@ -864,9 +864,9 @@ def test_split_realisations_merge_bit_for_bit_whatever_the_threads() -> None:
     two = simulate_recipe(recipe, threads=2)
     for c in ("total", "single"):
         for other in (merged, two):
-            assert other.values[c].tobytes() == whole.values[c].tobytes()
-            assert other.errors[c].tobytes() == whole.errors[c].tobytes()
-            assert other.sh_err[c].tobytes() == whole.sh_err[c].tobytes()
+            assert other[c].values.tobytes() == whole[c].values.tobytes()
+            assert other[c].errors.tobytes() == whole[c].errors.tobytes()
+            assert other[c].sh_err.tobytes() == whole[c].sh_err.tobytes()
     assert merged.meta.surface == whole.meta.surface
     assert merged.meta.directions == whole.meta.directions
     with pytest.raises(ValueError, match="realisations 0 .. K-1"):
@@ -904,8 +904,8 @@ def test_exr_round_trip_keeps_the_error_model(tmp_path) -> None:
     assert back.error_model == table.error_model == "ensemble"
     assert np.array_equal(back.realisations, table.realisations)
     for c in ("total", "single"):
-        assert np.array_equal(back.dof[c], table.dof[c])
-        assert np.array_equal(back.inflation[c], table.inflation[c], equal_nan=True)
+        assert np.array_equal(back[c].dof, table[c].dof)
+        assert np.array_equal(back[c].inflation, table[c].inflation, equal_nan=True)
     assert back.meta.surface.realisations == 3
     assert len(back.meta.surface.per_realisation) == 3
 
@@ -956,10 +956,10 @@ def test_adaptive_stop_repeats_bit_for_bit_whatever_the_threads() -> None:
 def assert_same_table(other, first) -> None:
     """Two tables equal bit for bit, with the same stop, realisations and rays."""
     for c in ("total", "single"):
-        assert other.values[c].tobytes() == first.values[c].tobytes()
-        assert other.errors[c].tobytes() == first.errors[c].tobytes()
-        assert other.dof[c].tobytes() == first.dof[c].tobytes()
-    assert other.sh["total"].tobytes() == first.sh["total"].tobytes()
+        assert other[c].values.tobytes() == first[c].values.tobytes()
+        assert other[c].errors.tobytes() == first[c].errors.tobytes()
+        assert other[c].dof.tobytes() == first[c].dof.tobytes()
+    assert other["total"].sh.tobytes() == first["total"].sh.tobytes()
     assert [(d.stop, d.realisations, d.rays) for d in other.meta.directions] == [
         (d.stop, d.realisations, d.rays) for d in first.meta.directions]
 
@@ -995,13 +995,13 @@ def test_one_tile_tables_merge_and_ensemble_tables_are_refused() -> None:
     merged = merge(a, b)
     assert np.array_equal(merged.rays, a.rays + b.rays)
     for c in ("total", "single"):
-        weighted = (a.values[c] * a.rays[:, :, None, None, None]
-                    + b.values[c] * b.rays[:, :, None, None, None]) / merged.rays[
+        weighted = (a[c].values * a.rays[:, :, None, None, None]
+                    + b[c].values * b.rays[:, :, None, None, None]) / merged.rays[
                         :, :, None, None, None]
-        np.testing.assert_allclose(merged.values[c], weighted, rtol=1e-12, atol=1e-15)
-    f = merged.values["total"][..., 0]
+        np.testing.assert_allclose(merged[c].values, weighted, rtol=1e-12, atol=1e-15)
+    f = merged["total"].values[..., 0]
     lobe = f >= 0.1 * f.max(axis=(2, 3), keepdims=True)
-    shrink = merged.errors["total"][..., 0][lobe] / a.errors["total"][..., 0][lobe]
+    shrink = merged["total"].errors[..., 0][lobe] / a["total"].errors[..., 0][lobe]
     assert abs(np.median(shrink) - 1 / np.sqrt(2)) < 0.1
     with pytest.raises(ValueError, match="raw sums"):
         merge(simulate_recipe(small_gaussian(3, 3000, seed=0), threads=2),

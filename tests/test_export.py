@@ -38,7 +38,7 @@ def test_npz(cli, table_path, tmp_path):
     assert cli("export", str(table_path), "--format", "npz", "-o", str(out))[0] == 0
     data = np.load(out)
     table = microsim.read_table(table_path)
-    np.testing.assert_array_equal(data["total"], table.values["total"])
+    np.testing.assert_array_equal(data["total"], table["total"].values)
     np.testing.assert_array_equal(data["theta_o_edges"], table.bins.theta_edges)
     assert json.loads(str(data["meta"]))["surface"]["kind"] == "test"
 

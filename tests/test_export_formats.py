@@ -9,6 +9,7 @@ import json
 
 import numpy as np
 import pytest
+from tablefixtures import table_of
 
 from microsim.geometry import direction
 from microsim.spectra.channels import Channels
@@ -25,7 +26,6 @@ from microsim.tables.export import (
     write_tensor_file,
 )
 from microsim.tables.meta import TableMeta
-from microsim.tables.table import BRDFTable
 
 RGB = Channels()
 """RGB channels."""
@@ -41,7 +41,7 @@ def small_table(channels=RGB, sh=True, sh_err=True, meta=None):
     def draw(*shape):
         return {k: rng.uniform(0.1, 1.0, shape) for k in comps}
 
-    return BRDFTable(
+    return table_of(
         HemisphereBins(2, 4), np.array([0.0, 0.5]), np.array([0.0]), True,
         draw(2, 1, 2, 4, c), draw(2, 1, 2, 4, c), np.full((2, 1), 1000), draw(2, 1, c),
         draw(2, 1, c), rng.uniform(0, 0.01, (2, 1, c)),
@@ -67,13 +67,13 @@ def test_npz_has_the_documented_keys_and_arrays(tmp_path):
          "albedo_err", "lost_energy", "isotropic", "meta", "sh_order", *per])
     expect = {"theta_i": table.theta_i, "phi_i": table.phi_i,
               "theta_o_edges": table.bins.theta_edges, "phi_o_edges": table.bins.phi_edges,
-              "albedo": table.albedo_of["total"], "albedo_err": table.albedo_err_of["total"],
+              "albedo": table["total"].albedo, "albedo_err": table["total"].albedo_err,
               "lost_energy": table.lost_energy}
     for c in ("total", "order1"):
-        expect.update({c: table.values[c], f"{c}_err": table.errors[c],
-                       f"albedo_{c}": table.albedo_of[c],
-                       f"albedo_{c}_err": table.albedo_err_of[c],
-                       f"sh_{c}": table.sh[c], f"sh_{c}_err": table.sh_err[c]})
+        expect.update({c: table[c].values, f"{c}_err": table[c].errors,
+                       f"albedo_{c}": table[c].albedo,
+                       f"albedo_{c}_err": table[c].albedo_err,
+                       f"sh_{c}": table[c].sh, f"sh_{c}_err": table[c].sh_err})
     for key, want in expect.items():
         assert data[key].dtype == np.float64, key
         np.testing.assert_array_equal(data[key], want, err_msg=key)
@@ -247,7 +247,7 @@ def constant_table(isotropic=True, channels=RGB, meta=None):
         return np.broadcast_to(np.resize(v, c), (a, b, 4, 8, c)).copy()
 
     zeros = {k: np.zeros((a, b, c)) for k in ("total", "order1")}
-    return BRDFTable(
+    return table_of(
         HemisphereBins(4, 8), np.radians([0.0, 30.0, 60.0]), phi_i, isotropic,
         {"total": fill(TOTAL), "order1": fill(ORDER1)},
         {"total": fill(0.0), "order1": fill(0.0)}, np.full((a, b), 1000), zeros, zeros,

@@ -35,8 +35,8 @@ def chi2_p(table, avg, component="single", floor=0.05):
     ``model``) hold ≥ ``floor`` of their peak (per incidence) and the table has an error,
     green channel; and the number of those bins."""
     avg = avg[..., 1]
-    sim = table.values[component][..., 1]
-    err = table.errors[component][..., 1]
+    sim = table[component].values[..., 1]
+    err = table[component].errors[..., 1]
     peak = avg.max(axis=(2, 3), keepdims=True)
     keep = (avg >= floor * peak) & np.isfinite(err) & (err > 0)
     z = (sim - avg)[keep] / err[keep]
@@ -82,7 +82,7 @@ def test_lambertian_cylinders_follow_the_exact_arcs_not_kay_kajiyas_uniform_radi
                           "single")
     p, bins = chi2_p(table, exact.model)
     assert p > P_MIN and bins > 300
-    errors = table.albedo_err_of["single"][..., 1].ravel()
+    errors = table["single"].albedo_err[..., 1].ravel()
     for row, err in zip(exact.per_theta_i, errors, strict=True):
         assert abs(row.albedo_sim[1] - row.albedo_model[1]) < 3.5 * err
     kk = compare_table(table, KayKajiya([0.0, 1.0, 0.0], 0.8 / np.pi**2, 0.0, 1.0,
@@ -114,7 +114,7 @@ def test_sparse_velvet_follows_the_quadrature_model():
     p, bins = chi2_p(table, result.model)
     assert p > P_MIN and bins > 40
     for k, row in enumerate(result.per_theta_i):
-        err = table.albedo_err_of["single"][k, 0, 1]
+        err = table["single"].albedo_err[k, 0, 1]
         assert abs(row.albedo_sim[1] - row.albedo_model[1]) < 3.5 * err
 
 

@@ -6,11 +6,13 @@ are its recipe's 4); view's 3D screenshots are pyvista's, checked for their font
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 from figurelint import figure_layout_faults
+from tablefixtures import changed
 
 SURFACES = Path(__file__).resolve().parent.parent / "surfaces"
 INCIDENCES = (1, 4, 18)
@@ -58,13 +60,13 @@ def synthetic_table(n: int, path: Path) -> Path:
     theta = np.radians(np.linspace(0.0, 87.0, n) if n > 1 else [30.0])
     bins = HemisphereBins(8, 16)
     table = model_table(model, theta, bins, 0.05, np.random.default_rng(n))
-    table.rays = np.arange(1, n + 1)[:, None] * 200_000
+    table = replace(table, rays=np.arange(1, n + 1)[:, None] * 200_000)
     t, p = np.meshgrid(bins.theta_centers, bins.phi_centers, indexing="ij")
     weights = bins.projected_solid_angle.ravel()
     y = sh.basis(4, np.cos(t).ravel(), p.ravel()) * weights[:, None]  # (bins, 25)
-    table.sh = {c: np.einsum("bk,aqbc->aqkc", y, v.reshape(*v.shape[:2], -1, 3))
-                for c, v in table.values.items()}
-    table.sh_err = {c: 0.05 * np.abs(v) for c, v in table.sh.items()}
+    table = changed(table, sh=lambda e: np.einsum(
+        "bk,aqbc->aqkc", y, e.values.reshape(*e.values.shape[:2], -1, 3)))
+    table = changed(table, sh_err=lambda e: 0.05 * np.abs(e.sh))
     microsim.write_table(table, path)
     return path
 
@@ -90,13 +92,13 @@ def spectral_synthetic_table(n: int, path: Path) -> Path:
     bins = HemisphereBins(8, 16)
     table = model_table(model, theta, bins, 0.05, np.random.default_rng(n),
                         channels=Channels(NM5))
-    table.rays = np.arange(1, n + 1)[:, None] * 200_000
+    table = replace(table, rays=np.arange(1, n + 1)[:, None] * 200_000)
     t, p = np.meshgrid(bins.theta_centers, bins.phi_centers, indexing="ij")
     weights = bins.projected_solid_angle.ravel()
     y = sh.basis(4, np.cos(t).ravel(), p.ravel()) * weights[:, None]  # (bins, 25)
-    table.sh = {c: np.einsum("bk,aqbc->aqkc", y, v.reshape(*v.shape[:2], -1, len(NM5)))
-                for c, v in table.values.items()}
-    table.sh_err = {c: 0.05 * np.abs(v) for c, v in table.sh.items()}
+    table = changed(table, sh=lambda e: np.einsum(
+        "bk,aqbc->aqkc", y, e.values.reshape(*e.values.shape[:2], -1, len(NM5))))
+    table = changed(table, sh_err=lambda e: 0.05 * np.abs(e.sh))
     microsim.write_table(table, path)
     return path
 

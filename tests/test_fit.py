@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 
 import numpy as np
 import pytest
+from tablefixtures import changed
 
 from microsim.analytic.brdf import OrenNayar, TorranceSparrow
 from microsim.analytic.fresnel import SchlickFresnel
@@ -114,8 +114,8 @@ def test_a_table_with_nothing_to_fit_is_an_error_line():
 
     table = table_of(OrenNayar(0.35, [0.7, 0.5, 0.3]))
     for c in table.components:
-        table.values[c][:] = 0.0
-        table.errors[c][:] = np.nan
+        table[c].values[:] = 0.0
+        table[c].errors[:] = np.nan
     with pytest.raises(InputError, match="has 0 bins with light"):
         fit_table(table, "beckmann")
     table = table_of(OrenNayar(0.35, [0.7, 0.5, 0.3]))
@@ -150,7 +150,7 @@ def _chi2_dof(table, model, nparams, component="total"):
     midpoints (as the fit's), dof = bins − parameters (at least 1)."""
     from microsim.comparison.metrics import bin_averages, channels_of
 
-    sim, err = table.values[component], table.errors[component]
+    sim, err = table[component].values, table[component].errors
     eps = 1e-3 * np.nanmax(sim)
     keep = np.isfinite(err)
     m = channels_of(bin_averages(model, table.axes, 5), table.channels.count)[keep]
@@ -177,8 +177,7 @@ def test_fit_json_is_the_result_with_one_row_per_incidence():
     1e-9)."""
     truth = OrenNayar(0.35, [0.7, 0.5, 0.3])
     table = table_of(truth)
-    single = table.component("single")
-    table.values = {**table.values, "total": 2.0 * table.values[single]}
+    table = table.with_estimate("total", values=2.0 * table["single"].values)
     r = fit_table(table, "oren-nayar", "single")
     assert r.median_rel_error < 0.01
     j = json.loads(json.dumps(r.to_json()))
@@ -195,14 +194,14 @@ def test_fit_json_is_the_result_with_one_row_per_incidence():
     wi, wo = _directions(100, 5), _directions(100, 6)
     np.testing.assert_allclose(r.fitted.eval(wi, wo), fitted.eval(wi, wo), rtol=1e-12)
     expected = model_table(fitted, THETA_I, HemisphereBins(16, 32))
-    np.testing.assert_allclose(r.model_bins, expected.values["total"], rtol=1e-9, atol=0)
-    expected = expected.albedo_of["total"]
+    np.testing.assert_allclose(r.model_bins, expected["total"].values, rtol=1e-9, atol=0)
+    expected = expected["total"].albedo
     assert len(j["per_theta_i"]) == 3
     for k, row in enumerate(j["per_theta_i"]):
         assert set(row) == {"theta_i", "phi_i", "albedo_fit", "albedo_table"}
         assert row["theta_i"] == pytest.approx(math.degrees(THETA_I[k]), abs=1e-12)
         assert row["phi_i"] == 0.0
-        assert row["albedo_table"] == table.albedo_of[single][k, 0].tolist()
+        assert row["albedo_table"] == table["single"].albedo[k, 0].tolist()
         assert row["albedo_fit"] == pytest.approx(expected[k, 0].tolist(), rel=1e-9)
         assert row == r.per_theta_i[k].to_json()
 
@@ -274,8 +273,7 @@ def test_chi2_and_uncertainties_are_the_documented_ones(reported):
     least-squares solver's own Jacobian, which is also a difference quotient)."""
     truth = _beckmann(0.25, [0.8, 0.6, 0.4])
     table = table_of(truth, 0.05, seed=3)
-    for c in table.components:
-        table.errors[c] = table.errors[c] * reported
+    table = changed(table, errors=lambda e: e.errors * reported)
     r = fit_table(table, "beckmann")
     p = np.array(list(r.params.values()))
     assert r.chi2_dof == pytest.approx(_chi2_dof(table, _beckmann(p[0], p[1:]), 4), rel=1e-9)
@@ -283,7 +281,7 @@ def test_chi2_and_uncertainties_are_the_documented_ones(reported):
 
     from microsim.comparison.metrics import bin_averages
 
-    sim, err = table.values["total"], table.errors["total"]
+    sim, err = table["total"].values, table["total"].errors
     eps = 1e-3 * sim.max()
     keep = np.isfinite(err)
     sigma = np.sqrt((err[keep] / (sim[keep] + eps)) ** 2 + 0.01**2)
@@ -305,9 +303,7 @@ def test_chi2_and_uncertainties_are_the_documented_ones(reported):
 def _with_surface(table, surface):
     from dataclasses import replace
 
-    out = copy.copy(table)
-    out.meta = replace(table.meta, surface=surface)
-    return out
+    return replace(table, meta=replace(table.meta, surface=surface))
 
 
 def test_microfacet_fits_start_at_the_tables_realised_alpha():
@@ -362,18 +358,18 @@ def test_a_fit_needs_more_bins_with_light_than_parameters():
     from microsim.errors import InputError
 
     table = table_of(_beckmann(0.4, [0.9, 0.6, 0.3]))
-    flat = table.errors["total"].reshape(-1)
-    lit = np.flatnonzero(table.values["total"].reshape(-1) > 0.1)
+    flat = table["total"].errors.reshape(-1)
+    lit = np.flatnonzero(table["total"].values.reshape(-1) > 0.1)
+    table = changed(table, errors=lambda e: np.full_like(e.errors, np.nan))
     for c in table.components:
-        table.errors[c] = np.full_like(table.errors[c], np.nan)
-        table.errors[c].reshape(-1)[lit[:4]] = flat[lit[:4]]
+        table[c].errors.reshape(-1)[lit[:4]] = flat[lit[:4]]
     with pytest.raises(InputError, match="has 4 bins with light .* not more than the 4 "
                        "parameters to fit: nothing escaped into it to fit a model to"):
         fit_table(table, "beckmann")
+    table = changed(table, values=lambda e: e.values.copy())
     for c in table.components:
-        table.errors[c].reshape(-1)[lit[4]] = flat[lit[4]]
-        table.values[c] = table.values[c].copy()
-        table.values[c].reshape(-1)[lit[:5]] *= [1.0, 1.5, 0.7, 1.2, 0.8]
+        table[c].errors.reshape(-1)[lit[4]] = flat[lit[4]]
+        table[c].values.reshape(-1)[lit[:5]] *= [1.0, 1.5, 0.7, 1.2, 0.8]
     r = fit_table(table, "beckmann")
     p = list(r.params.values())
     assert r.chi2_dof > 1.0
@@ -422,9 +418,8 @@ def test_fitted_reflectances_stay_physical(spec, model, expected):
     within 1e-9)."""
     scale = 1.5 if spec == "beckmann" else 1.0
     table = table_of(model)
-    for c in table.components:
-        table.values[c] = table.values[c] * scale
-        table.errors[c] = table.errors[c] * scale
+    table = changed(table, values=lambda e: e.values * scale,
+                    errors=lambda e: e.errors * scale)
     r = fit_table(table, spec)
     for name, value in expected.items():
         assert r.params[name] == pytest.approx(value, abs=1e-3), (name, r.params)

@@ -3,11 +3,11 @@ anisotropic tables: back from tables made from them, geometry taken from the tab
 
 from __future__ import annotations
 
-import copy
 import math
 
 import numpy as np
 import pytest
+from tablefixtures import changed
 from test_fit import _directions
 
 from microsim.comparison.fit import family, fit_table
@@ -33,10 +33,7 @@ def made_from(table: object, spec: str, params: list) -> object:
     each with a 1% error: a noiseless anisotropic table of that model."""
     _, fam = family(spec, model_defaults(table.meta))
     avg = bin_averages(fam.build(np.asarray(params, float)), table.axes, 5)
-    out = copy.copy(table)
-    out.values = {c: avg for c in table.values}
-    out.errors = {c: 0.01 * avg + 1e-12 for c in table.errors}
-    return out
+    return changed(table, values=lambda e: avg, errors=lambda e: 0.01 * avg + 1e-12)
 
 
 def test_microcylinder_fit_recovers_known_parameters_of_an_anisotropic_weave_table():
@@ -58,9 +55,8 @@ def test_microcylinder_fit_recovers_known_parameters_of_an_anisotropic_weave_tab
     assert r.median_rel_error < 0.01
     assert list(r.params.values()) == pytest.approx(truth, rel=1e-6)
     rng = np.random.default_rng(0)
-    noisy = copy.copy(clean)
-    noisy.values = {c: v * (1 + 0.01 * rng.standard_normal(v.shape))
-                    for c, v in clean.values.items()}
+    noisy = changed(clean, values=lambda e: e.values * (
+        1 + 0.01 * rng.standard_normal(e.values.shape)))
     r = fit_table(noisy, "microcylinder", "single", start=truth)  # convergence: above
     z = np.array([(r.params[k] - t) / r.uncertainty[k]
                   for k, t in zip(r.params, truth, strict=True)])
@@ -85,7 +81,7 @@ def test_kay_kajiya_fit_uses_the_cylinders_axis_and_coverage():
                                rtol=0, atol=1e-12)
     table = made_from(table, "kay-kajiya", truth)
     for row, (k, j) in zip(r.per_theta_i, np.ndindex(2, 2), strict=True):
-        np.testing.assert_array_equal(row.albedo_table, table.albedo_of["single"][k, j])
+        np.testing.assert_array_equal(row.albedo_table, table["single"].albedo[k, j])
     assert r.held_sources == {"tangent_theta": "the cylinders' axis",
                               "tangent_phi": "the cylinders' axis",
                               "coverage": "2 radius / spacing of the recipe's surface"}

@@ -165,10 +165,10 @@ def check_table(path: Path) -> None:
 
     table = microsim.read_table(path)
     for c in ("total", "single"):
-        assert np.isfinite(table.values[c]).all(), c
-        assert np.isfinite(table.albedo_of[c]).all(), c
-        empty = table.values[c] == 0
-        assert not (np.isnan(table.errors[c]) & ~empty).any(), c
+        assert np.isfinite(table[c].values).all(), c
+        assert np.isfinite(table[c].albedo).all(), c
+        empty = table[c].values == 0
+        assert not (np.isnan(table[c].errors) & ~empty).any(), c
     assert np.isfinite(table.lost_energy).all()
 
 

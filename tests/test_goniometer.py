@@ -109,7 +109,7 @@ def test_flat_mirror_table_holds_everything_in_the_mirror_bin() -> None:
     material, simulation, table = recipe_sections([30.0], 3000)
     result = simulate(flat_tile(), material, simulation, table)
     bin_ = result.bins.index(direction(np.radians([30.0]), np.pi), 0.0)[0]
-    sums = result.sums["total"][0, 0, 0]
+    sums = result["total"].sums[0, 0, 0]
     assert np.all(sums[bin_] == 3000) and np.count_nonzero(sums) == 3
     assert np.all(result.albedo == 1.0) and np.all(result.lost_energy == 0.0)
     assert result.meta.directions[0].stop == "rays"
@@ -209,8 +209,8 @@ def test_same_seed_same_numbers_whatever_the_threads() -> None:
     one = simulate(tile, material, simulation, table, threads=1)
     two = simulate(tile, material, simulation, table, threads=2)
     for c in ("total", "single"):
-        assert one.values[c].tobytes() == two.values[c].tobytes()
-        assert one.errors[c].tobytes() == two.errors[c].tobytes()
+        assert one[c].values.tobytes() == two[c].values.tobytes()
+        assert one[c].errors.tobytes() == two[c].errors.tobytes()
     assert one.lost_energy.tobytes() == two.lost_energy.tobytes()
 
 
@@ -225,14 +225,14 @@ def test_other_seed_other_numbers_within_noise() -> None:
                                                   phi_bins=16)
     a = simulate(tile, material, simulation, table)
     b = simulate(tile, material, replace(simulation, seed=2), table)
-    assert not np.array_equal(a.values["total"], b.values["total"])
+    assert not np.array_equal(a["total"].values, b["total"].values)
     lobe = a.lobe_mask() & b.lobe_mask()
-    z = ((a.values["total"] - b.values["total"])
-         / np.hypot(a.errors["total"], b.errors["total"]))[lobe][:, 0]
+    z = ((a["total"].values - b["total"].values)
+         / np.hypot(a["total"].errors, b["total"].errors))[lobe][:, 0]
     assert (z**2).sum() < chi2.ppf(0.999, z.size)
     assert np.all(a.albedo == 1.0) and np.all(b.albedo == 1.0)
-    z_albedo = ((a.albedo_of["single"] - b.albedo_of["single"])
-                / np.hypot(a.albedo_err_of["single"], b.albedo_err_of["single"]))
+    z_albedo = ((a["single"].albedo - b["single"].albedo)
+                / np.hypot(a["single"].albedo_err, b["single"].albedo_err))
     assert np.all(np.abs(z_albedo) < 4)
 
 
@@ -265,7 +265,7 @@ def test_lambertian_vgrooves_retroreflect() -> None:
         [0.0, 60.0, 75.0], 100_000, material={"kind": "lambertian", "albedo": 0.8},
         theta_bins=8, phi_bins=16)
     result = simulate(tile, material, simulation, table)
-    f, e = result.values["total"][:, 0, ..., 0], result.errors["total"][:, 0, ..., 0]
+    f, e = result["total"].values[:, 0, ..., 0], result["total"].errors[:, 0, ..., 0]
     it = np.minimum((np.sin(np.radians([30.0, 60.0, 75.0])) ** 2 * 8).astype(int), 7)
     back = [(f[l, it[l], [0, 15]].mean(), np.hypot(*e[l, it[l], [0, 15]]) / 2)
             for l in range(3)]
@@ -381,13 +381,13 @@ def test_gaussian_single_scattering_follows_torrance_sparrow() -> None:
     for l, theta in enumerate([0.0, 45.0, 75.0]):
         expected = bin_average(model, direction(np.radians(theta), 0.0),
                                result.bins.theta_edges, result.bins.phi_edges)
-        m = metrics(result.values["single"][l, 0], result.errors["single"][l, 0], expected,
-                    result.bins.projected_solid_angle, dof=result.dof["single"][l, 0])
+        m = metrics(result["single"].values[l, 0], result["single"].errors[l, 0], expected,
+                    result.bins.projected_solid_angle, dof=result["single"].dof[l, 0])
         assert abs(m.z_mean) < 0.4 and m.z_std < (1.5 if theta == 75 else 1.3), (
             theta, m)
         n = int(m.lobe_bins)
         assert m.z_std > np.sqrt(chi2.ppf(1e-3, n - 1) / (n - 1)), (theta, m)
-        sigma = result.albedo_err_of["single"][l, 0, 0] / m.albedo_model[0]
+        sigma = result["single"].albedo_err[l, 0, 0] / m.albedo_model[0]
         excess = m.albedo_sim[0] / m.albedo_model[0] - 1
         assert -4 * sigma < excess < 0.019 + 4 * sigma, (theta, excess, sigma)
 
@@ -439,10 +439,10 @@ def test_smith_residuals_of_gaussian_surfaces_are_the_documented_ones(alpha: flo
     for l, theta in enumerate([60.0, 75.0]):
         expected = bin_average(model, direction(np.radians(theta), 0.0),
                                table.bins.theta_edges, table.bins.phi_edges)
-        m = metrics(table.values["single"][l, 0], table.errors["single"][l, 0], expected,
-                    table.bins.projected_solid_angle, dof=table.dof["single"][l, 0])
+        m = metrics(table["single"].values[l, 0], table["single"].errors[l, 0], expected,
+                    table.bins.projected_solid_angle, dof=table["single"].dof[l, 0])
         excess = 100 * (m.albedo_sim[0] / m.albedo_model[0] - 1)
-        sigma = 100 * table.albedo_err_of["single"][l, 0, 0] / m.albedo_model[0]
+        sigma = 100 * table["single"].albedo_err[l, 0, 0] / m.albedo_model[0]
         documented, sigma_doc = SMITH_RESIDUAL[alpha][theta]
         z = (excess - documented) / np.hypot(sigma, sigma_doc)
         assert abs(z) < bound, (alpha, theta, excess, sigma)

@@ -84,7 +84,7 @@ def test_grazing_incidence_crosses_many_tiles_and_conserves_energy():
     tile, table = run(recipe({"kind": "gaussian", "alpha": 0.5, "resolution": 128},
                              theta=(89.0, 89.9)))
     assert_furnace_closes(table)
-    assert np.isfinite(table.values["total"]).all()
+    assert np.isfinite(table["total"].values).all()
     crossings = [tiles_to_first_hit(tile, math.radians(t)) for t in (89.0, 89.9)]
     assert np.median(crossings[1]) >= 5
     assert table.meta.segments >= sum(
@@ -119,7 +119,7 @@ def test_very_smooth_surfaces_integrated_quantities(alpha):
     coarse bins); G1 at 80° is Smith's within 0.005."""
     tile, table = run(recipe({"kind": "gaussian", "alpha": alpha, "resolution": 128},
                              theta=(45.0,)))
-    assert table.albedo_of["single"].min() >= 0.999
+    assert table["single"].albedo.min() >= 0.999
     n = 20_000
     facets = FacetMaterials(tile.material, tile.parts, {"base": Mirror()})
     rng = np.random.default_rng(5)
@@ -148,7 +148,7 @@ def test_very_rough_surfaces(alpha):
     tile, table = run(recipe({"kind": "gaussian", "alpha": alpha, "resolution": 128},
                              theta=(0.0, 60.0), rays=10_000))
     assert_furnace_closes(table)
-    single = table.albedo_of["single"].mean()
+    single = table["single"].albedo.mean()
     assert single < 0.8 * table.albedo.mean()
     with PeriodicScene(tile) as scene:
         g1, _ = measure_g1(scene, np.radians([60.0]), 0.0, 20_000, np.random.default_rng(4))
@@ -177,7 +177,7 @@ def test_lambertian_albedo_one_white_furnace():
     assert_furnace_closes(table)
     _, flat = run(recipe({"kind": "flat"}, {"kind": "lambertian", "albedo": 1.0},
                          theta=(30.0,), rays=50_000))
-    z = (flat.values["total"] - 1 / np.pi) / flat.errors["total"]
+    z = (flat["total"].values - 1 / np.pi) / flat["total"].errors
     assert np.abs(z).max() < 5
 
 

@@ -88,11 +88,11 @@ def test_tables_do_not_depend_on_threads_or_chunks() -> None:
             part = measure_directions(tile, *sections(materials, sim, table), scene=scene)
         made.append(assemble_table([part], *sections(materials, sim, table)))
     one, two = made
-    for c in one.values:
-        assert np.array_equal(one.values[c], two.values[c])
-        assert np.array_equal(one.errors[c], two.errors[c], equal_nan=True)
-        assert np.array_equal(one.sh[c], two.sh[c])
-        assert np.array_equal(one.sh_err[c], two.sh_err[c], equal_nan=True)
+    for c in one.components:
+        assert np.array_equal(one[c].values, two[c].values)
+        assert np.array_equal(one[c].errors, two[c].errors, equal_nan=True)
+        assert np.array_equal(one[c].sh, two[c].sh)
+        assert np.array_equal(one[c].sh_err, two[c].sh_err, equal_nan=True)
     assert np.array_equal(one.lost_energy, two.lost_energy)
     assert one.meta.directions == two.meta.directions
 

@@ -54,7 +54,7 @@ def test_a_lambertian_comparison_takes_the_tables_measured_albedo(cli, table_fil
     """Not the facets' material (mirror facets here: F = 1, no albedo; on the velvet the
     fibres' [0.6, 0.1, 0.1]): the table's own directional albedo of the component."""
     table = microsim.read_table(table_file)
-    measured = table.albedo_of[component].mean(axis=(0, 1))
+    measured = table[component].albedo.mean(axis=(0, 1))
     code, out, err = cli("compare", str(table_file), "--model", "lambertian", "--component",
                          component, "--json")
     assert code == 0, err

@@ -91,7 +91,7 @@ def test_a_model_without_lobe_bins_gives_no_lobe(study) -> None:
     """Where the model is zero everywhere (an order no walk reached), every statistic is
     NaN, quietly (no all-NaN warning), and the Markdown says "no lobe"."""
     table = simulate_recipe(small_recipe(1, 1, [0.0], 3))
-    zero = np.zeros_like(table.values["order3+"])
+    zero = np.zeros_like(table["order3+"].values)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         result = lobe_errors(table, "order3+", zero, zero, np.random.default_rng(0), 4)

@@ -22,10 +22,10 @@ def assert_finite_table(path) -> microsim.BRDFTable:
     """The table at ``path``: values, albedos, dof finite; errors NaN only in empty bins."""
     table = microsim.read_table(path)  # refuses NaN values, albedos and harmonics
     for c in table.components:
-        v, e = table.values[c], table.errors[c]
-        assert np.all(np.isfinite(v)) and np.all(np.isfinite(table.albedo_of[c]))
+        v, e = table[c].values, table[c].errors
+        assert np.all(np.isfinite(v)) and np.all(np.isfinite(table[c].albedo))
         assert np.all(np.isfinite(e) | (v == 0))
-        assert np.all(np.isfinite(table.dof[c]))
+        assert np.all(np.isfinite(table[c].dof))
     return table
 
 

@@ -64,13 +64,13 @@ def test_orders_add_up_to_the_total(four, tmp_path) -> None:
     assert four.components == ("total", "order1", "order2", "order3", "order4+")
     assert four.orders == 4
     orders = four.components[1:]
-    assert all(four.albedo_of[c].min() > 0 for c in orders)
+    assert all(four[c].albedo.min() > 0 for c in orders)
 
     def check(t, rtol):
-        for data in (t.values, t.albedo_of, t.sh):
-            parts = sum(data[c] for c in orders)
-            assert np.allclose(parts, data["total"], rtol=rtol, atol=rtol * np.abs(
-                data["total"]).max())
+        for field in ("values", "albedo", "sh"):
+            parts = sum(getattr(t[c], field) for c in orders)
+            total = getattr(t["total"], field)
+            assert np.allclose(parts, total, rtol=rtol, atol=rtol * np.abs(total).max())
 
     check(four, 1e-12)
     rng = np.random.default_rng(4)
@@ -85,9 +85,9 @@ def test_orders_add_up_to_the_total(four, tmp_path) -> None:
     assert back.components == four.components and back.orders == 4
     check(back, 2e-6)
     for c in four.components:
-        assert np.array_equal(back.albedo_of[c], four.albedo_of[c])
-        assert np.array_equal(back.albedo_err_of[c], four.albedo_err_of[c])
-    assert np.array_equal(back.values["single"], back.values["order1"])
+        assert np.array_equal(back[c].albedo, four[c].albedo)
+        assert np.array_equal(back[c].albedo_err, four[c].albedo_err)
+    assert np.array_equal(back["single"].values, back["order1"].values)
 
 
 def test_the_split_does_not_change_the_rays(four) -> None:
@@ -98,13 +98,13 @@ def test_the_split_does_not_change_the_rays(four) -> None:
     two = rough_table(2, sh_order=4)
     assert two.components == ("total", "order1", "order2+")
     for c in ("order1", "total"):
-        assert np.array_equal(two.values[c], four.values[c])
-        assert np.array_equal(two.errors[c], four.errors[c], equal_nan=True)
-    rest = four.values["order2"] + four.values["order3"] + four.values["order4+"]
-    assert np.allclose(two.values["order2+"], rest, rtol=1e-12, atol=1e-15)
+        assert np.array_equal(two[c].values, four[c].values)
+        assert np.array_equal(two[c].errors, four[c].errors, equal_nan=True)
+    rest = four["order2"].values + four["order3"].values + four["order4+"].values
+    assert np.allclose(two["order2+"].values, rest, rtol=1e-12, atol=1e-15)
     # harmonics: one transform per order's rays, each to ducc0's accuracy (1e-7)
-    sh_rest = four.sh["order2"] + four.sh["order3"] + four.sh["order4+"]
-    assert np.allclose(two.sh["order2+"], sh_rest, atol=1e-6 * np.abs(sh_rest).max())
+    sh_rest = four["order2"].sh + four["order3"].sh + four["order4+"].sh
+    assert np.allclose(two["order2+"].sh, sh_rest, atol=1e-6 * np.abs(sh_rest).max())
 
 
 def test_a_right_angled_vgroove_reflects_in_exactly_two_bounces() -> None:
@@ -116,8 +116,8 @@ def test_a_right_angled_vgroove_reflects_in_exactly_two_bounces() -> None:
                       "table": {"theta_bins": 4, "phi_bins": 8, "sh_order": 0}})
     table = simulate(build_tile(recipe.surface), recipe.material,
                      recipe.simulation, recipe.table)
-    assert table.albedo_of["order2"][0, 0] == pytest.approx([1.0] * 3, abs=1e-12)
-    assert np.all(table.albedo_of["order1"] == 0) and np.all(table.albedo_of["order3+"] == 0)
+    assert table["order2"].albedo[0, 0] == pytest.approx([1.0] * 3, abs=1e-12)
+    assert np.all(table["order1"].albedo == 0) and np.all(table["order3+"].albedo == 0)
 
 
 def test_format_1_tables_still_read(cli, tmp_path) -> None:
@@ -126,7 +126,7 @@ def test_format_1_tables_still_read(cli, tmp_path) -> None:
     refuse order2 with a clear error."""
     old = microsim.read_table(FORMAT_1)
     assert old.components == ("total", "order1") and old.orders is None
-    assert np.array_equal(old.values["single"], old.values["order1"])
+    assert np.array_equal(old["single"].values, old["order1"].values)
     assert old.component("single") == "order1"
     code, out, _ = cli("compare", str(FORMAT_1), "--model", "beckmann", "--component",
                        "single", "--json")
@@ -153,9 +153,9 @@ def test_commands_take_every_order(four, cli, tmp_path) -> None:
     assert cli("export", str(path), "--format", "npz", "-o", str(tmp_path / "t.npz"))[0] == 0
     arrays, back = np.load(tmp_path / "t.npz"), microsim.read_table(path)
     assert list(arrays["components"]) == list(four.components)
-    assert np.array_equal(arrays["order4+"], back.values["order4+"])
-    assert np.array_equal(arrays["albedo_order2"], back.albedo_of["order2"])
-    assert np.array_equal(arrays["sh_order3_err"], back.sh_err["order3"])
+    assert np.array_equal(arrays["order4+"], back["order4+"].values)
+    assert np.array_equal(arrays["albedo_order2"], back["order2"].albedo)
+    assert np.array_equal(arrays["sh_order3_err"], back["order3"].sh_err)
     code, out, _ = cli("sh", str(path), "--component", "order2", "--orders", "2,4", "--json")
     assert code == 0 and len(json.loads(out)) == 2
     assert cli("fit", str(path), "--model", "beckmann", "--component", "order4+")[0] == 0
@@ -204,9 +204,9 @@ def test_second_order_of_gaussian_tiles_follows_the_reference() -> None:
     alpha = table.meta.surface.alpha_realised.alpha
     reference = SmithMultipleScattering(Beckmann(alpha), seed=40)
     albedo, err = reference.albedo(direction(0.0, 0.0), 100_000, [(1, 1), (2, 2)])
-    sigma_table = table.albedo_err_of["order2"][0, 0, 1]
+    sigma_table = table["order2"].albedo_err[0, 0, 1]
     assert err[1, 0] < sigma_table / 2
-    residual = table.albedo_of["order2"][0, 0, 1] - albedo[1, 0]
+    residual = table["order2"].albedo[0, 0, 1] - albedo[1, 0]
     sigma = math.sqrt(sigma_table**2 + err[1, 0] ** 2 + SECOND_ORDER_OFFSET_ERR**2)
     z = (residual - SECOND_ORDER_OFFSET) / sigma
     assert abs(z) < student.ppf(1 - 5e-4, 63), (residual, sigma, albedo[1, 0])
@@ -247,7 +247,7 @@ def test_demo_compares_single_and_all_orders(cli, tmp_path) -> None:
     for l, (s, t) in enumerate(zip(single["per_theta_i"], total["per_theta_i"],
                                    strict=True)):
         assert t["albedo_sim"][1] == pytest.approx(1.0, abs=1e-9)
-        assert s["albedo_sim"][1] == pytest.approx(table.albedo_of["single"][l, 0, 1],
+        assert s["albedo_sim"][1] == pytest.approx(table["single"].albedo[l, 0, 1],
                                                    rel=1e-6)
         assert s["albedo_model_err"][1] == 0 and s["albedo_model"][1] < 1.0
         z = (t["albedo_model"][1] - 1.0) / t["albedo_model_err"][1]

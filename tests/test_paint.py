@@ -258,7 +258,7 @@ def test_shipped_paint_recipes_simulate_and_compare_from_the_cli(cli, tmp_path) 
     from microsim.analytic.fresnel import fresnel_dielectric
 
     specular = float(fresnel_dielectric(np.cos(np.radians(30.0)), 1.5))
-    sigma = microsim.read_table(table).albedo_err_of["total"][0, 0, 1]
+    sigma = microsim.read_table(table)["total"].albedo_err[0, 0, 1]
     assert abs(row["albedo_difference"][1] - specular) < 4 * sigma, (row, sigma)
     # the diffuse lobe's shape: z spread within what noise allows over the lobe bins, on
     # both sides (χ²(N − 1) at 0.001 and 0.999); the z mean is not asserted, at ~2 rays a
@@ -300,8 +300,8 @@ def test_paint_tables_do_not_depend_on_threads_and_repeat_bit_for_bit() -> None:
                      recipe.table, threads=threads)
             for threads, seed in ((1, 0), (2, 0), (2, 0), (2, 1))]
     for run in runs[1:3]:
-        assert np.array_equal(run.values["total"], runs[0].values["total"])
-    assert not np.array_equal(runs[3].values["total"], runs[0].values["total"])
+        assert np.array_equal(run["total"].values, runs[0]["total"].values)
+    assert not np.array_equal(runs[3]["total"].values, runs[0]["total"].values)
 
 
 def test_an_infeasible_pigment_fraction_is_refused_once_the_packing_jams(cli, tmp_path):

@@ -11,6 +11,7 @@ import mpmath
 import numpy as np
 import pytest
 from scipy.special import sph_harm_y
+from tablefixtures import changed, table_of
 
 import microsim
 from microsim.commands.sh import MATRIX_MAX_ORDER as CLI_MATRIX_MAX_ORDER
@@ -79,7 +80,7 @@ def harmonics_table(theta_i: np.ndarray, coefficients: np.ndarray) -> BRDFTable:
     flat = {c: np.zeros((a, 1, 3)) for c in components_for(3)}
     grey = (np.repeat(coefficients[:, None, :, None], 3, axis=-1) if coefficients.ndim == 2
             else coefficients[:, None])
-    return BRDFTable(HemisphereBins(2, 2), theta_i, np.zeros(1), True, zeros, zeros,
+    return table_of(HemisphereBins(2, 2), theta_i, np.zeros(1), True, zeros, zeros,
                      np.ones((a, 1), np.int64), flat, flat, np.zeros((a, 1, 3)), TableMeta(),
                      sh={c: grey for c in components_for(3)},
                      sh_err={c: np.zeros_like(grey) for c in components_for(3)})
@@ -287,12 +288,12 @@ def test_projection_of_rays_is_unbiased_with_honest_errors() -> None:
     table = from_ensemble(bins, np.radians([40.0]), np.zeros(1), True, ensemble, TableMeta())
     exact = lobe_coefficients(phong, np.radians([40.0]), order)[0]
     for comp, share in (("total", 1.0), ("order1", 2 / 3), ("order2", 1 / 3)):
-        z = (table.sh[comp][0, 0] - share * exact[:, None] * [1.0, 0.5, 0.25]) / table.sh_err[
-            comp][0, 0]
+        z = (table[comp].sh[0, 0] - share * exact[:, None] * [1.0, 0.5, 0.25]) / table[
+            comp].sh_err[0, 0]
         assert np.abs(z).max() < Z_MAX, comp
         assert 0.5 < np.mean(z[:, 0] ** 2) < 1.6, comp
     # the constant harmonic is the albedo: the same rays, the same sums
-    assert np.allclose(table.sh["total"][0, 0, 0] * math.sqrt(4 * np.pi), table.albedo[0, 0],
+    assert np.allclose(table["total"].sh[0, 0, 0] * math.sqrt(4 * np.pi), table.albedo[0, 0],
                        rtol=1e-6)
 
 
@@ -345,7 +346,7 @@ def test_sh_eval_is_the_series_over_cos_theta(rough: BRDFTable) -> None:
     theta, phi = np.arccos(wo[:, 2]), np.arctan2(wo[:, 1], wo[:, 0]) - phi_i
     l, m = sh.degrees(16)
     y = np.stack([real_y(a, b, theta, phi) for a, b in zip(l, m, strict=True)], -1)
-    expected = y @ rough.sh["total"][1, 0] / wo[:, 2:]
+    expected = y @ rough["total"].sh[1, 0] / wo[:, 2:]
     assert np.allclose(rough.eval(wi, wo, representation="sh"), expected, rtol=1e-9,
                        atol=1e-12)
     with pytest.raises(ValueError, match="representation"):
@@ -365,8 +366,8 @@ def test_sums_pickle_and_same_seed_gives_same_harmonics_whatever_the_threads() -
     one = simulate(tile, recipe.material, recipe.simulation, recipe.table, threads=1)
     two = simulate(tile, recipe.material, recipe.simulation, recipe.table, threads=2)
     for c in one.components:
-        assert np.array_equal(one.sh[c], two.sh[c]) and np.array_equal(one.sh_err[c],
-                                                                       two.sh_err[c])
+        assert np.array_equal(one[c].sh, two[c].sh) and np.array_equal(one[c].sh_err,
+                                                                       two[c].sh_err)
     acc = Sums(8, 6)
     acc.add(Paths(np.array([[0.0, 0.6, 0.8]]), np.ones((1, 3)),
                                          np.ones(1, np.int64), np.zeros(3), np.zeros(3),
@@ -388,8 +389,8 @@ def test_merged_tables_merge_their_harmonics() -> None:
     a = simulate(tile, recipe.material, recipe.simulation, recipe.table)
     b = simulate(tile, recipe.material, replace(recipe.simulation, seed=2, rays=5000), recipe.table)
     merged = merge(a, b)
-    assert np.allclose(merged.sh["total"], (3 * a.sh["total"] + 5 * b.sh["total"]) / 8)
-    assert np.all(merged.sh_err["total"] < np.maximum(a.sh_err["total"], b.sh_err["total"]))
+    assert np.allclose(merged["total"].sh, (3 * a["total"].sh + 5 * b["total"].sh) / 8)
+    assert np.all(merged["total"].sh_err < np.maximum(a["total"].sh_err, b["total"].sh_err))
 
 
 # --- storage ------------------------------------------------------------------------------
@@ -399,16 +400,15 @@ def test_exr_round_trip_and_tables_without_harmonics(rough: BRDFTable, tmp_path)
     assert back.sh_order == 16
     assert back.components == rough.components == components_for(3)
     for c in rough.components:
-        assert np.allclose(back.sh[c], rough.sh[c], rtol=1e-6, atol=1e-9)
-        assert np.allclose(back.sh_err[c], rough.sh_err[c], rtol=1e-6, atol=1e-12)
-        assert np.allclose(back.values[c], rough.values[c], rtol=1e-6, atol=1e-9)
-    plain = BRDFTable(rough.bins, rough.theta_i, rough.phi_i, True, rough.values,
-                      rough.errors, rough.rays, rough.albedo_of, rough.albedo_err_of,
-                      rough.lost_energy, rough.meta)
+        assert np.allclose(back[c].sh, rough[c].sh, rtol=1e-6, atol=1e-9)
+        assert np.allclose(back[c].sh_err, rough[c].sh_err, rtol=1e-6, atol=1e-12)
+        assert np.allclose(back[c].values, rough[c].values, rtol=1e-6, atol=1e-9)
+    plain = replace(rough, estimates={c: replace(e, sh=None, sh_err=None)
+                                      for c, e in rough.estimates.items()})
     write_table(plain, tmp_path / "plain.exr")
     old = microsim.read_table(tmp_path / "plain.exr")
-    assert old.sh is None and old.sh_order == 0
-    assert np.allclose(old.values["total"], rough.values["total"], rtol=1e-6, atol=1e-9)
+    assert not old.has_sh and old.sh_order == 0
+    assert np.allclose(old["total"].values, rough["total"].values, rtol=1e-6, atol=1e-9)
     with pytest.raises(ValueError, match="no spherical harmonics"):
         old.eval([0, 0, 1.0], [0, 0, 1.0], representation="sh")
 
@@ -532,12 +532,11 @@ def test_matrix_refuses_what_it_cannot_build_with_its_messages() -> None:
     """Anisotropic tables, tables without harmonics and orders past ``MAX_ORDER`` (32)
     are refused with their messages; order 32 itself is built."""
     table = harmonics_table(np.zeros(1), np.zeros((1, 4)))
-    table.isotropic = False
+    table = replace(table, isotropic=False)
     with pytest.raises(ValueError, match="^Westin's matrix is built for isotropic tables "
                                          "only$"):
         brdf_matrix(table)
-    table = harmonics_table(np.zeros(1), np.zeros((1, 4)))
-    table.sh = None
+    table = changed(harmonics_table(np.zeros(1), np.zeros((1, 4))), sh=lambda e: None)
     with pytest.raises(ValueError, match="^the table holds no spherical harmonics$"):
         brdf_matrix(table)
     with pytest.raises(ValueError, match="^order 33: the dense matrix is built up to "
@@ -636,8 +635,8 @@ def test_cli_writes_westin_matrix_and_npz_carries_harmonics(rough: BRDFTable, tm
                str(tmp_path / "t.npz"))[0] == 0
     arrays = np.load(tmp_path / "t.npz")
     assert int(arrays["sh_order"]) == 16
-    assert np.allclose(arrays["sh_total"], rough.sh["total"], rtol=1e-6, atol=1e-9)
-    assert arrays["sh_order2_err"].shape == rough.sh_err["order2"].shape
+    assert np.allclose(arrays["sh_total"], rough["total"].sh, rtol=1e-6, atol=1e-9)
+    assert arrays["sh_order2_err"].shape == rough["order2"].sh_err.shape
 
 
 @pytest.mark.parametrize("args, words", [
@@ -704,7 +703,7 @@ def test_anisotropic_table_evaluates_a_lambertian_floor() -> None:
                       "table": {"theta_bins": 4, "phi_bins": 8, "sh_order": 8}})
     tile = height_field_tile(np.zeros((4, 4)))              # says nothing: anisotropic
     table = simulate(tile, recipe.material, recipe.simulation, recipe.table)
-    assert not table.isotropic and table.sh["total"].shape == (2, 2, 81, 3)
+    assert not table.isotropic and table["total"].sh.shape == (2, 2, 81, 3)
     exact = lobe_coefficients(lambda wi, wo: np.full(len(wo), 0.6 / np.pi), np.zeros(1), 8)[0]
     rng = np.random.default_rng(1)
     wo = unit(rng.normal(size=(30, 3)) * [1, 1, 0.3] + [0, 0, 0.8])
@@ -715,7 +714,7 @@ def test_anisotropic_table_evaluates_a_lambertian_floor() -> None:
         wi = np.array([np.sin(np.radians(20)) * np.cos(phi_i),
                        np.sin(np.radians(20)) * np.sin(phi_i), np.cos(np.radians(20))])
         got = table.eval(wi, wo, representation="sh")[:, 0]
-        sigma = np.sqrt((y ** 2) @ table.sh_err["total"][0, k, :, 0] ** 2) / wo[:, 2]
+        sigma = np.sqrt((y ** 2) @ table["total"].sh_err[0, k, :, 0] ** 2) / wo[:, 2]
         assert np.all(np.abs(got - y @ exact / wo[:, 2]) < 4 * sigma + 1e-9)
 
 

@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 from scipy.special import sph_harm_y
+from tablefixtures import changed, table_of
 
 from microsim.spectra.channels import Channels
 from microsim.tables import sh
@@ -38,7 +39,7 @@ def exact_ring_table(bins: HemisphereBins, c0: float, c1: float) -> BRDFTable:
     coefficients[..., 0, :], coefficients[..., 2, :] = c0, c1      # k = l² + l + m
     comps = components_for(2)
     flat = {c: np.ones((1, 1, 3)) for c in comps}
-    return BRDFTable(bins, np.zeros(1), np.zeros(1), True, dict.fromkeys(comps, values),
+    return table_of(bins, np.zeros(1), np.zeros(1), True, dict.fromkeys(comps, values),
                      {c: 0.01 * values for c in comps}, np.full((1, 1), 1000), flat, flat,
                      np.zeros((1, 1, 3)), TableMeta(), sh=dict.fromkeys(comps, coefficients),
                      sh_err={c: np.zeros_like(coefficients) for c in comps})
@@ -118,8 +119,8 @@ def reference_rows(table: BRDFTable, orders: list[int], window: str) -> list[dic
     omega_proj = mirror * 0.5 * np.outer(np.diff(sin2), np.diff(bins.phi_edges)).ravel()
     integrals, omega = reference_bin_integrals(max(orders), bins)
     scale = (omega_proj / omega)[None, None, :, None]
-    g_table = table.values["total"].reshape(a, b, -1, count) * scale
-    e_table = np.nan_to_num(table.errors["total"].reshape(a, b, -1, count)) * scale
+    g_table = table["total"].values.reshape(a, b, -1, count) * scale
+    e_table = np.nan_to_num(table["total"].errors.reshape(a, b, -1, count)) * scale
     lobe = table.lobe_mask("total").reshape(a, b, -1)
     w = omega[None, None, :, None]
     u = (np.arange(2 * bins.theta_bins) + 0.5) / (2 * bins.theta_bins)
@@ -141,8 +142,8 @@ def reference_rows(table: BRDFTable, orders: list[int], window: str) -> list[dic
     for order in orders:
         n = (order + 1) ** 2
         factors = hanning(order) if window == "hanning" else np.ones(n)
-        c = table.sh["total"][..., :n, :]
-        sigma = table.sh_err["total"][..., :n, :]
+        c = table["total"].sh[..., :n, :]
+        sigma = table["total"].sh_err[..., :n, :]
         g_win = np.einsum("jk,abkc->abjc", integrals[:, :n] * factors, c) / omega[:, None]
         g_plain = np.einsum("jk,abkc->abjc", integrals[:, :n], c) / omega[:, None]
         values = np.einsum("pk,abkc->abpc", y_points[:, :n] * factors, c)
@@ -187,7 +188,7 @@ def lobe_table(bins: HemisphereBins, theta_i: list[float], phi_i: list[float],
     errors = f * 0.05 * np.arange(1, count + 1)
     comps = components_for(2)
     flat = {k: np.ones((a, b, count)) for k in comps}
-    return BRDFTable(bins, np.array(theta_i), np.array(phi_i), isotropic,
+    return table_of(bins, np.array(theta_i), np.array(phi_i), isotropic,
                      dict.fromkeys(comps, f), dict.fromkeys(comps, errors),
                      np.full((a, b), 1000), flat, flat, np.zeros((a, b, count)), TableMeta(),
                      sh=dict.fromkeys(comps, c),
@@ -256,9 +257,8 @@ def test_min_value_is_sought_at_every_sample_point() -> None:
     assert int(np.argmin(g)) == 0 and np.sort(g)[1] - g[0] > 0.01
     for coefficients, low in ((c, g.min()), (np.array([1.0, 0.0, 0.0, 0.0]), 0.0)):
         table = exact_ring_table(bins, 1.0, 0.0)
-        table.sh = {k: np.broadcast_to(coefficients[None, None, :, None],
-                                       (1, 1, 4, 3)).copy() for k in table.sh}
-        table.sh_err = {k: np.zeros_like(v) for k, v in table.sh.items()}
+        table = changed(table, sh=lambda e, c=coefficients: np.broadcast_to(
+            c[None, None, :, None], (1, 1, 4, 3)).copy(), sh_err=lambda e: np.zeros((1, 1, 4, 3)))
         row = order_errors(table, [1])[0]
         high = (basis_at(1, np.arccos(np.sqrt(1.0 - uu.ravel())), pp.ravel())
                 @ coefficients).max()
@@ -271,6 +271,6 @@ def test_min_value_is_sought_at_every_sample_point() -> None:
 @pytest.mark.parametrize("missing", ["sh", "sh_err"])
 def test_a_table_without_harmonics_or_their_errors_is_refused(missing: str) -> None:
     table = exact_ring_table(HemisphereBins(2, 4), 1.0, 0.0)
-    setattr(table, missing, None)
+    table = changed(table, **{missing: lambda e: None})
     with pytest.raises(ValueError, match=r"^the table holds no spherical harmonics$"):
         order_errors(table, [1])

@@ -64,9 +64,9 @@ def test_a_spectral_table_of_three_wavelengths_equals_the_rgb_table_bit_for_bit(
          "material": {"kind": "conductor", "eta": {"nm": nm, "value": eta},
                       "k": {"nm": nm, "value": k}}}), threads=1)
     for c in rgb.components:
-        assert np.array_equal(rgb.values[c], spectral.values[c])
-        assert np.array_equal(rgb.errors[c], spectral.errors[c], equal_nan=True)
-        assert np.array_equal(rgb.sh[c], spectral.sh[c], equal_nan=True)
+        assert np.array_equal(rgb[c].values, spectral[c].values)
+        assert np.array_equal(rgb[c].errors, spectral[c].errors, equal_nan=True)
+        assert np.array_equal(rgb[c].sh, spectral[c].sh, equal_nan=True)
     assert rgb.channels.names == ("R", "G", "B")
     assert spectral.channels.names == ("450nm", "550nm", "650nm")
 
@@ -88,7 +88,7 @@ def test_spectral_gold_agrees_with_torrance_sparrow_per_wavelength() -> None:
     result = compare_table(table, model, "single")
     assert agreement(result).agrees, (result.z_mean, result.z_std)
     # the wavelengths differ: gold's albedo at normal incidence rises from blue to red
-    albedo = table.albedo_of["single"][0, 0]
+    albedo = table["single"].albedo[0, 0]
     assert albedo[-1] > 2.0 * albedo[0]
 
 
@@ -114,8 +114,8 @@ def test_hero_wavelength_channels_equal_single_wavelength_runs() -> None:
     assert spectral.channels.count == 4
     for j, wavelength in enumerate(nm):
         single = _dielectric([wavelength], 2)
-        a, sa = spectral.values["total"][..., j], spectral.errors["total"][..., j]
-        b, sb = single.values["total"][..., 0], single.errors["total"][..., 0]
+        a, sa = spectral["total"].values[..., j], spectral["total"].errors[..., j]
+        b, sb = single["total"].values[..., 0], single["total"].errors[..., 0]
         lobe = b >= 0.1 * b.max()
         chi = ((a - b) ** 2 / (sa**2 + sb**2))[lobe]
         assert chi.sum() < chi2.ppf(0.999, lobe.sum()), (wavelength, chi.sum(), lobe.sum())
@@ -176,8 +176,8 @@ def test_spectral_table_round_trips_through_its_file(tmp_path) -> None:
     assert back.channels == table.channels
     assert back.channels.names == ("450nm", "552p5nm", "650nm")
     for c in table.components:
-        np.testing.assert_array_equal(back.values[c], table.values[c].astype(np.float32))
-        np.testing.assert_array_equal(back.sh[c], table.sh[c].astype(np.float32))
+        np.testing.assert_array_equal(back[c].values, table[c].values.astype(np.float32))
+        np.testing.assert_array_equal(back[c].sh, table[c].sh.astype(np.float32))
     np.testing.assert_array_equal(back.albedo, table.albedo)
 
 
@@ -435,8 +435,8 @@ def test_an_absorption_spectrum_is_each_wavelengths_own_absorption() -> None:
     for j, wavelength in enumerate(nm):
         value = float(np.interp(wavelength, sigma["nm"], sigma["value"]))
         alone = paint(value, [wavelength])
-        assert np.array_equal(spectral.values["total"][..., j],
-                              alone.values["total"][..., 0])
+        assert np.array_equal(spectral["total"].values[..., j],
+                              alone["total"].values[..., 0])
     absorbed = np.asarray(spectral.meta.directions[0].absorbed)
     assert absorbed[0] < absorbed[1] < absorbed[2]
 
@@ -496,8 +496,8 @@ def test_hero_wavelength_error_bars_are_calibrated() -> None:
     errors off by √2 either way."""
     nm = [420.0, 560.0, 700.0]
     runs = [_dielectric(nm, 100 + seed, 48_000) for seed in range(12)]
-    values = np.stack([t.values["total"] for t in runs])
-    errors = np.stack([t.errors["total"] for t in runs])
+    values = np.stack([t["total"].values for t in runs])
+    errors = np.stack([t["total"].errors for t in runs])
     lobe = values.mean(axis=0) >= 0.1 * values.mean(axis=0).max(axis=(0, 1, 2, 3))
     empirical = values.var(axis=0, ddof=1)[lobe]
     reported = np.nanmean(errors**2, axis=0)[lobe]

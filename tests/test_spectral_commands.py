@@ -25,7 +25,7 @@ from microsim.geometry import direction
 from microsim.spectra import colour as mc
 from microsim.spectra import measured
 from microsim.spectra.channels import RGB, Channels
-from microsim.tables.table import BRDFTable
+from microsim.tables.table import BRDFTable, ComponentEstimate
 
 NM = [400.0, 460.0, 520.0, 580.0, 640.0, 700.0]
 """Six wavelengths across the visible, nm."""
@@ -148,15 +148,15 @@ def test_compare_names_the_channels_and_draws_cie_luminance_and_colour(
     assert len(figures) == 4 and not any(f["faults"] for f in figures)
     assert all("luminance (CIE Y, D65)" in f["texts"] for f in figures)
     albedo = figures[3]
-    want = [reference_y(NM, a) for a in table.albedo_of["total"][:, 0]]
+    want = [reference_y(NM, a) for a in table["total"].albedo[:, 0]]
     curves = albedo["lines"]["luminance (CIE Y, D65) against θi"]
     assert any(len(y) == len(want) and np.allclose(y, want, rtol=Y_TOLERANCE, atol=0)
                for y in curves), (want, curves)
     np.testing.assert_allclose(strip_of(albedo), mc.to_srgb_display(
-        NM, table.albedo_of["single"].mean(axis=1)), rtol=0, atol=1e-12)
+        NM, table["single"].albedo.mean(axis=1)), rtol=0, atol=1e-12)
     spectra = albedo["lines"]["albedo per wavelength, single scattering"]
     # per incidence: the simulated curve, then the model's
-    for k, a in enumerate(table.albedo_of["single"][:, 0]):
+    for k, a in enumerate(table["single"].albedo[:, 0]):
         np.testing.assert_array_equal(spectra[2 * k], a)
     # text: the albedo columns are means over the wavelengths, and say so
     code, out, _ = cli("compare", str(path), "--model", "beckmann")
@@ -210,13 +210,13 @@ def test_sh_reports_each_wavelength_apart(cli, tables, tmp_path) -> None:
         assert row["bytes"] == row["coefficients"] * 3 * len(NM) * 4
     for j in range(len(NM)):
         grey = BRDFTable(table.bins, table.theta_i, table.phi_i, table.isotropic,
-                         {c: v[..., [j] * 3] for c, v in table.values.items()},
-                         {c: v[..., [j] * 3] for c, v in table.errors.items()},
-                         table.rays, {c: v[..., [j] * 3] for c, v in table.albedo_of.items()},
-                         {c: v[..., [j] * 3] for c, v in table.albedo_err_of.items()},
-                         table.lost_energy[..., [j] * 3], table.meta,
-                         sh={c: v[..., [j] * 3] for c, v in table.sh.items()},
-                         sh_err={c: v[..., [j] * 3] for c, v in table.sh_err.items()})
+                         {c: ComponentEstimate(e.values[..., [j] * 3], e.errors[..., [j] * 3],
+                                               e.albedo[..., [j] * 3],
+                                               e.albedo_err[..., [j] * 3],
+                                               sh=e.sh[..., [j] * 3],
+                                               sh_err=e.sh_err[..., [j] * 3])
+                          for c, e in table.estimates.items()},
+                         table.rays, table.lost_energy[..., [j] * 3], table.meta)
         assert grey.channels == RGB
         for row, alone in zip(rows, order_errors(grey, [2, 4]), strict=True):
             assert row["rel_l2_error_per_channel"][j] == pytest.approx(
@@ -288,7 +288,7 @@ def test_eval_and_wavelets_keep_the_channels(cli, tables, tmp_path) -> None:
     wi = f"{ROUGH_THETA[1]},0"
     wo = (f"{np.degrees(table.bins.theta_centers[it])!r},"
           f"{np.degrees(table.bins.phi_centers[ip])!r}")
-    bins = table.values["total"][1, 0, it, ip]
+    bins = table["total"].values[1, 0, it, ip]
     for basis in ("table", "sh"):
         code, out, err = cli("eval", str(path), "--wi", wi, "--wo", wo, "--basis", basis,
                              "--json")
@@ -388,8 +388,8 @@ def test_merge_and_difference_keep_the_channels_and_refuse_others() -> None:
     merged = merge(a, b)
     assert merged.channels == a.channels == Channels(tuple(NM))
     n_a, n_b = a.rays[0, 0], b.rays[0, 0]
-    np.testing.assert_allclose(merged.values["total"],
-                               (n_a * a.values["total"] + n_b * b.values["total"])
+    np.testing.assert_allclose(merged["total"].values,
+                               (n_a * a["total"].values + n_b * b["total"].values)
                                / (n_a + n_b), rtol=1e-12, atol=1e-15)
     (row,) = table_difference(a, b)
     np.testing.assert_allclose(row["albedo_difference"], (a.albedo - b.albedo)[0, 0],
@@ -412,7 +412,7 @@ def test_order_residuals_of_a_spectral_table(tables) -> None:
     for row in rows:
         a = ROUGH_THETA.index(row["theta_i"])
         assert row["albedo_sim"] == pytest.approx(
-            table.albedo_of[row["component"]][a, 0].mean(), rel=1e-12)
+            table[row["component"]].albedo[a, 0].mean(), rel=1e-12)
 
 
 def test_an_rgb_only_model_is_refused_with_one_error_line(cli, tmp_path) -> None:

@@ -209,10 +209,10 @@ def test_npz_round_trip_keeps_every_channel(cli, gold_file, rgb_file, tmp_path):
                                       "700nm"]
     for c in table.components:
         assert data[c].shape[-1] == len(NM)
-        np.testing.assert_array_equal(data[c], table.values[c])
-        np.testing.assert_array_equal(data[f"{c}_err"], table.errors[c])
-        np.testing.assert_array_equal(data[f"albedo_{c}"], table.albedo_of[c])
-        np.testing.assert_array_equal(data[f"sh_{c}"], table.sh[c])
+        np.testing.assert_array_equal(data[c], table[c].values)
+        np.testing.assert_array_equal(data[f"{c}_err"], table[c].errors)
+        np.testing.assert_array_equal(data[f"albedo_{c}"], table[c].albedo)
+        np.testing.assert_array_equal(data[f"sh_{c}"], table[c].sh)
     np.testing.assert_array_equal(data["lost_energy"], table.lost_energy)
     assert json.loads(str(data["meta"]))["recipe"]["table"]["wavelengths"] == NM
     rgb = tmp_path / "r.npz"

@@ -106,12 +106,12 @@ def assert_valid(table: microsim.BRDFTable) -> None:
     assert table.theta_i[0] >= 0 and table.theta_i[-1] <= np.pi / 2
     assert np.all(table.rays >= 0)
     for c in table.components:
-        v, e = table.values[c], table.errors[c]
+        v, e = table[c].values, table[c].errors
         assert np.all(np.isfinite(v) & (v >= 0))
         assert np.all(np.isfinite(e) & (e >= 0) | np.isnan(e) & (v == 0))
-        assert np.all(np.isfinite(table.albedo_of[c]) & (table.albedo_of[c] >= 0))
-        if table.sh is not None:
-            s, se = table.sh[c], table.sh_err[c]
+        assert np.all(np.isfinite(table[c].albedo) & (table[c].albedo >= 0))
+        if table.has_sh:
+            s, se = table[c].sh, table[c].sh_err
             assert np.all(np.isfinite(s))
             assert np.all(np.isfinite(se) & (se >= 0) | np.isnan(se))
     rng = np.random.default_rng(0)
@@ -121,7 +121,7 @@ def assert_valid(table: microsim.BRDFTable) -> None:
     wi /= np.linalg.norm(wi, axis=1, keepdims=True)
     wo /= np.linalg.norm(wo, axis=1, keepdims=True)
     assert np.all(np.isfinite(table.eval(wi, wo)))
-    if table.sh is not None:
+    if table.has_sh:
         assert np.all(np.isfinite(table.eval(wi, wo, representation="sh")))
 
 
@@ -276,12 +276,12 @@ def test_a_table_material_refuses_a_bad_table_in_one_line(cli, table_file, tmp_p
 
 def test_a_table_that_read_table_would_refuse_is_not_written(table_file, tmp_path):
     table = microsim.read_table(table_file)
-    table.values["order1"][0, 0, 0, 0, 0] = np.nan
+    table["order1"].values[0, 0, 0, 0, 0] = np.nan
     with pytest.raises(InputError, match="not written: channel order1.R holds nan"):
         microsim.write_table(table, tmp_path / "nan.exr")
     assert not (tmp_path / "nan.exr").exists()
     table = microsim.read_table(table_file)
-    table.albedo_of["total"][1, 0, 2] = np.inf
+    table["total"].albedo[1, 0, 2] = np.inf
     with pytest.raises(InputError, match="not written: header albedo"):
         microsim.write_table(table, tmp_path / "inf.exr")
 

@@ -4,8 +4,8 @@ estimator's formulas written out (``microsim.tables.estimator``'s module docstri
 
 from __future__ import annotations
 
-import copy
 import math
+from dataclasses import replace
 
 import numpy as np
 from refusals import refused
@@ -161,18 +161,17 @@ def reference(rays: np.ndarray, data: dict, harmonics: bool = True) -> dict:
 def assert_fields(t, exp: dict, components: tuple[str, ...] = COMPONENTS) -> None:
     """Every estimated field of table ``t`` equals ``exp`` (NaN where it is NaN)."""
     assert t.components == components
+    assert list(t.estimates) == list(components)
     for field, tolerance in (("values", RTOL), ("errors", RTOL), ("ray_errors", RTOL),
-                             ("dof", 0), ("inflation", 0), ("albedo_of", RTOL),
-                             ("albedo_err_of", RTOL), ("sh", RTOL), ("sh_err", SH_RTOL),
+                             ("dof", 0), ("inflation", 0), ("albedo", RTOL),
+                             ("albedo_err", RTOL), ("sh", RTOL), ("sh_err", SH_RTOL),
                              ("realisation_albedo", RTOL)):
-        expected = exp[{"albedo_of": "albedo", "albedo_err_of": "albedo_err"}.get(field,
-                                                                                   field)]
-        if expected is None:
-            assert getattr(t, field) is None, field
-            continue
-        assert list(getattr(t, field)) == list(components), field
+        expected = exp[field]
         for c in components:
-            np.testing.assert_allclose(getattr(t, field)[c], expected[c], rtol=tolerance,
+            if expected is None:
+                assert getattr(t[c], field) is None, field
+                continue
+            np.testing.assert_allclose(getattr(t[c], field), expected[c], rtol=tolerance,
                                        atol=0, err_msg=f"{field} {c}")
     np.testing.assert_allclose(t.lost_energy, exp["lost_energy"], rtol=RTOL, atol=0)
     assert t.rays.dtype == np.int64 and np.array_equal(t.rays, exp["rays"])
@@ -189,13 +188,12 @@ def assert_raw(t, rays: np.ndarray, data: dict, harmonics: bool = True,
     assert t.lost.dtype == float and np.array_equal(t.lost, data["lost"])
     for field, key in (("sums", "s1"), ("sums_sq", "s2"), ("sh_sums", "sh1"),
                        ("sh_sums_sq", "sh2")):
-        if key.startswith("sh") and not harmonics:
-            assert getattr(t, field) is None
-            continue
-        assert list(getattr(t, field)) == list(components)
         for c in components:
-            assert getattr(t, field)[c].dtype == float, field
-            assert np.array_equal(getattr(t, field)[c], data[key][c]), field
+            if key.startswith("sh") and not harmonics:
+                assert getattr(t[c], field) is None
+                continue
+            assert getattr(t[c], field).dtype == float, field
+            assert np.array_equal(getattr(t[c], field), data[key][c]), field
 
 
 RAYS = np.array([[[4, 0], [5, 0]],
@@ -230,7 +228,7 @@ def test_a_table_of_realisations_is_the_mean_of_their_estimates_with_batch_means
     assert np.array_equal(t.theta_i, THETA_I) and np.array_equal(t.phi_i, PHI_I)
     assert t.isotropic is False and t.sh_order == 1
     # the one-ray direction: an estimate without an error, of 0 degrees of freedom
-    assert np.isnan(t.errors["total"][1, 1]).all() and (t.dof["total"][1, 1] == 0).all()
+    assert np.isnan(t["total"].errors[1, 1]).all() and (t["total"].dof[1, 1] == 0).all()
 
 
 def test_one_run_is_the_table_of_one_realisation():
@@ -249,7 +247,7 @@ def test_one_run_is_the_table_of_one_realisation():
     assert_fields(t, exp)
     assert_raw(t, rays, data)
     for c in COMPONENTS:
-        np.testing.assert_array_equal(t.ray_errors[c], t.errors[c])
+        np.testing.assert_array_equal(t[c].ray_errors, t[c].errors)
     assert t.channels == TWO and t.meta == TableMeta(seed=8)
 
 
@@ -267,15 +265,15 @@ def test_integer_sums_and_counts_are_kept_as_floats_and_int64():
     assert t.realisation_rays.dtype == np.int64 and np.array_equal(t.realisation_rays, rays)
     assert t.lost.dtype == float and np.array_equal(t.lost, lost)
     for field in ("sums", "sums_sq"):
-        assert getattr(t, field)["total"].dtype == float
-        assert np.array_equal(getattr(t, field)["total"], s1)
+        assert getattr(t["total"], field).dtype == float
+        assert np.array_equal(getattr(t["total"], field), s1)
     m = s1[:, 0, 0, :, 0] / rays[:, 0, 0, None]                 # (K, m)
     v = (s1[:, 0, 0, :, 0] - rays[:, 0, 0, None] * m * m) / (
         rays[:, 0, 0, None] * (rays[:, 0, 0, None] - 1))
     mean = m.mean(axis=0)
     err = np.sqrt(np.maximum(((m - mean) ** 2).sum(axis=0) / 2, v.sum(axis=0) / 4))
-    np.testing.assert_allclose(t.values["total"][0, 0, 0, :, 0], mean / OMEGA, rtol=RTOL)
-    np.testing.assert_allclose(t.errors["total"][0, 0, 0, :, 0], err / OMEGA, rtol=RTOL)
+    np.testing.assert_allclose(t["total"].values[0, 0, 0, :, 0], mean / OMEGA, rtol=RTOL)
+    np.testing.assert_allclose(t["total"].errors[0, 0, 0, :, 0], err / OMEGA, rtol=RTOL)
     np.testing.assert_allclose(t.lost_energy[0, 0], [(1 / 4 + 0 / 6) / 2], rtol=RTOL)
     assert t.error_model == "ensemble" and t.realisations.tolist() == [[2]]
 
@@ -289,7 +287,7 @@ def test_harmonics_need_both_sums():
         t = from_realisations(BINS, THETA_I, PHI_I, False, RAYS, data["s1"], data["s2"],
                               data["lost"], TableMeta(), channels=TWO, **given)
         assert_fields(t, exp)
-        assert t.sh_sums is None and t.sh_sums_sq is None
+        assert t["total"].sh_sums is None and t["total"].sh_sums_sq is None
 
 
 def test_realisations_refuse_bad_counts_and_shapes_with_their_messages():
@@ -330,7 +328,7 @@ def test_one_ray_directions_and_absent_realisations_are_accepted():
     exp = reference(rays, data, harmonics=False)
     assert_fields(t, exp)
     assert t.channels == RGB and exp["error_model"] == "rays"
-    assert np.isnan(t.errors["total"]).all() and (t.dof["total"] == 0).all()
+    assert np.isnan(t["total"].errors).all() and (t["total"].dof == 0).all()
 
 
 def three_realisations() -> tuple[np.ndarray, dict, np.ndarray]:
@@ -376,21 +374,21 @@ def test_three_realisations_moderate_the_bins_over_each_incidences_lobe():
                  pool[..., None])
     assert np.isfinite(e.inflation).all()
     for row, c in enumerate(COMPONENTS):
-        np.testing.assert_allclose(t.values[c], e.mean[:, :, row].reshape(1, 2, 2, 2, 1)
+        np.testing.assert_allclose(t[c].values, e.mean[:, :, row].reshape(1, 2, 2, 2, 1)
                                    / omega, rtol=RTOL)
-        np.testing.assert_allclose(t.errors[c], e.stderr[:, :, row].reshape(1, 2, 2, 2, 1)
+        np.testing.assert_allclose(t[c].errors, e.stderr[:, :, row].reshape(1, 2, 2, 2, 1)
                                    / omega, rtol=RTOL)
-        np.testing.assert_allclose(t.ray_errors[c], e.ray_stderr[:, :, row].reshape(
+        np.testing.assert_allclose(t[c].ray_errors, e.ray_stderr[:, :, row].reshape(
             1, 2, 2, 2, 1) / omega, rtol=RTOL)
-        np.testing.assert_allclose(t.dof[c], e.dof[:, :, row], rtol=RTOL)
-        np.testing.assert_allclose(t.inflation[c], e.inflation[:, :, row], rtol=RTOL)
+        np.testing.assert_allclose(t[c].dof, e.dof[:, :, row], rtol=RTOL)
+        np.testing.assert_allclose(t[c].inflation, e.inflation[:, :, row], rtol=RTOL)
         m = s1[:, :, :, row].sum(axis=-2) / 100                      # (K, a, b, C)
         v = (s2[:, :, :, row].sum(axis=-2) - 100 * m * m) / (100 * 99)
         mean = m.mean(axis=0)
         err = np.sqrt(np.maximum(((m - mean) ** 2).sum(axis=0) / 6, v.sum(axis=0) / 9))
-        np.testing.assert_allclose(t.albedo_of[c], mean, rtol=RTOL)
-        np.testing.assert_allclose(t.albedo_err_of[c], err, rtol=RTOL)
-        np.testing.assert_allclose(t.realisation_albedo[c], m, rtol=RTOL)
+        np.testing.assert_allclose(t[c].albedo, mean, rtol=RTOL)
+        np.testing.assert_allclose(t[c].albedo_err, err, rtol=RTOL)
+        np.testing.assert_allclose(t[c].realisation_albedo, m, rtol=RTOL)
     assert t.error_model == "ensemble" and (t.realisations == 3).all()
 
 
@@ -432,7 +430,7 @@ def test_ensemble_sums_have_the_documented_shapes_counts_and_degrees_of_freedom(
     plain = EnsembleSums((1, 1), ("total",), 2)
     assert plain.sh is None and plain.sh_order == 0
     plain.add((0, 0), 0, 4, np.ones((1, 2, 3)), np.ones((1, 2, 3)), np.zeros(3))
-    assert from_ensemble(BINS, [0.1], [0.0], True, plain, TableMeta()).sh is None
+    assert not from_ensemble(BINS, [0.1], [0.0], True, plain, TableMeta()).has_sh
 
 
 def test_sums_taken_for_some_polar_angles_are_those_angles_tables():
@@ -461,7 +459,7 @@ def test_sums_taken_for_some_polar_angles_are_those_angles_tables():
     one = plain.take([1])
     assert one.sh is None and one.rays.tolist() == [[5]]
     t = from_ensemble(BINS, [0.5], [0.0], True, one, TableMeta())
-    np.testing.assert_allclose(t.values["total"], np.full((1, 1, 1, 2, 3), 2 / 5 / OMEGA),
+    np.testing.assert_allclose(t["total"].values, np.full((1, 1, 1, 2, 3), 2 / 5 / OMEGA),
                                rtol=RTOL)
 
 
@@ -546,24 +544,20 @@ def test_harmonics_merge_only_when_both_tables_hold_them():
     data = {k: ({c: da[k][c] + db[k][c] for c in COMPONENTS} if isinstance(da[k], dict)
                 else da[k] + db[k]) for k in ("s1", "s2", "lost")}
     assert_fields(t, reference(rays, data, harmonics=False))
-    assert t.sh_sums is None and t.sh_sums_sq is None
+    assert t["total"].sh_sums is None and t["total"].sh_sums_sq is None
 
 
 def test_tables_of_other_set_ups_do_not_merge_and_say_why():
     """Tables without raw sums, of other bins, isotropy, polar angles, azimuths or
     realisations, of other components or channels are refused, each with its message."""
     (a, _), (b, _) = merge_tables(order=None)
-    read = copy.copy(b)
-    read.sums = None
+    read = replace(b, estimates={c: replace(e, sums=None) for c, e in b.estimates.items()})
     for x, y in ((a, read), (read, a)):
         assert refused(ValueError, merge, x, y) == (
             "only tables holding raw sums (fresh estimates) merge")
 
     def changed(**attributes):
-        t = copy.copy(b)
-        for name, value in attributes.items():
-            setattr(t, name, value)
-        return t
+        return replace(b, **attributes)
 
     for other in (changed(bins=HemisphereBins(2, 1)), changed(isotropic=False),
                   changed(theta_i=THETA_I + 0.1), changed(phi_i=np.array([0.5])),

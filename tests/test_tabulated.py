@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tablefixtures import table_of
 from tilefixtures import flat_tile, height_field_tile, random_tile, vgroove_tile
 from tilefixtures import simulate_sections as simulate
 
@@ -49,7 +50,7 @@ GOLD = {"kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]}
 def check_z(estimate: BRDFTable, expected: np.ndarray) -> None:
     """Every defined z within ``Z_MAX`` and mean z² within ``CHI2_BAND`` of 1; bins the
     estimate never reached must have expectation zero (the sampler never picks them)."""
-    f, err = estimate.values["total"], estimate.errors["total"]
+    f, err = estimate["total"].values, estimate["total"].errors
     defined = np.isfinite(err) & (err > 0)
     assert np.all(expected[~np.isfinite(err)] == 0.0)
     z = (f[defined] - expected[defined]) / err[defined]
@@ -98,11 +99,11 @@ def test_flat_tile_reproduces_its_table_at_and_between_the_nodes(gold_table) -> 
            "seed": 3}
     up = simulate(flat_tile(), {"base": table_material(path)}, sim,
                   {"theta_bins": 8, "phi_bins": 16})
-    t = table.values["total"][:, 0]
+    t = table["total"].values[:, 0]
     expected = np.stack([t[0], t[1], 0.5 * (t[1] + t[2]), t[4], t[4]])[:, None]
     check_z(up, expected)
     # each path scatters once: the first-order component is the whole
-    assert np.array_equal(up.values["single"], up.values["total"])
+    assert np.array_equal(up["single"].values, up["total"].values)
 
 
 def test_single_component_and_bit_for_bit_repeatability(gold_table) -> None:
@@ -113,10 +114,10 @@ def test_single_component_and_bit_for_bit_repeatability(gold_table) -> None:
     grid = {"theta_bins": 8, "phi_bins": 16}
     one = simulate(flat_tile(), {"base": table_material(path, "single")}, sim, grid,
                    threads=1)
-    check_z(one, table.values["single"][1:2])
+    check_z(one, table["single"].values[1:2])
     two = simulate(flat_tile(), {"base": table_material(path, "single")}, sim, grid,
                    threads=2)
-    assert np.array_equal(one.values["total"], two.values["total"])
+    assert np.array_equal(one["total"].values, two["total"].values)
 
 
 def test_anisotropic_table_interpolates_in_phi_i_in_the_facet_frame(tmp_path: Path) -> None:
@@ -132,7 +133,7 @@ def test_anisotropic_table_interpolates_in_phi_i_in_the_facet_frame(tmp_path: Pa
     up = simulate(flat, {"base": table_material(path)},
                   {**sim, "phi_i": [0, 45, 90], "rays": 40_000, "seed": 5},
                   {"theta_bins": 8, "phi_bins": 16})
-    t = read_table(path).values["total"][0]
+    t = read_table(path)["total"].values[0]
     check_z(up, np.stack([t[0], 0.5 * (t[0] + t[1]), t[1]])[None])
     # axis x: the facet frame is (t, b, n) = (-y, x, z), so light from phi = 270 deg is the
     # table's phi_i = 0 node, and its lobe turns with the frame by -90 deg = 4 phi bins
@@ -176,7 +177,7 @@ def test_sampled_directions_follow_the_table_in_the_facet_frame(gold_table, norm
     mean = s1 / count / omega
     err = np.sqrt(np.maximum(s2 / count - (s1 / count) ** 2, 0.0) / (count - 1)) / omega
     node = list(np.round(np.degrees(table.theta_i))).index(theta_deg)
-    expected = table.values["total"][node, 0].reshape(-1, 3)
+    expected = table["total"].values[node, 0].reshape(-1, 3)
     ok = err > 0
     assert np.all(expected[s2 == 0] == 0.0)
     z = (mean[ok] - expected[ok]) / err[ok]
@@ -190,7 +191,7 @@ def lobe_table(values: np.ndarray, theta_i_deg: list[float], bins: HemisphereBin
     a = len(theta_i_deg)
     zeros = {c: np.zeros((a, 1, 3)) for c in ("total", "single")}
     albedo = (values * bins.projected_solid_angle[..., None]).sum(axis=(2, 3))
-    return BRDFTable(bins, np.radians(theta_i_deg), np.zeros(1), True,
+    return table_of(bins, np.radians(theta_i_deg), np.zeros(1), True,
                      {"total": values, "single": values},
                      {"total": np.ones_like(values), "single": np.ones_like(values)},
                      np.ones((a, 1), np.int64), {"total": albedo, "single": albedo},
@@ -228,7 +229,7 @@ def test_grey_table_weights_every_bounce_by_its_albedo_exactly(tmp_path: Path) -
         out = paths.order > 0
         assert np.unique(paths.order[out]).size >= 3  # the geometry sets k
         # the file stores float32 values: its albedo is a to 1e-7, and exact in itself
-        stored = read_table(path).values["total"][0, 0]
+        stored = read_table(path)["total"].values[0, 0]
         albedo = (stored * bins.projected_solid_angle[..., None]).sum(axis=(0, 1))
         assert np.allclose(albedo, a, rtol=1e-6)
         assert np.allclose(paths.weight[out], albedo ** paths.order[out][:, None],
@@ -394,7 +395,7 @@ def test_bad_table_materials_are_input_errors(tmp_path: Path, cli, material: str
 
 def test_table_material_refuses_unusable_values(gold_table) -> None:
     table = read_table(gold_table[0])  # a copy: the fixture's table stays intact
-    table.values["total"][0, 0, 0, 0, 0] = np.nan
+    table["total"].values[0, 0, 0, 0, 0] = np.nan
     with pytest.raises(ValueError, match="finite, non-negative"):
         TabulatedMaterial(table)
     with pytest.raises(InputError, match="material.x.path"):
@@ -447,7 +448,7 @@ def test_table_difference_of_a_table_with_itself_is_zero(gold_table) -> None:
     for row in table_difference(table, table):
         assert row["l1"] == 0.0 and row["z_rms"] == 0.0 and row["l1_noise"] > 0
     with pytest.raises(ValueError, match="do not compare"):
-        table_difference(table, lobe_table(table.values["total"][:1], [0.0], table.bins))
+        table_difference(table, lobe_table(table["total"].values[:1], [0.0], table.bins))
 
 
 # --- the shipped two-level example -------------------------------------------------------

@@ -9,6 +9,7 @@ import json
 import matplotlib.image as mpimg
 import numpy as np
 import pytest
+from tablefixtures import changed
 
 from microsim.measurement.simulation import simulate
 from microsim.recipe import resolve
@@ -97,20 +98,19 @@ def test_plane_of_incidence_panels_follow_each_incident_azimuth(cylinders_table,
     import microsim
     from microsim.plots import incidence_plane
 
-    table = microsim.read_table(cylinders_table)  # a fresh copy: greyed in place
-    for arrays in (table.values, table.errors):
-        for c in list(arrays):
-            arrays[c] = np.repeat(arrays[c][..., 1:2], 3, axis=-1)
+    table = changed(microsim.read_table(cylinders_table),
+                    values=lambda e: np.repeat(e.values[..., 1:2], 3, axis=-1),
+                    errors=lambda e: np.repeat(e.errors[..., 1:2], 3, axis=-1))
     figures = []
     save = Figure.savefig
     monkeypatch.setattr(Figure, "savefig",
                         lambda self, *a, **k: (figures.append(self), save(self, *a, **k)))
-    incidence_plane(table, np.zeros_like(table.values["single"]), tmp_path / "p.png")
+    incidence_plane(table, np.zeros_like(table["single"].values), tmp_path / "p.png")
     panels = [ax for ax in figures[0].axes if ax.containers]
     assert len(panels) == len(table.phi_i) == 2
     cos_o = np.cos(table.bins.theta_centers)
     edges = table.bins.phi_edges
-    v = table.values["single"][0, ..., 0]
+    v = table["single"].values[0, ..., 0]
     for j, ax in enumerate(panels):
         phi = float(table.phi_i[j])
         assert f"φi = {np.degrees(phi):.0f}°" in ax.get_title()

@@ -8,11 +8,13 @@ import json
 import math
 import re
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy import stats
+from tablefixtures import changed, table_of
 
 import microsim
 from microsim.tables import compression, wavelets
@@ -183,7 +185,7 @@ def lobe_table(theta_i: list[float], bins: HemisphereBins, sh: dict | None = Non
     values = {c: lobe_values(theta_i, bins) for c in components_for(2)}
     errors = {c: np.full_like(v, 0.01) for c, v in values.items()}
     flat = {c: np.ones((a, 1, 3)) for c in values}
-    return BRDFTable(bins, np.array(theta_i), np.zeros(1), True, values, errors,
+    return table_of(bins, np.array(theta_i), np.zeros(1), True, values, errors,
                      np.full((a, 1), 1000), flat, flat, np.zeros((a, 1, 3)), TableMeta(),
                      sh=sh, sh_err=None if sh is None else {
                          c: np.zeros_like(v) for c, v in sh.items()})
@@ -195,8 +197,9 @@ def test_every_coefficient_kept_gives_the_resampled_table(name: str) -> None:
     the square to round-off (1e-12 of its largest value)."""
     bins = HemisphereBins(8, 16)
     table = lobe_table([0.0, 0.6], bins)
-    stored = wavelets.encode(table.values, bins, 32, name, keep=32 * 32)
-    expected = wavelets.table_grids(table.values["total"], Resampling(32, bins))
+    stored = wavelets.encode({c: e.values for c, e in table.estimates.items()}, bins, 32,
+                             name, keep=32 * 32)
+    expected = wavelets.table_grids(table["total"].values, Resampling(32, bins))
     got = stored.grids("total")
     assert np.abs(got - expected).max() <= 1e-12 * expected.max()
 
@@ -254,9 +257,9 @@ def test_a_constant_brdf_evaluates_exactly_from_its_wavelets() -> None:
     a = 2
     values = {c: np.full((a, 1, 8, 16, 3), 0.8 / math.pi) for c in components_for(2)}
     flat = {c: np.ones((a, 1, 3)) for c in values}
-    table = BRDFTable(bins, np.array([0.0, 1.0]), np.zeros(1), True, values, values,
+    table = table_of(bins, np.array([0.0, 1.0]), np.zeros(1), True, values, values,
                       np.full((a, 1), 10), flat, flat, np.zeros((a, 1, 3)), TableMeta())
-    table.wavelets = wavelets.encode(table.values, bins, 32, "db2", keep=1024)
+    table = replace(table, wavelets=wavelets.encode(values, bins, 32, "db2", keep=1024))
     rng = np.random.default_rng(2)
     wi, wo = (to_hemisphere(*rng.uniform(-0.99, 0.99, (2, 500))) for _ in range(2))
     np.testing.assert_allclose(table.eval(wi, wo, representation="wavelet"), 0.8 / math.pi,
@@ -280,7 +283,7 @@ def test_exact_harmonics_have_no_error_and_the_curves_fall() -> None:
     coefficients = np.zeros((1, 1, size(4), 3))
     coefficients[..., 0, :], coefficients[..., 2, :] = c0, c1      # k = l² + l + m
     table = lobe_table([0.0], bins, sh={c: coefficients for c in components_for(2)})
-    table.values = {c: values for c in table.components}
+    table = changed(table, values=lambda e: values)
     result = compression.curves(table, resolution=32, wavelet="haar")
     by_count = dict(map(tuple, result["sh"]))
     assert by_count[2] < 1e-9 and by_count[size(4)] < 1e-9
@@ -382,7 +385,7 @@ def anisotropic_lobe_table(theta_i: list[float], phi_i: list[float], bins: Hemis
     values = {c: f for c in components_for(2)}
     errors = {c: np.full_like(f, 0.01) for c in values}
     flat = {c: np.ones((a, b, 3)) for c in values}
-    return BRDFTable(bins, np.array(theta_i), np.array(phi_i), False, values, errors,
+    return table_of(bins, np.array(theta_i), np.array(phi_i), False, values, errors,
                      np.full((a, b), 1000), flat, flat, np.zeros((a, b, 3)), TableMeta(),
                      sh={c: sh for c in values},
                      sh_err={c: np.zeros_like(sh) for c in values})
@@ -407,7 +410,7 @@ def test_curves_report_their_settings_sizes_and_each_incidence() -> None:
     assert result["wavelet_name"] == "haar"
     assert result["resolution"] == 32
     assert result["levels"] == 5
-    f = table.values["total"].mean(axis=-1)
+    f = table["total"].values.mean(axis=-1)
     lobe = table.lobe_mask("total")
     assert result["median_rel_stderr"] == pytest.approx(float(np.median(0.01 / f[lobe])),
                                                         rel=1e-12)
@@ -423,7 +426,8 @@ def test_curves_report_their_settings_sizes_and_each_incidence() -> None:
         for t in theta_i for p in phi_i]
     for row, (i, j) in zip(rows, [(i, j) for i in range(2) for j in range(2)], strict=True):
         alone = anisotropic_lobe_table([theta_i[i]], [phi_i[j]], bins)
-        alone.sh = {c: table.sh[c][i:i + 1, j:j + 1] for c in table.sh}
+        alone = replace(alone, estimates={c: replace(e, sh=table[c].sh[i:i + 1, j:j + 1])
+                                          for c, e in alone.estimates.items()})
         own = compression.curves(alone, resolution=32, wavelet="haar", steps_per_octave=4)
         for name in ("sh", "wavelet"):
             assert [k for k, _ in row[name]] == [k for k, _ in own[name]]
@@ -457,7 +461,8 @@ def test_stored_wavelets_survive_the_file_and_eval_reads_them(cli, lobe_file: Pa
     table = microsim.read_table(out)
     assert table.wavelets is not None and table.wavelets.target_error == 0.001
     original = microsim.read_table(lobe_file)
-    memory = wavelets.encode(original.values, original.bins, 32, "haar", target_error=0.001)
+    memory = wavelets.encode({c: e.values for c, e in original.estimates.items()},
+                             original.bins, 32, "haar", target_error=0.001)
     for c in table.components:
         np.testing.assert_allclose(table.wavelets.grids(c), memory.grids(c), rtol=1e-6,
                                    atol=1e-6 * memory.grids(c).max())
@@ -806,7 +811,7 @@ def test_evaluate_reads_the_grid_bilinearly_then_blends_the_incidences(isotropic
         values = lobe_values(theta_i, bins)
     else:
         theta_i, phi_i = [0.2, 0.7], [0.0, 1.5]
-        values = anisotropic_lobe_table(theta_i, phi_i, bins).values["total"]
+        values = anisotropic_lobe_table(theta_i, phi_i, bins)["total"].values
     stored = wavelets.encode({"total": values}, bins, 16, "db2", keep=20)
     axes = Axes(bins, np.array(theta_i), np.array(phi_i), isotropic)
     wi, wo = random_pairs(300, 21)
@@ -969,7 +974,7 @@ def test_a_part_read_back_is_what_was_written() -> None:
     resolution, target, count and channel names written, the values rounded to float32
     and the indices as integers, each as written."""
     bins = HemisphereBins(4, 8)
-    f = anisotropic_lobe_table([0.2, 0.7], [0.0, 1.5], bins).values["total"][..., :2]
+    f = anisotropic_lobe_table([0.2, 0.7], [0.0, 1.5], bins)["total"].values[..., :2]
     channels = ("550nm", "650nm")
     stored = wavelets.encode({"total": f, "diffuse": 0.3 * f}, bins, 8, "haar",
                              target_error=0.1, channels=channels)

@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
 
     table = microsim.read_table(args.table, require_sh=args.basis == "sh")
     component = table_component(table, args.component, args.table)
-    if args.basis == "sh" and table.sh is None:
+    if args.basis == "sh" and not table.has_sh:
         raise InputError(f"--basis sh: {args.table} holds no spherical harmonics "
                          "(simulate it with [table] sh_order > 0)")
     if args.basis == "wavelet" and table.wavelets is None:

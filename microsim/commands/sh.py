@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
 
     table = microsim.read_table(args.table, require_sh=True)
     args.component = table_component(table, args.component, args.table)
-    if table.sh is None:
+    if not table.has_sh:
         raise InputError(f"{args.table}: holds no spherical harmonics (simulate it with "
                          "[table] sh_order > 0)")
     if args.orders is None:

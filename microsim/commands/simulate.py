@@ -141,11 +141,11 @@ def summary(table: Any, output: Path | None) -> dict[str, Any]:
         "segments_per_s": meta.timing.segments_per_second,
         "albedo": table.albedo.reshape(-1, count),
         "albedo_err": table.albedo_err.reshape(-1, count),
-        "single_albedo": table.albedo_of["single"].reshape(-1, count),
+        "single_albedo": table["single"].albedo.reshape(-1, count),
         "orders": table.orders,
-        "order_albedo": {c: table.albedo_of[c].reshape(-1, count)
+        "order_albedo": {c: table[c].albedo.reshape(-1, count)
                          for c in table.components[1:]},
-        "order_albedo_err": {c: table.albedo_err_of[c].reshape(-1, count)
+        "order_albedo_err": {c: table[c].albedo_err.reshape(-1, count)
                              for c in table.components[1:]},
         "lost_energy": table.lost_energy.reshape(-1, count),
         "median_rel_stderr": table.median_rel_stderr("total"),

@@ -4,6 +4,7 @@ table's spherical harmonics; ``--store`` keeps the wavelets in the table file.""
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
 
 from microsim.commands.common import (
@@ -95,16 +96,17 @@ def run(args: argparse.Namespace) -> int:
         writable_file(args.store, "--store", (".exr",))
     table = microsim.read_table(args.table)
     args.component = table_component(table, args.component, args.table)
-    if table.sh is None:
+    if not table.has_sh:
         raise InputError(f"{args.table}: holds no spherical harmonics to compare with "
                          "(simulate it with [table] sh_order > 0)")
     result = curves(table, args.component, args.resolution, args.wavelet, args.steps)
     if args.store is not None:
         target = args.target_error if args.target_error is not None else (
             None if args.keep is not None else DEFAULT_TARGET)
-        table.wavelets = wavelets.encode(table.values, table.bins, args.resolution,
-                                         args.wavelet, target_error=target, keep=args.keep,
-                                         channels=table.channels.names)
+        table = replace(table, wavelets=wavelets.encode(
+            {c: e.values for c, e in table.estimates.items()}, table.bins, args.resolution,
+            args.wavelet, target_error=target, keep=args.keep,
+            channels=table.channels.names))
         microsim.write_table(table, args.store)
         kept = {c: table.wavelets.kept(c) for c in table.components}
         result["stored"] = {"path": str(args.store),

@@ -49,8 +49,8 @@ def table_difference(a: Any, b: Any, component: str = "total") -> list[dict[str,
     rows = []
     for i, theta in enumerate(a.theta_i):
         for j, phi in enumerate(a.phi_i):
-            fa, fb = a.values[component][i, j], b.values[component][i, j]
-            ea, eb = a.errors[component][i, j], b.errors[component][i, j]
+            fa, fb = a[component].values[i, j], b[component].values[i, j]
+            ea, eb = a[component].errors[i, j], b[component].errors[i, j]
             sigma = np.hypot(np.nan_to_num(ea), np.nan_to_num(eb))
             reflected = (fb * omega).sum(axis=(0, 1))
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -58,13 +58,13 @@ def table_difference(a: Any, b: Any, component: str = "total") -> list[dict[str,
                 noise = (np.sqrt(2 / np.pi) * sigma * omega).sum(axis=(0, 1)) / reflected
             defined = sigma > 0
             z = (fa - fb)[defined] / sigma[defined]
-            da, db = a.albedo_of[component][i, j], b.albedo_of[component][i, j]
+            da, db = a[component].albedo[i, j], b[component].albedo[i, j]
             rows.append({
                 "theta_i": float(np.degrees(theta)), "phi_i": float(np.degrees(phi)),
                 "albedo_a": da.tolist(), "albedo_b": db.tolist(),
                 "albedo_difference": (da - db).tolist(),
-                "albedo_difference_err": np.hypot(a.albedo_err_of[component][i, j],
-                                                  b.albedo_err_of[component][i, j]).tolist(),
+                "albedo_difference_err": np.hypot(a[component].albedo_err[i, j],
+                                                  b[component].albedo_err[i, j]).tolist(),
                 "l1": float(l1.mean()), "l1_noise": float(noise.mean()),
                 "z_rms": float(np.sqrt(np.mean(z**2))) if z.size else float("nan"),
             })

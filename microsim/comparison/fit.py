@@ -382,7 +382,7 @@ def fit_table(table: Any, spec: str, component: str = "total",
     """
     name, fam = family(spec, model_defaults(table.meta), table.channels.names)
     component = table.component(component)
-    sim, err = table.values[component], table.errors[component]
+    sim, err = table[component].values, table[component].errors
     eps = EPS_FRACTION * float(np.nanmax(sim))
     keep = np.isfinite(err)
     sigma = np.sqrt((err[keep] / (sim[keep] + eps)) ** 2 + REL_FLOOR**2)
@@ -436,7 +436,7 @@ def fit_table(table: Any, spec: str, component: str = "total",
     proj = table.bins.projected_solid_angle[None, None, :, :, None]
     albedo_fit = (compared.model * proj).sum(axis=(2, 3))
     rows = tuple(IncidenceFit(float(np.degrees(t)), float(np.degrees(p)), albedo_fit[k, j],
-                              table.albedo_of[component][k, j].copy())
+                              table[component].albedo[k, j].copy())
                  for k, t in enumerate(table.theta_i) for j, p in enumerate(table.phi_i))
     return FitResult(
         model=spec if name != "lafortune" else f"lafortune:{len(x0) // 3}",  # 3 per lobe

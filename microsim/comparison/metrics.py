@@ -29,7 +29,7 @@ from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import order_range
 from microsim.tables.evaluate import Axes
 from microsim.tables.meta import TableMeta
-from microsim.tables.table import LOBE_FRACTION, BRDFTable, lobe_of
+from microsim.tables.table import LOBE_FRACTION, BRDFTable, ComponentEstimate, lobe_of
 
 __all__ = ["LOBE_FRACTION", "Comparison", "IncidenceMetrics", "Model", "StochasticModel",
            "bin_average", "bin_averages", "bin_estimate", "compare_table", "direction",
@@ -440,11 +440,11 @@ def model_table(model: Model, theta_i: np.ndarray, bins: HemisphereBins,
     values = np.maximum(avg + rng.standard_normal(avg.shape) * err, 0.0) if sigma_rel else avg
     albedo = (values * bins.projected_solid_angle[None, None, :, :, None]).sum(axis=(2, 3))
     zeros = np.zeros_like(albedo)
-    both = ("total", "single")
-    return BRDFTable(bins, theta_i, azimuths, phi_i is None, {c: values for c in both},
-                     {c: err for c in both}, np.full(avg.shape[:2], 10**6),
-                     {c: albedo for c in both}, {c: zeros for c in both},
-                     zeros, meta or TableMeta(surface=SurfaceFacts(TileFacts(kind="analytic"))),
+    estimate = ComponentEstimate(values, err, albedo, zeros)
+    return BRDFTable(bins, theta_i, azimuths, phi_i is None,
+                     dict.fromkeys(("total", "single"), estimate),
+                     np.full(avg.shape[:2], 10**6), zeros,
+                     meta or TableMeta(surface=SurfaceFacts(TileFacts(kind="analytic"))),
                      **({} if channels is None else {"channels": channels}))
 
 
@@ -482,7 +482,7 @@ def compare_table(table: BRDFTable, model: Model, component: str = "total",
     component = table.component(component)
     model = model_for(model, component)
     rows, rels, zs = [], [], []
-    averages = np.zeros_like(table.values[component])
+    averages = np.zeros_like(table[component].values)
     errors = np.zeros_like(averages)
     for a, theta in enumerate(table.theta_i):
         for b, phi in enumerate(table.phi_i):
@@ -493,13 +493,13 @@ def compare_table(table: BRDFTable, model: Model, component: str = "total",
                 model, direction(theta, phi), table.bins.theta_edges, table.bins.phi_edges,
                 phi if table.isotropic else 0.0))
             averages[a, b], errors[a, b] = avg, avg_err
-            sim, err = table.values[component][a, b], table.errors[component][a, b]
+            sim, err = table[component].values[a, b], table[component].errors[a, b]
             m, rel, z = _metrics(sim, err, avg, table.bins.projected_solid_angle, avg_err,
-                                 table.dof[component][a, b])
+                                 table[component].dof[a, b])
             rels.append(rel)
             zs.append(z)
-            total = table.albedo_of["total"][a, b].mean()
-            single = table.albedo_of["single"][a, b].mean()
+            total = table["total"].albedo[a, b].mean()
+            single = table["single"].albedo[a, b].mean()
             rows.append(replace(m, theta_i=float(np.degrees(theta)),
                                 phi_i=float(np.degrees(phi)),
                                 multiple_scattering_share=float((total - single) / total)
@@ -510,5 +510,5 @@ def compare_table(table: BRDFTable, model: Model, component: str = "total",
     return Comparison(
         median_rel_error=median, p90_rel_error=p90, z_mean=z_mean, z_std=z_std,
         error_model=table.error_model, realisations=int(table.realisations.max()),
-        dof=float(table.dof[component].min()), per_theta_i=tuple(rows), model=averages,
+        dof=float(table[component].dof.min()), per_theta_i=tuple(rows), model=averages,
         model_err=errors)

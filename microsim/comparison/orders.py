@@ -97,7 +97,7 @@ def model_bins(table: Any, refs: References) -> dict[tuple[str, str], tuple[np.n
     """Bin averages and their standard errors, (a, b, nt, np, C), per (component,
     reference): Smith for order 1 and the total, the walk for the orders above 1 (random
     parts) and the total (Smith + the orders' random parts)."""
-    shape = table.values["total"].shape
+    shape = table["total"].values.shape
     smith = bin_averages(refs.smith, table.axes)
     random = {c: (np.zeros(shape), np.zeros(shape)) for c in table.components
               if order_range(c)[0] >= 2}
@@ -129,8 +129,8 @@ def lobe_errors(table: Any, component: str, model: np.ndarray, model_err: np.nda
     """Per incidence (a, b): ``median`` lobe error, its replicate standard deviation
     ``median_err``, the ``noise_floor`` and the ``z_std`` (module docstring); NaN where
     the model has no lobe."""
-    sim = table.values[component]
-    sim_err = np.nan_to_num(table.errors[component])
+    sim = table[component].values
+    sim_err = np.nan_to_num(table[component].errors)
     lobe = lobe_of(model, (2, 3))              # per incidence and channel, as compare
 
     def redraw(x: np.ndarray, e: np.ndarray) -> np.ndarray:
@@ -144,8 +144,8 @@ def lobe_errors(table: Any, component: str, model: np.ndarray, model_err: np.nda
                      for _ in range(replicates)], axis=0)
     z_std = np.full(median.shape, np.nan)
     for a, b, _ in incidences(table):
-        _, z, _ = lobe_residuals(sim[a, b], table.errors[component][a, b], model[a, b],
-                                 model_err[a, b], table.dof[component][a, b])
+        _, z, _ = lobe_residuals(sim[a, b], table[component].errors[a, b], model[a, b],
+                                 model_err[a, b], table[component].dof[a, b])
         if z.size > 1:
             z_std[a, b] = z.std(ddof=1)
     return {"median": median, "median_err": spread, "noise_floor": floor, "z_std": z_std}
@@ -156,10 +156,10 @@ def realisation_albedos(table: Any) -> tuple[np.ndarray, np.ndarray] | None:
     nothing) and realised α (K,); None for a table without realisation albedos (one read
     from a file) or without a scalar α per realisation."""
     per = () if table.meta.surface is None else table.meta.surface.per_realisation
-    if table.realisation_albedo is None or not per or not all(
+    if table["total"].realisation_albedo is None or not per or not all(
             isinstance(r.get("alpha_realised"), int | float) for r in per):
         return None
-    albedo = {c: table.realisation_albedo[c].mean(axis=-1) for c in table.components}
+    albedo = {c: table[c].realisation_albedo.mean(axis=-1) for c in table.components}
     return albedo, np.array([r["alpha_realised"] for r in per])
 
 
@@ -169,7 +169,7 @@ def model_albedos(table: Any, refs: References, bins: dict, walks: int
     and its slope dA/dα (NaN without a scalar α): Smith's from its bin averages
     (Σ f_r Ω_proj: exact), the walk's from escapes."""
     omega = table.bins.projected_solid_angle[..., None]
-    shape = table.albedo_of["total"].shape[:2]
+    shape = table["total"].albedo.shape[:2]
     ranges = [order_range(c) for c in table.components]
     out: dict[tuple[str, str], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
     smith = (bins[("order1", "smith")][0] * omega).sum(axis=(2, 3)).mean(axis=-1)
@@ -249,8 +249,8 @@ def compare_orders(table: Any, label: str, samples: int, walks: int, seed: int,
                 "rays": int(table.rays[a, b]), "error_model": table.error_model,
                 "theta_i": float(np.degrees(table.theta_i[a])),
                 "phi_i": float(np.degrees(table.phi_i[b])), "component": c,
-                "albedo_sim": float(table.albedo_of[c][a, b].mean()),
-                "albedo_sim_err": float(table.albedo_err_of[c][a, b].mean())}
+                "albedo_sim": float(table[c].albedo[a, b].mean()),
+                "albedo_sim_err": float(table[c].albedo_err[a, b].mean())}
     for (c, ref), (model, model_err) in bins.items():
         lobe = lobe_errors(table, c, model, model_err, rng, replicates)
         albedo, albedo_err, slope = albedos[(c, ref)]

@@ -143,7 +143,7 @@ def table_defaults(table: BRDFTable, component: str = "total") -> ModelDefaults:
         A component the table holds.
     """
     out = model_defaults(table.meta)
-    albedo = np.clip(table.albedo_of[table.component(component)].mean(axis=(0, 1)), 0.0, 1.0)
+    albedo = np.clip(table[component].albedo.mean(axis=(0, 1)), 0.0, 1.0)
     out.for_model["lambertian"] = {"albedo": [float(a) for a in albedo]}
     out.sources["lambertian.albedo"] = (f"the table's measured {component} albedo, mean "
                                         "over its incidences")

@@ -89,7 +89,7 @@ class TabulatedMaterial:
             raise ValueError(f"axis must be one of {AXES}, got {axis!r}")
         self.uses_tangents = axis == "tangent"
         self.axis = 1 if self.uses_tangents else AXES.index(axis)
-        values = table.values[component]
+        values = table[component].values
         if not np.all(np.isfinite(values)) or np.any(values < 0):
             raise ValueError("a table material needs finite, non-negative values")
         self.table = table

@@ -45,9 +45,9 @@ def direction_errors(table: BRDFTable, component: str = "total"
     -------
     rel_stderr, ray_share : (a, b) float
     """
-    f = table.values[component].mean(axis=-1)
-    e = table.errors[component].mean(axis=-1)
-    u = table.ray_errors[component].mean(axis=-1)
+    f = table[component].values.mean(axis=-1)
+    e = table[component].errors.mean(axis=-1)
+    u = table[component].ray_errors.mean(axis=-1)
     lobe = table.lobe_mask(component)
     rel, share = np.full(table.rays.shape, np.nan), np.full(table.rays.shape, np.nan)
     for index in np.ndindex(*table.rays.shape):

@@ -16,6 +16,7 @@ from collections import deque
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import replace
+from operator import attrgetter
 from typing import Any
 
 import numpy as np
@@ -44,7 +45,7 @@ from microsim.surfaces import Surface, build_tile
 from microsim.surfaces.facts import SurfaceFacts
 from microsim.surfaces.realisations import realisation, realisation_seed
 from microsim.surfaces.tile import Tile
-from microsim.tables.assemble import from_ensemble
+from microsim.tables.assemble import RawSums, from_ensemble
 from microsim.tables.meta import DirectionRecord, TableInput, TableMeta, Timing
 from microsim.tables.table import BRDFTable
 from microsim.version import __version__
@@ -447,7 +448,7 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
         traced = sum(part.trace_time for part in parts)
         timing = Timing(wall_time, sum(part.scene_time for part in parts), rays / traced,
                         segments / traced)
-    result.meta = TableMeta(
+    return replace(result, meta=TableMeta(
         recipe=recipe if recipe is not None else Recipe("", None, dict(materials),
                                                         simulation, table),
         microsim_version=__version__,
@@ -461,12 +462,11 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
         warnings=tuple(lost_energy_warnings(records)), timing=timing,
         sources={} if not table.channels.spectral else {
             f"material.{part}.{k}": source for part, m in materials.items()
-            for k, source in m.sources().items()})
-    return result
+            for k, source in m.sources().items()}))
 
 
 def raw_sums(runs: Mapping[RunKey, Run], chosen: Sequence[int], azimuths: int,
-             components: Sequence[str]) -> dict[str, Any]:
+             components: Sequence[str]) -> RawSums:
     """The raw per-realisation sums of runs, as ``BRDFTable`` keeps them for a table of
     one realisation per direction (so that tables of independent rays merge:
     ``microsim.tables.assemble.merge``) and as studies of the realisations read them
@@ -485,9 +485,9 @@ def raw_sums(runs: Mapping[RunKey, Run], chosen: Sequence[int], azimuths: int,
 
     Returns
     -------
-    dict
-        ``realisation_rays`` (K, a, b) int, ``lost`` (K, a, b, 3), per component
-        ``sums`` and ``sums_sq`` (K, a, b, m, 3), ``sh_sums`` and ``sh_sums_sq`` (or None).
+    RawSums
+        ``realisation_rays`` (K, a, b) int, ``lost`` (K, a, b, C), per component
+        ``sums`` and ``sums_sq`` (K, a, b, m, C), ``sh_sums`` and ``sh_sums_sq`` (or None).
     """
     rows = {l: i for i, l in enumerate(chosen)}
     some = next(iter(runs.values())).sums
@@ -500,17 +500,14 @@ def raw_sums(runs: Mapping[RunKey, Run], chosen: Sequence[int], azimuths: int,
             out[r, rows[l], kk] = get(run.sums)
         return out
 
-    def by_component(get: Callable[[Sums], np.ndarray]) -> dict[str, np.ndarray]:
-        rows_of = stacked(get)                               # (1, a, b, N + 1, ...)
-        return {c: rows_of[:, :, :, j] for j, c in enumerate(components)}
-
     harmonics = some.sh_order > 0
-    return {"realisation_rays": stacked(lambda acc: np.int64(acc.rays)),
-            "lost": stacked(lambda acc: acc.lost_energy),
-            "sums": by_component(lambda acc: acc.sums),
-            "sums_sq": by_component(lambda acc: acc.sums_sq),
-            "sh_sums": by_component(lambda acc: acc.sh_sums) if harmonics else None,
-            "sh_sums_sq": by_component(lambda acc: acc.sh_sums_sq) if harmonics else None}
+    names = ("sums", "sums_sq", "sh_sums", "sh_sums_sq")
+    stacks = {name: stacked(attrgetter(name))                # (K, a, b, N + 1, ...)
+              for name in names[:4 if harmonics else 2]}
+    return RawSums(stacked(lambda acc: np.int64(acc.rays)),
+                   stacked(lambda acc: acc.lost_energy),
+                   {c: {name: stacks[name][:, :, :, j] if name in stacks else None
+                        for name in names} for j, c in enumerate(components)})
 
 
 def _direction_record(rays: Sequence[int], energies: Energies, theta: float, phi: float,

@@ -92,8 +92,8 @@ def incidence_plane(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
         back, forward = incidence_plane_bins(table, 0.0 if table.isotropic
                                              else float(table.phi_i[j]))
         avg = luminance(model_bins[k, j], ch)
-        values = luminance(table.values[component][k, j], ch)
-        errors = luminance_err(np.nan_to_num(table.errors[component][k, j]), ch)
+        values = luminance(table[component].values[k, j], ch)
+        errors = luminance_err(np.nan_to_num(table[component].errors[k, j]), ch)
         for side, sign in ((back, -1), (forward, 1)):
             x = sign * theta
             sim = values[:, side].mean(axis=1)
@@ -184,10 +184,10 @@ def z_maps(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
     te, pe = np.degrees(table.bins.theta_edges), np.degrees(table.bins.phi_edges)
     image = None
     for (k, j), ax in zip(directions, axes, strict=True):
-        err = table.errors[component][k, j]
+        err = table[component].errors[k, j]
         if model_err is not None:
             err = np.hypot(err, model_err[k, j])
-        z = (luminance(table.values[component][k, j], ch)
+        z = (luminance(table[component].values[k, j], ch)
              - luminance(model_bins[k, j], ch)) / luminance_err(err, ch)
         ax.set_facecolor("0.8")
         image = ax.pcolormesh(pe, te, np.ma.masked_invalid(z), cmap="RdBu_r", vmin=-4,
@@ -225,8 +225,8 @@ def albedo_plot(table: BRDFTable, model_bins: np.ndarray, path: str | Path,
         fig, (ax,), strip = panel_grid(1, strip=True, panel=(6.0, 4.0))
         colour_strip(strip, table, component)
     for comp in table.components:
-        ax.errorbar(theta, luminance(table.albedo_of[comp][:, 0], ch),
-                    yerr=luminance_err(np.nan_to_num(table.albedo_err_of[comp][:, 0]), ch),
+        ax.errorbar(theta, luminance(table[comp].albedo[:, 0], ch),
+                    yerr=luminance_err(np.nan_to_num(table[comp].albedo_err[:, 0]), ch),
                     fmt="o-", ms=4, label=f"simulated, {component_text(comp)}")
     ax.plot(theta, model, "s--", color="black", label=f"model ({component_text(component)})")
     ax.set_xlabel("θi (°)")
@@ -275,8 +275,8 @@ def spectral_albedo(ax: Any, table: BRDFTable, model_albedo: np.ndarray,
     plt = pyplot()
     nm = np.asarray(table.channels.wavelengths)
     theta = np.degrees(table.theta_i)
-    albedo = table.albedo_of[component][:, 0]
-    err = np.nan_to_num(table.albedo_err_of[component][:, 0])
+    albedo = table[component].albedo[:, 0]
+    err = np.nan_to_num(table[component].albedo_err[:, 0])
     cmap = plt.get_cmap("viridis")
     span = max(float(theta.max() - theta.min()), 1e-9)
     colours = [cmap(CURVE_RANGE * (t - theta.min()) / span) for t in theta]
@@ -366,8 +366,8 @@ def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path
     theta = np.degrees(table.bins.theta_centers)
     cos_o = np.cos(table.bins.theta_centers)
     ch = table.channels
-    values = luminance(table.values[component][k, 0], ch)
-    errors = luminance_err(np.nan_to_num(table.errors[component][k, 0]), ch)
+    values = luminance(table[component].values[k, 0], ch)
+    errors = luminance_err(np.nan_to_num(table[component].errors[k, 0]), ch)
     for side, sign in ((back, -1), (forward, 1)):
         lobe.errorbar(sign * theta, values[:, side].mean(axis=1) * cos_o,
                       yerr=np.sqrt((errors[:, side] ** 2).sum(axis=1)) / len(side) * cos_o,
@@ -375,7 +375,7 @@ def sh_error_plot(rows: list[dict[str, Any]], table: BRDFTable, path: str | Path
     signed = np.linspace(-89.5, 89.5, 359)
     phi = np.where(signed < 0, 0.0, np.pi)                # the azimuths of the bins drawn
     for row in rows:
-        c = luminance(sh.truncate(table.sh[component][k, 0], row["order"]), ch) * sh.window(
+        c = luminance(sh.truncate(table[component].sh[k, 0], row["order"]), ch) * sh.window(
             row["order"], window)
         lobe.plot(signed, sh.basis(row["order"], np.cos(np.radians(signed)), phi) @ c,
                   label=f"L = {row['order']}")

@@ -145,7 +145,7 @@ def strip_colours(table: BRDFTable, component: str) -> np.ndarray:
     """(a, 3) display sRGB in [0, 1] of the table's directional albedo of ``component``
     per θi (mean over φi): linear RGB through the sRGB curve, or a spectral table's
     spectrum through ``microsim.spectra.colour.to_srgb_display`` (D65)."""
-    albedo = np.asarray(table.albedo_of[component], float).mean(axis=1)   # (a, C)
+    albedo = np.asarray(table[component].albedo, float).mean(axis=1)   # (a, C)
     return lum.display_srgb(albedo, table.channels)
 
 

@@ -213,23 +213,24 @@ class Gaussian(Surface):
         ax, ay = 2 * sigma / tau_x, 2 * sigma / tau_y
         rx, ry = tile.realised_alpha(rotation)
         if isotropic:
-            tile.facts = replace(tile.facts, alpha_target=Roughness(ax),
-                                 alpha_realised=Roughness(math.sqrt((rx**2 + ry**2) / 2)))
+            facts = replace(tile.facts, alpha_target=Roughness(ax),
+                            alpha_realised=Roughness(math.sqrt((rx**2 + ry**2) / 2)))
         else:
-            tile.facts = replace(tile.facts, alpha_target=Roughness(ax, ay),
-                                 alpha_realised=Roughness(rx, ry), alpha_target_x=ax,
-                                 alpha_target_y=ay, alpha_realised_x=rx, alpha_realised_y=ry)
+            facts = replace(tile.facts, alpha_target=Roughness(ax, ay),
+                            alpha_realised=Roughness(rx, ry), alpha_target_x=ax,
+                            alpha_target_y=ay, alpha_realised_x=rx, alpha_realised_y=ry)
         cell = size / n
+        warnings = []
         if min(tau_x, tau_y) < MIN_CELLS * cell:
             cells = min(tau_x, tau_y) / cell
-            tile.warnings.append(
+            warnings.append(
                 f"surface: the correlation length spans {cells:.1f} grid cells (< {MIN_CELLS}): "
                 f"facets under-resolve the slopes, so the realised roughness falls "
                 f"{100 * (1 - discretised_alpha_ratio(cells)):.0f}% below the target; raise "
                 "resolution or correlation_length")
         if size / max(tau_x, tau_y) < MIN_LENGTHS:
-            tile.warnings.append(
+            warnings.append(
                 f"surface: the tile holds {size / max(tau_x, tau_y):.1f} correlation lengths "
                 f"per side (< {MIN_LENGTHS}): few independent slopes, so the realised facet "
                 "distribution is noisy; raise resolution or lower correlation_length")
-        return tile
+        return tile.with_facts(facts, warnings)

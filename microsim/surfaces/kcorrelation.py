@@ -297,18 +297,19 @@ def abc_tile(n: int, size: float, alpha: float, correlation_length: float,
                                                exponent=exponent))
     rx, ry = tile.realised_alpha()
     along, across = tile.realised_alpha(math.pi / 4)
-    tile.facts = replace(tile.facts, alpha_target=Roughness(alpha),
-                         alpha_realised=Roughness(math.sqrt((rx**2 + ry**2) / 2)),
-                         alpha_realised_45=along, alpha_realised_135=across)
+    facts = replace(tile.facts, alpha_target=Roughness(alpha),
+                    alpha_realised=Roughness(math.sqrt((rx**2 + ry**2) / 2)),
+                    alpha_realised_45=along, alpha_realised_135=across)
+    warnings = []
     if abs(across - along) > DIAGONAL_SPREAD * min(along, across):
-        tile.warnings.append(
+        warnings.append(
             "surface: the facets' roughness differs by more than "
             f"{100 * DIAGONAL_SPREAD:g}% between the cell diagonals (the table's "
             "alpha_realised_45 and alpha_realised_135): heights rough at the grid's scale "
             "make the triangles anisotropic, so an isotropic Beckmann model misfits single "
             "scattering (docs/surfaces.md); a higher exponent or a longer "
             "correlation_length smooths them")
-    return tile
+    return tile.with_facts(facts, warnings)
 
 
 @dataclass(frozen=True, kw_only=True)

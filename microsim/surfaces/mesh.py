@@ -79,18 +79,16 @@ def mesh_tile(surface: Mesh) -> Tile:
                 f"surface.period = {[lx, ly]}: the mesh spans {name} in [{lo:g}, {hi:g}], "
                 f"outside [0, {length:g}]; a tile must lie within its period")
         vertices[:, axis] = np.clip(vertices[:, axis], 0.0, length)
-    tile = Tile(vertices, faces, np.zeros(len(faces), np.int32), ("base",), (lx, ly),
-                facts=MeshFacts(isotropic=False, source=str(path)))
-    _, areas = tile.face_normals_areas()
+    material = np.zeros(len(faces), np.int32)
+    _, areas = Tile(vertices, faces, material, ("base",), (lx, ly)).face_normals_areas()
     if not areas.sum() > 0:
         raise InputError(f"surface.path = {str(path)!r}: the mesh has zero area")
-    degenerate = areas <= 1e-12 * areas.max()
-    if degenerate.any():
-        tile.faces, tile.material = faces[~degenerate], tile.material[~degenerate]
-        tile.warnings.append(f"surface: dropped {int(degenerate.sum())} zero-area faces "
-                             f"of {len(faces)}")
+    kept = areas > 1e-12 * areas.max()
+    tile = Tile(vertices, faces[kept], material[kept], ("base",), (lx, ly),
+                facts=MeshFacts(isotropic=False, source=str(path)),
+                warnings=[] if kept.all() else [
+                    f"surface: dropped {int((~kept).sum())} zero-area faces of {len(faces)}"])
     rx, ry = tile.realised_alpha()
-    tile.facts = replace(tile.facts,
-                         alpha_realised=Roughness(float(np.sqrt((rx**2 + ry**2) / 2))),
-                         alpha_realised_x=rx, alpha_realised_y=ry)
-    return tile
+    return tile.with_facts(replace(
+        tile.facts, alpha_realised=Roughness(float(np.sqrt((rx**2 + ry**2) / 2))),
+        alpha_realised_x=rx, alpha_realised_y=ry))

@@ -9,7 +9,8 @@ replicates it; rays leaving a side re-enter at the other.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -70,6 +71,14 @@ class Tile:
     curved: np.ndarray | None = None
     _geometry: tuple[np.ndarray, ...] | None = field(default=None, init=False, repr=False,
                                                       compare=False)
+
+    def with_facts(self, facts: TileFacts, warnings: Sequence[str] = ()) -> Tile:
+        """This tile with ``facts`` in place of its own and ``warnings`` added to its own:
+        a new tile of the same arrays, which shares their face geometry if it has been
+        computed (a generator reports what it measured on the tile it built)."""
+        out = replace(self, facts=facts, warnings=[*self.warnings, *warnings])
+        out._geometry = self._geometry
+        return out
 
     @property
     def z_range(self) -> tuple[float, float]:

@@ -143,8 +143,8 @@ def groove_tile(surface: VGroove) -> Tile:
                 (size, size), facts=VGrooveFacts(slopes_deg=slope_facts(slopes)))
     if surface.alpha is not None:
         rx, ry = tile.realised_alpha()
-        tile.facts = replace(tile.facts, alpha_target=Roughness(surface.alpha),
-                             alpha_realised_x=rx)
+        return tile.with_facts(replace(tile.facts, alpha_target=Roughness(surface.alpha),
+                                       alpha_realised_x=rx))
     return tile
 
 
@@ -209,8 +209,8 @@ def face_roughness_tile(surface: VGroove) -> Tile:
                 facts=FaceRoughnessFacts(isotropic=True,
                                          alpha_target=Roughness(surface.micro_alpha),
                                          correlation_length=tau))
-    tile.facts = replace(tile.facts, alpha_realised=Roughness(*tile.realised_alpha()))
-    return tile
+    return tile.with_facts(replace(tile.facts,
+                                   alpha_realised=Roughness(*tile.realised_alpha())))
 
 
 def rough_faces(surface: VGroove) -> Tile:
@@ -270,5 +270,4 @@ def rough_faces(surface: VGroove) -> Tile:
     weight = areas[up] * nz[up]
     ax, ay = (math.sqrt(2 * np.sum(weight * (c[up] / nz[up]) ** 2) / weight.sum())
               for c in (nx, normals[:, 1]))
-    tile.facts = replace(tile.facts, micro_alpha_realised=Roughness(ax, ay))
-    return tile
+    return tile.with_facts(replace(tile.facts, micro_alpha_realised=Roughness(ax, ay)))

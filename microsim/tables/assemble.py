@@ -11,6 +11,7 @@ estimates (``microsim.tables.estimator``).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -24,7 +25,13 @@ from microsim.tables.estimator import (
     RunningEstimate,
 )
 from microsim.tables.meta import TableMeta
-from microsim.tables.table import BRDFTable, by_component, components_of, lobe_of
+from microsim.tables.table import (
+    BRDFTable,
+    ComponentEstimate,
+    by_component,
+    components_of,
+    lobe_of,
+)
 
 
 def from_sums(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
@@ -164,7 +171,7 @@ class EnsembleSums:
 
 def from_ensemble(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
                   isotropic: bool, ensemble: EnsembleSums, meta: TableMeta,
-                  raw: Mapping[str, object] | None = None, channels: Channels = RGB
+                  raw: RawSums | None = None, channels: Channels = RGB
                   ) -> BRDFTable:
     """The goniophotometer's estimator from running sums over realisations.
 
@@ -190,9 +197,8 @@ def from_ensemble(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
     ensemble : EnsembleSums
         Of (a, b) directions, each with at least one realisation.
     meta : TableMeta
-    raw : mapping or None
-        The raw per-realisation sums (``BRDFTable``'s ``realisation_rays``, ``sums``,
-        ``sums_sq``, ``lost``, ``sh_sums``, ``sh_sums_sq``) when the caller has them.
+    raw : RawSums or None
+        The raw per-realisation sums, for the table to keep, when the caller has them.
     channels : Channels
         The channels of the sums' last axis (RGB, or one per wavelength).
 
@@ -220,29 +226,48 @@ def from_ensemble(bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
     e = ensemble.bins.estimate(np.broadcast_to(lobe[..., None], ensemble.bins.shape))
     w = ensemble.albedo.estimate()
     s = None if ensemble.sh is None else ensemble.sh.estimate()
-    values, errors, ray_errors, albedo, albedo_err, dof, inflation = ({} for _ in range(7))
-    sh_values = None if s is None else {}
-    sh_errors = None if s is None else {}
-    for j, c in enumerate(ensemble.components):
-        values[c] = (e.mean[:, :, j] / omega).reshape(shape)
-        errors[c] = (e.stderr[:, :, j] / omega).reshape(shape)
-        ray_errors[c] = (e.ray_stderr[:, :, j] / omega).reshape(shape)
-        dof[c], inflation[c] = e.dof[:, :, j], e.inflation[:, :, j]
-        albedo[c], albedo_err[c] = w.mean[:, :, j, 0], w.stderr[:, :, j, 0]
-        if s is not None:
-            sh_values[c], sh_errors[c] = s.mean[:, :, j], s.stderr[:, :, j]
     realisations = e.realisations[:, :, 0]
     per = np.full((int(realisations.max()), a, b, len(ensemble.components), count), np.nan)
     for (l, k), albedos in ensemble.realisation_albedo.items():
         per[:len(albedos), l, k] = albedos
-    raw = {**(raw or {}), "realisation_albedo": {
-        c: per[:, :, :, j] for j, c in enumerate(ensemble.components)}}
-    return BRDFTable(bins, theta_i, phi_i, isotropic, values, errors, ensemble.rays.copy(),
-                     albedo, albedo_err, ensemble.lost / realisations[..., None], meta,
+    sums = raw.sums if raw is not None else {}
+    estimates = {c: ComponentEstimate(
+        values=(e.mean[:, :, j] / omega).reshape(shape),
+        errors=(e.stderr[:, :, j] / omega).reshape(shape),
+        albedo=w.mean[:, :, j, 0], albedo_err=w.stderr[:, :, j, 0],
+        dof=e.dof[:, :, j], inflation=e.inflation[:, :, j],
+        ray_errors=(e.ray_stderr[:, :, j] / omega).reshape(shape),
+        sh=None if s is None else s.mean[:, :, j],
+        sh_err=None if s is None else s.stderr[:, :, j],
+        realisation_albedo=per[:, :, :, j], **sums.get(c, {}))
+        for j, c in enumerate(ensemble.components)}
+    return BRDFTable(bins, theta_i, phi_i, isotropic, estimates, ensemble.rays.copy(),
+                     ensemble.lost / realisations[..., None], meta,
                      error_model=ENSEMBLE if realisations.max() > 1 else RAYS,
-                     realisations=realisations, dof=dof, inflation=inflation,
-                     ray_errors=ray_errors, sh=sh_values, sh_err=sh_errors,
-                     channels=channels, **raw)
+                     realisations=realisations,
+                     realisation_rays=None if raw is None else raw.realisation_rays,
+                     lost=None if raw is None else raw.lost, channels=channels)
+
+
+@dataclass(frozen=True, eq=False)
+class RawSums:
+    """The raw per-realisation sums of an estimate, which a fresh table keeps so that
+    tables of the same realisations and independent rays merge (``merge``).
+
+    Parameters
+    ----------
+    realisation_rays : (K, a, b) int
+        Rays per realisation and incident direction (0: absent).
+    lost : (K, a, b, C) float
+        Summed lost weight per realisation.
+    sums : dict of str to dict of str to array
+        Per component, its ``ComponentEstimate`` fields ``sums``, ``sums_sq`` and, with
+        harmonics, ``sh_sums`` and ``sh_sums_sq`` ((K, a, b, ...) arrays).
+    """
+
+    realisation_rays: np.ndarray
+    lost: np.ndarray
+    sums: Mapping[str, Mapping[str, np.ndarray | None]]
 
 
 def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
@@ -321,10 +346,10 @@ def from_realisations(bins: HemisphereBins, theta_i: np.ndarray,
         ensemble.add(at, int(r), int(rays[r, l, k]), rows(sums, r, at),
                      rows(sums_sq, r, at), lost[r, l, k], rows(sh_sums, r, at),
                      rows(sh_sums_sq, r, at))
-    raw = {"realisation_rays": rays, "lost": lost,
-           "sums": {c: np.asarray(sums[c], float) for c in components},
-           "sums_sq": {c: np.asarray(sums_sq[c], float) for c in components},
-           "sh_sums": sh_sums, "sh_sums_sq": sh_sums_sq}
+    raw = RawSums(rays, lost, {c: {
+        "sums": np.asarray(sums[c], float), "sums_sq": np.asarray(sums_sq[c], float),
+        "sh_sums": None if sh_sums is None else sh_sums[c],
+        "sh_sums_sq": None if sh_sums_sq is None else sh_sums_sq[c]} for c in components})
     return from_ensemble(bins, theta_i, phi_i, isotropic, ensemble, meta, raw, channels)
 
 
@@ -338,7 +363,7 @@ def merge(self: BRDFTable, other: BRDFTable) -> BRDFTable:
         If either is not a fresh estimate (a read table holds no raw sums), or their axes,
         realisations, components or channels differ.
     """
-    if self.sums is None or other.sums is None:
+    if not (self.fresh and other.fresh):
         raise ValueError("only tables holding raw sums (fresh estimates) merge")
     same = (self.bins.shape == other.bins.shape and self.isotropic == other.isotropic
             and np.array_equal(self.theta_i, other.theta_i)
@@ -354,17 +379,15 @@ def merge(self: BRDFTable, other: BRDFTable) -> BRDFTable:
                          f"{', '.join(self.channels.names)} and "
                          f"{', '.join(other.channels.names)}")
     components = self.components
-    harmonics = (self.sh_sums is not None and other.sh_sums is not None
+    harmonics = (self["total"].sh_sums is not None and other["total"].sh_sums is not None
                  and self.sh_order == other.sh_order)
 
-    def merged(a: Mapping[str, np.ndarray] | None, b: Mapping[str, np.ndarray] | None
-               ) -> dict[str, np.ndarray] | None:
-        return {c: a[c] + b[c] for c in components} if harmonics else None
+    def merged(name: str) -> dict[str, np.ndarray]:
+        return {c: getattr(self[c], name) + getattr(other[c], name) for c in components}
 
     return from_realisations(
         self.bins, self.theta_i, self.phi_i, self.isotropic,
-        self.realisation_rays + other.realisation_rays,
-        {c: self.sums[c] + other.sums[c] for c in components},
-        {c: self.sums_sq[c] + other.sums_sq[c] for c in components},
-        self.lost + other.lost, self.meta, sh_sums=merged(self.sh_sums, other.sh_sums),
-        sh_sums_sq=merged(self.sh_sums_sq, other.sh_sums_sq), channels=self.channels)
+        self.realisation_rays + other.realisation_rays, merged("sums"), merged("sums_sq"),
+        self.lost + other.lost, self.meta,
+        sh_sums=merged("sh_sums") if harmonics else None,
+        sh_sums_sq=merged("sh_sums_sq") if harmonics else None, channels=self.channels)

@@ -107,24 +107,24 @@ def curves(table: BRDFTable, component: str = "total",
     ValueError
         If the table holds no harmonics.
     """
-    if table.sh is None:
+    if not table.has_sh:
         raise ValueError("the table holds no spherical harmonics")
     component = table.component(component)
     a, b = table.rays.shape
     count = table.channels.count
     cos_bin = wavelets.bin_cos(table.bins)[:, None]
-    g_table = table.values[component].reshape(a, b, -1, count) * cos_bin
+    g_table = table[component].values.reshape(a, b, -1, count) * cos_bin
     lobe = table.lobe_mask(component).reshape(a, b, -1)
 
     integrals, omega = bin_integrals(table.sh_order, table.bins)
-    c_sh = np.moveaxis(table.sh[component], -2, -1)                   # (a, b, C, n_sh)
+    c_sh = np.moveaxis(table[component].sh, -2, -1)                   # (a, b, C, n_sh)
 
     def sh_bins(c: np.ndarray) -> np.ndarray:
         g = (c.reshape(-1, c.shape[-1]) @ integrals.T) / omega
         return np.moveaxis(g.reshape(a, b, count, -1), -2, -1)
 
     resampling = Resampling(wavelets.check_resolution(resolution), table.bins)
-    c_wv = wavelets.forward(wavelets.table_grids(table.values[component], resampling),
+    c_wv = wavelets.forward(wavelets.table_grids(table[component].values, resampling),
                             wavelet)                                   # (a, b, C, n²)
 
     def wv_bins(c: np.ndarray) -> np.ndarray:

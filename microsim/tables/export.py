@@ -83,11 +83,11 @@ def write_npz(table: BRDFTable, path: str | Path) -> None:
         arrays["wavelengths"] = np.array(table.channels.wavelengths, float)
         arrays["channels"] = np.array(table.channels.names)
     for c in table.components:
-        arrays[c], arrays[f"{c}_err"] = table.values[c], table.errors[c]
-        arrays[f"albedo_{c}"], arrays[f"albedo_{c}_err"] = (table.albedo_of[c],
-                                                            table.albedo_err_of[c])
-        if table.sh is not None and table.sh_err is not None:
-            arrays[f"sh_{c}"], arrays[f"sh_{c}_err"] = table.sh[c], table.sh_err[c]
+        arrays[c], arrays[f"{c}_err"] = table[c].values, table[c].errors
+        arrays[f"albedo_{c}"], arrays[f"albedo_{c}_err"] = (table[c].albedo,
+                                                            table[c].albedo_err)
+        if table.has_sh:
+            arrays[f"sh_{c}"], arrays[f"sh_{c}_err"] = table[c].sh, table[c].sh_err
             arrays["sh_order"] = np.array(table.sh_order)
     with atomic_path(path) as tmp, tmp.open("wb") as f:
         np.savez(f, **arrays)

@@ -22,7 +22,7 @@ import math
 import os
 import sys
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager, redirect_stderr, redirect_stdout
 from pathlib import Path
 from typing import Any
@@ -32,7 +32,7 @@ import numpy as np
 from microsim.errors import InputError, InputWarning
 from microsim.files import atomic_path
 from microsim.tables import wavelets
-from microsim.tables.table import BRDFTable
+from microsim.tables.table import BRDFTable, ComponentEstimate
 from microsim.tables.validation import check_header, check_pixels, check_sh_header
 
 FORMAT_VERSION = 2
@@ -83,14 +83,15 @@ def header_json(table: BRDFTable) -> dict[str, Any]:
         "orders": table.orders,
         **({"wavelengths": table.channels.to_json()} if table.channels.spectral else {}),
         "rays": table.rays,
-        "albedo": table.albedo_of["total"], "albedo_err": table.albedo_err_of["total"],
-        "order_albedo": {c: table.albedo_of[c] for c in table.components[1:]},
-        "order_albedo_err": {c: table.albedo_err_of[c] for c in table.components[1:]},
+        "albedo": table.albedo, "albedo_err": table.albedo_err,
+        "order_albedo": {c: table[c].albedo for c in table.components[1:]},
+        "order_albedo_err": {c: table[c].albedo_err for c in table.components[1:]},
         "lost_energy": table.lost_energy,
         "error_model": table.error_model,
         "realisations": table.realisations,
-        "dof": table.dof,
-        "inflation": table.inflation,
+        "dof": {c: e.dof for c, e in table.estimates.items()},
+        "inflation": None if table["total"].inflation is None else {
+            c: e.inflation for c, e in table.estimates.items()},
         "meta": table.meta.to_json(),
     })
 
@@ -118,13 +119,14 @@ def _channel_names(table: BRDFTable) -> list[str]:
             for k in table.channels.names]
 
 
-def _channels(values: dict[str, np.ndarray], errors: dict[str, np.ndarray], rows: int,
+def _channels(pairs: Mapping[str, tuple[np.ndarray, np.ndarray]], rows: int,
               names: Sequence[str]) -> dict[str, np.ndarray]:
-    """float32 channels ``{c}{,_err}.{name}`` of (..., columns, C) arrays, one pair per
-    component ``c``, as images of ``rows`` rows, a channel per name."""
+    """float32 channels ``{c}{,_err}.{name}`` of (..., columns, C) arrays, a pair of
+    values and errors per component ``c``, as images of ``rows`` rows, a channel per
+    name."""
     channels = {}
-    for c in values:
-        for suffix, data in (("", values[c]), ("_err", errors[c])):
+    for c, (values, errors) in pairs.items():
+        for suffix, data in (("", values), ("_err", errors)):
             image = data.reshape(rows, -1, len(names))
             for k, colour in enumerate(names):
                 channels[f"{c}{suffix}.{colour}"] = np.ascontiguousarray(image[..., k],
@@ -153,7 +155,8 @@ def write_table(table: BRDFTable, path: str | Path) -> None:
     a, b = table.rays.shape
     nt, np_ = table.bins.shape
     names = table.channels.names
-    channels = _channels(table.values, table.errors, a * b * nt, names)
+    channels = _channels({c: (e.values, e.errors) for c, e in table.estimates.items()},
+                         a * b * nt, names)
     info = header_json(table)
     # what is written is what read_table reads: a table it would refuse is not written
     refused = f"{path}: not written"
@@ -164,8 +167,9 @@ def write_table(table: BRDFTable, path: str | Path) -> None:
     # every part of a multi-part file shares the display window
     window = (np.array([0, 0], np.int32), np.array([np_ - 1, a * b * nt - 1], np.int32))
     parts = [OpenEXR.Part(header, channels, "table")]
-    if table.sh is not None and table.sh_err is not None:
-        sh_channels = _channels(table.sh, table.sh_err, a * b, names)
+    if table.has_sh:
+        sh_channels = _channels({c: (e.sh, e.sh_err) for c, e in table.estimates.items()},
+                                a * b, names)
         check_pixels(sh_channels, table.components, a * b, (table.sh_order + 1) ** 2,
                      refused, harmonics=True, names=names)
         sh_header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
@@ -271,15 +275,15 @@ def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
         return np.stack([source[f"{name}.{k}"] for k in names], axis=-1).astype(
             float).reshape(shape + (len(names),))
 
-    sh = sh_err = None
+    harmonics = dict.fromkeys(stored, {})
     if SH_ATTRIBUTE in sh_header:
         coefficients = check_sh_header(_parse_json(sh_header[SH_ATTRIBUTE], path,
                                                    SH_ATTRIBUTE), path, shape)
         check_pixels(sh_pixels, stored, a * b, coefficients, path, harmonics=True,
                      names=names)
         sh_shape = (a, b, coefficients)
-        sh = {c: load(c, sh_pixels, sh_shape) for c in stored}
-        sh_err = {c: load(f"{c}_err", sh_pixels, sh_shape) for c in stored}
+        harmonics = {c: {"sh": load(c, sh_pixels, sh_shape),
+                         "sh_err": load(f"{c}_err", sh_pixels, sh_shape)} for c in stored}
     wavelet_header, wavelet_pixels = parts.get(WAVELET_PART, ({}, {}))
     stored_wavelets = None
     if WAVELET_ATTRIBUTE in wavelet_header:
@@ -292,14 +296,15 @@ def read_table(path: str | Path, require_sh: bool = False) -> BRDFTable:
         except ValueError as exc:
             raise InputError(f"{path}: wavelet part: {exc}") from None
 
+    dof, inflation = checked["dof"] or {}, checked["inflation"] or {}
+    estimates = {c: ComponentEstimate(
+        load(c), load(f"{c}_err"), checked["albedo"][c], checked["albedo_err"][c],
+        dof=dof.get(c), inflation=inflation.get(c), **harmonics[c]) for c in stored}
     return BRDFTable(
         checked["bins"], checked["theta_i"], checked["phi_i"], checked["isotropic"],
-        {c: load(c) for c in stored}, {c: load(f"{c}_err") for c in stored},
-        checked["rays"], checked["albedo"], checked["albedo_err"], checked["lost_energy"],
-        checked["meta"], sh=sh, sh_err=sh_err, error_model=checked["error_model"],
-        realisations=checked["realisations"], dof=checked["dof"],
-        inflation=checked["inflation"], wavelets=stored_wavelets,
-        channels=checked["channels"])
+        estimates, checked["rays"], checked["lost_energy"], checked["meta"],
+        error_model=checked["error_model"], realisations=checked["realisations"],
+        wavelets=stored_wavelets, channels=checked["channels"])
 
 
 def _parse_json(text: Any, path: Path, attribute: str) -> Any:

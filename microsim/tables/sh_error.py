@@ -101,7 +101,7 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
     Parameters
     ----------
     table : BRDFTable
-        A table with harmonics (``table.sh``).
+        A table with harmonics (``table.has_sh``).
     orders : list of int
         Orders L, each at most ``table.sh_order``.
     window : str
@@ -132,7 +132,7 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
     ValueError
         If the table holds no harmonics or an order exceeds the stored one.
     """
-    if table.sh is None or table.sh_err is None:
+    if not table.has_sh:
         raise ValueError("the table holds no spherical harmonics")
     component = table.component(component)
     a, b = table.rays.shape
@@ -143,8 +143,8 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
                                                              else 1.0)
     integrals, omega = bin_integrals(max(orders), table.bins)
     scale = (omega_proj / omega)[None, None, :, None]
-    g_table = table.values[component].reshape(a, b, -1, count) * scale
-    e_table = np.nan_to_num(table.errors[component].reshape(a, b, -1, count)) * scale
+    g_table = table[component].values.reshape(a, b, -1, count) * scale
+    e_table = np.nan_to_num(table[component].errors.reshape(a, b, -1, count)) * scale
     lobe = np.broadcast_to(table.lobe_mask(component).reshape(a, b, -1, 1), g_table.shape)
     w = np.broadcast_to(omega[None, None, :, None], g_table.shape)
     cos_theta, phi = _grid(table.bins)
@@ -169,8 +169,8 @@ def order_errors(table: BRDFTable, orders: list[int], window: str = "none",
     rows = []
     for order in orders:
         n = sh.size(order)
-        plain = sh.truncate(table.sh[component], order)
-        errors = sh.truncate(table.sh_err[component], order)
+        plain = sh.truncate(table[component].sh, order)
+        errors = sh.truncate(table[component].sh_err, order)
         factors = sh.window(order, window)[:, None]
 
         def bins_of(c: np.ndarray, n: int = n) -> np.ndarray:

@@ -85,12 +85,12 @@ def brdf_matrix(table: BRDFTable, order: int | None = None, component: str = "to
     """
     if not table.isotropic:
         raise ValueError("Westin's matrix is built for isotropic tables only")
-    if table.sh is None:
+    if not table.has_sh:
         raise ValueError("the table holds no spherical harmonics")
     order = min(table.sh_order, MAX_ORDER) if order is None else order
     if order > MAX_ORDER:
         raise ValueError(f"order {order}: the dense matrix is built up to order {MAX_ORDER}")
-    a = sh.truncate(table.sh[table.component(component)], order)[:, 0]   # (n_theta_i, n, C)
+    a = sh.truncate(table[component].sh, order)[:, 0]   # (n_theta_i, n, C)
     theta, w = _theta_quadrature(table.theta_i, order + 8 if nodes is None else nodes)
     i0, i1, w1 = linear_weights(theta, table.theta_i)
     interp = np.zeros((len(theta), len(table.theta_i)))

@@ -14,6 +14,8 @@ table simulated with ``orders = N`` holds ``"total"`` (all orders) and ``"order1
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -62,8 +64,81 @@ def lobe_of(f: np.ndarray, axis: int | tuple[int, ...],
     return (f >= threshold * peak) & (peak > 0)
 
 
+@dataclass(frozen=True, eq=False)
+class ComponentEstimate:
+    """One component of a table (the total, or a scattering order): its f_r per bin with
+    standard errors, its albedo, and its harmonics and raw sums where the table has them.
+
+    Arrays are converted to float64 on construction, the raw sums kept as given; fields
+    that are None are absent for every component of a table alike.
+
+    Parameters
+    ----------
+    values, errors : (a, b, nt, np, C) float
+        f_r (1/sr) and its standard error; an error is NaN where it is undefined (no ray
+        landed in the bin).
+    albedo, albedo_err : (a, b, C) float
+        Directional albedo ∫ f_r cos θo dωo of the escaping light, with its standard error.
+    dof : (a, b, C) float or None
+        Degrees of freedom of each bin's variance estimate per incidence and colour:
+        (value − truth) / error is Student-t with them (None: the table's rays − 1). The
+        albedo's and the harmonics' errors are batch means over the realisations:
+        realisations − 1 degrees of freedom (rays − 1 for one).
+    inflation : (a, b, C) float or None
+        The pooled ratio of each bin's ensemble variance to its ray variance (NaN where
+        not pooled).
+    ray_errors : (a, b, nt, np, C) float or None
+        The ray noise's share of ``errors`` in a fresh estimate (equal to it for one
+        realisation): what more rays per realisation can still remove.
+    sh, sh_err : (a, b, (L + 1)², C) float or None
+        Real spherical-harmonic coefficients of f_r cos θo over ωo per incidence, and
+        their standard errors (``microsim.tables.sh`` has the convention).
+    sums, sums_sq : (K, a, b, nt·np, C) float or None
+        Raw per-bin sums Σw, Σw² per realisation, when the table was estimated here:
+        tables of the same realisations and independent rays merge exactly
+        (``microsim.tables.assemble.merge``).
+    sh_sums, sh_sums_sq : (K, a, b, (L + 1)², C) and (K, a, b, (2L + 1)², C) float, or None
+        Raw sums Σ w Y_k and Σ w² Y_K to order 2L of a fresh estimate, merged alike.
+    realisation_albedo : (R, a, b, C) float or None
+        Each realisation's albedo of a fresh estimate, per direction in the order the
+        realisations were added (index order): slot r of direction (l, k) holds the albedo
+        of the (r + 1)-th realisation that traced it, not necessarily realisation r, and
+        slots past that direction's ``realisations`` are NaN. R is the most realisations
+        of any direction (``microsim.tables.assemble.EnsembleSums``).
+    """
+
+    values: np.ndarray
+    errors: np.ndarray
+    albedo: np.ndarray
+    albedo_err: np.ndarray
+    dof: np.ndarray | None = None
+    inflation: np.ndarray | None = None
+    ray_errors: np.ndarray | None = None
+    sh: np.ndarray | None = None
+    sh_err: np.ndarray | None = None
+    sums: np.ndarray | None = None
+    sums_sq: np.ndarray | None = None
+    sh_sums: np.ndarray | None = None
+    sh_sums_sq: np.ndarray | None = None
+    realisation_albedo: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        for name in _FLOAT_FIELDS:
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, np.asarray(value, float))
+
+
+_FLOAT_FIELDS = ("values", "errors", "albedo", "albedo_err", "dof", "inflation",
+                 "ray_errors", "sh", "sh_err", "realisation_albedo")
+
+
+@dataclass(frozen=True, eq=False)
 class BRDFTable:
-    """A binned BRDF with per-bin standard errors.
+    """A binned BRDF with per-bin standard errors, one ``ComponentEstimate`` per component.
+
+    Immutable: ``dataclasses.replace`` makes a changed copy (``with_estimate`` for one
+    component's fields).
 
     Parameters
     ----------
@@ -75,16 +150,13 @@ class BRDFTable:
         Incident azimuths, radians, increasing (``[0]`` when isotropic).
     isotropic : bool
         Outgoing azimuths are relative to the incident one.
-    values, errors : dict of str to (a, b, nt, np, 3) float
-        f_r (1/sr) and its standard error per component (``"total"`` and the order
-        components; ``"single"`` is read as ``"order1"``); an error is NaN where it is
-        undefined (no ray landed in the bin).
+    estimates : mapping of str to ComponentEstimate
+        Per component (``"total"`` and the order components; ``"single"`` is read as
+        ``"order1"``); stored by stored name in the order of ``components``, a missing
+        ``dof`` filled in as rays − 1.
     rays : (a, b) int
         Rays launched per incident direction.
-    albedo, albedo_err : dict of str to (a, b, 3) float
-        Directional albedo ∫ f_r cos θo dωo of the escaping light per component, with
-        standard errors (the attributes ``albedo_of`` and ``albedo_err_of``).
-    lost_energy : (a, b, 3) float
+    lost_energy : (a, b, C) float
         The energy of paths still alive after the bounce limit or absorbed by
         transmission (per unit incident power).
     meta : TableMeta
@@ -96,41 +168,15 @@ class BRDFTable:
         surface realisations the table averages (``microsim.tables.estimator``).
     realisations : (a, b) int or None
         Realisations per incident direction (default: 1).
-    dof : dict of str to (a, b, 3) float, or None
-        Degrees of freedom of each bin's variance estimate per component, incidence and
-        colour: (value − truth) / error is Student-t with them (default: rays − 1). The
-        albedo's and the harmonics' errors are batch means over the realisations:
-        realisations − 1 degrees of freedom (rays − 1 for one).
-    inflation : dict of str to (a, b, 3) float, or None
-        The pooled ratio of each bin's ensemble variance to its ray variance (NaN where
-        not pooled).
     realisation_rays : (K, a, b) int or None
         Rays per realisation and incident direction of a fresh estimate (0: absent).
-    ray_errors : dict of str to (a, b, nt, np, 3) float, or None
-        The ray noise's share of ``errors`` in a fresh estimate (equal to it for one
-        realisation): what more rays per realisation can still remove.
-    sums, sums_sq : dict or None
-        Raw per-bin sums Σw, Σw² of shape (K, a, b, nt·np, 3), per realisation, when the
-        table was estimated here: tables of the same realisations and independent rays
-        merge exactly (``microsim.tables.assemble.merge``).
-    lost : (K, a, b, 3) float or None
-        Raw summed lost weight per realisation.
-    sh, sh_err : dict of str to (a, b, (L + 1)², 3) float, or None
-        Real spherical-harmonic coefficients of f_r cos θo over ωo per incidence and
-        component, and their standard errors (``microsim.tables.sh`` has the convention);
-        None when the table was simulated without them.
-    sh_sums, sh_sums_sq : dict or None
-        Raw sums Σ w Y_k (K, a, b, (L + 1)², 3) and Σ w² Y_K to order 2L
-        (K, a, b, (2L + 1)², 3) of fresh estimates, merged alike.
-    realisation_albedo : dict of str to (R, a, b, 3) float, or None
-        Each realisation's albedo per component of a fresh estimate, per direction in
-        the order the realisations were added (index order): slot r of direction (l, k)
-        holds the albedo of the (r + 1)-th realisation that traced it, not necessarily
-        realisation r, and slots past that direction's ``realisations`` are NaN. R is
-        the most realisations of any direction (``microsim.tables.assemble.EnsembleSums``).
+    lost : (K, a, b, C) float or None
+        Raw summed lost weight per realisation of a fresh estimate.
     wavelets : Wavelets or None
         Wavelet coefficients of f_r cos θo per incidence and component, kept by magnitude
         (``microsim.tables.wavelets``; ``microsim wavelets TABLE --store``), or None.
+    channels : Channels
+        The channels of the arrays' last axis C (RGB, or one per wavelength).
 
     Attributes
     ----------
@@ -139,90 +185,95 @@ class BRDFTable:
         (``components_for(N)`` for a table simulated with ``orders = N``).
     """
 
-    def __init__(self, bins: HemisphereBins, theta_i: np.ndarray, phi_i: np.ndarray,
-                 isotropic: bool, values: Mapping[str, np.ndarray],
-                 errors: Mapping[str, np.ndarray], rays: np.ndarray,
-                 albedo: Mapping[str, np.ndarray], albedo_err: Mapping[str, np.ndarray],
-                 lost_energy: np.ndarray, meta: TableMeta, *,
-                 error_model: str = RAYS, realisations: np.ndarray | None = None,
-                 dof: Mapping[str, np.ndarray] | None = None,
-                 inflation: Mapping[str, np.ndarray] | None = None,
-                 realisation_rays: np.ndarray | None = None,
-                 ray_errors: Mapping[str, np.ndarray] | None = None,
-                 sums: Mapping[str, np.ndarray] | None = None,
-                 sums_sq: Mapping[str, np.ndarray] | None = None,
-                 lost: np.ndarray | None = None,
-                 sh: Mapping[str, np.ndarray] | None = None,
-                 sh_err: Mapping[str, np.ndarray] | None = None,
-                 sh_sums: Mapping[str, np.ndarray] | None = None,
-                 sh_sums_sq: Mapping[str, np.ndarray] | None = None,
-                 realisation_albedo: Mapping[str, np.ndarray] | None = None,
-                 wavelets: Wavelets | None = None, channels: Channels = RGB) -> None:
-        self.bins = bins
-        self.channels = channels
-        self.theta_i = np.asarray(theta_i, float)
-        self.phi_i = np.asarray(phi_i, float)
-        self.isotropic = bool(isotropic)
-        self.components = components_of(values)
-        self.values = by_component(values, self.components, float)
-        self.errors = by_component(errors, self.components, float)
-        self.rays = np.asarray(rays, np.int64)
-        self.albedo_of = by_component(albedo, self.components, float)
-        self.albedo_err_of = by_component(albedo_err, self.components, float)
-        self.lost_energy = np.asarray(lost_energy, float)
-        self.meta = meta
-        self.error_model = error_model
-        self.realisations = (np.ones(self.rays.shape, np.int64) if realisations is None
-                             else np.asarray(realisations, np.int64))
+    bins: HemisphereBins
+    theta_i: np.ndarray
+    phi_i: np.ndarray
+    isotropic: bool
+    estimates: Mapping[str, ComponentEstimate]
+    rays: np.ndarray
+    lost_energy: np.ndarray
+    meta: TableMeta
+    error_model: str = field(default=RAYS, kw_only=True)
+    realisations: np.ndarray | None = field(default=None, kw_only=True)
+    realisation_rays: np.ndarray | None = field(default=None, kw_only=True)
+    lost: np.ndarray | None = field(default=None, kw_only=True)
+    wavelets: Wavelets | None = field(default=None, kw_only=True)
+    channels: Channels = field(default=RGB, kw_only=True)
+    components: tuple[str, ...] = field(init=False)
+
+    def __post_init__(self) -> None:
+        put = partial(object.__setattr__, self)
+        put("theta_i", np.asarray(self.theta_i, float))
+        put("phi_i", np.asarray(self.phi_i, float))
+        put("isotropic", bool(self.isotropic))
+        put("rays", np.asarray(self.rays, np.int64))
+        put("lost_energy", np.asarray(self.lost_energy, float))
+        put("realisations", np.ones(self.rays.shape, np.int64) if self.realisations is None
+            else np.asarray(self.realisations, np.int64))
+        components = components_of(self.estimates)
         fallback = np.broadcast_to((self.rays - 1.0)[..., None],
-                                   self.rays.shape + (channels.count,))
-        self.dof = by_component(dof if dof is not None else dict.fromkeys(
-            self.components, fallback), self.components, float)
-        self.inflation = None if inflation is None else by_component(
-            inflation, self.components, float)
-        self.realisation_rays = realisation_rays
-        self.ray_errors = None if ray_errors is None else by_component(
-            ray_errors, self.components, float)
-        self.sums = None if sums is None else by_component(sums, self.components)
-        self.sums_sq = None if sums_sq is None else by_component(sums_sq, self.components)
-        self.lost = lost
-        self.sh = None if sh is None else by_component(sh, self.components, float)
-        self.sh_err = None if sh_err is None else by_component(sh_err, self.components,
-                                                                float)
-        self.sh_sums = None if sh_sums is None else by_component(sh_sums, self.components)
-        self.sh_sums_sq = None if sh_sums_sq is None else by_component(sh_sums_sq,
-                                                                        self.components)
-        self.realisation_albedo = None if realisation_albedo is None else by_component(
-            realisation_albedo, self.components, float)
-        self.wavelets = wavelets
+                                   self.rays.shape + (self.channels.count,))
+        put("components", components)
+        put("estimates", ByComponent(
+            (c, e if e.dof is not None else replace(e, dof=fallback))
+            for c, e in by_component(self.estimates, components).items()))
+
+    def __getitem__(self, name: str) -> ComponentEstimate:
+        """One component's estimate, by any of its names (``"single"`` is ``"order1"``).
+
+        Raises
+        ------
+        ValueError
+            If the name is not a component, or not one this table holds.
+        """
+        return self.estimates[self.component(name)]
+
+    def with_estimate(self, name: str, **fields: np.ndarray | None) -> BRDFTable:
+        """A copy with fields of one component's estimate replaced
+        (``ComponentEstimate``'s names)."""
+        name = self.component(name)
+        return replace(self, estimates={**self.estimates,
+                                        name: replace(self.estimates[name], **fields)})
+
+    @property
+    def has_sh(self) -> bool:
+        """Whether the table holds spherical harmonics with their errors."""
+        total = self.estimates["total"]
+        return total.sh is not None and total.sh_err is not None
+
+    @property
+    def fresh(self) -> bool:
+        """Whether the table holds the raw sums of its estimate (it was estimated here,
+        not read from a file)."""
+        return self.estimates["total"].sums is not None
 
     # --- derived quantities ------------------------------------------------------------
     @property
     def sh_order(self) -> int:
         """Order L of the stored spherical harmonics (0 when there are none)."""
-        if self.sh is None:
+        if not self.has_sh:
             return 0
-        return sh.order_of(self.sh["total"].shape[-2])
+        return sh.order_of(self.estimates["total"].sh.shape[-2])
 
     @property
     def albedo(self) -> np.ndarray:
         """(a, b, 3) directional albedo of all escaping light (all orders)."""
-        return self.albedo_of["total"]
+        return self.estimates["total"].albedo
 
     @property
     def albedo_err(self) -> np.ndarray:
         """(a, b, 3) standard error of ``albedo``."""
-        return self.albedo_err_of["total"]
+        return self.estimates["total"].albedo_err
 
     @property
     def single_albedo(self) -> np.ndarray:
         """(a, b, 3) directional albedo of single scattering."""
-        return self.albedo_of["order1"]
+        return self["order1"].albedo
 
     @property
     def single_albedo_err(self) -> np.ndarray:
         """(a, b, 3) standard error of ``single_albedo``."""
-        return self.albedo_err_of["order1"]
+        return self["order1"].albedo_err
 
     @property
     def orders(self) -> int | None:
@@ -250,15 +301,14 @@ class BRDFTable:
                   threshold: float = LOBE_FRACTION) -> np.ndarray:
         """(a, b, nt, np) bool: bins whose f_r (mean over RGB) is at least ``threshold``
         times the peak of their incidence."""
-        return lobe_of(self.values[self.component(component)].mean(axis=-1), (2, 3),
+        return lobe_of(self[component].values.mean(axis=-1), (2, 3),
                          threshold)
 
     def median_rel_stderr(self, component: str = "total") -> float:
         """Median relative standard error over the lobe bins of every incidence (NaN
         errors, i.e. empty bins, count as infinitely uncertain)."""
-        component = self.component(component)
-        f = self.values[component].mean(axis=-1)
-        e = self.errors[component].mean(axis=-1)
+        f = self[component].values.mean(axis=-1)
+        e = self[component].errors.mean(axis=-1)
         lobe = self.lobe_mask(component)
         rel = np.where(np.isfinite(e), e, np.inf)[lobe] / f[lobe]
         return float(np.median(rel)) if rel.size else float("nan")
@@ -311,14 +361,14 @@ class BRDFTable:
             return evaluate_wavelets(self.axes, self.wavelets, self.component(component),
                                      wi, wo)
         if representation == "sh":
-            if self.sh is None:
+            if not self.has_sh:
                 raise ValueError("this table holds no spherical harmonics (simulate it with "
                                  "[table] sh_order > 0)")
-            return from_harmonics(self.axes, self.sh[self.component(component)], wi, wo)
+            return from_harmonics(self.axes, self[component].sh, wi, wo)
         if representation != "table":
             raise ValueError(f"representation must be one of {REPRESENTATIONS}, "
                              f"got {representation!r}")
-        return interpolate(self.axes, self.values[self.component(component)], wi, wo)
+        return interpolate(self.axes, self[component].values, wi, wo)
 
     def stderr(self, wi: np.ndarray, wo: np.ndarray, component: str = "total") -> np.ndarray:
         """Interpolated standard error of f_r, with the nodes of ``eval``.
@@ -340,7 +390,7 @@ class BRDFTable:
         (..., 3) float
             Standard error of f_r in 1/sr per colour.
         """
-        return interpolate_error(self.axes, self.errors[self.component(component)], wi, wo)
+        return interpolate_error(self.axes, self[component].errors, wi, wo)
 
 
 def components_of(data: Mapping[str, Any]) -> tuple[str, ...]:
