@@ -300,9 +300,10 @@ Direction = tuple[int, int]
 
 @dataclass(frozen=True)
 class Incidences:
-    """The axes of a measurement: its incident directions and the outgoing bins it
-    tallies into, made once from the recipe's sections and carried by the measurement,
-    so that the table is assembled from it (``microsim.measurement.simulation.assemble_table``).
+    """The axes of a measurement: its incident directions, the outgoing bins, scattering
+    orders, harmonics and channels it tallies into, made once from the recipe's sections
+    and carried by the measurement, so that its sums and the table are made from it
+    (``microsim.measurement.simulation.assemble_table``).
 
     Attributes
     ----------
@@ -314,12 +315,24 @@ class Incidences:
         One incident azimuth, and outgoing azimuths binned relative to it.
     bins : HemisphereBins
         The outgoing bins.
+    orders : int
+        N: the components are ``components_for(N)``.
+    sh_order : int
+        Order L of the harmonics tallied (0: none).
+    channels : int
+        C, the colour channels (3: RGB; one per wavelength).
+    sh_ray_variance : bool
+        Whether the harmonics' ray variances are tallied (``harmonic_ray_variance``).
     """
 
     theta_deg: tuple[float, ...]
     phi_deg: tuple[float, ...]
     isotropic: bool
     bins: HemisphereBins
+    orders: int
+    sh_order: int
+    channels: int
+    sh_ray_variance: bool
 
     @classmethod
     def of(cls, simulation: Simulation, table: TableSettings, isotropic: bool
@@ -327,7 +340,19 @@ class Incidences:
         """The axes of ``simulation`` and ``table`` for a surface of that symmetry."""
         phi = (0.0,) if isotropic else tuple(float(p) for p in simulation.phi_i)
         return cls(tuple(float(t) for t in simulation.theta_i), phi, bool(isotropic),
-                   HemisphereBins(table.theta_bins, table.phi_bins))
+                   HemisphereBins(table.theta_bins, table.phi_bins), table.orders,
+                   table.sh_order, table.channels.count, harmonic_ray_variance(simulation))
+
+    def new_sums(self) -> Sums:
+        """Empty sums of one run (one direction of one realisation)."""
+        return Sums(self.bins.size, self.sh_order, self.orders, self.channels,
+                    self.sh_ray_variance)
+
+    def new_ensemble(self) -> EnsembleSums:
+        """Empty running sums over realisations for every incident direction."""
+        return EnsembleSums((len(self.theta_deg), len(self.phi_deg)),
+                            components_for(self.orders), self.bins.size, self.sh_order,
+                            self.channels, self.sh_ray_variance)
 
     @property
     def theta_i(self) -> np.ndarray:
@@ -410,7 +435,8 @@ class Measurement:
     inputs : list of TableInput
         Provenance of the tables its facet materials read (``FacetMaterials.inputs``).
     axes : Incidences
-        Its incident directions (the indices of ``runs``' keys) and outgoing bins.
+        Its incident directions (the indices of ``runs``' keys), outgoing bins, orders,
+        harmonics and channels.
     segments : int
         Embree queries traced.
     offset : float
@@ -456,11 +482,11 @@ class Measurement:
         folded = 0 if self.ensemble is None else int(self.ensemble.rays.sum())
         return folded + sum(run.sums.rays for run in self.runs.values())
 
-    def fold(self, key: RunKey, simulation: Simulation, table: TableSettings) -> None:
+    def fold(self, key: RunKey) -> None:
         """Move run ``key`` into the running sums (realisations of a direction in index
         order)."""
         if self.ensemble is None:
-            self.ensemble = new_ensemble(self.axes, simulation, table)
+            self.ensemble = self.axes.new_ensemble()
         fold(self.ensemble, self.energies.setdefault(key[:2], Energies()), key,
              self.runs.pop(key).sums)
 
@@ -471,14 +497,6 @@ def fold(ensemble: EnsembleSums, energies: Energies, key: RunKey, sums: Sums) ->
     ensemble.add((key.theta, key.phi), key.realisation, sums.rays, sums.sums, sums.sums_sq,
                  sums.lost_energy, sums.sh_sums, sums.sh_sums_sq)
     energies.add(sums)
-
-
-def new_ensemble(axes: Incidences, simulation: Simulation, table: TableSettings
-                 ) -> EnsembleSums:
-    """Empty running sums for every incident direction of a measurement's axes."""
-    return EnsembleSums((len(axes.theta_deg), len(axes.phi_deg)),
-                        components_for(table.orders), axes.bins.size, table.sh_order,
-                        table.channels.count, harmonic_ray_variance(simulation))
 
 
 def harmonic_ray_variance(simulation: Simulation) -> bool:
@@ -520,7 +538,7 @@ def trace_realisations(parts: Iterable[Part], materials: Mapping[str, Material],
     materials, simulation, table
         As for ``measure_directions``.
     axes : Incidences
-        The measurement's directions and bins (of the parts' surface).
+        The measurement's directions, bins and tallies (of the parts' surface).
     runs : dict of RunKey to Run
         Runs to continue or start (their sums grow).
     progress : callable or None
@@ -534,8 +552,7 @@ def trace_realisations(parts: Iterable[Part], materials: Mapping[str, Material],
     left: dict[int, list] = {}  # per realisation: batches not added, part, segments, inputs
 
     def new_run() -> Run:
-        return Run(Sums(bins.size, table.sh_order, table.orders, table.channels.count,
-                        harmonic_ray_variance(simulation)))
+        return Run(axes.new_sums())
 
     def batches() -> Iterator[_Batch]:
         for part in parts:

@@ -36,7 +36,6 @@ from microsim.measurement.goniometer import (
     Sums,
     fold,
     lost_energy_warnings,
-    new_ensemble,
     trace_realisations,
 )
 from microsim.measurement.scene import PeriodicScene
@@ -329,7 +328,7 @@ def _trace_round(held: tuple[int, Tile, PeriodicScene] | None, opener: Opener,
         for d, n in work[r].items():
             if fold:
                 traced[d].append(n)
-                done.fold(RunKey(*d, r), simulation, table)
+                done.fold(RunKey(*d, r))
             elif len(traced[d]) <= r:
                 traced[d].append(n)
             else:
@@ -401,7 +400,7 @@ def assemble_table(parts: Sequence[Measurement], materials: Mapping[str, Materia
     if len(summed) == 1 and not any(part.runs for part in parts):
         ensemble, energies = summed[0].ensemble, summed[0].energies  # read, not changed
     else:
-        ensemble, energies = new_ensemble(axes, simulation, table), {}
+        ensemble, energies = axes.new_ensemble(), {}
         for part in summed:
             ensemble.absorb(part.ensemble)
             energies.update({d: Energies(e.energy.copy(), dict(e.fates))
