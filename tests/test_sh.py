@@ -26,6 +26,7 @@ from microsim.tables.binning import HemisphereBins
 from microsim.tables.components import components_for
 from microsim.tables.exr import write_table
 from microsim.tables.meta import TableMeta
+from microsim.tables.principal import principal
 from microsim.tables.sh_error import bin_integrals, order_errors
 from microsim.tables.sh_matrix import MAX_ORDER, brdf_matrix, matrix_eval, write_matrix
 from microsim.tables.table import BRDFTable
@@ -152,6 +153,70 @@ def test_equal_weight_columns_share_one_transform_and_lookalikes_do_not() -> Non
     assert np.array_equal(sums[:, 0], sums[:, 1]) and np.array_equal(sums[:, 0], sums[:, 4])
     wide_direct = sh.basis(16, np.cos(loc[:, 0]), loc[:, 1]).T @ (w * w)
     assert np.abs(wide - wide_direct).max() < 1e-6 * np.abs(wide_direct).max()
+
+
+def spectral_weights(n: int, seed: int) -> np.ndarray:
+    """(n, 32) exit weights of a gold-like conductor at 32 wavelengths: the Fresnel factor
+    at one bounce for two thirds of the rays, the product of two for the rest, with
+    η and k smooth in λ (Johnson & Christy's gold between 400 and 710 nm, roughly)."""
+    from microsim.analytic.fresnel import ConductorFresnel
+
+    rng = np.random.default_rng(seed)
+    x = np.linspace(0.0, 1.0, 32)
+    gold = ConductorFresnel(1.5 - 1.3 * x ** 0.5, 1.8 + 2.6 * x)
+    w = gold.factor(rng.uniform(0.02, 1.0, n))
+    second = rng.random(n) < 1 / 3
+    w[second] *= gold.factor(rng.uniform(0.02, 1.0, int(second.sum())))
+    return w
+
+
+def test_spectral_weights_are_transformed_through_few_principal_components() -> None:
+    """32 channels of conductor weights span few dimensions: ``principal`` keeps at most
+    12 components (measured: 10) whose residual is within ``PRINCIPAL_TOLERANCE`` of the
+    weights' norm, and ``moments`` through them equals its channel-by-channel transforms
+    within the documented bound ``PRINCIPAL_TOLERANCE`` ‖w‖ ‖Y_k‖ plus ducc0's own error
+    (``EPSILON`` of the coefficients' norm), and the direct sums within 1e-6 of their
+    largest, for both moments."""
+    rng = np.random.default_rng(8)
+    n = 6000
+    loc = sh.angles(unit(rng.normal(size=(n, 3))), 0.3)
+    w = spectral_weights(n, 9)
+    found = principal(w.T, sh.PRINCIPAL_TOLERANCE)
+    assert found is not None
+    basis, mix = found
+    assert basis.shape[0] == mix.shape[1] <= 12 and mix.shape[0] == 32
+    np.testing.assert_allclose(mix.T @ mix, np.eye(mix.shape[1]), atol=1e-12)
+    assert np.linalg.norm(w.T - mix @ basis) <= sh.PRINCIPAL_TOLERANCE * np.linalg.norm(w)
+    sums, wide = sh.moments(loc, w, 8)
+    plain = sh.PRINCIPAL_CHANNELS
+    try:
+        sh.PRINCIPAL_CHANNELS = 32
+        each, each_wide = sh.moments(loc, w, 8)
+    finally:
+        sh.PRINCIPAL_CHANNELS = plain
+    for order, got, want, weights in ((8, sums, each, w), (16, wide, each_wide, w * w)):
+        y = sh.basis(order, np.cos(loc[:, 0]), loc[:, 1])
+        bound = (sh.PRINCIPAL_TOLERANCE * np.linalg.norm(weights)
+                 * np.linalg.norm(y, axis=0)[:, None]
+                 + 2 * sh.EPSILON * np.linalg.norm(want, axis=0))
+        assert np.all(np.abs(got - want) <= bound)
+        direct = y.T @ weights
+        assert np.abs(got - direct).max() < 1e-6 * np.abs(direct).max()
+
+
+def test_weights_without_few_principal_components_are_transformed_as_they_are() -> None:
+    """Independent random channels (full rank), zero weights, and a tolerance below what
+    the Gram matrix's rounding allows give no principal components; ``moments`` then
+    transforms the channels themselves, bit for bit as one at a time."""
+    rng = np.random.default_rng(4)
+    loc = sh.angles(unit(rng.normal(size=(3000, 3))), 0.0)
+    w = rng.random((3000, 32))
+    assert principal(w.T, sh.PRINCIPAL_TOLERANCE) is None
+    assert principal(np.zeros((32, 100)), sh.PRINCIPAL_TOLERANCE) is None
+    assert principal(spectral_weights(3000, 1).T, 1e-12) is None
+    sums, _ = sh.moments(loc, w, 6, second=False)
+    for c in (0, 17, 31):
+        assert np.array_equal(sums[:, c], sh.moments(loc, w[:, c:c + 1], 6, second=False)[0][:, 0])
 
 
 def test_windows() -> None:

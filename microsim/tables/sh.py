@@ -34,6 +34,17 @@ EPSILON = 1e-7
 """Relative accuracy asked of ducc0's non-uniform transform (its error, measured at ~5e-10
 of the coefficient vector's norm at 65 536 samples, is far below any Monte Carlo error;
 1e-10 costs 1.6 times as much at order 32 and 3 times at order 64)."""
+PRINCIPAL_CHANNELS = 8
+"""Weights of more distinct channels than this (spectral tables) are transformed through
+their principal components where they have few (``microsim.tables.principal``); RGB's
+are transformed
+channel by channel."""
+PRINCIPAL_TOLERANCE = EPSILON
+"""Relative Frobenius residual of the principal components kept
+(``microsim.tables.principal``), the
+accuracy asked of ducc0's transform itself: the sums are off by at most this fraction of
+‖w‖ ‖Y_k‖. Not much lower: the Gram matrix's rounding (~1e-16 of its trace) is a
+residual of ~1e-8."""
 
 
 def size(order: int) -> int:
@@ -215,12 +226,37 @@ def project(loc: np.ndarray, weights: np.ndarray, order: int,
     return moments(loc, weights, order, mapper, second=False)[0]
 
 
+def _reduced(rows: list[np.ndarray]) -> tuple[list[np.ndarray], np.ndarray | None]:
+    """The rows to transform instead of ``rows`` and the mix that turns their transforms
+    into the rows' (``microsim.tables.principal``; None: the rows themselves), principal
+    components only of more than ``PRINCIPAL_CHANNELS`` rows."""
+    if len(rows) <= PRINCIPAL_CHANNELS:
+        return rows, None
+    from microsim.tables.principal import principal  # compiled: loaded when first needed
+
+    found = principal(np.array(rows), PRINCIPAL_TOLERANCE)
+    return (rows, None) if found is None else (list(found[0]), found[1])
+
+
+def _mixed(done: list[np.ndarray], mix: np.ndarray | None) -> list[np.ndarray]:
+    """Transforms of the rows ``_reduced`` gave, as the transforms of the rows it was
+    given."""
+    if mix is None:
+        return done
+    from microsim.tables.principal import mixed
+
+    return list(mixed(np.stack(done), mix))
+
+
 def moments(loc: np.ndarray, weights: np.ndarray, order: int, mapper: Mapper | None = None,
             second: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
     """Σ w Y_k to order L and Σ w² Y_K to order 2L (``second_moments`` turns the latter
     into Σ (w Y_k)²), one transform per distinct column and moment, run by ``mapper``;
     a column equal to its square (weights 0 or 1) takes Σ w Y_k from its order-2L
-    transform (one transform instead of two, to ducc0's accuracy, ``EPSILON``).
+    transform (one transform instead of two, to ducc0's accuracy, ``EPSILON``). More than
+    ``PRINCIPAL_CHANNELS`` distinct columns (a spectral table's) are transformed through
+    their principal components where they have few (``microsim.tables.principal``: to
+    ``PRINCIPAL_TOLERANCE`` of the weights' norm).
 
     Parameters
     ----------
@@ -247,14 +283,16 @@ def moments(loc: np.ndarray, weights: np.ndarray, order: int, mapper: Mapper | N
     # from the order-2L transform of w² = w, whose first (L + 1)² coefficients they are
     own = [bool(squares) and np.array_equal(squares[i], columns[j])
            for i, j in enumerate(first)]
-    jobs = [(columns[j], order) for i, j in enumerate(first) if not own[i]]
-    jobs += [(w2, 2 * order) for w2 in squares]
+    narrow, narrow_mix = _reduced([columns[j] for i, j in enumerate(first) if not own[i]])
+    wide, wide_mix = _reduced(squares)
+    jobs = [(w, order) for w in narrow] + [(w2, 2 * order) for w2 in wide]
     done = (mapper or _in_order)(lambda i: _transform(loc, *jobs[i]), range(len(jobs)))
-    wide = done[len(jobs) - len(squares):]
-    narrow = iter(done[:len(jobs) - len(squares)])
-    columns = [wide[i][:size(order)] if own[i] else next(narrow) for i in range(len(first))]
+    wide_sums = _mixed(done[len(narrow):], wide_mix)
+    narrow_sums = iter(_mixed(done[:len(narrow)], narrow_mix))
+    columns = [wide_sums[i][:size(order)] if own[i] else next(narrow_sums)
+               for i in range(len(first))]
     sums = np.stack(columns, axis=1)[:, which]
-    return sums, np.stack(wide, axis=1)[:, which] if second else None
+    return sums, np.stack(wide_sums, axis=1)[:, which] if second else None
 
 
 @lru_cache(maxsize=8)
