@@ -5,12 +5,11 @@ them (the realised roughness, the facets' Fresnel or albedo, the fibres' geometr
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from microsim.analytic.brdf import TorranceSparrow
 from microsim.analytic.ndf import Beckmann
+from microsim.schema import Value
 from microsim.spectra.channels import RGB
 from microsim.surfaces.facts import CylinderFacts, WeaveFacts
 from microsim.tables.meta import TableMeta
@@ -38,7 +37,7 @@ FIBRE_PARTS = ("cylinder", "fibre")
 """Parts whose material a fibre model describes (the rest is the base)."""
 
 
-class ModelDefaults(dict):
+class ModelDefaults(dict[str, Value]):
     """Model parameters a table implies, by key (a ``dict``), with where each came from.
 
     Attributes
@@ -53,9 +52,9 @@ class ModelDefaults(dict):
     def __init__(self) -> None:
         super().__init__()
         self.sources: dict[str, str] = {}
-        self.for_model: dict[str, dict[str, Any]] = {}
+        self.for_model: dict[str, dict[str, Value]] = {}
 
-    def put(self, key: str, value: Any, source: str) -> None:
+    def put(self, key: str, value: Value, source: str) -> None:
         """Set ``key`` to ``value``, from ``source``."""
         self[key] = value
         self.sources[key] = source
