@@ -234,9 +234,9 @@ def unknown_kind(where: str, kind: Any, kinds: Iterable[str]) -> InputError:
                       + suggest(str(kind), kinds))
 
 
-def parse_kind(kinds: Mapping[str, Any], raw: Mapping[str, Any], where: str) -> Any:
+def parse_kind(kinds: Mapping[str, type[R]], raw: Mapping[str, Any], where: str) -> R:
     """A section with ``kind`` validated into that kind's record: ``kinds[kind].parse``
-    of the other keys (a material, a surface).
+    of the other keys (a material, a surface; ``kinds``: the record type of each kind).
 
     Raises
     ------
@@ -249,7 +249,7 @@ def parse_kind(kinds: Mapping[str, Any], raw: Mapping[str, Any], where: str) -> 
     return kinds[kind].parse({k: v for k, v in raw.items() if k != "kind"}, where)
 
 
-def kind_from_json(kinds: Mapping[str, Any], data: Mapping[str, Any], what: str) -> Any:
+def kind_from_json(kinds: Mapping[str, type[R]], data: Mapping[str, Any], what: str) -> R:
     """The record of the JSON a table file holds of a section with ``kind``
     (``kinds[kind].from_json`` of the other keys; ``what`` names the section)."""
     kind = data.get("kind")
