@@ -38,13 +38,14 @@ FIBRE_PARTS = ("cylinder", "fibre")
 
 
 class ModelDefaults(dict[str, Value]):
-    """Model parameters a table implies, by key (a ``dict``), with where each came from.
+    """Model parameters a table implies, by key (a ``dict`` of ``Value``, as a model spec's
+    checked parameters), with where each came from.
 
     Attributes
     ----------
     sources : dict of str to str
         Per key, its source in words, e.g. ``"the table's realised alpha"``.
-    for_model : dict of str to dict
+    for_model : dict of str to dict of str to Value
         Keys that apply to one model only, by model name (the table's measured albedo is
         a Lambertian model's albedo, not an Oren-Nayar facet albedo).
     """
