@@ -268,9 +268,74 @@ def _reads(path: Path) -> bool:
     return True
 
 
+@dataclass(frozen=True)
+class BatchProgress:
+    """How far a batch is, after one more finished job (``run_batch``'s ``progress``).
+
+    Attributes
+    ----------
+    tables_done, tables : int
+        Tables done (kept from the manifest, computed or failed), of the sweep's.
+    jobs_done, jobs : int
+        Jobs finished (or cancelled with their table), of those submitted.
+    rays : int
+        Rays traced in this run.
+    elapsed : float
+        Seconds since the run started.
+    """
+
+    tables_done: int
+    tables: int
+    jobs_done: int
+    jobs: int
+    rays: int
+    elapsed: float
+
+
+@dataclass(frozen=True)
+class BatchSummary:
+    """What a batch did (``run_batch``).
+
+    Attributes
+    ----------
+    output : str
+        The batch folder.
+    tables : int
+        Tables of the sweep.
+    computed, skipped : list of str
+        Names of the tables computed in this run, in the order they were done, and of
+        those the manifest held as done, sorted.
+    failed : dict of str to str
+        Per table that failed, its error.
+    jobs : int
+        Jobs submitted.
+    rays : int
+        Rays traced in this run.
+    wall_s : float
+        Seconds the run took.
+    """
+
+    output: str
+    tables: int
+    computed: list[str]
+    skipped: list[str]
+    failed: dict[str, str]
+    jobs: int
+    rays: int
+    wall_s: float
+
+    def to_json(self) -> dict[str, Any]:
+        """As ``microsim batch --json`` prints it: ``failed`` a list of ``table`` and
+        ``error``."""
+        return {"output": self.output, "tables": self.tables, "computed": self.computed,
+                "skipped": self.skipped, "failed": [{"table": n, "error": e}
+                                                    for n, e in self.failed.items()],
+                "jobs": self.jobs, "rays": self.rays, "wall_s": self.wall_s}
+
+
 def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool = True,
-              threads: int = 1, progress: Callable[[dict[str, Any]], None] | None = None
-              ) -> dict[str, Any]:
+              threads: int = 1, progress: Callable[[BatchProgress], None] | None = None
+              ) -> BatchSummary:
     """Run a sweep on a Dask client; write ``folder/<point>.exr`` and the manifest.
 
     Parameters
@@ -287,14 +352,11 @@ def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool 
     threads : int
         Tracing threads per job.
     progress : callable or None
-        Called after every finished job with ``tables_done``, ``tables``, ``jobs_done``,
-        ``jobs``, ``rays`` (traced in this run) and ``elapsed`` (seconds).
+        Called after every finished job with a ``BatchProgress``.
 
     Returns
     -------
-    dict
-        ``output``, ``tables`` (count), ``computed``, ``skipped`` and ``failed`` (lists of
-        names; ``failed`` with the errors), ``jobs``, ``rays``, ``wall_s``.
+    BatchSummary
     """
     from distributed import as_completed
 
@@ -356,14 +418,11 @@ def run_batch(sweep: Sweep, folder: str | Path, client: Client, *, resume: bool 
                     _finish(folder, manifest, points[job.table], parts.pop(job.table),
                             warnings[job.table], job_time[job.table])
             if progress is not None:
-                progress({"tables_done": len(keep) + len(computed) + len(failed),
-                          "tables": len(sweep.points), "jobs_done": jobs_done,
-                          "jobs": len(futures), "rays": rays,
-                          "elapsed": time.perf_counter() - start})
-    return {"output": str(folder), "tables": len(sweep.points), "computed": computed,
-            "skipped": sorted(keep), "failed": [{"table": n, "error": e}
-                                                for n, e in failed.items()],
-            "jobs": len(futures), "rays": rays, "wall_s": time.perf_counter() - start}
+                progress(BatchProgress(len(keep) + len(computed) + len(failed),
+                                       len(sweep.points), jobs_done, len(futures), rays,
+                                       time.perf_counter() - start))
+    return BatchSummary(str(folder), len(sweep.points), computed, sorted(keep), failed,
+                        len(futures), rays, time.perf_counter() - start)
 
 
 def _finish(folder: Path, manifest: Manifest, point: Point, parts: list[Measurement],

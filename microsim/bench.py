@@ -39,7 +39,7 @@ import tempfile
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import astuple, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -61,7 +61,8 @@ from microsim.measurement.scene import PeriodicScene
 from microsim.measurement.simulation import simulate
 from microsim.plots.layout import save
 from microsim.recipe import resolve
-from microsim.surfaces import build_tile
+from microsim.schema import Toml
+from microsim.surfaces import Tile, build_tile
 
 COLUMNS = ("case", "rays", "tile_resolution", "cells_per_correlation", "table_bins",
            "wall_s", "segments", "segments_per_s", "bare_rays_per_s", "ratio", "error",
@@ -173,16 +174,75 @@ def surface_rays(scene: PeriodicScene, n: int, seed: int) -> tuple[np.ndarray, n
     return scene.offset(points, normals, dirs), dirs
 
 
-def gaussian(alpha: float, resolution: int, seed: int) -> dict[str, Any]:
+def gaussian(alpha: float, resolution: int, seed: int) -> dict[str, Toml]:
     """A Gaussian ``[surface]`` with ``LENGTHS`` correlation lengths per side."""
     return {"kind": "gaussian", "alpha": alpha, "resolution": resolution, "seed": seed,
             "correlation_length": 1.0 / LENGTHS}
 
 
-def run_tables(case: str, surface: dict[str, Any], material: str, theta: list[float],
+@dataclass(frozen=True)
+class Run:
+    """One run of a case, scored (``run_tables``, ``g1_rows``).
+
+    Attributes
+    ----------
+    case : str
+        ``"ts"``, ``"g1"``, ``"vgroove"``, ``"furnace"`` or ``"ms"``.
+    rays : int
+        Rays over all incident directions.
+    tile_resolution : int
+        Cells per side of a Gaussian tile (0: the V-grooves).
+    table_bins : int
+        θo bins of the table (0: a G1 case, no table).
+    wall_s : float
+        Wall time of the trace, seconds.
+    segments : int
+        Ray segments traced.
+    segments_per_s : float
+        Of the trace (a table's: scene build excluded).
+    error, stderr : float
+        The case's error and standard error (the module's list of cases).
+    """
+
+    case: str
+    rays: int
+    tile_resolution: int
+    table_bins: int
+    wall_s: float
+    segments: int
+    segments_per_s: float
+    error: float
+    stderr: float
+
+
+@dataclass(frozen=True)
+class Row(Run):
+    """A run with bare Embree timed on its tile: a row of the CSV (``COLUMNS``).
+
+    Attributes
+    ----------
+    bare_rays_per_s : float
+        Closest-hit queries per second of bare Embree on rays from the same tile
+        (``bare_rays_per_second``, median of 3).
+    """
+
+    bare_rays_per_s: float
+
+    @property
+    def ratio(self) -> float:
+        """Traced segments per second over bare Embree's rays per second."""
+        return self.segments_per_s / self.bare_rays_per_s
+
+    @property
+    def cells_per_correlation(self) -> float:
+        """Tile cells per correlation length (``LENGTHS`` per side)."""
+        return self.tile_resolution / LENGTHS
+
+
+def run_tables(case: str, surface: dict[str, Toml], material: str, theta: list[float],
                rays: int, bins: int, bounces: int, seed: int,
-               score: Callable[[Any], tuple[float, float]]) -> dict[str, Any]:
-    """Simulate one table and score it; the row of the CSV."""
+               score: Callable[[Any], tuple[float, float]]) -> tuple[Run, Tile]:
+    """Simulate one table and score it: the run and its tile."""
     r = resolve({"surface": surface, "material": {"kind": material},
                  "simulation": {"theta_i": theta, "rays": rays, "bounces": bounces,
                                 "seed": seed},
@@ -193,11 +253,9 @@ def run_tables(case: str, surface: dict[str, Any], material: str, theta: list[fl
     table = simulate(tile, r.material, r.simulation, r.table, recipe=r)
     wall = time.perf_counter() - start
     error, stderr = score(table)
-    return {"case": case, "rays": rays * len(theta), "wall_s": wall,
-            "tile_resolution": surface.get("resolution", 0),
-            "segments": table.meta.segments, "table_bins": bins,
-            "segments_per_s": table.meta.timing.segments_per_second, "error": error,
-            "stderr": stderr, "tile": tile}
+    return Run(case, rays * len(theta), surface.get("resolution", 0), bins, wall,
+               table.meta.segments, table.meta.timing.segments_per_second, error,
+               stderr), tile
 
 
 def score_ts(table: Any) -> tuple[float, float]:
@@ -256,20 +314,18 @@ def score_furnace(table: Any) -> tuple[float, float]:
     return float((1.0 - table.albedo).mean()), float(np.nanmean(table.albedo_err))
 
 
-def g1_rows(case: str, tile: Any, resolution: int, theta: list[float], rays: int,
-            reference: np.ndarray, seed: int) -> dict[str, Any]:
-    """Trace G1 at ``theta`` (degrees, φ = 0) and score it against ``reference``."""
+def g1_rows(case: str, tile: Tile, resolution: int, theta: list[float], rays: int,
+            reference: np.ndarray, seed: int) -> tuple[Run, Tile]:
+    """Trace G1 at ``theta`` (degrees, φ = 0) and score it against ``reference``: the run
+    and its tile."""
     with PeriodicScene(tile) as scene:
         start = time.perf_counter()
         g1, err = measure_g1(scene, np.radians(theta), 0.0, rays,
                              np.random.default_rng(seed))
         wall = time.perf_counter() - start
         segments = scene.segments
-    return {"case": case, "rays": rays * len(theta), "wall_s": wall, "segments": segments,
-            "tile_resolution": resolution,
-            "segments_per_s": segments / wall, "table_bins": 0,
-            "error": float(np.abs(g1 - reference).mean()), "stderr": float(err.mean()),
-            "tile": tile}
+    return Run(case, rays * len(theta), resolution, 0, wall, segments, segments / wall,
+               float(np.abs(g1 - reference).mean()), float(err.mean())), tile
 
 
 def vcavity_reference(slope: float, theta: np.ndarray) -> np.ndarray:
@@ -287,7 +343,7 @@ def vcavity_reference(slope: float, theta: np.ndarray) -> np.ndarray:
 
 
 def sweep(quick: bool, seed: int = 1, threads: int = 2,
-          progress: Callable[[int, int], None] | None = None) -> list[dict[str, Any]]:
+          progress: Callable[[int, int], None] | None = None) -> list[Row]:
     """Run every case over the sweep; each row also times bare Embree on its tile
     (``surface_rays``, median of 3). ``progress(done, total)``, where given, is called
     as each tile resolution, the V-grooves and the bare-Embree timings end.
@@ -302,19 +358,19 @@ def sweep(quick: bool, seed: int = 1, threads: int = 2,
     rays = [int(round(r, -2)) for r in rays]
     resolutions = [64, 128, 256] if quick else [64, 128, 256, 512]
     table_bins = [8, 16] if quick else [16, 32]
-    rows = []
+    runs = []
     steps = len(resolutions) + 2
     for step, res in enumerate(resolutions, 1):
         for bins in table_bins:
             for n in rays if bins == table_bins[0] else rays[-1:]:
-                rows.append(run_tables("ts", gaussian(0.3, res, seed), "mirror",
+                runs.append(run_tables("ts", gaussian(0.3, res, seed), "mirror",
                                        [0.0, 45.0, 75.0], n, bins, 16, seed, score_ts))
         g1_theta = [60.0, 80.0, 88.0]
         tile = build_tile(resolve({"surface": gaussian(0.5, res, seed)}).surface)
         w = direction(np.radians(g1_theta), 0.0)
         smith = Beckmann(tile.facts.alpha_realised.alpha).G1(w)
-        rows += [g1_rows("g1", tile, res, g1_theta, n, smith, seed) for n in rays]
-        rows.append(run_tables("furnace", gaussian(0.5, res, seed), "mirror",
+        runs += [g1_rows("g1", tile, res, g1_theta, n, smith, seed) for n in rays]
+        runs.append(run_tables("furnace", gaussian(0.5, res, seed), "mirror",
                                [0.0, 60.0, 85.0], rays[2], table_bins[0], 64, seed,
                                score_furnace))
         if res == MS_RESOLUTION:
@@ -322,7 +378,7 @@ def sweep(quick: bool, seed: int = 1, threads: int = 2,
             alpha = build_tile(resolve({"surface": surface}).surface).facts.alpha_realised.alpha
             model = FrozenBins(SmithMultipleScattering(Beckmann(alpha),
                                                        samples=MS_SAMPLES[quick], seed=seed))
-            rows += [run_tables("ms", surface, "mirror", [0.0, 45.0, 75.0], n,
+            runs += [run_tables("ms", surface, "mirror", [0.0, 45.0, 75.0], n,
                                 table_bins[0], 32, seed, lambda t, m=model: score_ms(t, m))
                      for n in rays]
         if progress is not None:
@@ -331,18 +387,16 @@ def sweep(quick: bool, seed: int = 1, threads: int = 2,
                                          "grooves": 16}}).surface)
     vg_theta = [30.0, 60.0, 80.0]
     reference = vcavity_reference(math.radians(45.0), np.radians(vg_theta))
-    rows += [g1_rows("vgroove", vg, 0, vg_theta, n, reference, seed) for n in rays]
+    runs += [g1_rows("vgroove", vg, 0, vg_theta, n, reference, seed) for n in rays]
     if progress is not None:
         progress(steps - 1, steps)
-    for row in rows:
-        tile = row.pop("tile")
+    rows = []
+    for run, tile in runs:
         with PeriodicScene(tile, threads=1) as scene:
             o, d = surface_rays(scene, 100_000, seed)
         bare = bare_scene(tile.vertices, tile.faces)
-        row["bare_rays_per_s"] = statistics.median(
-            bare_rays_per_second(bare, o, d, threads) for _ in range(3))
-        row["ratio"] = row["segments_per_s"] / row["bare_rays_per_s"]
-        row["cells_per_correlation"] = row["tile_resolution"] / LENGTHS
+        rows.append(Row(*astuple(run), statistics.median(
+            bare_rays_per_second(bare, o, d, threads) for _ in range(3))))
     if progress is not None:
         progress(steps, steps)
     return rows
@@ -354,16 +408,16 @@ PLOTS = ("error_vs_time.png", "bias_floor.png")
 """The figures ``plot`` writes in the output folder."""
 
 
-def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
+def write_csv(rows: list[Row], path: Path) -> None:
     """The sweep as CSV (``COLUMNS``), atomically."""
     with atomic_path(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=COLUMNS)
         writer.writeheader()
         for row in rows:
-            writer.writerow({k: row[k] for k in COLUMNS})
+            writer.writerow({k: getattr(row, k) for k in COLUMNS})
 
 
-def plot(rows: list[dict[str, Any]], out: Path) -> list[Path]:
+def plot(rows: list[Row], out: Path) -> list[Path]:
     """``error_vs_time.png`` (log-log, case ts, one line per tile resolution, with the
     1/√t noise slope, and case ms) and ``bias_floor.png`` (the error at the most rays
     against cells per correlation length, for ts and g1)."""
@@ -372,25 +426,25 @@ def plot(rows: list[dict[str, Any]], out: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    ts = [r for r in rows if r["case"] == "ts"]
-    bins0 = min(r["table_bins"] for r in ts)
+    ts = [r for r in rows if r.case == "ts"]
+    bins0 = min(r.table_bins for r in ts)
     fig, ax = plt.subplots(figsize=(6, 4.2))
-    for res in sorted({r["tile_resolution"] for r in ts}):
-        sel = sorted((r for r in ts if r["tile_resolution"] == res and
-                      r["table_bins"] == bins0), key=lambda r: r["wall_s"])
-        t = np.array([r["wall_s"] for r in sel])
-        ax.loglog(t, [r["error"] for r in sel], "o-",
+    for res in sorted({r.tile_resolution for r in ts}):
+        sel = sorted((r for r in ts if r.tile_resolution == res and
+                      r.table_bins == bins0), key=lambda r: r.wall_s)
+        t = np.array([r.wall_s for r in sel])
+        ax.loglog(t, [r.error for r in sel], "o-",
                   label=f"{res}² ({res // LENGTHS} cells per τ)")
-        ax.loglog(t, [r["stderr"] for r in sel], ":", color=ax.lines[-1].get_color())
-    ms = sorted((r for r in rows if r["case"] == "ms"), key=lambda r: r["wall_s"])
+        ax.loglog(t, [r.stderr for r in sel], ":", color=ax.lines[-1].get_color())
+    ms = sorted((r for r in rows if r.case == "ms"), key=lambda r: r.wall_s)
     if ms:
-        t = np.array([r["wall_s"] for r in ms])
-        ax.loglog(t, [r["error"] for r in ms], "s-", color="k", ms=4,
+        t = np.array([r.wall_s for r in ms])
+        ax.loglog(t, [r.error for r in ms], "s-", color="k", ms=4,
                   label=f"ms: α = 0.6, all orders vs beckmann-ms ({MS_RESOLUTION}²)")
-        ax.loglog(t, [r["stderr"] for r in ms], ":", color="k")
-    t0 = min(r["wall_s"] for r in ts)
-    e0 = max(r["stderr"] for r in ts)
-    tt = np.array([t0, max(r["wall_s"] for r in ts)])
+        ax.loglog(t, [r.stderr for r in ms], ":", color="k")
+    t0 = min(r.wall_s for r in ts)
+    e0 = max(r.stderr for r in ts)
+    tt = np.array([t0, max(r.wall_s for r in ts)])
     ax.loglog(tt, e0 * np.sqrt(t0 / tt), "k--", lw=1, label="1/√t (noise)")
     ax.set_xlabel("wall time (s)")
     ax.set_ylabel("median relative error over lobe bins")
@@ -405,10 +459,10 @@ def plot(rows: list[dict[str, Any]], out: Path) -> list[Path]:
     fig, ax = plt.subplots(figsize=(6, 4.2))
     for case, label in (("ts", "ts: median relative error against the model"),
                         ("g1", "g1: mean |G1 − Smith|")):
-        sel = [r for r in rows if r["case"] == case and r["table_bins"] in (0, bins0)]
-        most = max(r["rays"] for r in sel)
-        pts = sorted((r["cells_per_correlation"], r["error"], r["stderr"]) for r in sel
-                     if r["rays"] == most)
+        sel = [r for r in rows if r.case == case and r.table_bins in (0, bins0)]
+        most = max(r.rays for r in sel)
+        pts = sorted((r.cells_per_correlation, r.error, r.stderr) for r in sel
+                     if r.rays == most)
         ax.errorbar([p[0] for p in pts], [p[1] for p in pts], yerr=[p[2] for p in pts],
                     fmt="o-", label=label, capsize=3)
     ax.set_xscale("log", base=2)

@@ -37,6 +37,7 @@ from microsim.schema import (
     REQUIRED,
     TOML_LIMITS,
     Key,
+    Value,
     check_section,
     parse_value,
     suggest,
@@ -212,7 +213,7 @@ them, with rays − 1 degrees of freedom; one ray per realisation would leave ev
 undefined (NaN)."""
 
 
-def _check_rays_per_realisation(sim: dict[str, Any], default: bool) -> None:
+def _check_rays_per_realisation(sim: dict[str, Value], default: bool) -> None:
     """Refuse ``simulation.rays`` below ``MIN_RAYS_PER_REALISATION`` per realisation; when
     the realisations are the generator's default (``default``), lower them instead, with
     a warning."""

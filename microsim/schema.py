@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import datetime
 import difflib
 import math
 import tomllib
@@ -23,6 +24,16 @@ R = TypeVar("R")
 
 REQUIRED: Any = "<required>"
 """Marker for a key without a default."""
+
+Toml = (str | int | float | bool | datetime.datetime | datetime.date | datetime.time
+        | list["Toml"] | dict[str, "Toml"])
+"""A value as ``tomllib`` reads it."""
+
+Value = float | int | bool | str | list[float] | dict[str, Toml]
+"""A key's value as ``check_value`` returns it: a number, a bool, a string, a list of
+numbers (the list kinds, and a number given for a colour or a ``"floats"`` key), or a
+table (``"coating"``, and a ``"spectrum"`` or ``"index"`` as ``{ nm, value }``) as read,
+which its own reader checks further."""
 
 
 @dataclass(frozen=True)
@@ -223,9 +234,9 @@ def unknown_kind(where: str, kind: Any, kinds: Iterable[str]) -> InputError:
                       + suggest(str(kind), kinds))
 
 
-def parse_kind(kinds: Mapping[str, Any], raw: Mapping[str, Any], where: str) -> Any:
+def parse_kind(kinds: Mapping[str, type[R]], raw: Mapping[str, Any], where: str) -> R:
     """A section with ``kind`` validated into that kind's record: ``kinds[kind].parse``
-    of the other keys (a material, a surface).
+    of the other keys (a material, a surface; ``kinds``: the record type of each kind).
 
     Raises
     ------
@@ -238,7 +249,7 @@ def parse_kind(kinds: Mapping[str, Any], raw: Mapping[str, Any], where: str) -> 
     return kinds[kind].parse({k: v for k, v in raw.items() if k != "kind"}, where)
 
 
-def kind_from_json(kinds: Mapping[str, Any], data: Mapping[str, Any], what: str) -> Any:
+def kind_from_json(kinds: Mapping[str, type[R]], data: Mapping[str, Any], what: str) -> R:
     """The record of the JSON a table file holds of a section with ``kind``
     (``kinds[kind].from_json`` of the other keys; ``what`` names the section)."""
     kind = data.get("kind")
@@ -269,7 +280,7 @@ def _number(value: Any, name: str, key: Key, integer: bool = False) -> float | i
     return value if integer else float(value)
 
 
-def check_value(value: Any, name: str, key: Key) -> Any:
+def check_value(value: Any, name: str, key: Key) -> Value:
     """Validate one value against its key and return it in canonical form.
 
     Parameters
@@ -283,9 +294,9 @@ def check_value(value: Any, name: str, key: Key) -> Any:
 
     Returns
     -------
-    Any
+    Value
         ``float`` for floats, ``int`` for ints, a list of floats for list kinds (``"rgb"``
-        always becomes three floats).
+        always becomes three floats), a copy of the table for a table.
     """
     bad = InputError(f"{name} = {value!r}: must be {key.allowed()}")
     if key.kind == "float":
@@ -331,7 +342,8 @@ def check_value(value: Any, name: str, key: Key) -> Any:
     return numbers
 
 
-def check_section(raw: Mapping[str, Any], keys: Mapping[str, Key], where: str) -> dict:
+def check_section(raw: Mapping[str, Any], keys: Mapping[str, Key], where: str
+                  ) -> dict[str, Value]:
     """Validate a table against a schema and fill in defaults.
 
     Parameters
@@ -345,7 +357,7 @@ def check_section(raw: Mapping[str, Any], keys: Mapping[str, Key], where: str) -
 
     Returns
     -------
-    dict
+    dict of str to Value
         Every key of the schema that is given or has a default.
     """
     for name in raw:
@@ -367,7 +379,7 @@ TOML_LIMITS = ("nested too deeply or holding an integer of more than 4300 digits
 """Why TOML that parses as text still cannot be read."""
 
 
-def parse_value(text: str, name: str = "value") -> Any:
+def parse_value(text: str, name: str = "value") -> Toml:
     """A command-line value read as TOML (``0.3``, ``[0, 45]``, ``"x"``, ``true``); a bare
     word that is not valid TOML is taken as a string.
 

@@ -32,7 +32,7 @@ import numpy as np
 from microsim.errors import InputError
 from microsim.files import file_digest
 from microsim.recipe import SECTIONS, path_keys, read_toml, resolve_in
-from microsim.schema import Key, check_section, unknown_key
+from microsim.schema import Key, Toml, check_section, unknown_key
 from microsim.settings import Recipe
 from microsim.version import __version__
 
@@ -71,14 +71,14 @@ def recipe_hash(recipe: Recipe) -> str:
     return hashlib.sha256(canonical(made_of).encode()).hexdigest()
 
 
-def point_seed(seed: int, values: Mapping[str, Any]) -> int:
+def point_seed(seed: int, values: Mapping[str, Toml]) -> int:
     """The seed of one sweep point: ``SeedSequence(seed, spawn_key=key)``, first 63 bits.
 
     Parameters
     ----------
     seed : int
         The sweep seed.
-    values : mapping of str to Any
+    values : mapping of str to Toml
         The point's axis values; the key is the first 128 bits of the SHA-256 of their
         canonical JSON as four 32-bit words (stable across runs and machines, unlike
         Python's salted ``hash``).
@@ -102,8 +102,8 @@ class Point:
     ----------
     name : str
         The file stem, readable: ``alpha=0.1_kind=mirror``.
-    values : dict of str to Any
-        Axis key to value.
+    values : dict of str to Toml
+        Axis key to value, as the sweep file gives it.
     recipe : Recipe
         The resolved recipe, ``simulation.seed`` set to the point's seed.
     hash : str
@@ -111,7 +111,7 @@ class Point:
     """
 
     name: str
-    values: dict[str, Any]
+    values: dict[str, Toml]
     recipe: Recipe
     hash: str
 
@@ -139,7 +139,7 @@ class Sweep:
     description: str = ""
 
 
-def _label(value: Any) -> str:
+def _label(value: Toml) -> str:
     """A value as it appears in a table's name."""
     if isinstance(value, list):
         return ",".join(_label(v) for v in value)
@@ -148,7 +148,7 @@ def _label(value: Any) -> str:
     return repr(value) if isinstance(value, float) else str(value)
 
 
-def _names(keys: list[str], combos: list[tuple[Any, ...]]) -> list[str]:
+def _names(keys: list[str], combos: list[tuple[Toml, ...]]) -> list[str]:
     """Readable, file-safe names: ``<last key part>=<value>`` joined by ``_`` (the whole
     dotted key where two axes end alike)."""
     ends = [k.rsplit(".", 1)[-1] for k in keys]
@@ -158,7 +158,7 @@ def _names(keys: list[str], combos: list[tuple[Any, ...]]) -> list[str]:
         for combo in combos]
 
 
-def _axes(raw: Any, where: str) -> dict[str, list[Any]]:
+def _axes(raw: Any, where: str) -> dict[str, list[Toml]]:
     """Check the ``[sweep]`` table: dotted recipe keys to non-empty arrays of values."""
     if not isinstance(raw, Mapping) or not raw:
         raise InputError(f"{where}sweep: missing or empty; give a [sweep] table of axes, e.g. "

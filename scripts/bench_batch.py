@@ -60,13 +60,13 @@ def timed_run(sweep, workers: int) -> tuple[float, float, float, str, int]:
         up = time.perf_counter() - start
         with get_task_stream(client) as stream:
             summary = run_batch(sweep, folder, client, resume=False)
-        assert not summary["failed"], summary["failed"]
+        assert not summary.failed, summary.failed
         spans = [(s["start"], s["stop"]) for task in stream.data
                  for s in task["startstops"] if s["action"] == "compute"]
         busy = sum(b - a for a, b in spans)
         span = max(b for _, b in spans) - min(a for a, _ in spans)
-        return up, summary["wall_s"], busy / (workers * span), digest(Path(folder)), \
-            summary["rays"]
+        return up, summary.wall_s, busy / (workers * span), digest(Path(folder)), \
+            summary.rays
 
 
 def main() -> None:

@@ -351,19 +351,16 @@ def _renamed_into_place(monkeypatch) -> list[Path]:
     return targets
 
 
-def _bench_rows() -> list[dict]:
-    """Rows of a bench sweep (``microsim.bench.COLUMNS``): two tile resolutions and two
-    ray counts of the ts case, and the g1 case."""
-    rows = []
-    for case, bins in (("ts", 8), ("g1", 0)):
-        for res in (64, 128):
-            for rays, error in ((1000, 0.1), (4000, 0.05)):
-                rows.append({"case": case, "rays": rays, "tile_resolution": res,
-                             "cells_per_correlation": res / 32, "table_bins": bins,
-                             "wall_s": rays / 1000, "segments": 2 * rays,
-                             "segments_per_s": 1e6, "bare_rays_per_s": 2e6, "ratio": 0.5,
-                             "error": error, "stderr": error / 2})
-    return rows
+def _bench_rows() -> list:
+    """Rows of a bench sweep (``microsim.bench.Row``): two tile resolutions and two ray
+    counts of the ts case, and the g1 case."""
+    from microsim.bench import Row
+
+    return [Row(case=case, rays=rays, tile_resolution=res, table_bins=bins,
+                wall_s=rays / 1000, segments=2 * rays, segments_per_s=1e6, error=error,
+                stderr=error / 2, bare_rays_per_s=2e6)
+            for case, bins in (("ts", 8), ("g1", 0)) for res in (64, 128)
+            for rays, error in ((1000, 0.1), (4000, 0.05))]
 
 
 @pytest.mark.parametrize("command", ["compare", "view", "bench"])

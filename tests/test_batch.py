@@ -339,17 +339,17 @@ def test_the_shipped_example_sweep_loads() -> None:
 
 def test_progress_reports_every_job(tmp_path: Path) -> None:
     """The callback sees every job and table; the rich bar renders its states."""
-    from microsim.batch import run_batch
+    from microsim.batch import BatchProgress, run_batch
     from microsim.commands.batch import dask_client, progress_bar
 
     sweep = load_sweep(write_sweep(tmp_path, axes='[sweep]\n"surface.alpha" = [0.2, 0.5]\n',
                                    rays=300))
-    states: list[dict] = []
+    states: list[BatchProgress] = []
     with dask_client(1, None) as client:
         summary = run_batch(sweep, tmp_path / "out", client, progress=states.append)
-    assert [s["jobs_done"] for s in states] == list(range(1, 13))
-    assert states[-1]["tables_done"] == states[-1]["tables"] == 2
-    assert states[-1]["rays"] == summary["rays"] == 2 * 3 * 300
+    assert [s.jobs_done for s in states] == list(range(1, 13))
+    assert states[-1].tables_done == states[-1].tables == 2
+    assert states[-1].rays == summary.rays == 2 * 3 * 300
     with progress_bar(True) as show:
         for state in states:
             show(state)
@@ -378,10 +378,10 @@ def test_a_dying_worker_fails_its_table_alone(tmp_path: Path,
     monkeypatch.setattr(batch, "run_job", dying_job)
     with dask_client(1, None) as client:
         summary = batch.run_batch(sweep, tmp_path / "out", client)
-    assert summary["computed"] == ["alpha=0.2"]
-    assert [f["table"] for f in summary["failed"]] == ["alpha=0.5"]
-    assert "KilledWorker" in summary["failed"][0]["error"]
-    assert "2 different workers" in summary["failed"][0]["error"]
+    assert summary.computed == ["alpha=0.2"]
+    assert list(summary.failed) == ["alpha=0.5"]
+    assert "KilledWorker" in summary.failed["alpha=0.5"]
+    assert "2 different workers" in summary.failed["alpha=0.5"]
 
 
 def test_a_raising_job_is_retried_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
@@ -413,8 +413,8 @@ def test_a_raising_job_is_retried_once(tmp_path: Path, monkeypatch: pytest.Monke
                       dashboard_address=None) as cluster, Client(cluster) as client:
         summary = batch.run_batch(sweep, tmp_path / "out", client)
     assert sorted(log.read_text().split()) == ["0.2", "0.2", "0.5", "0.5"]
-    assert summary["computed"] == ["alpha=0.2"]
-    assert summary["failed"] == [{"table": "alpha=0.5", "error": "RuntimeError: boom 0.5"}]
+    assert summary.computed == ["alpha=0.2"]
+    assert summary.failed == {"alpha=0.5": "RuntimeError: boom 0.5"}
 
 
 def test_measurements_of_disjoint_angles_merge_into_simulate() -> None:

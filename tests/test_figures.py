@@ -197,11 +197,11 @@ def test_measure_and_demo_figures(cli, tmp_path, figures):
 
 def test_bench_figures(tmp_path, figures):
     """bench's two figures, from rows shaped like its sweep's."""
-    from microsim.bench import plot
+    from microsim.bench import Row, plot
 
-    rows = [{"case": case, "tile_resolution": res, "table_bins": 512, "wall_s": t,
-             "error": 0.1 / np.sqrt(t), "stderr": 0.08 / np.sqrt(t), "rays": rays,
-             "cells_per_correlation": res // 32}
+    rows = [Row(case=case, rays=rays, tile_resolution=res, table_bins=512, wall_s=t,
+                segments=2 * rays, segments_per_s=1e6, error=0.1 / np.sqrt(t),
+                stderr=0.08 / np.sqrt(t), bare_rays_per_s=2e6)
             for case in ("ts", "ms", "g1") for res in (64, 128)
             for t, rays in ((1.0, 1000), (4.0, 4000))]
     plot(rows, tmp_path)

@@ -28,7 +28,7 @@ from microsim.tables.exr import write_table
 from microsim.tables.meta import TableMeta
 
 ETA, K = np.array([0.2, 0.9, 1.1]), np.array([3.9, 2.4, 2.1])  # gold-like, R G B
-SUN = [("sun", {"elevation": 50.0, "azimuth": -40.0, "irradiance": 3.0})]
+SUN = [scene.Light("sun", {"elevation": 50.0, "azimuth": -40.0, "irradiance": 3.0})]
 
 
 @pytest.fixture(scope="module")
@@ -214,7 +214,7 @@ def test_lambertian_table_renders_like_diffuse(mi, sphere, tmp_path):
     mean z −0.009 … +0.001, mean square 1.10 … 1.11."""
     table = model_table(Lambertian([0.7, 0.5, 0.3]), np.radians(np.linspace(0, 85, 6)),
                         HemisphereBins(16, 32))
-    lights = SUN + [("sky", {"radiance": 0.25})]
+    lights = SUN + [scene.Light("sky", {"radiance": 0.25})]
     cam = small_camera()
     t = scene.render(mi, sphere, bsdfs.table_bsdf(mi, table, tmp_path / "l.bsdf"), cam,
                      lights, 32, seed=0)

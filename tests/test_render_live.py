@@ -176,8 +176,8 @@ def test_a_sun_disc_lights_like_the_directional_sun(recipe_file, tmp_path):
     white = mi.load_dict({"type": "diffuse", "reflectance": {"type": "rgb",
                                                              "value": [1.0, 1.0, 1.0]}})
     sun = {"elevation": 50.0, "azimuth": -40.0, "irradiance": 3.0}
-    point = scene.render(mi, sphere, white, cam, [("sun", sun | {"radius": 0.0})], 16)
-    disc = scene.render(mi, sphere, white, cam, [("sun", sun | {"radius": 5.0})], 16)
+    point = scene.render(mi, sphere, white, cam, [scene.Light("sun", sun | {"radius": 0.0})], 16)
+    disc = scene.render(mi, sphere, white, cam, [scene.Light("sun", sun | {"radius": 5.0})], 16)
     lit = (point.alpha > 0.999) & (point.luminance > 0.2 * point.luminance.max())
     ratio = disc.luminance[lit].sum() / point.luminance[lit].sum()
     assert lit.sum() > 300 and abs(ratio - 1) < 0.01, ratio
@@ -221,7 +221,7 @@ def test_a_render_reports_its_passes():
                                                              "value": [1.0, 1.0, 1.0]}})
     seen: list[tuple[int, int]] = []
     image = scene.render(mi, objects.sphere(), white, scene.Camera(16, 12),
-                         [("sky", {"radiance": 0.25})], 40, 0,
+                         [scene.Light("sky", {"radiance": 0.25})], 40, 0,
                          lambda done, total: seen.append((done, total)))
     assert seen == [(16, 40), (32, 40), (40, 40)]
     lit = image.alpha > 0.999

@@ -19,7 +19,7 @@ import numpy as np
 from microsim.analytic.fresnel import ConductorFresnel, DielectricFresnel, Fresnel
 from microsim.analytic.velvet_geometry import VELVET_GEOMETRY
 from microsim.errors import InputError
-from microsim.schema import Key, check_section, parse_value, suggest
+from microsim.schema import Key, Toml, Value, check_section, parse_value, suggest
 
 
 @dataclass(frozen=True)
@@ -28,10 +28,10 @@ class ModelSpec:
 
     doc: str
     params: dict[str, Key]
-    build: Callable[[dict[str, Any]], Any]
+    build: Callable[[dict[str, Value]], Any]
 
 
-def _facets(p: dict[str, Any], ndf_name: str) -> tuple[Any, Fresnel | None]:
+def _facets(p: dict[str, Value], ndf_name: str) -> tuple[Any, Fresnel | None]:
     """The NDF and the Fresnel record of a microfacet spec."""
     from microsim.analytic import ndf as ndfs
 
@@ -53,8 +53,8 @@ def _facets(p: dict[str, Any], ndf_name: str) -> tuple[Any, Fresnel | None]:
     return dist, fresnel
 
 
-def _microfacet(ndf_name: str) -> Callable[[dict[str, Any]], Any]:
-    def build(p: dict[str, Any]) -> Any:
+def _microfacet(ndf_name: str) -> Callable[[dict[str, Value]], Any]:
+    def build(p: dict[str, Value]) -> Any:
         from microsim.analytic.brdf import TorranceSparrow
 
         dist, fresnel = _facets(p, ndf_name)
@@ -63,8 +63,8 @@ def _microfacet(ndf_name: str) -> Callable[[dict[str, Any]], Any]:
     return build
 
 
-def _multiple(ndf_name: str) -> Callable[[dict[str, Any]], Any]:
-    def build(p: dict[str, Any]) -> Any:
+def _multiple(ndf_name: str) -> Callable[[dict[str, Value]], Any]:
+    def build(p: dict[str, Value]) -> Any:
         from microsim.analytic.multiple_scattering import SmithMultipleScattering
 
         dist, fresnel = _facets(p, ndf_name)
@@ -73,7 +73,7 @@ def _multiple(ndf_name: str) -> Callable[[dict[str, Any]], Any]:
     return build
 
 
-def _check_alphas(p: dict[str, Any]) -> None:
+def _check_alphas(p: dict[str, Value]) -> None:
     if ("alpha_x" in p) != ("alpha_y" in p):
         raise InputError("model: give both alpha_x and alpha_y, or alpha")
 
@@ -106,13 +106,13 @@ MULTIPLE = {
 }
 
 
-def _lambertian_facet(p: Mapping[str, Any]) -> Any:
+def _lambertian_facet(p: Mapping[str, Value]) -> Any:
     from microsim.analytic.brdf import Lambertian
 
     return Lambertian(p["albedo"])
 
 
-CYLINDER_FACETS: dict[str, Callable[[Mapping[str, Any]], Any]] = {
+CYLINDER_FACETS: dict[str, Callable[[Mapping[str, Value]], Any]] = {
     "mirror": lambda p: None,
     "conductor": lambda p: ConductorFresnel(np.asarray(p["eta"], float),
                                             np.asarray(p["k"], float)),
@@ -259,7 +259,7 @@ MODELS: dict[str, ModelSpec] = {
 }
 
 
-def _cloth(p: Mapping[str, Any]) -> Any:
+def _cloth(p: Mapping[str, Value]) -> Any:
     from microsim.analytic.brdf import rgb
     from microsim.analytic.cloth import MicrocylinderCloth
 
@@ -269,7 +269,7 @@ def _cloth(p: Mapping[str, Any]) -> Any:
                               p["kd"], albedo, p["slope"], p["flat"])
 
 
-def _velvet(p: Mapping[str, Any]) -> Any:
+def _velvet(p: Mapping[str, Value]) -> Any:
     from microsim.analytic.velvet import SparseVelvet
 
     if np.any(np.asarray(p["base_albedo"]) > 0):  # one value or three
@@ -282,7 +282,7 @@ def _velvet(p: Mapping[str, Any]) -> Any:
                         sides=p["sides"])
 
 
-def _cylinders(p: Mapping[str, Any]) -> Any:
+def _cylinders(p: Mapping[str, Value]) -> Any:
     from microsim.analytic.cylinders import CylinderArray
 
     need = {"conductor": ("eta", "k"), "dielectric": ("eta",)}.get(p["kind"], ())
@@ -307,12 +307,12 @@ def _layered() -> Any:
     return CoatedLambertian
 
 
-def _tangent(p: Mapping[str, Any]) -> list[float]:
+def _tangent(p: Mapping[str, Value]) -> list[float]:
     t, f = math.radians(p["tangent_theta"]), math.radians(p["tangent_phi"])
     return [math.sin(t) * math.cos(f), math.sin(t) * math.sin(f), math.cos(t)]
 
 
-def split_spec(spec: str, what: str) -> tuple[str, dict[str, Any]]:
+def split_spec(spec: str, what: str) -> tuple[str, dict[str, Toml]]:
     """``NAME[:key=value,...]`` to the name and its values read as TOML (unchecked); a
     list value keeps its commas, as in ``eta=[0.2,0.9,1.1]``.
 
@@ -323,7 +323,7 @@ def split_spec(spec: str, what: str) -> tuple[str, dict[str, Any]]:
         How errors name the spec, e.g. ``"model"`` or ``"--light"``.
     """
     name, _, rest = spec.strip().partition(":")
-    given: dict[str, Any] = {}
+    given: dict[str, Toml] = {}
     for item in filter(None, (s.strip() for s in re.split(r",(?![^\[]*\])", rest))):
         key, eq, value = item.partition("=")
         if not eq:
@@ -334,8 +334,8 @@ def split_spec(spec: str, what: str) -> tuple[str, dict[str, Any]]:
     return name, given
 
 
-def _same_channels(name: str, raw: Mapping[str, Any], params: dict[str, Any],
-                   keys: Mapping[str, Any]) -> None:
+def _same_channels(name: str, raw: Mapping[str, Toml], params: dict[str, Value],
+                   keys: Mapping[str, Key]) -> None:
     """Give a spec's colour parameters (kind ``channels``) one count of channels, in
     place: a number given alone (which ``check_section`` read as R, G, B) takes the length
     of the lists beside it; lists of different lengths are refused."""
@@ -354,8 +354,8 @@ def _same_channels(name: str, raw: Mapping[str, Any], params: dict[str, Any],
                 params[k] = [value[0] if isinstance(value, list) else value] * count
 
 
-def parse_model_spec(spec: str, defaults: Mapping[str, Any] | None = None
-                     ) -> tuple[str, dict[str, Any], Any]:
+def parse_model_spec(spec: str, defaults: Mapping[str, Value] | None = None
+                     ) -> tuple[str, dict[str, Value], Any]:
     """Build a model from ``NAME[:key=value,...]``.
 
     Parameters
@@ -370,8 +370,8 @@ def parse_model_spec(spec: str, defaults: Mapping[str, Any] | None = None
     Returns
     -------
     name : str
-    params : dict
-        Every parameter, resolved.
+    params : dict of str to Value
+        Every parameter, resolved (``check_value``'s).
     model : object
         With ``eval(wi, wo)``.
     """
@@ -412,8 +412,8 @@ def parameter_units(name: str) -> dict[str, str]:
     return {key: UNITS[k.unit] for key, k in keys.items() if k.unit in UNITS}
 
 
-def parameter_sources(spec: str, params: Mapping[str, Any],
-                      defaults: Mapping[str, Any] | None = None) -> dict[str, str]:
+def parameter_sources(spec: str, params: Mapping[str, Value],
+                      defaults: Mapping[str, Value] | None = None) -> dict[str, str]:
     """Where each resolved parameter of a spec came from: ``"given"`` (the spec),
     the source a ``ModelDefaults`` names (e.g. ``"the table's realised alpha"``), or
     ``"default"`` (the model's own).
@@ -443,7 +443,7 @@ def parameter_sources(spec: str, params: Mapping[str, Any],
     return out
 
 
-def parameters_text(name: str, params: Mapping[str, Any], sources: Mapping[str, str]
+def parameters_text(name: str, params: Mapping[str, Value], sources: Mapping[str, str]
                     ) -> str:
     """The parameters of a model as a command prints them, each with its unit and
     source: ``alpha 0.2983 (the table's realised alpha), sigma 20° (default)``.

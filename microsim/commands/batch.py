@@ -10,11 +10,14 @@ import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from microsim.commands.common import add_json_arg, add_memory_arg, positive_int, print_json
 from microsim.errors import InputError
 from microsim.files import folder_possible, writable_folder
+
+if TYPE_CHECKING:
+    from microsim.batch import BatchProgress, BatchSummary
 
 CONNECT_TIMEOUT = 20
 """Seconds to wait for ``--scheduler`` before giving up."""
@@ -176,22 +179,22 @@ def progress_bar(enabled: bool) -> Iterator[Any]:
                   console=Console(stderr=True)) as bar:
         task = bar.add_task("batch", total=None, tables="", rate="")
 
-        def show(state: dict[str, Any]) -> None:
-            rate = state["rays"] / max(state["elapsed"], 1e-9)
-            bar.update(task, total=state["jobs"], completed=state["jobs_done"],
-                       tables=f"{state['tables_done']}/{state['tables']}",
+        def show(state: BatchProgress) -> None:
+            rate = state.rays / max(state.elapsed, 1e-9)
+            bar.update(task, total=state.jobs, completed=state.jobs_done,
+                       tables=f"{state.tables_done}/{state.tables}",
                        rate=f"{rate:,.0f} rays/s")
 
         yield show
 
 
-def print_summary(s: dict[str, Any]) -> None:
+def print_summary(s: BatchSummary) -> None:
     """Text for people."""
-    print(f"{s['tables']} tables in {s['output']}: {len(s['computed'])} computed, "
-          f"{len(s['skipped'])} already done, {len(s['failed'])} failed; {s['jobs']} jobs, "
-          f"{s['rays']:,} rays in {s['wall_s']:.1f} s")
-    for failure in s["failed"]:
-        print(f"failed: {failure['table']}: {failure['error']}")
+    print(f"{s.tables} tables in {s.output}: {len(s.computed)} computed, "
+          f"{len(s.skipped)} already done, {len(s.failed)} failed; {s.jobs} jobs, "
+          f"{s.rays:,} rays in {s.wall_s:.1f} s")
+    for table, error in s.failed.items():
+        print(f"failed: {table}: {error}")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -215,5 +218,5 @@ def run(args: argparse.Namespace) -> int:
             progress_bar(sys.stderr.isatty() and not args.json) as show:
         summary = run_batch(sweep, args.output, client, resume=args.resume,
                             threads=args.threads, progress=show)
-    print_json(summary) if args.json else print_summary(summary)
-    return 1 if summary["failed"] else 0
+    print_json(summary.to_json()) if args.json else print_summary(summary)
+    return 1 if summary.failed else 0

@@ -6,10 +6,13 @@ import argparse
 import statistics
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from microsim.commands.common import add_json_arg, add_seed_arg, print_json, progress_steps
 from microsim.files import replaceable, writable_folder
+
+if TYPE_CHECKING:
+    from microsim.bench import Row
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -30,16 +33,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def summary(rows: list[dict[str, Any]], wall: float) -> dict[str, Any]:
-    """Best error per case and the speed ratio to bare Embree."""
+def summary(rows: list[Row], wall: float) -> dict[str, Any]:
+    """Best error per case and the speed ratio to bare Embree, as ``--json`` prints them
+    (before the files written)."""
     cases: dict[str, Any] = {}
     for row in rows:
-        c = cases.setdefault(row["case"], {"runs": 0, "best_error": float("inf")})
+        c = cases.setdefault(row.case, {"runs": 0, "best_error": float("inf")})
         c["runs"] += 1
-        c["best_error"] = min(c["best_error"], row["error"])
+        c["best_error"] = min(c["best_error"], row.error)
     # traced tables at their largest ray count, where per-direction overheads weigh least
-    most = max(r["rays"] for r in rows if r["case"] == "ts")
-    ratios = [r["ratio"] for r in rows if r["case"] == "ts" and r["rays"] == most]
+    most = max(r.rays for r in rows if r.case == "ts")
+    ratios = [r.ratio for r in rows if r.case == "ts" and r.rays == most]
     return {"cases": cases, "ratio_to_bare_embree": statistics.median(ratios),
             "wall_s": wall}
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import microsim
 from microsim import recipe
@@ -23,6 +23,7 @@ from microsim.commands.common import (
 )
 from microsim.commands.measure import roughness_json
 from microsim.files import PLOT_SUFFIXES, writable_file
+from microsim.schema import Value
 from microsim.tables.exr import write_table
 
 if TYPE_CHECKING:
@@ -67,7 +68,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def comparison(table: BRDFTable) -> tuple[str, dict[str, Any], Comparison, Agreement]:
+def comparison(table: BRDFTable) -> tuple[str, dict[str, Value], Comparison, Agreement]:
     """Simulated single scattering against ``SINGLE_MODEL`` with the table's parameters
     (its realised alpha, its facets' Fresnel: ``microsim.comparison.table_models.model_defaults``):
     the model's name and parameters, the comparison and its verdict."""
@@ -81,7 +82,7 @@ def comparison(table: BRDFTable) -> tuple[str, dict[str, Any], Comparison, Agree
     return name, params, result, agreement(result)
 
 
-def sources_of(table: BRDFTable, spec: str, params: dict[str, Any]) -> dict[str, str]:
+def sources_of(table: BRDFTable, spec: str, params: dict[str, Value]) -> dict[str, str]:
     """Where each of a model's parameters came from, as ``compare`` says it
     (``microsim.analytic.registry.parameter_sources``)."""
     from microsim.analytic.registry import parameter_sources
@@ -91,7 +92,7 @@ def sources_of(table: BRDFTable, spec: str, params: dict[str, Any]) -> dict[str,
 
 
 def total_comparison(table: BRDFTable
-                     ) -> tuple[str, dict[str, Any], Comparison, Agreement]:
+                     ) -> tuple[str, dict[str, Value], Comparison, Agreement]:
     """All simulated orders against the multiple-scattering Smith microsurface at the
     realised alpha (``MS_SAMPLES`` walks per bin, seeded with the table's seed): the
     model's spec and parameters, the comparison and its verdict."""

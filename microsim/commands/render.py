@@ -211,7 +211,7 @@ def run(args: argparse.Namespace) -> int:
     figure.write_grid(rows, args.output)
     result = {"output": str(args.output), "object": surface.name, "spp": args.spp,
               "size": list(args.size), "variant": args.variant, "rotate": args.rotate,
-              "lights": [{"kind": k, **p} for k, p in lights], "tables": report}
+              "lights": [light.to_json() for light in lights], "tables": report}
     if args.json:
         print_json(result)
         return 0
@@ -297,7 +297,7 @@ def run_live(args: argparse.Namespace) -> int:
         args.output, difference="(live − table) / table")
     result = {"output": str(args.output), "recipe": args.tables[0], "object": surface.name,
               "spp": args.spp, "size": list(args.size), "variant": args.variant,
-              "rotate": args.rotate, "lights": [{"kind": n, **p} for n, p in lights],
+              "rotate": args.rotate, "lights": [light.to_json() for light in lights],
               "table": {"source": table_name, "seconds": tabled.seconds,
                         "noise": _noise(tabled)},
               "live": {"realisations": k, "seconds": traced.seconds,

@@ -43,6 +43,7 @@ from microsim.comparison.metrics import Model, bin_averages, channels_of, compar
 from microsim.comparison.table_models import model_defaults
 from microsim.errors import InputError
 from microsim.memory import check_memory
+from microsim.schema import Value
 from microsim.spectra.channels import RGB_NAMES
 
 EPS_FRACTION = 1e-3
@@ -124,7 +125,7 @@ class FitResult:
         Evaluations of the residuals by ``scipy.optimize.least_squares``.
     fitted : Model
         The model at the fitted parameters.
-    held, held_sources : dict of str to object, dict of str to str
+    held, held_sources : dict of str to Value, dict of str to str
         The model's parameters the fit holds (``Family.held``) and where each came from.
     model_bins : (a, b, nt, np, C) float
         The fitted model's bin averages per incidence (a θi, b φi), bin and channel, 1/sr:
@@ -140,7 +141,7 @@ class FitResult:
     nfev: int
     fitted: Model
     model_bins: np.ndarray
-    held: dict[str, Any] = field(default_factory=dict)
+    held: dict[str, Value] = field(default_factory=dict)
     held_sources: dict[str, str] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
@@ -167,12 +168,12 @@ class Family:
     lower: tuple[float, ...]
     upper: tuple[float, ...]
     build: Callable[[np.ndarray], Any]
-    held: dict[str, Any] = field(default_factory=dict)
+    held: dict[str, Value] = field(default_factory=dict)
     held_sources: dict[str, str] = field(default_factory=dict)
 
 
-def _held(defaults: Mapping[str, Any], own: Mapping[str, Any]
-          ) -> tuple[dict[str, Any], dict[str, str]]:
+def _held(defaults: Mapping[str, Value], own: Mapping[str, Value]
+          ) -> tuple[dict[str, Value], dict[str, str]]:
     """The parameters ``own`` (key: the family's default) as held: the table's value
     where ``defaults`` (``model_defaults``) has one, with its source, else the default."""
     sources = getattr(defaults, "sources", {})
@@ -242,7 +243,7 @@ def _lafortune(lobes: int) -> Family:
                   tuple(v for _ in range(lobes) for v in (50.0, 50.0, 1e4)), build)
 
 
-def _kay_kajiya(defaults: Mapping[str, Any], channels: Sequence[str]) -> Family:
+def _kay_kajiya(defaults: Mapping[str, Value], channels: Sequence[str]) -> Family:
     """Kay-Kajiya as a fibre-layer BRDF (``KayKajiya`` with ``coverage``): kd and ks per
     channel and the exponent n; the tangent and coverage are the table's (its surface's
     axis, 2 radius / spacing), 1 and +y without them."""
@@ -289,7 +290,7 @@ class _ClothPerChannel:
         return base + (warp - base) * self.albedo[0] + (weft - base) * self.albedo[1]
 
 
-def _microcylinder(defaults: Mapping[str, Any], channels: Sequence[str]) -> Family:
+def _microcylinder(defaults: Mapping[str, Value], channels: Sequence[str]) -> Family:
     """The microcylinder cloth model (``MicrocylinderCloth``): coverage a_1 (warp), a_2
     (weft), η, γ_s, γ_v (degrees, as the model spec takes them), k_d, and the volume
     scale A per family and channel (up to 5: not an albedo); the tangent curves are the
@@ -324,7 +325,7 @@ def _microcylinder(defaults: Mapping[str, Any], channels: Sequence[str]) -> Fami
 FAMILIES = "beckmann, ggx, oren-nayar, phong, lafortune[:K], kay-kajiya, microcylinder"
 
 
-def family(spec: str, defaults: Mapping[str, Any] | None = None,
+def family(spec: str, defaults: Mapping[str, Value] | None = None,
            channels: Sequence[str] = RGB_NAMES) -> tuple[str, Family]:
     """``beckmann``, ``ggx``, ``oren-nayar``, ``phong``, ``lafortune[:K]`` (K lobes,
     default 1), ``kay-kajiya`` or ``microcylinder``; ``defaults`` are the table's

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import replace
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -23,6 +23,7 @@ from microsim.comparison.records import Comparison, IncidenceMetrics
 from microsim.comparison.table_models import microfacet_model, model_defaults
 from microsim.errors import InputError
 from microsim.geometry import direction
+from microsim.schema import Value
 from microsim.spectra.channels import Channels
 from microsim.surfaces.facts import SurfaceFacts, TileFacts
 from microsim.tables.binning import HemisphereBins
@@ -230,7 +231,7 @@ RGB_ONLY_MODELS = ("cylinders", "velvet-sparse", "microcylinder")
 ``microsim.analytic.cloth``): their colour parameters take one or three values."""
 
 
-def check_model_channels(spec: str, defaults: Mapping[str, Any] | None,
+def check_model_channels(spec: str, defaults: Mapping[str, Value] | None,
                          channels: Channels | None, flag: str = "--model") -> None:
     """Refuse, before it is built, an RGB-only model (``RGB_ONLY_MODELS``) with colour
     parameters (the spec's, else the table's ``defaults``) it cannot compute: of other

@@ -50,6 +50,7 @@ from microsim.analytic.registry import parse_model_spec
 from microsim.comparison.metrics import bin_averages, bin_estimate, lobe_residuals
 from microsim.comparison.table_models import model_defaults
 from microsim.geometry import direction
+from microsim.schema import Value
 from microsim.tables.components import order_range
 from microsim.tables.table import lobe_of
 
@@ -71,7 +72,7 @@ def references(table: Any, samples: int, seed: int) -> References:
     """Smith and the walk with the table's realised α and Fresnel (``model_defaults``)."""
     defaults = model_defaults(table.meta)
 
-    def pair(values: dict[str, Any]) -> tuple[Any, Any]:
+    def pair(values: dict[str, Value]) -> tuple[Any, Any]:
         return (parse_model_spec("beckmann", values)[2],
                 parse_model_spec(f"beckmann-ms:samples={samples},seed={seed}", values)[2])
 

@@ -5,12 +5,11 @@ them (the realised roughness, the facets' Fresnel or albedo, the fibres' geometr
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from microsim.analytic.brdf import TorranceSparrow
 from microsim.analytic.ndf import Beckmann
+from microsim.schema import Value
 from microsim.spectra.channels import RGB
 from microsim.surfaces.facts import CylinderFacts, WeaveFacts
 from microsim.tables.meta import TableMeta
@@ -38,14 +37,15 @@ FIBRE_PARTS = ("cylinder", "fibre")
 """Parts whose material a fibre model describes (the rest is the base)."""
 
 
-class ModelDefaults(dict):
-    """Model parameters a table implies, by key (a ``dict``), with where each came from.
+class ModelDefaults(dict[str, Value]):
+    """Model parameters a table implies, by key (a ``dict`` of ``Value``, as a model spec's
+    checked parameters), with where each came from.
 
     Attributes
     ----------
     sources : dict of str to str
         Per key, its source in words, e.g. ``"the table's realised alpha"``.
-    for_model : dict of str to dict
+    for_model : dict of str to dict of str to Value
         Keys that apply to one model only, by model name (the table's measured albedo is
         a Lambertian model's albedo, not an Oren-Nayar facet albedo).
     """
@@ -53,9 +53,9 @@ class ModelDefaults(dict):
     def __init__(self) -> None:
         super().__init__()
         self.sources: dict[str, str] = {}
-        self.for_model: dict[str, dict[str, Any]] = {}
+        self.for_model: dict[str, dict[str, Value]] = {}
 
-    def put(self, key: str, value: Any, source: str) -> None:
+    def put(self, key: str, value: Value, source: str) -> None:
         """Set ``key`` to ``value``, from ``source``."""
         self[key] = value
         self.sources[key] = source

@@ -8,6 +8,7 @@ material (``microsim.materials``), whose kind code, parameter row and packed tab
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import asdict
 
 import numpy as np
 
@@ -91,7 +92,7 @@ class FacetMaterials:
             if table.uses_tangents and tangents is None:
                 raise InputError(f"material.{parts[m]}.axis = 'tangent': this surface gives "
                                  "its faces no tangents (velvet does); use 'x' or 'y'")
-        self.inputs = [TableInput(parts[m], **t.source) for m, t in self.tables.items()]
+        self.inputs = [TableInput(parts[m], **asdict(t.source)) for m, t in self.tables.items()]
         self.tangents = np.zeros((len(self.face_material), 3)) if tangents is None else \
             np.ascontiguousarray(tangents, float)
         for m, table in self.tables.items():

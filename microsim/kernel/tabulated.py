@@ -40,8 +40,8 @@ runs along (docs/materials.md).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -51,6 +51,17 @@ from microsim.materials import table as ev
 from microsim.materials.table import AXES
 from microsim.tables.exr import read_table
 from microsim.tables.table import BRDFTable
+
+
+@dataclass(frozen=True)
+class TableSource:
+    """The file a table material read: its absolute path, its SHA-256 and the component
+    taken (the provenance a table simulated with the material records,
+    ``microsim.tables.meta.TableInput``)."""
+
+    path: str
+    sha256: str
+    component: str
 
 
 class TabulatedMaterial:
@@ -67,8 +78,8 @@ class TabulatedMaterial:
         ``"y"`` or ``"x"``: the world axis whose projection onto a facet is the table's
         y axis (``microsim.materials.table.facet_frame``); ``"tangent"``: the facet's own
         tangent (``Tile.tangents``) projected so.
-    source : dict or None
-        Provenance recorded by tables made with this material (path, digest, component).
+    source : TableSource or None
+        Provenance recorded by tables made with this material.
 
     Attributes
     ----------
@@ -83,7 +94,7 @@ class TabulatedMaterial:
     """
 
     def __init__(self, table: BRDFTable, component: str = "total", axis: str = "y",
-                 source: dict[str, Any] | None = None) -> None:
+                 source: TableSource | None = None) -> None:
         component = table.component(component)
         if axis not in AXES:
             raise ValueError(f"axis must be one of {AXES}, got {axis!r}")
@@ -94,7 +105,7 @@ class TabulatedMaterial:
             raise ValueError("a table material needs finite, non-negative values")
         self.table = table
         self.component = component
-        self.source = dict(source or {})
+        self.source = source
         bins = table.bins
         # a folded bin stands for itself and its mirror image φ → −φ
         omega = bins.projected_solid_angle.ravel() * (2.0 if bins.folded else 1.0)
@@ -139,8 +150,7 @@ class TabulatedMaterial:
             table = read_table(path)
         except InputError as exc:
             raise InputError(f"{key}: {exc}") from None
-        source = {"path": str(Path(path).resolve()), "sha256": file_digest(path),
-                  "component": component}
+        source = TableSource(str(Path(path).resolve()), file_digest(path), component)
         try:
             return cls(table, component, axis, source)
         except ValueError as exc:

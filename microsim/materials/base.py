@@ -37,7 +37,7 @@ from typing import Any, ClassVar
 from microsim.analytic.fresnel import Fresnel
 from microsim.errors import InputError
 from microsim.materials.coating import Coating
-from microsim.schema import Key, check_section, record_from_json, record_json, schema_of
+from microsim.schema import Key, Value, check_section, record_from_json, record_json, schema_of
 from microsim.spectra import measured
 from microsim.spectra.channels import RGB, Channels
 from microsim.spectra.spectrum import Spectrum, parse_spectrum
@@ -238,7 +238,7 @@ class Material:
         kinds."""
         return None
 
-    def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
+    def model_defaults(self, channels: Channels = RGB) -> dict[str, Value]:
         """Model parameters this material implies (``eta``, ``k``, ``albedo``), per
         channel."""
         return {}

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
 from microsim.materials.base import WEIGHTED, Material, kernel
 from microsim.materials.optics import reflect
+from microsim.schema import Value
 from microsim.spectra.channels import RGB, Channels
 
 
@@ -37,6 +38,6 @@ class Black(Material):
         """Zero: a black facet is a diffuse facet that reflects nothing."""
         return (0.0,) * channels.count
 
-    def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
+    def model_defaults(self, channels: Channels = RGB) -> dict[str, Value]:
         """``albedo`` 0."""
         return {"albedo": [0.0] * channels.count}

@@ -14,7 +14,7 @@ from microsim.materials.base import P_WAVELENGTH, WEIGHTED, Material, kernel
 from microsim.materials.coating import Coating
 from microsim.materials.optics import fresnel_conductor, reflect
 from microsim.materials.thin_film import film_reflectance
-from microsim.schema import key
+from microsim.schema import Value, key
 from microsim.spectra import measured
 from microsim.spectra.channels import RGB, Channels
 from microsim.spectra.measured import CONDUCTORS
@@ -120,7 +120,7 @@ class Conductor(Material):
                                  k)
         return ConductorFresnel(eta, k)
 
-    def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
+    def model_defaults(self, channels: Channels = RGB) -> dict[str, Value]:
         """``eta`` and ``k``, per channel (a coated conductor has no model parameters of
         its own: its Fresnel is the film's)."""
         eta, k = self.parameters(channels)[:2]

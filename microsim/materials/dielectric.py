@@ -5,7 +5,7 @@ medium the part's faces enclose (absorbing per unit length) and out again."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
@@ -26,7 +26,7 @@ from microsim.materials.base import (
 from microsim.materials.coating import Coating
 from microsim.materials.optics import fresnel_dielectric, reflect, refract
 from microsim.materials.thin_film import film_reflectance
-from microsim.schema import key
+from microsim.schema import Value, key
 from microsim.spectra import measured
 from microsim.spectra.channels import RGB, Channels
 from microsim.spectra.spectrum import Spectrum
@@ -185,7 +185,7 @@ class Dielectric(Material):
                                  np.zeros_like(eta))
         return DielectricFresnel(eta[0] if len(set(eta)) == 1 else eta)
 
-    def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
+    def model_defaults(self, channels: Channels = RGB) -> dict[str, Value]:
         """``eta``: a number, or per channel where it varies."""
         eta = self.parameters(channels)[0]
         return {"eta": eta[0] if len(set(eta)) == 1 else list(eta)}

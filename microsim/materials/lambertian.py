@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
 from microsim.materials.base import WEIGHTED, Material, kernel
 from microsim.materials.optics import cosine_about
-from microsim.schema import key
+from microsim.schema import Value, key
 from microsim.spectra import measured
 from microsim.spectra.channels import RGB, Channels
 from microsim.spectra.spectrum import Spectrum
@@ -59,6 +59,6 @@ class Lambertian(Material):
         """The albedo per channel."""
         return self.parameters(channels)[0]
 
-    def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
+    def model_defaults(self, channels: Channels = RGB) -> dict[str, Value]:
         """``albedo``, per channel."""
         return {"albedo": list(self.parameters(channels)[0])}

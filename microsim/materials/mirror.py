@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
 from microsim.analytic.fresnel import Fresnel
 from microsim.materials.base import KEPT, Material, kernel
 from microsim.materials.optics import reflect
+from microsim.schema import Value
 from microsim.spectra.channels import RGB, Channels
 
 
@@ -36,6 +37,6 @@ class Mirror(Material):
         """F = 1: no Fresnel factor."""
         return None
 
-    def model_defaults(self, channels: Channels = RGB) -> dict[str, Any]:
+    def model_defaults(self, channels: Channels = RGB) -> dict[str, Value]:
         """A mirror implies no model parameter."""
         return {}

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -54,6 +54,9 @@ from microsim.measurement.scene import PeriodicScene
 from microsim.memory import check_memory
 from microsim.render.bsdfs import rotation_z
 from microsim.settings import Recipe
+
+if TYPE_CHECKING:
+    from microsim.render.scene import Light
 
 SCENE_BYTES_PER_FACE = 400
 """Memory the guard counts for one open realisation per face of its tile: the tile's
@@ -245,15 +248,15 @@ def live_bsdf(mi: Any, surface: LiveSurface, rotation: float = 0.0) -> Any:
     return LiveBSDF(mi.Properties())
 
 
-def check_lights(lights: list[tuple[str, dict[str, Any]]]) -> None:
+def check_lights(lights: list[Light]) -> None:
     """Refuse lights a sampled-only BSDF cannot see: a sun of radius 0 (directional).
 
     Raises
     ------
     InputError
     """
-    for kind, params in lights:
-        if kind == "sun" and not params.get("radius", 0.0) > 0.0:
+    for light in lights:
+        if light.kind == "sun" and not light.params.get("radius", 0.0) > 0.0:
             raise InputError("--light sun: --live needs a sun of finite size (radius=DEG "
                              "> 0; the live surface is sampled only, so a directional "
                              "light would not reach it), or sky / envmap lights")

@@ -38,7 +38,7 @@ from microsim.errors import InputError
 from microsim.geometry import direction
 from microsim.render.bsdfs import rgb_spectrum
 from microsim.render.objects import RADIUS, Surface, corner_arrays
-from microsim.schema import Key, check_section, suggest
+from microsim.schema import Key, Value, check_section, suggest
 
 MAX_DEPTH = 4
 PASS_SPP = 16
@@ -112,8 +112,28 @@ IMAGE_MAGIC = (b"v/1\x01", b"#?RADIANCE", b"#?RGBE", b"PF\n", b"Pf\n", b"\x89PNG
 PFM, PNG, JPEG): anything else made Mitsuba's parser raise after the scene was built."""
 
 
-def parse_light(spec: str) -> tuple[str, dict[str, Any]]:
-    """``KIND[:key=value,...]`` to a kind and its checked parameters (defaults filled)."""
+@dataclass(frozen=True)
+class Light:
+    """A light of the scene (``--light``, ``parse_light``).
+
+    Attributes
+    ----------
+    kind : str
+        ``"sun"``, ``"sky"`` or ``"envmap"``: a key of ``LIGHTS``.
+    params : dict of str to Value
+        Its keys (``LIGHTS[kind]``), checked, with the defaults filled in.
+    """
+
+    kind: str
+    params: dict[str, Value]
+
+    def to_json(self) -> dict[str, Any]:
+        """The light as a ``--json`` summary writes it: ``kind`` and the parameters."""
+        return {"kind": self.kind, **self.params}
+
+
+def parse_light(spec: str) -> Light:
+    """``KIND[:key=value,...]`` to the light, its parameters checked (defaults filled)."""
     kind, given = split_spec(spec, "--light")
     if kind not in LIGHTS:
         raise InputError(f"--light {kind!r}: unknown{suggest(kind, LIGHTS)}; lights: "
@@ -129,17 +149,18 @@ def parse_light(spec: str) -> tuple[str, dict[str, Any]]:
         if not start.startswith(IMAGE_MAGIC):
             raise InputError(f"--light envmap: file {params['file']!r} is not an image "
                              "(an EXR or HDR environment map; PFM, PNG and JPEG read too)")
-    return kind, params
+    return Light(kind, params)
 
 
-def light_dicts(lights: Sequence[tuple[str, dict[str, Any]]], camera: Camera
-                ) -> dict[str, Any]:
+def light_dicts(lights: Sequence[Light], camera: Camera) -> dict[str, Any]:
     """Mitsuba emitter dicts for parsed lights (``parse_light``)."""
     out: dict[str, Any] = {}
-    for k, (kind, p) in enumerate(lights):
+    for k, light in enumerate(lights):
+        kind, p = light.kind, light.params
         if kind == "sun" and p.get("radius", 0.0) > 0.0:
             out[f"light{k}"] = _sun_disc(_towards(p["elevation"], camera.azimuth
-                                                  + p["azimuth"]), p)
+                                                  + p["azimuth"]), p["irradiance"],
+                                         p["radius"])
         elif kind == "sun":
             towards = _towards(p["elevation"], camera.azimuth + p["azimuth"])
             out[f"light{k}"] = {"type": "directional", "direction": (-towards).tolist(),
@@ -153,16 +174,17 @@ def light_dicts(lights: Sequence[tuple[str, dict[str, Any]]], camera: Camera
     return out
 
 
-def _sun_disc(towards: np.ndarray, p: dict[str, Any]) -> dict[str, Any]:
-    """A sun of angular radius ρ = ``p["radius"]``: a uniform disc ``SUN_DISTANCE`` away
-    facing the object, of radius D tan ρ (so it spans a cone of half-angle ρ) and radiance
-    E / (π sin²ρ), which gives irradiance E on a surface facing it
-    (``live.disc_radiance``)."""
+def _sun_disc(towards: np.ndarray, irradiance: list[float], radius_deg: float
+              ) -> dict[str, Any]:
+    """A sun of angular radius ρ = ``radius_deg`` and irradiance E (RGB): a uniform disc
+    ``SUN_DISTANCE`` away facing the object, of radius D tan ρ (so it spans a cone of
+    half-angle ρ) and radiance E / (π sin²ρ), which gives irradiance E on a surface facing
+    it (``live.disc_radiance``)."""
     import mitsuba as mi
 
     from microsim.render.live import disc_radiance
 
-    radius = math.radians(p["radius"])
+    radius = math.radians(radius_deg)
     up = [1.0, 0.0, 0.0] if abs(towards[2]) > 0.99 else [0.0, 0.0, 1.0]
     place = mi.ScalarTransform4f().look_at(origin=(SUN_DISTANCE * towards).tolist(),
                                            target=[0.0, 0.0, 0.0], up=up)
@@ -170,7 +192,7 @@ def _sun_disc(towards: np.ndarray, p: dict[str, Any]) -> dict[str, Any]:
             "to_world": place @ mi.ScalarTransform4f().scale(SUN_DISTANCE
                                                              * math.tan(radius)),
             "emitter": {"type": "area", "radiance": rgb_spectrum(
-                disc_radiance(p["irradiance"], p["radius"]))}}
+                disc_radiance(irradiance, radius_deg))}}
 
 
 def _z_up() -> Any:
@@ -197,7 +219,7 @@ def mesh(mi: Any, surface: Surface, bsdf: Any) -> Any:
 
 
 def scene(mi: Any, surface: Surface, bsdf: Any, camera: Camera,
-          lights: Sequence[tuple[str, dict[str, Any]]], spp: int, seed: int) -> Any:
+          lights: Sequence[Light], spp: int, seed: int) -> Any:
     """The Mitsuba scene: path tracer with luminance moments, camera, lights, object."""
     return mi.load_dict({
         "type": "scene",
@@ -240,7 +262,7 @@ class Image:
 
 
 def render(mi: Any, surface: Surface, bsdf: Any, camera: Camera,
-           lights: Sequence[tuple[str, dict[str, Any]]], spp: int, seed: int = 0,
+           lights: Sequence[Light], spp: int, seed: int = 0,
            progress: Callable[[int, int], None] | None = None) -> Image:
     """Render ``surface`` with ``bsdf`` and return the image with per-pixel errors.
 
