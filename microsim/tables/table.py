@@ -13,10 +13,10 @@ table simulated with ``orders = N`` holds ``"total"`` (all orders) and ``"order1
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from functools import partial
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -35,6 +35,7 @@ from microsim.tables.meta import TableMeta
 from microsim.tables.wavelets import Wavelets
 from microsim.tables.wavelets import evaluate as evaluate_wavelets
 
+V = TypeVar("V")
 REPRESENTATIONS = ("table", "sh", "wavelet")
 LOBE_FRACTION = 0.1
 """Lobe bins: where f_r (mean over RGB; a table's, or a model's bin average when a table is
@@ -393,9 +394,9 @@ class BRDFTable:
         return interpolate_error(self.axes, self[component].errors, wi, wo)
 
 
-def components_of(data: Mapping[str, Any]) -> tuple[str, ...]:
-    """The components of a per-component mapping, by stored name: ``"total"`` first, then
-    the orders from the lowest (``"single"`` counts as ``"order1"``).
+def components_of(data: Iterable[str]) -> tuple[str, ...]:
+    """The components of a per-component mapping (its keys), by stored name: ``"total"``
+    first, then the orders from the lowest (``"single"`` counts as ``"order1"``).
 
     Raises
     ------
@@ -427,7 +428,7 @@ class ByComponent(dict):
         return self[key] if key in self else default
 
 
-def by_component(data: Mapping[str, Any], components: tuple[str, ...],
+def by_component(data: Mapping[str, V], components: tuple[str, ...],
                   dtype: type | None = None) -> ByComponent:
     """``data`` keyed by stored component names, in the order of ``components``."""
     named = {canonical_component(c): v for c, v in data.items()}
