@@ -19,7 +19,7 @@ import numba
 
 PACKAGE = Path(__file__).parent
 COMPILED = ("jit.py", "kernel", "materials", "analytic/velvet.py", "surfaces/faces.py",
-            "tables/accumulate.py", "tables/principal.py")
+            "tables/accumulate.py")
 """The folders (every ``.py`` file in them) and files of ``microsim`` that hold compiled
 code or kernel language (``microsim.materials.base.kernel``), and this file (the options)."""
 JIT = {"cache": True, "nogil": True, "error_model": "numpy"}

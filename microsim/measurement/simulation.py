@@ -20,6 +20,7 @@ from operator import attrgetter
 from typing import Any
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from microsim.materials import Material
 from microsim.measurement.adaptive import direction_errors, next_plan
@@ -78,6 +79,7 @@ class Tiles:
         return build_tile(realisation(self.surface, r), self.memory_limit_gib)
 
 
+@threadpool_limits.wrap(limits=1, user_api="blas")
 def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Material],
                      simulation: Simulation, table: TableSettings,
                      thetas: Sequence[int] | None = None, *, threads: int | None = None,
@@ -106,6 +108,10 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
     keep_runs : bool
         Keep every realisation's run instead of folding it (for studies of the
         realisations themselves; the memory then grows with them).
+
+    The BLAS library runs on one thread of the calling thread meanwhile: the tracer's
+    threads use the cores, and the products of one BLAS thread (``microsim.tables.
+    principal``) are the same bit for bit on whatever thread calls them.
 
     Returns
     -------

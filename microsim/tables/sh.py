@@ -226,16 +226,16 @@ def project(loc: np.ndarray, weights: np.ndarray, order: int,
     return moments(loc, weights, order, mapper, second=False)[0]
 
 
-def _reduced(rows: list[np.ndarray]) -> tuple[list[np.ndarray], np.ndarray | None]:
-    """The rows to transform instead of ``rows`` and the mix that turns their transforms
-    into the rows' (``microsim.tables.principal``; None: the rows themselves), principal
-    components only of more than ``PRINCIPAL_CHANNELS`` rows."""
+def _reduced(rows: np.ndarray) -> tuple[list[np.ndarray], np.ndarray | None]:
+    """The rows to transform instead of ``rows`` ((k, n)) and the mix that turns their
+    transforms into the rows' (``microsim.tables.principal``; None: the rows themselves),
+    principal components only of more than ``PRINCIPAL_CHANNELS`` rows."""
     if len(rows) <= PRINCIPAL_CHANNELS:
-        return rows, None
-    from microsim.tables.principal import principal  # compiled: loaded when first needed
+        return list(rows), None
+    from microsim.tables.principal import principal
 
-    found = principal(np.array(rows), PRINCIPAL_TOLERANCE)
-    return (rows, None) if found is None else (list(found[0]), found[1])
+    found = principal(rows, PRINCIPAL_TOLERANCE)
+    return (list(rows), None) if found is None else (list(found[0]), found[1])
 
 
 def _mixed(done: list[np.ndarray], mix: np.ndarray | None) -> list[np.ndarray]:
@@ -278,12 +278,13 @@ def moments(loc: np.ndarray, weights: np.ndarray, order: int, mapper: Mapper | N
     if columns.strides[-1] != columns.itemsize:  # a column's entries apart: one copy
         columns = np.ascontiguousarray(columns)
     first, which = _distinct(columns)
-    squares = [columns[j] ** 2 for j in first] if second else []
+    squares = columns[first] ** 2 if second else columns[:0]
     # weights that are their own squares (0 or 1: mirror facets) take their first moments
     # from the order-2L transform of w² = w, whose first (L + 1)² coefficients they are
-    own = [bool(squares) and np.array_equal(squares[i], columns[j])
-           for i, j in enumerate(first)]
-    narrow, narrow_mix = _reduced([columns[j] for i, j in enumerate(first) if not own[i]])
+    own = [second and np.array_equal(squares[i], columns[j]) for i, j in enumerate(first)]
+    kept = [j for i, j in enumerate(first) if not own[i]]
+    narrow, narrow_mix = _reduced(columns if kept == list(range(len(columns)))
+                                  else columns[kept])
     wide, wide_mix = _reduced(squares)
     jobs = [(w, order) for w in narrow] + [(w2, 2 * order) for w2 in wide]
     done = (mapper or _in_order)(lambda i: _transform(loc, *jobs[i]), range(len(jobs)))
