@@ -76,6 +76,58 @@ MS_SAMPLES = {True: 4096, False: 16384}
 in a lobe bin stays below the table's at the sweep's most rays."""
 
 
+PARTS = (("microsim.measurement.scene", "trace_chunk", "the kernel (trace_chunk)"),
+         ("microsim.measurement.paths", "summarise", "summaries of outcomes"),
+         ("microsim.measurement.goniometer", "bin_escapes", "binning"),
+         ("microsim.measurement.goniometer", "gather_rows", "rays grouped by order row"),
+         ("microsim.tables.sh", "_distinct", "equal weight columns found"),
+         ("microsim.tables.sh", "_reduced", "principal components"),
+         ("microsim.tables.sh", "_transform", "harmonic transforms (ducc0)"),
+         ("microsim.measurement.goniometer.Sums", "tally", "a batch's tally in all"),
+         ("microsim.measurement.goniometer", "beam_origins", "start points of the beam"),
+         ("microsim.measurement.goniometer.Sums", "add_tally", "adding tallies"),
+         ("microsim.measurement.goniometer.Measurement", "fold", "folding realisations"),
+         ("microsim.measurement.simulation.Opener", "_build", "tiles and scenes (beside)"),
+         ("microsim.measurement.simulation", "assemble_table", "assembling tables"))
+"""The parts ``part_times`` times: (module or class, function, label)."""
+_SPENT: dict[str, float] | None = None
+
+
+def part_times() -> dict[str, float]:
+    """CPU time (``time.thread_time`` of the thread that ran it) of each of ``PARTS``,
+    summed over the threads, from this call on: every part's function is wrapped once per
+    process (a module's, or a module's class's, capitalised), and the dict returned is
+    the one they add to (clear it between runs)."""
+    global _SPENT
+    if _SPENT is not None:
+        return _SPENT
+    import importlib
+    import threading
+
+    spent: dict[str, float] = dict.fromkeys((label for _, _, label in PARTS), 0.0)
+    lock = threading.Lock()
+
+    def timed(fn: Any, label: str) -> Any:
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            start = time.thread_time()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                with lock:
+                    spent[label] += time.thread_time() - start
+        return wrapper
+
+    for where, name, label in PARTS:
+        names = where.split(".")
+        owner: Any = importlib.import_module(".".join(n for n in names if n[0].islower()))
+        for n in names:
+            if n[0].isupper():
+                owner = getattr(owner, n)
+        setattr(owner, name, timed(getattr(owner, name), label))
+    _SPENT = spent
+    return spent
+
+
 def bare_scene(vertices: np.ndarray, faces: np.ndarray) -> Any:
     """A bare Embree scene of the mesh, committed (the first query builds the BVH)."""
     scene = EmbreeScene()

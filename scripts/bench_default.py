@@ -51,7 +51,14 @@ from typing import Any
 
 import numpy as np
 
-from microsim.bench import bare_rays_per_second, bare_scene, run_child, surface_rays
+from microsim.bench import (
+    PARTS,
+    bare_rays_per_second,
+    bare_scene,
+    part_times,
+    run_child,
+    surface_rays,
+)
 from microsim.files import write_section
 from microsim.geometry import direction
 from microsim.kernel.beam import CELLS, beam_origins
@@ -281,17 +288,6 @@ def tile_section() -> str:
             "one for each realisation in flight, three, and refits them to the others.")
 
 
-PARTS = (("microsim.measurement.scene", "trace_chunk", "the kernel (trace_chunk)"),
-         ("microsim.measurement.paths", "summarise", "summaries of outcomes"),
-         ("microsim.measurement.goniometer", "bin_escapes", "binning"),
-         ("microsim.tables.sh", "_transform", "harmonic transforms (ducc0)"),
-         ("microsim.measurement.goniometer.Sums", "tally", "a batch's tally in all"),
-         ("microsim.measurement.goniometer", "beam_origins", "start points of the beam"),
-         ("microsim.measurement.goniometer.Sums", "add_tally", "adding tallies"),
-         ("microsim.measurement.goniometer.Measurement", "fold", "folding realisations"),
-         ("microsim.measurement.simulation.Opener", "_build", "tiles and scenes (beside)"),
-         ("microsim.measurement.simulation", "assemble_table", "assembling tables"))
-"""What ``--breakdown`` times: (module or class, function, label)."""
 
 
 def breakdown_section() -> str:
@@ -300,32 +296,9 @@ def breakdown_section() -> str:
     gold ensemble and of the former with ``--target-error 0.01`` (each recipe file after
     one run not counted, which the target run shares with the demo), against the
     process's CPU time and the wall time."""
-    import importlib
-    import threading
-    from collections import defaultdict
-
     from microsim.measurement.simulation import simulate_recipe
 
-    spent: defaultdict[str, float] = defaultdict(float)
-    lock = threading.Lock()
-
-    def timed(fn: Any, label: str) -> Any:
-        def wrapper(*args: Any, **kwargs: Any) -> Any:
-            start = time.thread_time()
-            try:
-                return fn(*args, **kwargs)
-            finally:
-                with lock:
-                    spent[label] += time.thread_time() - start
-        return wrapper
-
-    for where, name, label in PARTS:  # a module, or a module's class (capitalised)
-        names = where.split(".")
-        owner: Any = importlib.import_module(".".join(n for n in names if n[0].islower()))
-        for n in names:
-            if n[0].isupper():
-                owner = getattr(owner, n)
-        setattr(owner, name, timed(getattr(owner, name), label))
+    spent = part_times()
     columns, totals = [], []
     with tempfile.TemporaryDirectory() as folder:
         heavy = Path(folder) / "heavy-gold.toml"
@@ -338,7 +311,7 @@ def breakdown_section() -> str:
             if path not in warmed:  # compiled code loaded, caches filled: once a recipe
                 simulate_recipe(recipe, threads=THREADS)
                 warmed.add(path)
-            spent.clear()
+            spent.update(dict.fromkeys(spent, 0.0))
             cpu, start = time.process_time(), time.perf_counter()
             table = simulate_recipe(recipe, threads=THREADS)
             wall, cpu = time.perf_counter() - start, time.process_time() - cpu

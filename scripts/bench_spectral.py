@@ -3,6 +3,7 @@
 Usage::
 
     python scripts/bench_spectral.py [--rays N] [--repeats 3] [--write]
+    python scripts/bench_spectral.py --breakdown [--write]
 
 Two comparisons, each ``microsim simulate --json`` in a child process (its wall time
 inside simulate, ``wall_s``, the whole command's, and its peak resident memory), with
@@ -25,7 +26,12 @@ times; medians:
 
 - **the shipped spectral recipe**, surfaces/paint-pearlescent.toml, as it is.
 
-``--write`` puts the table into docs/performance.md (marked section ``bench_spectral``).
+``--breakdown``: where the time of the gold RGB and 32-wavelength tables goes, in this
+process (``simulate_recipe``, 2 threads, each after one run not counted): the CPU time of
+each part (``microsim.bench.part_times``), summed over the threads that ran it.
+
+``--write`` puts the table into docs/performance.md (marked section ``bench_spectral``,
+or ``bench_spectral-breakdown``).
 """
 
 from __future__ import annotations
@@ -43,7 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
-from microsim.files import write_section
+from microsim.files import measured_with, write_section
 from microsim.tables.exr import read_table
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -121,15 +127,58 @@ def peak_of(case: tuple[Path, list[str]], rays: int) -> float:
     return int(out.split()[-1]) / 2**20
 
 
+GOLD = ["material.kind=conductor"]
+SPECTRAL_GOLD = GOLD + ["material.data=Au", f"table.wavelengths={_list(NM32)}"]
+
+
+def breakdown() -> str:
+    """The CPU time of each part of one in-process ``simulate_recipe`` of the gold RGB and
+    32-wavelength tables (``microsim.bench.part_times``), with their wall and CPU time."""
+    from microsim.bench import PARTS, part_times
+    from microsim.measurement.simulation import simulate_recipe
+    from microsim.recipe import load
+
+    spent = part_times()
+    columns, totals, load_before = [], [], os.getloadavg()[0]
+    for name, sets in (("gold RGB", GOLD), ("gold 32 wavelengths", SPECTRAL_GOLD)):
+        recipe = load(RECIPE, sets)
+        simulate_recipe(recipe, threads=2)          # compiled code loaded, caches filled
+        spent.update(dict.fromkeys(spent, 0.0))
+        cpu, start = time.process_time(), time.perf_counter()
+        simulate_recipe(recipe, threads=2)
+        wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+        columns.append(dict(spent))
+        totals.append(f"{name} {wall:.2f} s wall and {cpu:.2f} s of CPU")
+    rows = [f"| {label} | " + " | ".join(f"{parts[label]:.2f} s" for parts in columns)
+            + f" | {columns[1][label] - columns[0][label]:+.2f} s |"
+            for _, _, label in PARTS]
+    return "\n".join([
+        "### Where a spectral table's time goes",
+        "",
+        f"{measured_with(__file__, sys.argv[1:], load_before)}: one `simulate_recipe` in this "
+        f"process, 2 threads, of surfaces/gaussian-0.3.toml with gold facets: {totals[0]}; "
+        f"{totals[1]}. The CPU time of each part, summed over the threads that ran it (the "
+        "tally includes the binning, the principal components and the transforms):", "",
+        "| part | gold RGB, CPU | gold 32 wavelengths, CPU | difference |",
+        "| --- | --- | --- | --- |", *rows])
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--rays", type=int, default=0,
                         help="rays per direction (default 0: each recipe's own)")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--breakdown", action="store_true",
+                        help="where the time goes, in this process, instead")
     parser.add_argument("--write", action="store_true")
     args = parser.parse_args()
-    gold = ["material.kind=conductor"]
-    spectral_gold = gold + ["material.data=Au", f"table.wavelengths={_list(NM32)}"]
+    if args.breakdown:
+        text = breakdown()
+        print(text)
+        if args.write:
+            write_section(DOC, "bench_spectral-breakdown", text)
+        return
+    gold, spectral_gold = GOLD, SPECTRAL_GOLD
     glass = ["material.kind=dielectric", "material.refract=true", "surface.alpha=0.4"]
     cases = {
         "gold RGB": (RECIPE, gold),

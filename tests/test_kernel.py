@@ -72,23 +72,26 @@ def test_kernel_bins_are_the_tables_bins(phi_period) -> None:
 
 @pytest.mark.parametrize("spectral", [False, True])
 def test_tables_do_not_depend_on_threads_or_chunks(spectral: bool) -> None:
-    """A rough tile of two materials (a random one, Lambertian, and a conductor), harmonics
-    on: one thread with the default chunk (each batch traced, then added) and two threads
-    with chunks of 777 rays (the next batch traced while one is added,
-    ``goniometer.DEPTH``) give the same table, bit for bit; in RGB and at 16 wavelengths
-    (gold's measured spectra: the harmonics through principal components,
+    """A rough tile of three materials (Lambertian, a conductor and a dielectric whose
+    refracted part leaves: absorbing and transmitting), harmonics on: one thread with a
+    chunk of 32768 rays (each batch traced, then added) and two threads with chunks of
+    832 (13 energy blocks, ``microsim.kernel.slots.ENERGY_BLOCK``; the next batch traced
+    while one is added, ``goniometer.DEPTH``) give the same table, bit for bit, its
+    absorbed, transmitted and lost energy included; in RGB and at 16 wavelengths (gold's
+    measured spectra: the harmonics through principal components,
     ``microsim.tables.principal``)."""
     tile = random_tile(32, 0.5, seed=2)
-    tile.material = (np.arange(len(tile.faces)) % 3 == 0).astype(np.int64)
-    tile.parts = ("a", "b")
+    tile.material = np.arange(len(tile.faces), dtype=np.int64) % 3
+    tile.parts = ("a", "b", "c")
     materials = {"a": {"kind": "lambertian", "albedo": 0.7 if spectral else [0.9, 0.6, 0.3]},
                  "b": {"kind": "conductor", "data": "Au"} if spectral else {
-                     "kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]}}
+                     "kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]},
+                 "c": {"kind": "dielectric", "eta": 1.5}}
     sim = {"theta_i": [0.0, 70.0], "phi_i": [0.0], "rays": 70_000, "bounces": 8, "seed": 5}
     table = {"theta_bins": 6, "phi_bins": 12, "sh_order": 4,
              **({"wavelengths": list(range(400, 720, 20))} if spectral else {})}
     made = []
-    for threads, chunk in ((1, 32768), (2, 777)):
+    for threads, chunk in ((1, 32768), (2, 832)):
         with PeriodicScene(tile, threads, chunk) as scene:
             part = measure_directions(tile, *sections(materials, sim, table), scene=scene)
         made.append(assemble_table([part], *sections(materials, sim, table)))
@@ -100,6 +103,8 @@ def test_tables_do_not_depend_on_threads_or_chunks(spectral: bool) -> None:
         assert np.array_equal(one[c].sh_err, two[c].sh_err, equal_nan=True)
     assert np.array_equal(one.lost_energy, two.lost_energy)
     assert one.meta.directions == two.meta.directions
+    record = one.meta.directions[1]
+    assert min(record.absorbed) > 0.01 and min(record.transmitted) > 0.01
 
 
 def test_kinds_the_transport_reflects_inline_are_perfect_mirrors() -> None:

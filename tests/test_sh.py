@@ -204,6 +204,54 @@ def test_spectral_weights_are_transformed_through_few_principal_components() -> 
         assert np.abs(got - direct).max() < 1e-6 * np.abs(direct).max()
 
 
+def test_principal_components_of_a_row_slice_are_those_of_its_copy() -> None:
+    """``moments`` hands ``principal`` a batch's order row as a slice of the channel-major
+    weights (rows a whole batch apart in memory, not copied): its components, and the
+    sums through them, are those of the same rows copied, bit for bit, since the products
+    read the same numbers in the same order."""
+    w = spectral_weights(5000, 3)
+    wide = np.ascontiguousarray(w.T)                     # (32, 5000), as a batch's rows
+    rows = wide[:, 1200:4100]
+    assert not rows.flags.c_contiguous
+    got, want = principal(rows, sh.PRINCIPAL_TOLERANCE), principal(
+        np.ascontiguousarray(rows), sh.PRINCIPAL_TOLERANCE)
+    assert got is not None and want is not None
+    assert all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
+    loc = sh.angles(unit(np.random.default_rng(5).normal(size=(2900, 3))), 0.0)
+    assert np.array_equal(sh.moments(loc, rows.T, 8, second=False)[0],
+                          sh.moments(loc, np.ascontiguousarray(rows.T), 8, second=False)[0])
+
+
+def test_a_measurement_keeps_the_blas_library_to_one_thread(monkeypatch) -> None:
+    """Inside ``measure_ensemble`` the BLAS library (``principal``'s products) runs on one
+    thread, so that it neither competes with the tracer's threads nor splits its sums
+    differently from one run to the next; after it, the threads it had before."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from microsim.measurement import simulation
+
+    seen: list[int] = []
+
+    class Stop(Exception):
+        pass
+
+    def opener(*args: object) -> None:
+        seen.extend(info["num_threads"] for info in threadpool_info()
+                    if info["user_api"] == "blas")
+        raise Stop
+
+    monkeypatch.setattr(simulation, "Opener", opener)
+    recipe = resolve({"surface": {"kind": "flat"}, "material": {"kind": "mirror"}})
+    with threadpool_limits(limits=2, user_api="blas"):
+        with pytest.raises(Stop):
+            simulation.measure_ensemble(None, recipe.material, recipe.simulation,
+                                        recipe.table)
+        after = [info["num_threads"] for info in threadpool_info()
+                 if info["user_api"] == "blas"]
+    assert seen and set(seen) == {1}
+    assert set(after) == {2}
+
+
 def test_weights_without_few_principal_components_are_transformed_as_they_are() -> None:
     """Independent random channels (full rank), zero weights, and a tolerance below what
     the Gram matrix's rounding allows give no principal components; ``moments`` then

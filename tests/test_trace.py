@@ -99,11 +99,18 @@ def test_threads_and_chunks_do_not_change_hits() -> None:
     start = np.c_[rng.random((n, 2)), np.full(n, 1.0)]
     d = -cosine_directions(np.tile([0.0, 0.0, 1.0], (n, 1)), rng.random((n, 2)))
     with PeriodicScene(tile, threads=1) as one, PeriodicScene(tile, threads=2,
-                                                             chunk=777) as two:
+                                                             chunk=832) as two:
         start[:, 2] = one.z_top
         a, b = one.closest_hit(start, d), two.closest_hit(start, d)
     assert np.array_equal(a.status, b.status) and np.array_equal(a.face, b.face)
     assert np.array_equal(a.point, b.point)
+
+
+def test_a_chunk_holds_whole_energy_blocks() -> None:
+    """A chunk of rays that would split a block of the absorbed and transmitted sums (whose
+    additions in ray order make them independent of the chunking) is refused."""
+    with pytest.raises(ValueError, match="chunk 777: a positive multiple of 64 rays"):
+        PeriodicScene(flat_tile(), chunk=777)
 
 
 def test_kernel_queries_find_what_bare_embreex_finds() -> None:

@@ -4,8 +4,10 @@ the slots that hold every live path, and the outcomes that record how each path 
 A chunk's paths live in slots (``S_*`` float and ``I_*`` integer columns) that
 ``microsim.kernel.transport`` moves on after every Embree query; a path keeps its slot,
 and ``queue`` lists the slots still alive for the next query. Every ended path writes its
-outcome (``O_*`` columns) at its ray's row, so the results depend on neither the chunking
-nor the thread that traced it.
+outcome (``O_*`` columns) at its ray's row, and the weight it lost to absorption and
+transmission is added to its block's sums in ray order once the chunk's paths have ended
+(``energy``), so the results depend on neither the chunking nor the thread that traced
+it.
 """
 
 from __future__ import annotations
@@ -228,7 +230,8 @@ def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
 @njit(**INLINE)
 def end(slots_f: np.ndarray, slots_i: np.ndarray, i: int, fate: int, out_f: np.ndarray,
          out_i: np.ndarray) -> None:
-    """Record how slot i's path ended at its ray's row of the outcomes."""
+    """Record how slot i's path ended at its ray's row of the outcomes (the weight it lost
+    on the way stays in its slot: ``energy``)."""
     r = slots_i[i, I_RAY]
     for c in range(O_W):
         out_f[r, c] = slots_f[i, c]
@@ -238,16 +241,42 @@ def end(slots_f: np.ndarray, slots_i: np.ndarray, i: int, fate: int, out_f: np.n
     out_i[r, O_ORDER] = slots_i[i, I_BOUNCE]
 
 
+@njit(**INLINE)
+def energy(first: int, k: int, slots_f: np.ndarray, out: np.ndarray) -> None:
+    """Add the weight the paths of slots 0 … k − 1 (rays ``first`` …, all ended) lost to
+    absorption and to transmission to their blocks' sums, ray by ray in ray order
+    (``ENERGY_BLOCK``; ``out`` (blocks, 2, C): absorbed, transmitted)."""
+    channels = out.shape[2]
+    for j in range(k):
+        b = (first + j) // ENERGY_BLOCK
+        for c in range(channels):
+            out[b, 0, c] += slots_f[j, S_W + channels + c]
+            out[b, 1, c] += slots_f[j, S_W + 2 * channels + c]
+
+
 # the outcomes: per ray, its slot's position, direction and weights at its end, and
 O_W = S_DZ + 1
 """Float columns of an outcome: the slot's position and direction (``S_PX`` … ``S_DZ``)
-when the path ended, then from ``O_W`` on its weights per channel as the slot's from
-``S_W`` on: weight (O_W + c), absorbed (O_W + C + c), transmitted (O_W + 2C + c)."""
+when the path ended, then from ``O_W`` on its weight per channel (O_W + c)."""
+ENERGY_BLOCK = 64
+"""Rays per block of a run's absorbed and transmitted sums (``energy``), which are kept
+per block, not per ray: two fewer floats of outcome per ray and channel to write and read
+back (two thirds of the outcomes' memory traffic at 32 channels). A block's sums add its
+rays in ray order, so they depend on neither the thread nor the chunking, as long as every
+chunk holds whole blocks (``PeriodicScene`` asks for a chunk that is a multiple of
+this)."""
 
 
 def out_floats(channels: int) -> int:
     """Float columns of an outcome of a run of ``channels`` channels."""
-    return O_W + 3 * channels
+    return O_W + channels
+
+
+def energy_blocks(rays: int) -> int:
+    """Blocks of the absorbed and transmitted sums of a run of ``rays`` rays."""
+    return -(-rays // ENERGY_BLOCK)
+
+
 (O_FATE, O_ORDER, O_FACE) = range(3)
 """Integer columns of an outcome: its fate, its bounces, the last face it hit."""
 OUT_INTS = 3

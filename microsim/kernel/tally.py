@@ -21,7 +21,9 @@ from microsim.materials.optics import TWO_PI
 
 BLOCK = 32768
 """Rays per block of the sums: a fixed partition of a run, independent of the tracer's
-chunks, so the blocks can be summed on any threads."""
+chunks, so the blocks can be summed on any threads; a multiple of ``slots.ENERGY_BLOCK``."""
+GATHER = 64
+"""Rays per block of ``gather_rows``'s copies (a block's weights stay in a core's cache)."""
 
 
 def in_blocks(fn: Callable[[int, int], tuple[np.ndarray, ...]], n: int,
@@ -55,15 +57,18 @@ def in_blocks(fn: Callable[[int, int], tuple[np.ndarray, ...]], n: int,
 
 
 @njit(**JIT)
-def summarise(out_f: np.ndarray, out_i: np.ndarray, direction: np.ndarray,
-              weight: np.ndarray, order: np.ndarray, energy: np.ndarray,
-              counts: np.ndarray) -> None:
+def summarise(out_f: np.ndarray, out_i: np.ndarray, blocks: np.ndarray,
+              direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
+              energy: np.ndarray, counts: np.ndarray) -> None:
     """Split a run's outcomes into the escaping rays and the energy of the others.
 
     Parameters
     ----------
     out_f, out_i
         The run's outcomes (``transport``).
+    blocks : (b, 2, C) float
+        The absorbed and transmitted weight of the rays' blocks (``slots.ENERGY_BLOCK``),
+        added in block order.
     direction : (n, 3) float
         Filled with each escaped ray's direction (zero rows for the others).
     weight : (n, C) float
@@ -78,6 +83,10 @@ def summarise(out_f: np.ndarray, out_i: np.ndarray, direction: np.ndarray,
         Running paths per fate.
     """
     channels = weight.shape[1]
+    for b in range(len(blocks)):
+        for c in range(channels):
+            energy[2, c] += blocks[b, 0, c]
+            energy[1, c] += blocks[b, 1, c]
     for r in range(len(out_i)):
         fate = out_i[r, O_FATE]
         counts[fate] += 1
@@ -85,8 +94,6 @@ def summarise(out_f: np.ndarray, out_i: np.ndarray, direction: np.ndarray,
             direction[r, c] = out_f[r, S_DX + c] if fate == ESCAPED else 0.0
         for c in range(channels):
             w = out_f[r, O_W + c]
-            energy[1, c] += out_f[r, O_W + 2 * channels + c]
-            energy[2, c] += out_f[r, O_W + channels + c]
             if fate == ESCAPED:
                 weight[r, c] = w
             else:
@@ -225,14 +232,25 @@ def gather_rows(loc: np.ndarray, weight: np.ndarray, order: np.ndarray, index: n
     fill[0] = 0
     for k in range(1, orders + 1):
         fill[k] = ends[k - 1]
-    for r in range(len(order)):
-        if index[r] < 0:
-            continue
-        row = min(order[r], orders)
-        j = fill[row]
-        fill[row] += 1
-        loc_rows[j, 0] = loc[r, 0]
-        loc_rows[j, 1] = loc[r, 1]
+    # in blocks of GATHER rays: their destinations, then each channel's weights (a
+    # channel's row written in order, the block's weights read from cache): at 32
+    # channels, twice as fast as writing every channel of one ray at a time
+    dest = np.empty(GATHER, np.int64)
+    for start in range(0, len(order), GATHER):
+        stop = min(start + GATHER, len(order))
+        for r in range(start, stop):
+            if index[r] < 0:
+                dest[r - start] = -1
+                continue
+            row = min(order[r], orders)
+            j = fill[row]
+            fill[row] += 1
+            dest[r - start] = j
+            loc_rows[j, 0] = loc[r, 0]
+            loc_rows[j, 1] = loc[r, 1]
         for c in range(weight.shape[1]):
-            weight_rows[c, j] = weight[r, c]
+            for r in range(start, stop):
+                j = dest[r - start]
+                if j >= 0:
+                    weight_rows[c, j] = weight[r, c]
     return ends[orders]

@@ -38,8 +38,11 @@ queries), then one step per path:
 7. **Compaction.** The paths still alive are listed first in ``live`` for the next pass;
    a path's state stays in its slot.
 
-Every ended path writes its outcome at its ray index (``O_*`` columns), so the results
-depend on neither the chunking nor the thread that traced it.
+Every ended path writes its outcome at its ray index (``O_*`` columns), and once every
+path of the chunk has ended, the weight each lost to absorption and transmission is added
+to its block's sums in ray order (``slots.energy``, blocks of ``ENERGY_BLOCK`` rays, never
+split between chunks), so the results depend on neither the chunking nor the thread that
+traced it.
 """
 
 from __future__ import annotations
@@ -100,6 +103,7 @@ from microsim.kernel.slots import (
     start,
     wrap_near,
 )
+from microsim.kernel.slots import energy as energy_sums
 from microsim.materials.base import (
     DISPERSION_ALWAYS,
     HERO,
@@ -296,7 +300,7 @@ def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.nda
                 box: np.ndarray, faces: np.ndarray, kind: np.ndarray,
                 params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, bounces: int,
                 key: np.ndarray, out_f: np.ndarray, out_i: np.ndarray,
-                vertices: np.ndarray, curved: np.ndarray) -> int:
+                energy: np.ndarray, vertices: np.ndarray, curved: np.ndarray) -> int:
     """Trace rays ``first``, ``first + 1``, … (one per row of ``origins``) to their ends,
     each carrying a weight per channel (C of them: ``params``' last axis).
 
@@ -337,6 +341,9 @@ def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.nda
     out_f : (n, out_floats(C)) float
     out_i : (n, OUT_INTS) int
         Outcomes per ray of the run.
+    energy : (energy_blocks(n), 2, C) float
+        The run's absorbed and transmitted weight per block of ``ENERGY_BLOCK`` rays,
+        added to once every path has ended (``first`` a multiple of ``ENERGY_BLOCK``).
     vertices : (n, v, 3) float
         Unwrapped hit points per ray and bounce (v = 0: not recorded).
     curved : (f, 9) or (0, 9) float
@@ -350,12 +357,13 @@ def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.nda
     """
     segments = 0
     fac = np.empty((2, params.shape[2]))
-    m = start(first, origins, dirs, media, slots_f, slots_i, live, box)
+    k = m = start(first, origins, dirs, media, slots_f, slots_i, live, box)
     while m:
         _query(m, live, slots_f, rayhit, scene, intersect, prim, box[B_EPS])
         segments += m
         m = advance(prim, m, slots_f, slots_i, live, near, box, faces, kind, params,
                     tab_int, tab_f, bounces, key, out_f, out_i, vertices, curved, fac)
+    energy_sums(first, k, slots_f, energy)
     return segments
 
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 import math
+import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
@@ -50,6 +51,10 @@ DEPTH = 3
 """Batches under way on the worker threads (traced, or summarised, binned and projected on
 the harmonics there) ahead of the one whose sums are being added: the workers always
 have the next batch's chunks to trace while one of them tallies a batch."""
+_ROWS = threading.local()
+"""Each tallying thread's arrays of a batch's rays grouped by order row (``Sums.
+_harmonics``), kept from batch to batch: a spectral batch's are 16 MB, whose pages the
+system would zero anew for every batch."""
 LOST_WARNING = 0.01
 """Lost energy (paths cut at the bounce limit or leaving through the tile's underside) as
 a fraction of the incident energy above which a table carries a warning: a closed surface
@@ -172,7 +177,7 @@ class Sums:
         row's rays are then one slice, its weights one slice of each channel's row
         (channel-major, so the transforms take them without a transposing copy)."""
         n = len(index)
-        loc_rows, w = np.empty((n, 2)), np.empty((self.channels, n))
+        loc_rows, w = _row_arrays(n, self.channels)
         ends = np.empty(self.orders + 1, np.int64)
         gather_rows(loc, paths.weight, paths.order, index, self.orders, loc_rows, w, ends)
         out = []
@@ -187,6 +192,16 @@ class Sums:
     def lost_energy(self) -> np.ndarray:
         """(C,) summed weight a table reports as lost: simulation ends and transmission."""
         return self.lost + self.transmitted
+
+
+def _row_arrays(n: int, channels: int) -> tuple[np.ndarray, np.ndarray]:
+    """The calling thread's (n, 2) angles and (channels, n) weights for ``gather_rows``:
+    views of arrays it keeps (``_ROWS``; valid until its next call), grown when n is
+    larger than before."""
+    held = getattr(_ROWS, "arrays", None)
+    if held is None or held[1].shape[0] != channels or len(held[0]) < n:
+        held = _ROWS.arrays = (np.empty((n, 2)), np.empty((channels, n)))
+    return held[0][:n], held[1][:, :n]
 
 
 class Tally(NamedTuple):

@@ -19,7 +19,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from microsim.kernel.packing import FacetMaterials
-from microsim.kernel.slots import FATES, O_W
+from microsim.kernel.slots import ENERGY_BLOCK, FATES, O_W, energy_blocks
 from microsim.kernel.tally import in_blocks, summarise
 from microsim.measurement.scene import Outcomes, PeriodicScene, Tracing
 
@@ -129,14 +129,15 @@ def _summarise(out: Outcomes, mapper: Callable[..., list[Any]] | None) -> Paths:
     """The paths of traced outcomes, summarised in blocks (``in_blocks``: the same sums
     whatever ``mapper`` runs them)."""
     n = len(out.floats)
-    channels = (out.floats.shape[1] - O_W) // 3
+    channels = out.floats.shape[1] - O_W
     direction, weight = np.empty((n, 3)), np.empty((n, channels))
     order = np.empty(n, np.int64)
 
     def block(a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
         energy, counts = np.zeros((3, channels)), np.zeros(len(FATES), np.int64)
-        summarise(out.floats[a:b], out.ints[a:b], direction[a:b], weight[a:b],
-                  order[a:b], energy, counts)
+        summarise(out.floats[a:b], out.ints[a:b],
+                  out.energy[a // ENERGY_BLOCK:energy_blocks(b)], direction[a:b],
+                  weight[a:b], order[a:b], energy, counts)
         return energy, counts
 
     energy, counts = in_blocks(block, n, mapper)

@@ -82,10 +82,13 @@ class Outcomes:
     ----------
     floats : (n, out_floats(C)) float
         Per ray at its end (``microsim.kernel.slots``' ``O_W`` layout): position (wrapped
-        into the box), direction, then per channel its weight, absorbed and transmitted
-        weight.
+        into the box), direction, then per channel its weight.
     ints : (n, OUT_INTS) int
         Its fate (``FATES``), bounces, and the last face it hit (-1: none).
+    energy : (energy_blocks(n), 2, C) float
+        Per block of ``ENERGY_BLOCK`` rays (``microsim.kernel.slots``), per channel, the
+        weight its paths lost to absorption and to transmission (1 − F at non-refracting
+        dielectrics).
     vertices : (n, v, 3) float
         Its first v hit points, unwrapped (NaN where it had fewer).
     segments : int
@@ -94,6 +97,7 @@ class Outcomes:
 
     floats: np.ndarray
     ints: np.ndarray
+    energy: np.ndarray
     vertices: np.ndarray
     segments: int
 
@@ -105,16 +109,17 @@ class Tracing:
     ----------
     scene : PeriodicScene
         The scene tracing them (its ``segments`` count grows when they are collected).
-    floats, ints, vertices : arrays
+    floats, ints, energy, vertices : arrays
         The outcome arrays the chunks fill (``Outcomes``).
     chunks : list of Future of int
         Each chunk's task; its result is the Embree queries it made.
     """
 
     def __init__(self, scene: PeriodicScene, floats: np.ndarray, ints: np.ndarray,
-                 vertices: np.ndarray, chunks: list[Future[int]]) -> None:
+                 energy: np.ndarray, vertices: np.ndarray, chunks: list[Future[int]]
+                 ) -> None:
         self._scene, self._chunks = scene, chunks
-        self._arrays = (floats, ints, vertices)
+        self._arrays = (floats, ints, energy, vertices)
         self._outcomes: Outcomes | None = None
 
     def then(self, fn: Callable[[Outcomes], T]) -> Future[T]:
@@ -176,7 +181,7 @@ class PeriodicScene:
     threads : int or None
         Worker threads (default: the number of CPUs).
     chunk : int
-        Rays per worker task.
+        Rays per worker task, a multiple of ``microsim.kernel.slots.ENERGY_BLOCK``.
 
     Attributes
     ----------
@@ -196,6 +201,9 @@ class PeriodicScene:
     """
 
     def __init__(self, tile: Tile, threads: int | None = None, chunk: int = CHUNK) -> None:
+        if chunk <= 0 or chunk % ks.ENERGY_BLOCK:
+            raise ValueError(f"chunk {chunk}: a positive multiple of {ks.ENERGY_BLOCK} rays "
+                             "(microsim.kernel.slots.ENERGY_BLOCK) is needed")
         self._faces: np.ndarray | None = None
         self._take(tile)
         self._scene = Scene(tile.vertices, tile.faces)
@@ -337,6 +345,7 @@ class PeriodicScene:
         channels = params.shape[2]
         out_f = np.empty((n, ks.out_floats(channels)))  # every ray ends once: fills its row
         out_i = np.full((n, ks.OUT_INTS), ks.NO_FACE, np.int64)
+        energy = np.zeros((ks.energy_blocks(n), 2, channels))
         path = np.full((n, vertices, 3), np.nan)
         c = self.chunk
 
@@ -346,10 +355,10 @@ class PeriodicScene:
             return trace_chunk(a, origins[a:b], dirs[a:b], media[a:b],
                                   self._scene.handle, self._scene.intersect, rayhit, slots_f,
                                   slots_i, live, near, prim, self.box, self._faces, kind,
-                                  params, tab_int, tab_f, bounces, key, out_f, out_i, path,
-                                  curved)
+                                  params, tab_int, tab_f, bounces, key, out_f, out_i, energy,
+                                  path, curved)
 
-        return Tracing(self, out_f, out_i, path, self.submit(chunk, range(0, n, c)))
+        return Tracing(self, out_f, out_i, energy, path, self.submit(chunk, range(0, n, c)))
 
     def _buffers(self, channels: int) -> tuple[np.ndarray, ...]:
         """The calling thread's ``RTCRayHit`` record, path slots (``CHUNK`` rows, for
