@@ -111,7 +111,9 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
 
     The BLAS library runs on one thread of the calling thread meanwhile: the tracer's
     threads use the cores, and the products of one BLAS thread (``microsim.tables.
-    principal``) are the same bit for bit on whatever thread calls them.
+    principal``) are the same bit for bit on whatever thread calls them. The limit is the
+    process's: where measurements run at once on threads of one process (a Dask worker of
+    several threads), the first to end gives the library its threads back for the others.
 
     Returns
     -------
