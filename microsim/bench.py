@@ -97,7 +97,7 @@ def part_times() -> dict[str, float]:
     """CPU time (``time.thread_time`` of the thread that ran it) of each of ``PARTS``,
     summed over the threads, from this call on: every part's function is wrapped once per
     process (a module's, or a module's class's, capitalised), and the dict returned is
-    the one they add to (clear it between runs)."""
+    the one they add to (``timed_run`` sets it to zero before its run)."""
     global _SPENT
     if _SPENT is not None:
         return _SPENT
@@ -126,6 +126,19 @@ def part_times() -> dict[str, float]:
         setattr(owner, name, timed(getattr(owner, name), label))
     _SPENT = spent
     return spent
+
+
+def timed_run(recipe: Any, threads: int) -> tuple[dict[str, float], float, float, Any]:
+    """One in-process ``simulate_recipe``: the CPU time of each of ``PARTS`` in it
+    (``part_times``, from zero), its wall and CPU time (s), and its table."""
+    from microsim.measurement.simulation import simulate_recipe
+
+    spent = part_times()
+    spent.update(dict.fromkeys(spent, 0.0))
+    cpu, start = time.process_time(), time.perf_counter()
+    table = simulate_recipe(recipe, threads=threads)
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+    return dict(spent), wall, cpu, table
 
 
 def bare_scene(vertices: np.ndarray, faces: np.ndarray) -> Any:

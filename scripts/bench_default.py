@@ -55,9 +55,9 @@ from microsim.bench import (
     PARTS,
     bare_rays_per_second,
     bare_scene,
-    part_times,
     run_child,
     surface_rays,
+    timed_run,
 )
 from microsim.files import write_section
 from microsim.geometry import direction
@@ -288,8 +288,6 @@ def tile_section() -> str:
             "one for each realisation in flight, three, and refits them to the others.")
 
 
-
-
 def breakdown_section() -> str:
     """CPU time (``time.thread_time`` of the thread that ran it) of each part of one
     in-process ``simulate_recipe`` of ``surfaces/gaussian-0.3.toml``, of the tile-heavy
@@ -298,7 +296,6 @@ def breakdown_section() -> str:
     process's CPU time and the wall time."""
     from microsim.measurement.simulation import simulate_recipe
 
-    spent = part_times()
     columns, totals = [], []
     with tempfile.TemporaryDirectory() as folder:
         heavy = Path(folder) / "heavy-gold.toml"
@@ -311,11 +308,8 @@ def breakdown_section() -> str:
             if path not in warmed:  # compiled code loaded, caches filled: once a recipe
                 simulate_recipe(recipe, threads=THREADS)
                 warmed.add(path)
-            spent.update(dict.fromkeys(spent, 0.0))
-            cpu, start = time.process_time(), time.perf_counter()
-            table = simulate_recipe(recipe, threads=THREADS)
-            wall, cpu = time.perf_counter() - start, time.process_time() - cpu
-            columns.append((dict(spent), table.meta.segments))
+            parts, wall, cpu, table = timed_run(recipe, THREADS)
+            columns.append((parts, table.meta.segments))
             totals.append(f"{wall:.2f} s wall and {cpu:.2f} s of CPU in all "
                           f"({table.meta.segments / 1e6:.1f} M segments)")
     rows = [f"| {label} | " + " | ".join(

@@ -66,6 +66,10 @@ def _list(values: list[float]) -> str:
     return "[" + ",".join(f"{v:g}" for v in values) + "]"
 
 
+GOLD = ["material.kind=conductor"]
+SPECTRAL_GOLD = GOLD + ["material.data=Au", f"table.wavelengths={_list(NM32)}"]
+
+
 def command(case: tuple[Path, list[str]], rays: int, out: Path) -> list[str]:
     """``microsim simulate`` of a case (recipe, ``--set`` overrides), with ``rays`` per
     direction (0: the recipe's own)."""
@@ -127,27 +131,19 @@ def peak_of(case: tuple[Path, list[str]], rays: int) -> float:
     return int(out.split()[-1]) / 2**20
 
 
-GOLD = ["material.kind=conductor"]
-SPECTRAL_GOLD = GOLD + ["material.data=Au", f"table.wavelengths={_list(NM32)}"]
-
-
 def breakdown() -> str:
     """The CPU time of each part of one in-process ``simulate_recipe`` of the gold RGB and
     32-wavelength tables (``microsim.bench.part_times``), with their wall and CPU time."""
-    from microsim.bench import PARTS, part_times
+    from microsim.bench import PARTS, timed_run
     from microsim.measurement.simulation import simulate_recipe
     from microsim.recipe import load
 
-    spent = part_times()
     columns, totals, load_before = [], [], os.getloadavg()[0]
     for name, sets in (("gold RGB", GOLD), ("gold 32 wavelengths", SPECTRAL_GOLD)):
         recipe = load(RECIPE, sets)
         simulate_recipe(recipe, threads=2)          # compiled code loaded, caches filled
-        spent.update(dict.fromkeys(spent, 0.0))
-        cpu, start = time.process_time(), time.perf_counter()
-        simulate_recipe(recipe, threads=2)
-        wall, cpu = time.perf_counter() - start, time.process_time() - cpu
-        columns.append(dict(spent))
+        parts, wall, cpu, _ = timed_run(recipe, 2)
+        columns.append(parts)
         totals.append(f"{name} {wall:.2f} s wall and {cpu:.2f} s of CPU")
     rows = [f"| {label} | " + " | ".join(f"{parts[label]:.2f} s" for parts in columns)
             + f" | {columns[1][label] - columns[0][label]:+.2f} s |"
@@ -178,13 +174,12 @@ def main() -> None:
         if args.write:
             write_section(DOC, "bench_spectral-breakdown", text)
         return
-    gold, spectral_gold = GOLD, SPECTRAL_GOLD
     glass = ["material.kind=dielectric", "material.refract=true", "surface.alpha=0.4"]
     cases = {
-        "gold RGB": (RECIPE, gold),
-        "gold 32 wavelengths": (RECIPE, spectral_gold),
-        "gold RGB, no harmonics": (RECIPE, gold + ["table.sh_order=0"]),
-        "gold 32 wavelengths, no harmonics": (RECIPE, spectral_gold + ["table.sh_order=0"]),
+        "gold RGB": (RECIPE, GOLD),
+        "gold 32 wavelengths": (RECIPE, SPECTRAL_GOLD),
+        "gold RGB, no harmonics": (RECIPE, GOLD + ["table.sh_order=0"]),
+        "gold 32 wavelengths, no harmonics": (RECIPE, SPECTRAL_GOLD + ["table.sh_order=0"]),
         "glass RGB (eta 1.517)": (RECIPE, glass + ["material.eta=1.517",
                                                    "table.sh_order=0"]),
         "glass BK7, 16 wavelengths (hero)": (RECIPE, glass + [

@@ -6,8 +6,8 @@ A chunk's paths live in slots (``S_*`` float and ``I_*`` integer columns) that
 and ``queue`` lists the slots still alive for the next query. Every ended path writes its
 outcome (``O_*`` columns) at its ray's row, and the weight it lost to absorption and
 transmission is added to its block's sums in ray order once the chunk's paths have ended
-(``energy``), so the results depend on neither the chunking nor the thread that traced
-it.
+(``add_energy``), so the results depend on neither the chunking nor the thread that
+traced it.
 """
 
 from __future__ import annotations
@@ -231,7 +231,7 @@ def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
 def end(slots_f: np.ndarray, slots_i: np.ndarray, i: int, fate: int, out_f: np.ndarray,
          out_i: np.ndarray) -> None:
     """Record how slot i's path ended at its ray's row of the outcomes (the weight it lost
-    on the way stays in its slot: ``energy``)."""
+    on the way stays in its slot: ``add_energy``)."""
     r = slots_i[i, I_RAY]
     for c in range(O_W):
         out_f[r, c] = slots_f[i, c]
@@ -242,7 +242,7 @@ def end(slots_f: np.ndarray, slots_i: np.ndarray, i: int, fate: int, out_f: np.n
 
 
 @njit(**INLINE)
-def energy(first: int, k: int, slots_f: np.ndarray, out: np.ndarray) -> None:
+def add_energy(first: int, k: int, slots_f: np.ndarray, out: np.ndarray) -> None:
     """Add the weight the paths of slots 0 … k − 1 (rays ``first`` …, all ended) lost to
     absorption and to transmission to their blocks' sums, ray by ray in ray order
     (``ENERGY_BLOCK``; ``out`` (blocks, 2, C): absorbed, transmitted)."""
@@ -259,7 +259,7 @@ O_W = S_DZ + 1
 """Float columns of an outcome: the slot's position and direction (``S_PX`` … ``S_DZ``)
 when the path ended, then from ``O_W`` on its weight per channel (O_W + c)."""
 ENERGY_BLOCK = 64
-"""Rays per block of a run's absorbed and transmitted sums (``energy``), which are kept
+"""Rays per block of a run's absorbed and transmitted sums (``add_energy``), which are kept
 per block, not per ray: two fewer floats of outcome per ray and channel to write and read
 back (two thirds of the outcomes' memory traffic at 32 channels). A block's sums add its
 rays in ray order, so they depend on neither the thread nor the chunking, as long as every

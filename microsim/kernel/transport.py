@@ -40,7 +40,7 @@ queries), then one step per path:
 
 Every ended path writes its outcome at its ray index (``O_*`` columns), and once every
 path of the chunk has ended, the weight each lost to absorption and transmission is added
-to its block's sums in ray order (``slots.energy``, blocks of ``ENERGY_BLOCK`` rays, never
+to its block's sums in ray order (``slots.add_energy``, blocks of ``ENERGY_BLOCK`` rays, never
 split between chunks), so the results depend on neither the chunking nor the thread that
 traced it.
 """
@@ -96,6 +96,7 @@ from microsim.kernel.slots import (
     S_Z0,
     TRANSMITTED,
     TRAPPED,
+    add_energy,
     aim,
     budget,
     end,
@@ -103,7 +104,6 @@ from microsim.kernel.slots import (
     start,
     wrap_near,
 )
-from microsim.kernel.slots import energy as energy_sums
 from microsim.materials.base import (
     DISPERSION_ALWAYS,
     HERO,
@@ -363,7 +363,7 @@ def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.nda
         segments += m
         m = advance(prim, m, slots_f, slots_i, live, near, box, faces, kind, params,
                     tab_int, tab_f, bounces, key, out_f, out_i, vertices, curved, fac)
-    energy_sums(first, k, slots_f, energy)
+    add_energy(first, k, slots_f, energy)
     return segments
 
 

@@ -10,9 +10,9 @@ dimensions: 3 to 13 of 32 in a gold table's batches at ``PRINCIPAL_TOLERANCE``. 
 leading eigenvectors of the Gram matrix X Xᵀ (the right singular vectors of Xᵀ; Golub &
 Van Loan 2013, Matrix Computations, 4th ed., §8.6), B = Mᵀ X.
 
-The products are the BLAS library's (numpy's ``@``), which a run keeps to one thread of
-its own on each calling thread (``microsim.threads.one_blas_thread``): its threads beside
-the tracer's measured slower end to end than transforming every channel, and one thread's
+The products are the BLAS library's (numpy's ``@``), which a measurement keeps to one
+thread (``microsim.measurement.simulation.measure_ensemble``): its threads beside the
+tracer's measured slower end to end than transforming every channel, and one thread's
 products are the same bit for bit whatever thread calls them.
 """
 
@@ -23,12 +23,6 @@ import numpy as np
 BLOCK = 4096
 """Samples per block of the components' products (a block's coefficients stay in
 cache)."""
-
-
-def mixed(done: np.ndarray, mix: np.ndarray) -> np.ndarray:
-    """The channels' sums from their components': (c, K) = M (r, K), for ``done`` (r, K)
-    the components' transforms and ``mix`` M (c, r)."""
-    return mix @ done
 
 
 def principal(rows: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray] | None:

@@ -29,6 +29,8 @@ from typing import Any
 
 import numpy as np
 
+from microsim.tables.principal import principal
+
 WINDOWS = ("none", "lanczos", "hanning")
 EPSILON = 1e-7
 """Relative accuracy asked of ducc0's non-uniform transform (its error, measured at ~5e-10
@@ -232,20 +234,14 @@ def _reduced(rows: np.ndarray) -> tuple[list[np.ndarray], np.ndarray | None]:
     principal components only of more than ``PRINCIPAL_CHANNELS`` rows."""
     if len(rows) <= PRINCIPAL_CHANNELS:
         return list(rows), None
-    from microsim.tables.principal import principal
-
     found = principal(rows, PRINCIPAL_TOLERANCE)
     return (list(rows), None) if found is None else (list(found[0]), found[1])
 
 
 def _mixed(done: list[np.ndarray], mix: np.ndarray | None) -> list[np.ndarray]:
     """Transforms of the rows ``_reduced`` gave, as the transforms of the rows it was
-    given."""
-    if mix is None:
-        return done
-    from microsim.tables.principal import mixed
-
-    return list(mixed(np.stack(done), mix))
+    given: (c, K) = M (r, K) for the mix M."""
+    return done if mix is None else list(mix @ np.stack(done))
 
 
 def moments(loc: np.ndarray, weights: np.ndarray, order: int, mapper: Mapper | None = None,
