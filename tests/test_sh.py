@@ -222,6 +222,29 @@ def test_principal_components_of_a_row_slice_are_those_of_its_copy() -> None:
                           sh.moments(loc, np.ascontiguousarray(rows.T), 8, second=False)[0])
 
 
+def test_principal_components_missed_by_the_sampled_gram_matrix_are_found() -> None:
+    """``principal`` tries the eigenvectors of every ``SAMPLE``-th sample's Gram matrix
+    first and checks the residual of every sample: weights with a second spectral
+    direction only in the samples that one skips fail that check, and the Gram matrix of
+    every sample then finds both directions (two components, residual within the
+    tolerance); the sampled rows alone would have needed one."""
+    from microsim.tables import principal as pc
+
+    rng = np.random.default_rng(2)
+    n = pc.SAMPLED * 32 * 2
+    spectra = np.linalg.qr(rng.normal(size=(32, 2)))[0]      # two orthonormal spectra
+    amount = rng.uniform(0.5, 1.0, (2, n))
+    amount[1, ::pc.SAMPLE] = 0.0                              # absent where sampled
+    rows = spectra @ amount
+    assert pc._leading(np.ascontiguousarray(rows[:, ::pc.SAMPLE]),
+                       sh.PRINCIPAL_TOLERANCE).shape == (32, 1)
+    found = principal(rows, sh.PRINCIPAL_TOLERANCE)
+    assert found is not None and found[0].shape == (2, n)
+    basis, mix = found
+    assert (np.linalg.norm(rows - mix @ basis)
+            <= sh.PRINCIPAL_TOLERANCE * np.linalg.norm(rows))
+
+
 def test_a_measurement_keeps_the_blas_library_to_one_thread(monkeypatch) -> None:
     """Inside ``measure_ensemble`` the BLAS library (``principal``'s products) runs on one
     thread, so that it neither competes with the tracer's threads nor splits its sums

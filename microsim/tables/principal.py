@@ -23,11 +23,24 @@ import numpy as np
 BLOCK = 4096
 """Samples per block of the components' products (a block's coefficients stay in
 cache)."""
+SAMPLE = 8
+"""The Gram matrix is first made of every ``SAMPLE``-th sample alone (an eighth of its
+products): the weights' few dimensions are those of any large share of their samples, and
+the residual of every sample is checked all the same; where that check fails, the Gram
+matrix of every sample is used."""
+SAMPLED = 64
+"""Samples per channel below which the Gram matrix is made of every sample at once."""
 
 
 def principal(rows: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray] | None:
     """The principal components of weight rows: rows B and a mix M with X ≈ M B, as few as
     leave a relative Frobenius residual ‖X − M B‖ ≤ ``tolerance`` ‖X‖, checked.
+
+    M holds the leading eigenvectors of the Gram matrix of every ``SAMPLE``-th sample (of
+    every sample where the rows have fewer than ``SAMPLED`` per channel, or where the
+    check fails), as many as leave at most half the tolerance in the Gram matrix's
+    discarded eigenvalues; B = Mᵀ X, and the residual X − M B is computed sample by
+    sample, so its check has none of the cancellation of ‖X‖² − ‖B‖².
 
     Parameters
     ----------
@@ -51,6 +64,19 @@ def principal(rows: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarra
     rows = np.asarray(rows, float)
     if rows.strides[-1] != rows.itemsize:
         rows = np.ascontiguousarray(rows)
+    if rows.shape[1] >= SAMPLED * len(rows):
+        mix = _leading(np.ascontiguousarray(rows[:, ::SAMPLE]), tolerance)
+        found = None if mix is None else _checked(rows, mix, tolerance)
+        if found is not None:
+            return found
+    mix = _leading(rows, tolerance)
+    return None if mix is None else _checked(rows, mix, tolerance)
+
+
+def _leading(rows: np.ndarray, tolerance: float) -> np.ndarray | None:
+    """The leading eigenvectors of ``rows``' Gram matrix X Xᵀ ((c, r), orthonormal
+    columns), as many as leave at most (tolerance / 2)² of its trace in the discarded
+    eigenvalues; None for zero rows or more than c // 2 of them."""
     gram = rows @ rows.T
     total = float(np.trace(gram))
     if not total > 0.0:
@@ -61,22 +87,24 @@ def principal(rows: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarra
                                           side="right"))
     if r > len(values) // 2:
         return None
-    # every eigenvector's coefficients, block by block over the samples: the first r rows
-    # are B, the others the residual's coefficients in the orthogonal complement of M's
-    # columns, so ‖X − M B‖² is their sum of squares, free of the cancellation in
-    # ‖X‖² − ‖B‖²
-    r = max(r, 1)
-    full = np.ascontiguousarray(vectors[:, ::-1].T)
+    return np.ascontiguousarray(vectors[:, ::-1][:, :max(r, 1)])
+
+
+def _checked(rows: np.ndarray, mix: np.ndarray, tolerance: float
+             ) -> tuple[np.ndarray, np.ndarray] | None:
+    """B = Mᵀ X and M where ‖X − M B‖ ≤ ``tolerance`` ‖X‖, else None; block by block over
+    the samples, the residual's entries computed as they are."""
     n = rows.shape[1]
-    basis = np.empty((r, n))
-    block = np.empty((len(full), min(BLOCK, n)))
+    basis = np.empty((mix.shape[1], n))
+    across = np.ascontiguousarray(mix.T)
     residual = 0.0
     for start in range(0, n, BLOCK):
-        part = block[:, :min(BLOCK, n - start)]
-        np.matmul(full, rows[:, start:start + BLOCK], out=part)
-        basis[:, start:start + BLOCK] = part[:r]
-        rest = part[r:]
+        x = rows[:, start:start + BLOCK]
+        part = across @ x
+        basis[:, start:start + BLOCK] = part
+        rest = mix @ part
+        rest -= x
         residual += float(np.vdot(rest, rest))
-    if residual > tolerance ** 2 * total:
+    if not residual <= tolerance ** 2 * float(np.einsum("ij,ij->", rows, rows)):
         return None
-    return basis, np.ascontiguousarray(full[:r].T)
+    return basis, mix
