@@ -244,3 +244,39 @@ def test_scenes_closed_release_their_memory() -> None:
         for _ in range(200):
             scene.update(tile)
     assert process.memory_info().rss - before < 40e6
+
+
+def test_paths_are_the_escaping_rays_of_the_raw_outcomes() -> None:
+    """``trace_paths`` summarises the outcomes in place: its directions, weights and orders
+    are views of the outcomes' columns, those of the rays that escaped as traced and zero
+    for the others, whose weights are counted as lost (ended at the bounce limit here) or
+    transmitted; the transmitted and absorbed sums are the energy blocks'. Against the
+    raw outcomes of the same rays and key (``PeriodicScene.run``), bit for bit."""
+    from microsim.kernel.packing import FacetMaterials
+    from microsim.kernel.slots import O_FATE, O_ORDER, O_W, S_DX, S_DZ, TRANSMITTED
+    from microsim.materials import material_from_json
+    from microsim.measurement.paths import trace_paths
+
+    tile = random_tile(seed=3)
+    glass = material_from_json({"kind": "dielectric", "eta": 1.5})   # reflects F, sends 1 − F
+    facets = FacetMaterials(tile.material, tile.parts, {p: glass for p in tile.parts})
+    with PeriodicScene(tile, threads=2) as scene:
+        start, d = incoherent_rays(scene, 5000, 2)
+        raw = scene.run(start, d, facets, 2, np.random.SeedSequence(7))
+        paths = trace_paths(scene, facets, start, d, 2, np.random.SeedSequence(7))
+    fate = raw.ints[:, O_FATE]
+    out = fate == ESCAPED
+    assert 0 < out.sum() < len(fate)                 # some end at the bounce limit
+    weight = raw.floats[:, O_W:]
+    assert np.array_equal(paths.direction, np.where(out[:, None],
+                                                    raw.floats[:, S_DX:S_DZ + 1], 0.0))
+    assert np.array_equal(paths.weight, np.where(out[:, None], weight, 0.0))
+    assert np.array_equal(paths.order, np.where(out, raw.ints[:, O_ORDER], 0))
+    absorbed, sent = raw.energy.sum(axis=0)
+    ended = ~out & (fate != TRANSMITTED)
+    np.testing.assert_allclose(paths.lost, weight[ended].sum(axis=0), rtol=1e-12)
+    assert paths.lost.min() > 0
+    np.testing.assert_allclose(paths.transmitted, sent + weight[fate == TRANSMITTED].sum(
+        axis=0), rtol=1e-12)
+    np.testing.assert_allclose(paths.absorbed, absorbed, rtol=1e-12)
+    assert paths.transmitted.min() > 0

@@ -58,23 +58,19 @@ def in_blocks(fn: Callable[[int, int], tuple[np.ndarray, ...]], n: int,
 
 @njit(**JIT)
 def summarise(out_f: np.ndarray, out_i: np.ndarray, blocks: np.ndarray,
-              direction: np.ndarray, weight: np.ndarray, order: np.ndarray,
               energy: np.ndarray, counts: np.ndarray) -> None:
-    """Split a run's outcomes into the escaping rays and the energy of the others.
+    """Split a run's outcomes into the escaping rays and the energy of the others, in
+    place: every other ray's weight is added to the energy it ends as, and its direction,
+    weights and order in the outcomes are set to zero, so that the outcomes' columns are
+    the escaping rays' records as they stand (no copy of a ray's C weights).
 
     Parameters
     ----------
     out_f, out_i
-        The run's outcomes (``transport``).
+        The run's outcomes (``transport``); rewritten for the rays that did not escape.
     blocks : (b, 2, C) float
         The absorbed and transmitted weight of the rays' blocks (``slots.ENERGY_BLOCK``),
         added in block order.
-    direction : (n, 3) float
-        Filled with each escaped ray's direction (zero rows for the others).
-    weight : (n, C) float
-        Filled with each escaped ray's weight per channel (zero rows for the others).
-    order : (n,) int
-        Filled with each escaped ray's scattering order (0 for the others).
     energy : (3, C) float
         Running summed weight per channel lost (paths ended by the simulation),
         transmitted (1 − F at non-refracting dielectrics; paths out through the bottom
@@ -82,7 +78,7 @@ def summarise(out_f: np.ndarray, out_i: np.ndarray, blocks: np.ndarray,
     counts : (len(FATES),) int
         Running paths per fate.
     """
-    channels = weight.shape[1]
+    channels = out_f.shape[1] - O_W
     for b in range(len(blocks)):
         for c in range(channels):
             energy[2, c] += blocks[b, 0, c]
@@ -90,16 +86,15 @@ def summarise(out_f: np.ndarray, out_i: np.ndarray, blocks: np.ndarray,
     for r in range(len(out_i)):
         fate = out_i[r, O_FATE]
         counts[fate] += 1
+        if fate == ESCAPED:
+            continue
         for c in range(3):
-            direction[r, c] = out_f[r, S_DX + c] if fate == ESCAPED else 0.0
+            out_f[r, S_DX + c] = 0.0
+        row = 1 if fate == TRANSMITTED else 0
         for c in range(channels):
-            w = out_f[r, O_W + c]
-            if fate == ESCAPED:
-                weight[r, c] = w
-            else:
-                weight[r, c] = 0.0
-                energy[1 if fate == TRANSMITTED else 0, c] += w
-        order[r] = out_i[r, O_ORDER] if fate == ESCAPED else 0
+            energy[row, c] += out_f[r, O_W + c]
+            out_f[r, O_W + c] = 0.0
+        out_i[r, O_ORDER] = 0
 
 
 @njit(**JIT)

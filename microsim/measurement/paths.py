@@ -19,7 +19,15 @@ from typing import Any, TypeVar
 import numpy as np
 
 from microsim.kernel.packing import FacetMaterials
-from microsim.kernel.slots import ENERGY_BLOCK, FATES, O_W, energy_blocks
+from microsim.kernel.slots import (
+    ENERGY_BLOCK,
+    FATES,
+    O_ORDER,
+    O_W,
+    S_DX,
+    S_DZ,
+    energy_blocks,
+)
 from microsim.kernel.tally import in_blocks, summarise
 from microsim.measurement.scene import Outcomes, PeriodicScene, Tracing
 
@@ -33,7 +41,8 @@ class Paths:
     Attributes
     ----------
     direction : (n, 3) float
-        Exit direction of escaped rays (zero rows for the others).
+        Exit direction of escaped rays (zero rows for the others); like ``weight`` and
+        ``order``, a view of the traced outcomes' columns (rows not adjacent).
     weight : (n, C) float
         Weight per channel of escaped rays (zero for the others).
     order : (n,) int
@@ -127,19 +136,18 @@ class PendingPaths:
 
 def _summarise(out: Outcomes, mapper: Callable[..., list[Any]] | None) -> Paths:
     """The paths of traced outcomes, summarised in blocks (``in_blocks``: the same sums
-    whatever ``mapper`` runs them)."""
+    whatever ``mapper`` runs them); their directions, weights and orders are views of the
+    outcomes, which ``summarise`` zeroes for the rays that did not escape."""
     n = len(out.floats)
     channels = out.floats.shape[1] - O_W
-    direction, weight = np.empty((n, 3)), np.empty((n, channels))
-    order = np.empty(n, np.int64)
 
     def block(a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
         energy, counts = np.zeros((3, channels)), np.zeros(len(FATES), np.int64)
         summarise(out.floats[a:b], out.ints[a:b],
-                  out.energy[a // ENERGY_BLOCK:energy_blocks(b)], direction[a:b],
-                  weight[a:b], order[a:b], energy, counts)
+                  out.energy[a // ENERGY_BLOCK:energy_blocks(b)], energy, counts)
         return energy, counts
 
     energy, counts = in_blocks(block, n, mapper)
-    return Paths(direction, weight, order, energy[0], energy[1], energy[2],
+    return Paths(out.floats[:, S_DX:S_DZ + 1], out.floats[:, O_W:], out.ints[:, O_ORDER],
+                 energy[0], energy[1], energy[2],
                  dict(zip(FATES, map(int, counts), strict=True)))
