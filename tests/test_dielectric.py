@@ -326,3 +326,48 @@ def test_dielectric_columns_medium_and_dispersion_are_what_the_kernel_reads() ->
     ]
     for material, channels, dispersion in cases:
         assert material.dispersion(channels) == dispersion, (material, channels)
+
+
+def test_a_hero_paths_absorbed_weight_is_what_its_hero_lost() -> None:
+    """What a path absorbed is found at its end, 1 less its final weight, what it
+    transmitted and what ended at a dispersive event (``slots.add_energy``), not added up
+    event by event. A dispersive binder (BK7, absorbing inside) over a mirror at normal
+    incidence: a ray that refracts is left its hero h (weight × C), the other channels'
+    weights end there, absorbing nothing, and the hero's C is absorbed in the binder down
+    to the weight the path ends with; a ray reflected at the top keeps every channel
+    with weight F_c / F_h and counts 1 − F_c / F_h as absorbed (an event's loss
+    w (1 − F), of either sign here). So the run's absorbed weight in channel c is
+    Σ (C − w_final) over the rays that refracted with hero c plus Σ (1 − w_final,c) over
+    those reflected, to rounding (1e-12 of it), and nothing is transmitted: read from the
+    raw outcomes, whose final weights the accounting does not touch. Counting the ended
+    channels as absorbed, or not crediting the hero's gain, is off by about C times the
+    refracted rays."""
+    from microsim.kernel.slots import O_W
+    from microsim.spectra.channels import Channels
+
+    channels = Channels((450.0, 550.0, 650.0))
+    count, rays = channels.count, 6000
+    tile = layer_tile(0.3)
+    binder = {"kind": "dielectric", "data": "BK7", "refract": True, "absorption": 0.8}
+    facets = FacetMaterials(tile.material, tile.parts,
+                            {"binder": material_from_json(binder),
+                             "substrate": material_from_json({"kind": "mirror"})},
+                            channels=channels)
+    rng = np.random.default_rng(3)
+    with PeriodicScene(tile, threads=1) as scene:
+        origins = np.column_stack([rng.random((rays, 2)), np.full(rays, scene.z_top)])
+        out = scene.run(origins, np.broadcast_to([0.0, 0.0, -1.0], (rays, 3)), facets, 40,
+                        np.random.SeedSequence(4))
+    final = out.floats[:, O_W:]
+    hero = np.arange(rays) % count
+    others = np.ones((rays, count), bool)
+    others[np.arange(rays), hero] = False
+    refracted = np.all(final[others].reshape(rays, count - 1) == 0.0, axis=1)
+    assert 0.8 * rays < refracted.sum() < rays            # F ≈ 4% reflect at the top
+    assert np.all(final[~refracted] > 0.0)
+    absorbed, transmitted = out.energy.sum(axis=0)
+    expected = np.array([np.sum(count - final[refracted & (hero == c), c])
+                         + np.sum(1.0 - final[~refracted, c]) for c in range(count)])
+    assert np.all(expected > 0.1 * rays / count)          # the binder absorbs much
+    np.testing.assert_allclose(absorbed, expected, rtol=1e-12)
+    assert not transmitted.any()

@@ -22,7 +22,7 @@ from numba.extending import register_jitable
 from microsim.jit import INLINE, JIT
 from microsim.kernel.rng import uniforms
 from microsim.materials import KINDS
-from microsim.materials.base import KERNEL_FUNCTIONS, WEIGHTED, Material
+from microsim.materials.base import KERNEL_FUNCTIONS, TRANSMITTING, WEIGHTED, Material
 
 for _function in KERNEL_FUNCTIONS:
     if _function not in {kind.scatter for kind in KINDS}:
@@ -47,7 +47,7 @@ def _no_kind(kind: int, params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarr
              ex: float, ey: float, ez: float, key: np.ndarray, ray: int, event: int,
              hero: int, fac: np.ndarray) -> tuple[float, float, float, int]:
     """The end of the chain, which no registered code reaches: everything absorbed."""
-    fac[:, :] = 0.0
+    fac[0, :] = 0.0
     return dx, dy, dz, WEIGHTED
 
 
@@ -114,8 +114,9 @@ def scatter_event(kind: int, params: np.ndarray, tab_int: np.ndarray, tab_f: np.
     Returns
     -------
     tuple of 3 float and an int
-        New unit direction, and what the event did to the weight (``WEIGHTED``, ``KEPT``
-        or ``HERO``: ``microsim.materials.base``; ``fac`` is written for ``WEIGHTED``
+        New unit direction, and what the event did to the weight (``WEIGHTED``,
+        ``TRANSMITTING``, ``KEPT`` or ``HERO``: ``microsim.materials.base``; ``fac``'s row 0
+        is written for ``WEIGHTED`` and ``TRANSMITTING``, its row 1 for ``TRANSMITTING``
         only).
     """
     return _chain(kind, params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz, ex, ey, ez,
@@ -138,6 +139,7 @@ def scatter_all(faces: np.ndarray, d: np.ndarray, n: np.ndarray, face_material: 
             kind[part], params, tab_int, tab_f, part, d[r, 0], d[r, 1], d[r, 2], n[r, 0],
             n[r, 1], n[r, 2], tangents[f, 0], tangents[f, 1], tangents[f, 2], key, r,
             event, r % channels, fac[r])
-        if outcome != WEIGHTED:
+        if outcome != WEIGHTED and outcome != TRANSMITTING:
             fac[r, 0] = 1.0
+        if outcome != TRANSMITTING:
             fac[r, 1] = 0.0

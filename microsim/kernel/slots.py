@@ -156,8 +156,10 @@ def queue(slots_f: np.ndarray, slots_i: np.ndarray, live: np.ndarray, q: int, i:
 segment began, distance to the box's side, the whole periods the path has been shifted by
 (for unwrapped path vertices), the box sides its direction runs towards with
 1 / direction (``aim``), and from ``S_W`` on, per channel c of C, the weight (column
-S_W + c), the weight absorbed so far (S_W + C + c) and transmitted so far
-(S_W + 2C + c)."""
+S_W + c), the weight ended so far without being absorbed or transmitted (S_W + C + c: at
+a dispersive event, the other channels' weights, and the hero's gain, negative) and the
+weight transmitted so far (S_W + 2C + c). What a path absorbs is not kept: it is what
+its weight lost otherwise (``add_energy``)."""
 
 
 def slot_floats(channels: int) -> int:
@@ -243,15 +245,20 @@ def end(slots_f: np.ndarray, slots_i: np.ndarray, i: int, fate: int, out_f: np.n
 
 @njit(**INLINE)
 def add_energy(first: int, k: int, slots_f: np.ndarray, out: np.ndarray) -> None:
-    """Add the weight the paths of slots 0 … k − 1 (rays ``first`` …, all ended) lost to
-    absorption and to transmission to their blocks' sums, ray by ray in ray order
-    (``ENERGY_BLOCK``; ``out`` (blocks, 2, C): absorbed, transmitted)."""
+    """Add the weight the paths of slots 0 … k − 1 (rays ``first`` …, all ended) absorbed
+    and transmitted to their blocks' sums, ray by ray in ray order (``ENERGY_BLOCK``;
+    ``out`` (blocks, 2, C): absorbed, transmitted). A path starts with weight 1 per
+    channel and keeps what it has at its end (escaped or lost), so what it absorbed is
+    1 − its weight − what it transmitted − what ended at a dispersive event: the sum of
+    its events' losses w (1 − F − T) and its media's w (1 − e^(−σℓ)) in exact arithmetic,
+    without adding them event by event."""
     channels = out.shape[2]
     for j in range(k):
         b = (first + j) // ENERGY_BLOCK
         for c in range(channels):
-            out[b, 0, c] += slots_f[j, S_W + channels + c]
-            out[b, 1, c] += slots_f[j, S_W + 2 * channels + c]
+            sent = slots_f[j, S_W + 2 * channels + c]
+            out[b, 0, c] += 1.0 - slots_f[j, S_W + c] - sent - slots_f[j, S_W + channels + c]
+            out[b, 1, c] += sent
 
 
 # the outcomes: per ray, its slot's position, direction and weights at its end, and

@@ -39,10 +39,11 @@ queries), then one step per path:
    a path's state stays in its slot.
 
 Every ended path writes its outcome at its ray index (``O_*`` columns), and once every
-path of the chunk has ended, the weight each lost to absorption and transmission is added
-to its block's sums in ray order (``slots.add_energy``, blocks of ``ENERGY_BLOCK`` rays, never
-split between chunks), so the results depend on neither the chunking nor the thread that
-traced it.
+path of the chunk has ended, the weight each transmitted and absorbed (what it started
+with, 1, less its weight at the end, what it transmitted and what ended at a dispersive
+event) is added to its block's sums in ray order (``slots.add_energy``, blocks of
+``ENERGY_BLOCK`` rays, never split between chunks), so the results depend on neither the
+chunking nor the thread that traced it.
 """
 
 from __future__ import annotations
@@ -111,6 +112,7 @@ from microsim.materials.base import (
     P_DISPERSIVE,
     P_MEDIUM,
     P_MIRROR,
+    TRANSMITTING,
     WEIGHTED,
 )
 from microsim.materials.optics import reflect
@@ -227,11 +229,12 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                         hero if hero >= 0 else slots_i[i, I_RAY] % channels, fac)
                     if outcome == HERO and hero < 0:
                         _follow_hero(slots_f, slots_i, i, channels)
-                    for c in range(channels if outcome == WEIGHTED else 0):
-                        w = slots_f[i, S_W + c]
-                        slots_f[i, S_W + 2 * channels + c] += w * fac[1, c]
-                        slots_f[i, S_W + channels + c] += w * (1.0 - fac[0, c] - fac[1, c])
-                        slots_f[i, S_W + c] = w * fac[0, c]
+                    # (what the weight loses otherwise is absorbed: ``add_energy``)
+                    for c in range(channels if outcome == TRANSMITTING else 0):
+                        slots_f[i, S_W + 2 * channels + c] += slots_f[i, S_W + c] * fac[1, c]
+                    for c in range(channels if outcome == WEIGHTED or outcome == TRANSMITTING
+                                   else 0):
+                        slots_f[i, S_W + c] = slots_f[i, S_W + c] * fac[0, c]
                     if params[part, P_MEDIUM, 0] != 0.0:
                         # through a refracting face (the direction kept the side of d·n):
                         # into the part's medium when it now goes behind the face, else out
@@ -395,16 +398,13 @@ def _absorb(slots_f: np.ndarray, i: int, params: np.ndarray, medium: int, z_end:
             dz: float) -> None:
     """Beer-Lambert attenuation exp(−σ ℓ) of slot i's weight over its straight segment in
     the medium of part ``medium``, ℓ = |z_end − z_start| / |d_z| (a segment parallel to the
-    slab never leaves: ℓ = ∞)."""
+    slab never leaves: ℓ = ∞); what it loses is absorbed (``add_energy``)."""
     length = abs(z_end - slots_f[i, S_Z0]) / abs(dz) if dz != 0.0 else math.inf
     channels = params.shape[2]
     for c in range(channels):
         sigma = params[medium, P_ABSORPTION, c]
         if sigma > 0.0:
-            before = slots_f[i, S_W + c]
-            after = before * math.exp(-sigma * length)
-            slots_f[i, S_W + c] = after
-            slots_f[i, S_W + channels + c] += before - after
+            slots_f[i, S_W + c] = slots_f[i, S_W + c] * math.exp(-sigma * length)
 
 
 @njit(**INLINE)
@@ -414,8 +414,16 @@ def _follow_hero(slots_f: np.ndarray, slots_i: np.ndarray, i: int, channels: int
     hero's is multiplied by C (hero-wavelength sampling, Wilkie et al. 2014, "Hero
     wavelength spectral sampling", sec. 4; pbrt-v4's ``TerminateSecondary``). Each
     channel is the hero of every C-th ray, so each channel's expected weight is unchanged;
-    the ended weights are neither absorbed nor transmitted."""
+    the ended weights are neither absorbed nor transmitted: they are kept as the slot's
+    ended weight, and so is the hero's gain, (C − 1) times its weight, negative
+    (``add_energy``)."""
     hero = slots_i[i, I_RAY] % channels
     slots_i[i, I_HERO] = hero
     for c in range(channels):
-        slots_f[i, S_W + c] = slots_f[i, S_W + c] * channels if c == hero else 0.0
+        w = slots_f[i, S_W + c]
+        if c == hero:
+            slots_f[i, S_W + channels + c] -= w * (channels - 1)
+            slots_f[i, S_W + c] = w * channels
+        else:
+            slots_f[i, S_W + channels + c] += w
+            slots_f[i, S_W + c] = 0.0

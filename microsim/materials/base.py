@@ -58,11 +58,13 @@ P_WAVELENGTH = 8
 PARAMS = 9
 """Columns of the kernel's parameter block of a part."""
 
-WEIGHTED, KEPT, HERO = range(3)
+WEIGHTED, KEPT, HERO, TRANSMITTING = range(4)
 """What a scattering event did to the path's weight: multiplied each channel's by its
-factor in ``fac``; kept it as it is (factor 1, nothing transmitted: ``fac`` unwritten);
-kept it, and from here the path follows its hero wavelength alone (a direction that
-depends on the wavelength: ``microsim.kernel.transport``)."""
+factor in ``fac``'s row 0, the rest absorbed (row 1 unwritten); kept it as it is (factor
+1, nothing transmitted: ``fac`` unwritten); kept it, and from here the path follows its
+hero wavelength alone (a direction that depends on the wavelength:
+``microsim.kernel.transport``); multiplied it by row 0 and transmitted row 1 of it into
+the facet (a non-refracting dielectric), the rest absorbed."""
 DISPERSION_NONE, DISPERSION_ALWAYS, DISPERSION_REFRACTED = range(3)
 """``P_DISPERSIVE`` of a part: its events' directions do not depend on the wavelength;
 they may, at every event (the path follows its hero before each); only where the event
@@ -102,12 +104,13 @@ class Material:
     ``tab_f``: the ``table`` kind), the face's tangent e, ``u``, eight uniform random
     numbers (the first ``4 · blocks`` of them drawn for this ray and event), and the
     path's ``hero`` channel (the one whose wavelength decides a dispersive event). Fills
-    ``fac`` ((2, C)) with the factor each channel's weight is multiplied by (row 0) and the
-    fraction transmitted into a non-refracting dielectric (row 1); the rest,
-    1 − factor − transmitted, is absorbed. Returns the new unit direction and what the
-    event did to the weight: ``WEIGHTED`` (by ``fac``), ``KEPT`` (factor 1 in every
-    channel, nothing transmitted: ``fac`` is then left unwritten and the transport skips
-    the weight's bookkeeping) or ``HERO`` (kept, and the path follows its hero alone from
+    ``fac`` ((2, C)) with the factor each channel's weight is multiplied by (row 0) and,
+    for ``TRANSMITTING``, the fraction transmitted into a non-refracting dielectric (row
+    1); the rest, 1 − factor − transmitted, is absorbed. Returns the new unit direction
+    and what the event did to the weight: ``WEIGHTED`` (by row 0, nothing transmitted),
+    ``TRANSMITTING`` (by row 0, row 1 transmitted), ``KEPT`` (factor 1 in every channel,
+    nothing transmitted: ``fac`` is then left unwritten and the transport skips the
+    weight's bookkeeping) or ``HERO`` (kept, and the path follows its hero alone from
     here)."""
     blocks: ClassVar[int] = 0
     replaced_by_data: ClassVar[tuple[str, ...]] = ()

@@ -20,7 +20,7 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
             ) -> tuple[float, float, float, int]:
     """Factor 0: the whole weight is absorbed. The path goes on (mirrored, carrying
     nothing) to its end, as every path does, so its fate is counted as usual."""
-    fac[:, :] = 0.0
+    fac[0, :] = 0.0
     ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
     return ox, oy, oz, WEIGHTED
 

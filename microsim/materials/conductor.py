@@ -38,7 +38,6 @@ def coated(params: np.ndarray, part: int, c: float, fac: np.ndarray) -> None:
         fac[0, j] = film_reflectance(c, params[part, 2, j], params[part, 3, j],
                                      params[part, P_WAVELENGTH, j], params[part, 0, j],
                                      params[part, 1, j])[0]
-        fac[1, j] = 0.0
 
 
 @kernel
@@ -55,7 +54,6 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
     else:
         for j in range(fac.shape[1]):
             fac[0, j] = fresnel_conductor(c, params[part, 0, j], params[part, 1, j])
-            fac[1, j] = 0.0
     ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
     return ox, oy, oz, WEIGHTED
 

@@ -19,6 +19,7 @@ from microsim.materials.base import (
     KEPT,
     P_DISPERSIVE,
     P_WAVELENGTH,
+    TRANSMITTING,
     WEIGHTED,
     Material,
     kernel,
@@ -74,7 +75,6 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
             own = params[part, 0, j]
             fac[0, j] = _reflectance(params, part, j, c, 1.0 / own if inside else own,
                                      inside)[0] / f
-            fac[1, j] = 0.0
         return ox, oy, oz, WEIGHTED
     c = -(dx * nx + dy * ny + dz * nz)
     for j in range(fac.shape[1]):
@@ -82,7 +82,7 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
         fac[0, j] = f
         fac[1, j] = t
     ox, oy, oz = reflect(dx, dy, dz, nx, ny, nz)
-    return ox, oy, oz, WEIGHTED
+    return ox, oy, oz, TRANSMITTING
 
 
 @kernel

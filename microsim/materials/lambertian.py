@@ -25,7 +25,6 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
     and 4.5.1)."""
     for j in range(fac.shape[1]):
         fac[0, j] = params[part, 0, j]
-        fac[1, j] = 0.0
     ox, oy, oz = cosine_about(nx, ny, nz, u[0], u[1])
     return ox, oy, oz, WEIGHTED
 

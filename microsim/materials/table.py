@@ -152,7 +152,6 @@ def scatter(params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, part: in
     at = row[T_WEIGHT_AT] + channels * (node * size + flat)
     for j in range(channels):
         fac[0, j] = tab_f[at + j]
-        fac[1, j] = 0.0
     return (lx * tx + ly * bx + lz * nx, lx * ty + ly * by + lz * ny,
             lx * tz + ly * bz + lz * nz, WEIGHTED)
 
