@@ -245,6 +245,27 @@ def test_principal_components_missed_by_the_sampled_gram_matrix_are_found() -> N
             <= sh.PRINCIPAL_TOLERANCE * np.linalg.norm(rows))
 
 
+def test_weights_the_sample_finds_of_full_rank_take_one_gram_matrix(monkeypatch) -> None:
+    """Where every ``SAMPLE``-th sample already needs more than half the channels'
+    components, ``principal`` gives none without the Gram matrix of every sample (which
+    would need at least as many): one eigen-decomposition, of the sample's; weights whose
+    sample is all zero still get the full one."""
+    from microsim.tables import principal as pc
+
+    calls: list[int] = []
+    leading = pc._leading
+    monkeypatch.setattr(pc, "_leading", lambda rows, tol: calls.append(rows.shape[1])
+                        or leading(rows, tol))
+    n = pc.SAMPLED * 32 * 2
+    assert principal(np.random.default_rng(6).random((32, n)), 1e-7) is None
+    assert calls == [len(range(0, n, pc.SAMPLE))]
+    calls.clear()
+    rows = np.zeros((32, n))
+    rows[:, 1::pc.SAMPLE] = 1.0                                # one spectrum, unsampled
+    found = principal(rows, 1e-7)
+    assert found is not None and found[0].shape == (1, n) and calls[-1] == n
+
+
 def test_a_measurement_keeps_the_blas_library_to_one_thread(monkeypatch) -> None:
     """Inside ``measure_ensemble`` the BLAS library (``principal``'s products) runs on one
     thread, so that it neither competes with the tracer's threads nor splits its sums

@@ -39,8 +39,9 @@ def principal(rows: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarra
     M holds the leading eigenvectors of the Gram matrix of every ``SAMPLE``-th sample (of
     every sample where the rows have fewer than ``SAMPLED`` per channel, or where the
     check fails), as many as leave at most half the tolerance in the Gram matrix's
-    discarded eigenvalues; B = Mᵀ X, and the residual X − M B is computed sample by
-    sample, so its check has none of the cancellation of ‖X‖² − ‖B‖².
+    discarded eigenvalues (None at once where the sample needs more than c // 2);
+    B = Mᵀ X, and the residual X − M B is computed sample by sample, so its check has
+    none of the cancellation of ‖X‖² − ‖B‖².
 
     Parameters
     ----------
@@ -65,7 +66,10 @@ def principal(rows: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarra
     if rows.strides[-1] != rows.itemsize:
         rows = np.ascontiguousarray(rows)
     if rows.shape[1] >= SAMPLED * len(rows):
-        mix = _leading(np.ascontiguousarray(rows[:, ::SAMPLE]), tolerance)
+        sample = np.ascontiguousarray(rows[:, ::SAMPLE])
+        mix = _leading(sample, tolerance)
+        if mix is None and sample.any():
+            return None  # the sample alone needs more than c // 2: so do all samples
         found = None if mix is None else _checked(rows, mix, tolerance)
         if found is not None:
             return found
@@ -97,7 +101,7 @@ def _checked(rows: np.ndarray, mix: np.ndarray, tolerance: float
     n = rows.shape[1]
     basis = np.empty((mix.shape[1], n))
     across = np.ascontiguousarray(mix.T)
-    residual = 0.0
+    residual = total = 0.0
     for start in range(0, n, BLOCK):
         x = rows[:, start:start + BLOCK]
         part = across @ x
@@ -105,6 +109,7 @@ def _checked(rows: np.ndarray, mix: np.ndarray, tolerance: float
         rest = mix @ part
         rest -= x
         residual += float(np.vdot(rest, rest))
-    if not residual <= tolerance ** 2 * float(np.einsum("ij,ij->", rows, rows)):
+        total += float(np.einsum("ij,ij->", x, x))     # ‖X‖², the block still in cache
+    if not residual <= tolerance ** 2 * total:
         return None
     return basis, mix
