@@ -365,7 +365,7 @@ def test_a_hero_paths_absorbed_weight_is_what_its_hero_lost() -> None:
     refracted = np.all(final[others].reshape(rays, count - 1) == 0.0, axis=1)
     assert 0.8 * rays < refracted.sum() < rays            # F ≈ 4% reflect at the top
     assert np.all(final[~refracted] > 0.0)
-    absorbed, transmitted = out.energy.sum(axis=0)
+    absorbed, transmitted = out.energy.sum(axis=(0, 1))
     expected = np.array([np.sum(count - final[refracted & (hero == c), c])
                          + np.sum(1.0 - final[~refracted, c]) for c in range(count)])
     assert np.all(expected > 0.1 * rays / count)          # the binder absorbs much

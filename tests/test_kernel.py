@@ -133,17 +133,83 @@ def test_kinds_the_transport_reflects_inline_are_perfect_mirrors() -> None:
 def test_the_beam_is_the_points_drawn_in_cell_order() -> None:
     """``beam_origins`` only reorders: the points drawn, scaled to the tile and at the
     height given, in the order numpy's stable sort gives by the place of their cell on the
-    path through the grid (rows rising, x forwards on even rows and backwards on odd)."""
+    path through the grid (rows rising, x forwards on even rows and backwards on odd).
+    The points of several runs are sorted together, and each run's rows hold the beam
+    its points alone make, in that order."""
     from microsim.kernel.beam import beam_origins
 
     u = np.random.default_rng(4).random((5000, 2))
     period, cells = np.array([2.0, 3.0]), 8
     cx, cy = (u * cells).astype(int).T
     step = cy * cells + np.where(cy % 2 == 0, cx, cells - 1 - cx)
-    want = (u * period)[np.argsort(step, kind="stable")]
-    out = beam_origins(u, period, 0.25, cells)
-    assert np.array_equal(out[:, :2], want)
+    order = np.argsort(step, kind="stable")
+    starts = np.array([0, 1200, 1201, 5000])
+    out, rows, run = beam_origins(u, starts, period, 0.25, cells)
+    assert np.array_equal(out[:, :2], (u * period)[order])
     assert np.all(out[:, 2] == 0.25)
+    assert np.array_equal(run, np.searchsorted(starts, order, side="right") - 1)
+    for r in range(3):
+        points = u[starts[r]:starts[r + 1]]
+        alone, own, _ = beam_origins(points, np.array([0, len(points)]), period, 0.25,
+                                     cells)
+        assert np.array_equal(own, np.arange(len(own)))
+        in_rows = np.empty_like(out)
+        in_rows[rows] = out
+        assert np.array_equal(in_rows[starts[r]:starts[r + 1]], alone)
+
+
+@pytest.mark.parametrize("spectral", [False, True])
+def test_batches_traced_in_one_beam_give_the_tables_they_give_alone(
+        spectral: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A realisation's batches are traced together, in beams of up to
+    ``goniometer.BEAM`` rays (``microsim.kernel.beam.Runs``), each batch in its own rows
+    and with its own random numbers: the table is the one that tracing each batch alone
+    (``BEAM`` = 1) gives, bit for bit in every bin and harmonic. Its energies add the
+    same weights in other blocks, so they agree to rounding (1e-13 of their value).
+    Three incidences of 3000 rays (one beam) on the rough tile of three materials; at 16
+    wavelengths the dielectric refracts with BK7's dispersion, so that paths follow their
+    hero channel, the ray's index in its batch modulo C."""
+    from microsim.measurement import goniometer
+
+    tile = random_tile(32, 0.5, seed=2)
+    tile.material = np.arange(len(tile.faces), dtype=np.int64) % 3
+    tile.parts = ("a", "b", "c")
+    materials = {"a": {"kind": "lambertian", "albedo": 0.7 if spectral else [0.9, 0.6, 0.3]},
+                 "b": {"kind": "conductor", "data": "Au"} if spectral else {
+                     "kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]},
+                 "c": {"kind": "dielectric", "data": "BK7", "refract": True} if spectral
+                 else {"kind": "dielectric", "eta": 1.5}}
+    sim = {"theta_i": [0.0, 40.0, 75.0], "phi_i": [0.0], "rays": 3000, "bounces": 8,
+           "seed": 5}
+    table = {"theta_bins": 6, "phi_bins": 12, "sh_order": 4,
+             **({"wavelengths": list(range(400, 720, 20))} if spectral else {})}
+    beams, made = [], []
+    beams_of = goniometer._beams
+
+    def counted(batches):  # noqa: ANN001, ANN202 (the batches and beams of ``_beams``)
+        for beam in beams_of(batches):
+            beams.append(len(beam))
+            yield beam
+
+    monkeypatch.setattr(goniometer, "_beams", counted)
+    for beam in (goniometer.BEAM, 1):
+        monkeypatch.setattr(goniometer, "BEAM", beam)
+        part = measure_directions(tile, *sections(materials, sim, table), threads=2)
+        made.append(assemble_table([part], *sections(materials, sim, table)))
+    assert beams == [3, 1, 1, 1]
+    together, alone = made
+    for c in together.components:
+        assert np.array_equal(together[c].values, alone[c].values)
+        assert np.array_equal(together[c].errors, alone[c].errors, equal_nan=True)
+        assert np.array_equal(together[c].sh, alone[c].sh)
+        assert np.array_equal(together[c].sh_err, alone[c].sh_err, equal_nan=True)
+    for a, b in zip(together.meta.directions, alone.meta.directions, strict=True):
+        assert a.fates == b.fates
+        for name in ("lost", "transmitted", "absorbed"):
+            np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-13,
+                                       atol=1e-300)
+    record = together.meta.directions[2]
+    assert min(record.absorbed) > 0.01 and min(record.transmitted) > 0.01
 
 
 @pytest.mark.parametrize("with_tangents", [False, True])

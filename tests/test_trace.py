@@ -272,7 +272,7 @@ def test_paths_are_the_escaping_rays_of_the_raw_outcomes() -> None:
                                                     raw.floats[:, S_DX:S_DZ + 1], 0.0))
     assert np.array_equal(paths.weight, np.where(out[:, None], weight, 0.0))
     assert np.array_equal(paths.order, np.where(out, raw.ints[:, O_ORDER], 0))
-    absorbed, sent = raw.energy.sum(axis=0)
+    absorbed, sent = raw.energy.sum(axis=(0, 1))
     ended = ~out & (fate != TRANSMITTED)
     np.testing.assert_allclose(paths.lost, weight[ended].sum(axis=0), rtol=1e-12)
     assert paths.lost.min() > 0

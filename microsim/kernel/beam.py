@@ -7,9 +7,17 @@ start close together: their queries meet the same nodes of Embree's BVH and the 
 of the face table, which then stay in the core's caches (about a fifth less CPU time per
 segment on the shipped Gaussian tile: docs/performance.md). The order is a fixed
 permutation of the points drawn, so the beam is as uniform as the points are.
+
+A beam may hold several batches of one tile (``Runs``; a realisation's incident
+directions, each with few rays on a large tile): their points are sorted together, so a
+cell holds the rays of every direction and the kernel's chunks share more of the BVH and
+the face table, while each batch keeps its own rows, its own order and its own random
+numbers.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
@@ -48,14 +56,18 @@ def cell_steps(u: np.ndarray, cells: int) -> np.ndarray:
 
 
 @njit(**JIT)
-def beam_origins(u: np.ndarray, period: np.ndarray, z: float, cells: int) -> np.ndarray:
+def beam_origins(u: np.ndarray, starts: np.ndarray, period: np.ndarray, z: float,
+                 cells: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Origins at height ``z`` over the tile, from uniform points, in cell order: a
-    stable counting sort of the points by ``cell_steps``.
+    stable counting sort of the points by ``cell_steps``, the points of several runs
+    sorted together.
 
     Parameters
     ----------
     u : (n, 2) float
-        Uniform points in [0, 1)².
+        Uniform points in [0, 1)², run after run.
+    starts : (b + 1,) int
+        Run r's points are ``u[starts[r]:starts[r + 1]]``.
     period : (2,) float
         The tile's periods along x and y.
     z : float
@@ -65,20 +77,73 @@ def beam_origins(u: np.ndarray, period: np.ndarray, z: float, cells: int) -> np.
 
     Returns
     -------
-    (n, 3) float
+    origins : (n, 3) float
         ``(u_x · period_x, u_y · period_y, z)``, reordered.
+    rows : (n,) int
+        Each origin's row among its run's (``starts[r]`` + its place in the run's own
+        cell order: the sort is stable, so a run's rays keep that order in the beam).
+    run : (n,) int
+        Each origin's run.
     """
+    n = len(u)
     step = cell_steps(u, cells)
     start = np.zeros(cells * cells + 1, np.int64)
-    for i in range(len(u)):
+    for i in range(n):
         start[step[i] + 1] += 1
     for c in range(cells * cells):
         start[c + 1] += start[c]
-    out = np.empty((len(u), 3))
-    for i in range(len(u)):
+    owner = np.empty(n, np.int64)
+    for r in range(len(starts) - 1):
+        owner[starts[r]:starts[r + 1]] = r
+    out = np.empty((n, 3))
+    run = np.empty(n, np.int64)
+    for i in range(n):
         j = start[step[i]]
         start[step[i]] += 1
         out[j, 0] = u[i, 0] * period[0]
         out[j, 1] = u[i, 1] * period[1]
         out[j, 2] = z
-    return out
+        run[j] = owner[i]
+    rows = np.empty(n, np.int64)
+    following = starts[:-1].copy()
+    for j in range(n):
+        rows[j] = following[run[j]]
+        following[run[j]] += 1
+    return out, rows, run
+
+
+@dataclass(frozen=True)
+class Runs:
+    """The runs whose rays one beam traces together (``PeriodicScene.start``).
+
+    A run is what one random key makes: the rays of one batch of one incident direction.
+    Its rays take its rows of the outcomes, in the order of its own beam, and draw their
+    random numbers from its key with their index in it as counter, so that a run's
+    outcomes are the same bit for bit whether its beam holds it alone or others with it.
+
+    Attributes
+    ----------
+    rows : (n,) int
+        Each ray of the beam, in beam order: its row of the outcomes.
+    run : (n,) int
+        Each ray's run.
+    starts : (b + 1,) int
+        Run r's rows are ``starts[r]`` … ``starts[r + 1] − 1``.
+    keys : (b, 2) uint64
+        Each run's Philox key (``microsim.kernel.rng``).
+    """
+
+    rows: np.ndarray
+    run: np.ndarray
+    starts: np.ndarray
+    keys: np.ndarray
+
+    @classmethod
+    def one(cls, n: int, key: np.ndarray) -> Runs:
+        """A beam of one run of ``n`` rays, in row order, under ``key`` ((2,) uint64)."""
+        return cls(np.arange(n), np.zeros(n, np.int64), np.array([0, n]),
+                   np.ascontiguousarray(np.reshape(key, (1, 2)), np.uint64))
+
+    def __len__(self) -> int:
+        """Runs (b)."""
+        return len(self.keys)

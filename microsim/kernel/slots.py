@@ -167,27 +167,32 @@ def slot_floats(channels: int) -> int:
     return S_W + 3 * channels
 
 
-(I_RAY, I_MEDIUM, I_CROSSED, I_BOUNCE, I_SEG, I_BUDGET, I_AXIS, I_HERO) = range(8)
-"""Integer state of a slot: the ray's index, its medium (a refracting part; -1: air),
-whether it has refracted, its bounces, queries of its straight segment, their budget, the
-box side ``S_EXIT`` leads to, and its hero channel once a dispersive event has left it
-only that one (-1 before: every channel follows the path)."""
-SLOT_INTS = 8
+(I_RAY, I_MEDIUM, I_CROSSED, I_BOUNCE, I_SEG, I_BUDGET, I_AXIS, I_HERO, I_RUN,
+ I_COUNT) = range(10)
+"""Integer state of a slot: the ray's row of the outcomes, its medium (a refracting
+part; -1: air), whether it has refracted, its bounces, queries of its straight segment,
+their budget, the box side ``S_EXIT`` leads to, its hero channel once a dispersive event
+has left it only that one (-1 before: every channel follows the path), the run it belongs
+to, and its index in that run (the counter of its random numbers)."""
+SLOT_INTS = 10
 
 
 @njit(**INLINE)
-def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
-          slots_f: np.ndarray, slots_i: np.ndarray, live: np.ndarray, box: np.ndarray) -> int:
-    """Load rays ``first``, ``first + 1``, … into the slots, one per row of ``origins``.
+def start(origins: np.ndarray, dirs: np.ndarray, media: np.ndarray, rows: np.ndarray,
+          runs: np.ndarray, run_rows: np.ndarray, slots_f: np.ndarray, slots_i: np.ndarray,
+          live: np.ndarray, box: np.ndarray) -> int:
+    """Load a chunk's rays into the slots, one per row of ``origins``.
 
     Parameters
     ----------
-    first : int
-        Index of the first ray in the run.
     origins, dirs : (k, 3) float
         Start points within the slab (x, y wrapped here) and unit directions of travel.
     media : (k,) int
         Medium each ray starts in (-1: air).
+    rows, runs : (k,) int
+        Each ray's row of the outcomes and its run.
+    run_rows : (b,) int
+        The first row of each run: a ray's index in its run is its row less its run's.
     slots_f, slots_i, live
         The chunk's slots and the slot of each query (at least k rows).
     box : (7,) float
@@ -219,7 +224,9 @@ def start(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
         for c in range(S_W + channels, S_W + 3 * channels):
             slots_f[j, c] = 0.0
         slots_f[j, S_Z0] = origins[j, 2]
-        slots_i[j, I_RAY] = first + j
+        slots_i[j, I_RAY] = rows[j]
+        slots_i[j, I_RUN] = runs[j]
+        slots_i[j, I_COUNT] = rows[j] - run_rows[runs[j]]
         slots_i[j, I_MEDIUM] = media[j]
         slots_i[j, I_CROSSED] = 0
         slots_i[j, I_BOUNCE] = 0
@@ -244,21 +251,24 @@ def end(slots_f: np.ndarray, slots_i: np.ndarray, i: int, fate: int, out_f: np.n
 
 
 @njit(**INLINE)
-def add_energy(first: int, k: int, slots_f: np.ndarray, out: np.ndarray) -> None:
-    """Add the weight the paths of slots 0 … k − 1 (rays ``first`` …, all ended) absorbed
-    and transmitted to their blocks' sums, ray by ray in ray order (``ENERGY_BLOCK``;
-    ``out`` (blocks, 2, C): absorbed, transmitted). A path starts with weight 1 per
+def add_energy(first: int, k: int, slots_f: np.ndarray, slots_i: np.ndarray,
+               out: np.ndarray) -> None:
+    """Add the weight the paths of slots 0 … k − 1 (the rays at places ``first`` … of the
+    beam, all ended) absorbed and transmitted to the sums of their block of the beam and
+    their run, ray by ray in beam order (``ENERGY_BLOCK``; ``out`` (blocks, runs, 2, C):
+    absorbed, transmitted). A path starts with weight 1 per
     channel and keeps what it has at its end (escaped or lost), so what it absorbed is
     1 − its weight − what it transmitted − what ended at a dispersive event: the sum of
     its events' losses w (1 − F − T) and its media's w (1 − e^(−σℓ)) in exact arithmetic,
     without adding them event by event."""
-    channels = out.shape[2]
+    channels = out.shape[3]
     for j in range(k):
-        b = (first + j) // ENERGY_BLOCK
+        b, run = (first + j) // ENERGY_BLOCK, slots_i[j, I_RUN]
         for c in range(channels):
             sent = slots_f[j, S_W + 2 * channels + c]
-            out[b, 0, c] += 1.0 - slots_f[j, S_W + c] - sent - slots_f[j, S_W + channels + c]
-            out[b, 1, c] += sent
+            out[b, run, 0, c] += (1.0 - slots_f[j, S_W + c] - sent
+                                  - slots_f[j, S_W + channels + c])
+            out[b, run, 1, c] += sent
 
 
 # the outcomes: per ray, its slot's position, direction and weights at its end, and

@@ -57,8 +57,8 @@ def in_blocks(fn: Callable[[int, int], tuple[np.ndarray, ...]], n: int,
 
 
 @njit(**JIT)
-def summarise(out_f: np.ndarray, out_i: np.ndarray, blocks: np.ndarray,
-              energy: np.ndarray, counts: np.ndarray) -> None:
+def summarise(out_f: np.ndarray, out_i: np.ndarray, energy: np.ndarray,
+              counts: np.ndarray) -> None:
     """Split a run's outcomes into the escaping rays and the energy of the others, in
     place: every other ray's weight is added to the energy it ends as, and its direction,
     weights and order in the outcomes are set to zero, so that the outcomes' columns are
@@ -68,21 +68,15 @@ def summarise(out_f: np.ndarray, out_i: np.ndarray, blocks: np.ndarray,
     ----------
     out_f, out_i
         The run's outcomes (``transport``); rewritten for the rays that did not escape.
-    blocks : (b, 2, C) float
-        The absorbed and transmitted weight of the rays' blocks (``slots.ENERGY_BLOCK``),
-        added in block order.
     energy : (3, C) float
         Running summed weight per channel lost (paths ended by the simulation),
-        transmitted (1 − F at non-refracting dielectrics; paths out through the bottom
-        after a refraction) and absorbed.
+        transmitted and absorbed; this adds the weight of the paths that ended lost, and
+        of those out through the bottom after a refraction (the weight an event
+        transmitted or absorbed is in the blocks' sums of ``slots.add_energy``).
     counts : (len(FATES),) int
         Running paths per fate.
     """
     channels = out_f.shape[1] - O_W
-    for b in range(len(blocks)):
-        for c in range(channels):
-            energy[2, c] += blocks[b, 0, c]
-            energy[1, c] += blocks[b, 1, c]
     for r in range(len(out_i)):
         fate = out_i[r, O_FATE]
         counts[fate] += 1

@@ -38,12 +38,14 @@ queries), then one step per path:
 7. **Compaction.** The paths still alive are listed first in ``live`` for the next pass;
    a path's state stays in its slot.
 
-Every ended path writes its outcome at its ray index (``O_*`` columns), and once every
+Every ended path writes its outcome at its ray's row (``O_*`` columns), and once every
 path of the chunk has ended, the weight each transmitted and absorbed (what it started
 with, 1, less its weight at the end, what it transmitted and what ended at a dispersive
-event) is added to its block's sums in ray order (``slots.add_energy``, blocks of
-``ENERGY_BLOCK`` rays, never split between chunks), so the results depend on neither the
-chunking nor the thread that traced it.
+event) is added to its run's sums of its block in beam order (``slots.add_energy``,
+blocks of ``ENERGY_BLOCK`` rays, never split between chunks), so the results depend on
+neither the chunking nor the thread that traced it. A ray's random numbers are keyed by
+its run and counted by its index in the run, so a run's paths are the same whether it is
+traced alone or in a beam with others.
 """
 
 from __future__ import annotations
@@ -77,10 +79,12 @@ from microsim.kernel.slots import (
     I_AXIS,
     I_BOUNCE,
     I_BUDGET,
+    I_COUNT,
     I_CROSSED,
     I_HERO,
     I_MEDIUM,
     I_RAY,
+    I_RUN,
     I_SEG,
     LEAKED,
     O_FACE,
@@ -122,7 +126,7 @@ from microsim.materials.optics import reflect
 def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
             live: np.ndarray, near: np.ndarray, box: np.ndarray, faces: np.ndarray,
             kind: np.ndarray, params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray,
-            bounces: int, key: np.ndarray, out_f: np.ndarray, out_i: np.ndarray,
+            bounces: int, keys: np.ndarray, out_f: np.ndarray, out_i: np.ndarray,
             vertices: np.ndarray, curved: np.ndarray, fac: np.ndarray) -> int:
     """Move every live path on after one query; see the module's steps 1 to 7.
 
@@ -139,7 +143,7 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
         The slot of each query, rewritten for the paths still alive.
     near : (w, 5) float
         Scratch: the first five ``faces`` columns of each query's face.
-    box, faces, kind, params, tab_int, tab_f, bounces, key, out_f, out_i, vertices, curved
+    box, faces, kind, params, tab_int, tab_f, bounces, keys, out_f, out_i, vertices, curved
         As for ``trace_chunk``.
     fac : (2, C) float
         Scratch: an event's factors (``scatter_event``).
@@ -224,9 +228,9 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
                     hero = slots_i[i, I_HERO]
                     ox, oy, oz, outcome = scatter_event(
                         kind[part], params, tab_int, tab_f, part, dx, dy, dz, nx, ny, nz,
-                        faces[f, F_TX], faces[f, F_TY], faces[f, F_TZ], key,
-                        slots_i[i, I_RAY], bounce + 1,
-                        hero if hero >= 0 else slots_i[i, I_RAY] % channels, fac)
+                        faces[f, F_TX], faces[f, F_TY], faces[f, F_TZ],
+                        keys[slots_i[i, I_RUN]], slots_i[i, I_COUNT], bounce + 1,
+                        hero if hero >= 0 else slots_i[i, I_COUNT] % channels, fac)
                     if outcome == HERO and hero < 0:
                         _follow_hero(slots_f, slots_i, i, channels)
                     # (what the weight loses otherwise is absorbed: ``add_energy``)
@@ -298,23 +302,32 @@ def advance(prim: np.ndarray, m: int, slots_f: np.ndarray, slots_i: np.ndarray,
 
 @njit(**JIT)
 def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.ndarray,
-                scene: int, intersect: int, rayhit: np.ndarray, slots_f: np.ndarray,
-                slots_i: np.ndarray, live: np.ndarray, near: np.ndarray, prim: np.ndarray,
-                box: np.ndarray, faces: np.ndarray, kind: np.ndarray,
-                params: np.ndarray, tab_int: np.ndarray, tab_f: np.ndarray, bounces: int,
-                key: np.ndarray, out_f: np.ndarray, out_i: np.ndarray,
-                energy: np.ndarray, vertices: np.ndarray, curved: np.ndarray) -> int:
-    """Trace rays ``first``, ``first + 1``, … (one per row of ``origins``) to their ends,
-    each carrying a weight per channel (C of them: ``params``' last axis).
+                rows: np.ndarray, runs: np.ndarray, run_rows: np.ndarray, scene: int,
+                intersect: int, rayhit: np.ndarray, slots_f: np.ndarray, slots_i: np.ndarray,
+                live: np.ndarray, near: np.ndarray, prim: np.ndarray, box: np.ndarray,
+                faces: np.ndarray, kind: np.ndarray, params: np.ndarray, tab_int: np.ndarray,
+                tab_f: np.ndarray, bounces: int, keys: np.ndarray, out_f: np.ndarray,
+                out_i: np.ndarray, energy: np.ndarray, vertices: np.ndarray,
+                curved: np.ndarray) -> int:
+    """Trace the rays at places ``first``, ``first + 1``, … of a beam (one per row of
+    ``origins``) to their ends, each carrying a weight per channel (C of them:
+    ``params``' last axis). A beam holds the rays of one run or of several (a
+    realisation's incident directions, traced together); each ray writes its run's rows
+    of the outcomes and draws from its run's key with its index in the run as counter,
+    so its path is the one it follows when its run is traced alone.
 
     Parameters
     ----------
     first : int
-        Index of the first ray in the run (its row of the outcomes, its random numbers).
+        Place of the chunk's first ray in the beam (a multiple of ``ENERGY_BLOCK``).
     origins, dirs : (k, 3) float
         Start points within the slab (x, y wrapped here) and unit directions of travel.
     media : (k,) int
         Medium each ray starts in (-1: air).
+    rows, runs : (k,) int
+        Each ray's row of the outcomes and its run.
+    run_rows : (b,) int
+        The first row of each run (``slots.start``).
     scene, intersect : int
         The ``RTCScene`` and the address of ``rtcIntersect1`` (``embree.Scene``).
     rayhit : (RAYHIT_WORDS,) float32
@@ -339,14 +352,14 @@ def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.nda
         Packed table data.
     bounces : int
         Scattering events before a path is ended.
-    key : (2,) uint64
-        The run's random key.
+    keys : (b, 2) uint64
+        Each run's random key.
     out_f : (n, out_floats(C)) float
     out_i : (n, OUT_INTS) int
-        Outcomes per ray of the run.
-    energy : (energy_blocks(n), 2, C) float
-        The run's absorbed and transmitted weight per block of ``ENERGY_BLOCK`` rays,
-        added to once every path has ended (``first`` a multiple of ``ENERGY_BLOCK``).
+        Outcomes per ray of the beam, by row.
+    energy : (energy_blocks(n), b, 2, C) float
+        Each run's absorbed and transmitted weight per block of ``ENERGY_BLOCK`` places
+        of the beam, added to once every path has ended.
     vertices : (n, v, 3) float
         Unwrapped hit points per ray and bounce (v = 0: not recorded).
     curved : (f, 9) or (0, 9) float
@@ -360,13 +373,13 @@ def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.nda
     """
     segments = 0
     fac = np.empty((2, params.shape[2]))
-    k = m = start(first, origins, dirs, media, slots_f, slots_i, live, box)
+    k = m = start(origins, dirs, media, rows, runs, run_rows, slots_f, slots_i, live, box)
     while m:
         _query(m, live, slots_f, rayhit, scene, intersect, prim, box[B_EPS])
         segments += m
         m = advance(prim, m, slots_f, slots_i, live, near, box, faces, kind, params,
-                    tab_int, tab_f, bounces, key, out_f, out_i, vertices, curved, fac)
-    add_energy(first, k, slots_f, energy)
+                    tab_int, tab_f, bounces, keys, out_f, out_i, vertices, curved, fac)
+    add_energy(first, k, slots_f, slots_i, energy)
     return segments
 
 
@@ -409,15 +422,16 @@ def _absorb(slots_f: np.ndarray, i: int, params: np.ndarray, medium: int, z_end:
 
 @njit(**INLINE)
 def _follow_hero(slots_f: np.ndarray, slots_i: np.ndarray, i: int, channels: int) -> None:
-    """Leave slot i's path one channel, its hero h = ray mod C, at its first event whose
-    direction depends on the wavelength: the other channels' weights end there and the
-    hero's is multiplied by C (hero-wavelength sampling, Wilkie et al. 2014, "Hero
-    wavelength spectral sampling", sec. 4; pbrt-v4's ``TerminateSecondary``). Each
+    """Leave slot i's path one channel, its hero h = ray mod C (the ray's index in its
+    run), at its first event whose direction depends on the wavelength: the other
+    channels' weights end there and the hero's is multiplied by C (hero-wavelength
+    sampling, Wilkie et al. 2014, "Hero wavelength spectral sampling", sec. 4; pbrt-v4's
+    ``TerminateSecondary``). Each
     channel is the hero of every C-th ray, so each channel's expected weight is unchanged;
     the ended weights are neither absorbed nor transmitted: they are kept as the slot's
     ended weight, and so is the hero's gain, (C − 1) times its weight, negative
     (``add_energy``)."""
-    hero = slots_i[i, I_RAY] % channels
+    hero = slots_i[i, I_COUNT] % channels
     slots_i[i, I_HERO] = hero
     for c in range(channels):
         w = slots_f[i, S_W + c]

@@ -30,8 +30,9 @@ from typing import NamedTuple
 import numpy as np
 
 from microsim.geometry import direction
-from microsim.kernel.beam import CELLS, beam_origins
+from microsim.kernel.beam import CELLS, Runs, beam_origins
 from microsim.kernel.packing import FacetMaterials
+from microsim.kernel.rng import key_of
 from microsim.kernel.tally import bin_escapes, gather_rows, in_blocks
 from microsim.materials import Material
 from microsim.measurement.paths import Paths, start_paths
@@ -47,10 +48,16 @@ from microsim.tables.meta import DirectionRecord, TableInput
 
 BATCH = 65536
 """Rays per batch: the unit of random streams, accumulation and the adaptive stop."""
+BEAM = 2 * BATCH
+"""Rays per beam at most: consecutive batches of a tile traced together (``_beams``), so
+that a realisation's few rays per direction on a large tile share the BVH's nodes and
+the face table's rows in the kernel's chunks as a full batch's do (docs/performance.md,
+"Rays per batch and the kernel")."""
 DEPTH = 3
-"""Batches under way on the worker threads (traced, or summarised, binned and projected on
-the harmonics there) ahead of the one whose sums are being added: the workers always
-have the next batch's chunks to trace while one of them tallies a batch."""
+"""Beams under way on the worker threads (traced, or their batches summarised, binned and
+projected on the harmonics there) ahead of the one whose sums are being added: the
+workers always have the next beam's chunks to trace while they tally a beam's
+batches."""
 _ROWS = threading.local()
 """Each tallying thread's arrays of a batch's rays grouped by order row (``Sums.
 _harmonics``), kept from batch to batch: a spectral batch's are 16 MB, whose pages the
@@ -221,13 +228,12 @@ class Tally(NamedTuple):
 
 class _Batch(NamedTuple):
     """One batch of one direction's rays: what the pipeline needs to trace and add it
-    (``dirs``: its rays' directions of travel, −ωi, (rays, 3), a view of one array its
-    direction's batches share)."""
+    (``travel``: its rays' direction of travel, −ωi, (3,) float)."""
 
     run: Run
     number: int
     rays: int
-    dirs: np.ndarray
+    travel: np.ndarray
     phi_ref: float
     seed: np.random.SeedSequence
     report: Callable[[int], None] | None
@@ -252,8 +258,7 @@ def _batches(work: Mapping[Direction, int], runs: dict[RunKey, Run], new_run: Ca
         key = RunKey(l, k, realisation)
         run = runs[key] = runs.get(key) or new_run()
         phi_ref = axes.phi_ref(k)
-        wi = axes.incident(l, k)
-        dirs = np.ascontiguousarray(np.broadcast_to(-wi, (min(BATCH, rays), 3)))
+        travel = -axes.incident(l, k)
         report = None if progress is None else _reporter(
             progress, axes.theta_deg[l], axes.phi_deg[k], realisation, run.sums)
         first = run.batches  # grows as the batches are added, while later ones are made
@@ -261,43 +266,64 @@ def _batches(work: Mapping[Direction, int], runs: dict[RunKey, Run], new_run: Ca
             number = first + index
             stream = np.random.SeedSequence(seed, spawn_key=(*key, number))
             count = min(BATCH, rays - start)
-            yield _Batch(run, number, count, dirs[:count], phi_ref, stream, report,
-                         realisation)
+            yield _Batch(run, number, count, travel, phi_ref, stream, report, realisation)
 
 
-def _pipeline(batches: Iterator[_Batch], bounces: int, bins: HemisphereBins
+def _beams(batches: Iterable[_Batch]) -> Iterator[list[_Batch]]:
+    """Consecutive batches (of one realisation's tile) in beams of at most ``BEAM`` rays
+    (a batch is never split)."""
+    beam: list[_Batch] = []
+    rays = 0
+    for batch in batches:
+        if beam and rays + batch.rays > BEAM:
+            yield beam
+            beam, rays = [], 0
+        beam.append(batch)
+        rays += batch.rays
+    if beam:
+        yield beam
+
+
+def _pipeline(beams: Iterator[list[_Batch]], bounces: int, bins: HemisphereBins
               ) -> Iterator[tuple[_Batch, Tally]]:
-    """The tally of each batch, in order, with ``DEPTH`` batches under way.
+    """The tally of each batch, in order, with ``DEPTH`` beams under way.
 
-    A batch's origins are drawn uniformly over its tile's top (its own stream; traced in
-    cell order, ``microsim.kernel.beam``) and its chunks queued on its scene's worker
-    threads; when they have ended, the batch is summarised, binned and projected on the
-    harmonics there too (``Sums.tally``, one batch on one thread, its blocks in order),
-    so this thread only queues batches and adds their sums, and the workers never wait
-    for it, not even where one realisation's batches end and the next one's begin. What
-    comes out is what tracing and tallying the batches one after the other gives, bit
-    for bit.
+    A beam's batches share one tile (``_beams``). Each batch's origins are drawn
+    uniformly over the tile's top from its own stream; the beam's are traced together in
+    cell order (``microsim.kernel.beam``), each batch in its own rows with its own random
+    numbers, and its chunks queued on the scene's worker threads; when they have ended,
+    each batch is summarised, binned and projected on the harmonics there too
+    (``Sums.tally``, one batch on one thread, its blocks in order), so this thread only
+    queues beams and adds their batches' sums, and the workers never wait for it, not
+    even where one realisation's batches end and the next one's begin. What comes out
+    is what tracing and tallying the batches one after the other gives, bit for bit.
     """
-    pending: deque[tuple[_Batch, Future[Tally]]] = deque()
+    pending: deque[tuple[_Batch, Future[Tally], bool]] = deque()
 
     def queue_next() -> None:
-        for batch in itertools.islice(batches, 1):
-            scene = batch.scene
-            u = np.random.default_rng(batch.seed).random((batch.rays, 2))
-            origins = beam_origins(u, scene.period, scene.z_top, CELLS)
-            paths = start_paths(scene, batch.facets, origins, batch.dirs, bounces,
-                                batch.seed)
-            sums, phi_ref = batch.run.sums, batch.phi_ref
-            pending.append((batch, paths.then(
-                lambda traced, sums=sums, phi_ref=phi_ref: sums.tally(traced, bins,
-                                                                      phi_ref))))
+        for beam in itertools.islice(beams, 1):
+            scene = beam[0].scene
+            starts = np.cumsum([0] + [batch.rays for batch in beam])
+            u = np.concatenate([np.random.default_rng(batch.seed).random((batch.rays, 2))
+                                for batch in beam])
+            origins, rows, run = beam_origins(u, starts, scene.period, scene.z_top, CELLS)
+            dirs = np.stack([batch.travel for batch in beam])[run]
+            runs = Runs(rows, run, starts, np.stack([key_of(batch.seed) for batch in beam]))
+            paths = start_paths(scene, beam[0].facets, origins, dirs, bounces, runs)
+            for r, batch in enumerate(beam):
+                sums, phi_ref = batch.run.sums, batch.phi_ref
+                pending.append((batch, paths.then(
+                    lambda traced, sums=sums, phi_ref=phi_ref: sums.tally(traced, bins,
+                                                                          phi_ref), r),
+                    r == 0))
 
     for _ in range(DEPTH):
         queue_next()
     while pending:
-        batch, tally = pending.popleft()
+        batch, tally, first = pending.popleft()
         done = tally.result()
-        queue_next()
+        if first:
+            queue_next()
         yield batch, done
 
 
@@ -569,27 +595,28 @@ def trace_realisations(parts: Iterable[Part], materials: Mapping[str, Material],
     def new_run() -> Run:
         return Run(axes.new_sums())
 
-    def batches() -> Iterator[_Batch]:
+    def beams() -> Iterator[list[_Batch]]:
         for part in parts:
             scene = part.scene
             tile = scene.tile
             facets = FacetMaterials(tile.material, tile.parts, materials, tile.tangents,
                                     tile.curved, table.channels)
-            items = list(_batches(part.work, runs, new_run, int(simulation.seed), axes,
-                                  part.realisation, progress))
+            items = [b._replace(scene=scene, facets=facets) for b in _batches(
+                part.work, runs, new_run, int(simulation.seed), axes, part.realisation,
+                progress)]
             state = left[part.realisation] = [len(items), part, scene.segments,
                                               facets.inputs]
             del tile
             if not items:
                 finish(part.realisation, state)
-            yield from (b._replace(scene=scene, facets=facets) for b in items)
+            yield from _beams(items)
 
     def finish(r: int, state: list) -> None:
         del left[r]
         if ended is not None:
             ended(state[1], state[1].scene.segments - state[2], state[3])
 
-    for batch, tally in _pipeline(batches(), int(simulation.bounces), bins):
+    for batch, tally in _pipeline(beams(), int(simulation.bounces), bins):
         batch.run.sums.add_tally(tally)
         batch.run.batches = batch.number + 1
         if batch.report is not None:

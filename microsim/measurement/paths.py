@@ -18,16 +18,9 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from microsim.kernel.beam import Runs
 from microsim.kernel.packing import FacetMaterials
-from microsim.kernel.slots import (
-    ENERGY_BLOCK,
-    FATES,
-    O_ORDER,
-    O_W,
-    S_DX,
-    S_DZ,
-    energy_blocks,
-)
+from microsim.kernel.slots import FATES, O_ORDER, O_W, S_DX, S_DZ
 from microsim.kernel.tally import in_blocks, summarise
 from microsim.measurement.scene import Outcomes, PeriodicScene, Tracing
 
@@ -79,13 +72,15 @@ def trace_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nda
 
 
 def start_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.ndarray,
-                dirs: np.ndarray, bounces: int, seed: np.random.SeedSequence) -> PendingPaths:
+                dirs: np.ndarray, bounces: int, seed: np.random.SeedSequence | Runs
+                ) -> PendingPaths:
     """Start tracing rays with up to ``bounces`` scattering events each on the scene's
     worker threads; returns at once (``PendingPaths.result`` waits).
 
     Ray i draws its random numbers from the counter (i, event, ...) under the key of
     ``seed`` (``microsim.kernel.rng``): the result depends on neither the number of
-    threads nor the chunk size, bit for bit.
+    threads nor the chunk size, bit for bit. A beam of several runs (``seed`` a
+    ``Runs``) gives each run the paths it gives traced alone.
 
     Parameters
     ----------
@@ -98,8 +93,8 @@ def start_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nda
         Unit directions of travel.
     bounces : int
         Maximum scattering order; paths still alive afterwards are lost.
-    seed : numpy.random.SeedSequence
-        Key of the random numbers.
+    seed : numpy.random.SeedSequence or Runs
+        Key of the random numbers, or the runs of a beam (``PeriodicScene.start``).
 
     Returns
     -------
@@ -109,8 +104,8 @@ def start_paths(scene: PeriodicScene, materials: FacetMaterials, origins: np.nda
 
 
 class PendingPaths:
-    """Paths being traced (``start_paths``): ``result`` for the paths, summarised on the
-    scene's worker threads, or ``then`` to have a function of them run there.
+    """Paths being traced (``start_paths``): ``result`` for a run's paths, summarised on
+    the scene's worker threads, or ``then`` to have a function of them run there.
 
     Parameters
     ----------
@@ -122,32 +117,35 @@ class PendingPaths:
     def __init__(self, scene: PeriodicScene, tracing: Tracing) -> None:
         self._scene, self._tracing = scene, tracing
 
-    def result(self) -> Paths:
-        """The paths: exit directions, weights and orders, and the energy and fate sums
-        (summarised on the scene's worker threads)."""
-        return _summarise(self._tracing.result(), self._scene.map)
+    def result(self, run: int = 0) -> Paths:
+        """The paths of run ``run`` of the beam: exit directions, weights and orders, and
+        the energy and fate sums (summarised on the scene's worker threads)."""
+        return _summarise(self._tracing.result(), run, self._scene.map)
 
-    def then(self, fn: Callable[[Paths], T]) -> Future[T]:
-        """``fn(paths)`` on one of the scene's worker threads once every path has ended
-        (summarised there, the paths those of ``result``), so the caller's thread need
-        not wait for the tracing (``Tracing.then``)."""
-        return self._tracing.then(lambda out: fn(_summarise(out, None)))
+    def then(self, fn: Callable[[Paths], T], run: int = 0) -> Future[T]:
+        """``fn(paths)`` of run ``run`` on one of the scene's worker threads once every
+        path of the beam has ended (summarised there, the paths those of ``result``), so
+        the caller's thread need not wait for the tracing (``Tracing.then``)."""
+        return self._tracing.then(lambda out: fn(_summarise(out, run, None)))
 
 
-def _summarise(out: Outcomes, mapper: Callable[..., list[Any]] | None) -> Paths:
-    """The paths of traced outcomes, summarised in blocks (``in_blocks``: the same sums
-    whatever ``mapper`` runs them); their directions, weights and orders are views of the
-    outcomes, which ``summarise`` zeroes for the rays that did not escape."""
-    n = len(out.floats)
-    channels = out.floats.shape[1] - O_W
+def _summarise(out: Outcomes, run: int, mapper: Callable[..., list[Any]] | None) -> Paths:
+    """The paths of run ``run`` of traced outcomes, summarised in blocks (``in_blocks``:
+    the same sums whatever ``mapper`` runs them); their directions, weights and orders
+    are views of the run's rows of the outcomes, which ``summarise`` zeroes for the rays
+    that did not escape. What the run's paths absorbed and transmitted is the sum of its
+    blocks' sums (``slots.add_energy``)."""
+    first, last = int(out.starts[run]), int(out.starts[run + 1])
+    floats, ints = out.floats[first:last], out.ints[first:last]
+    channels = floats.shape[1] - O_W
 
     def block(a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
         energy, counts = np.zeros((3, channels)), np.zeros(len(FATES), np.int64)
-        summarise(out.floats[a:b], out.ints[a:b],
-                  out.energy[a // ENERGY_BLOCK:energy_blocks(b)], energy, counts)
+        summarise(floats[a:b], ints[a:b], energy, counts)
         return energy, counts
 
-    energy, counts = in_blocks(block, n, mapper)
-    return Paths(out.floats[:, S_DX:S_DZ + 1], out.floats[:, O_W:], out.ints[:, O_ORDER],
-                 energy[0], energy[1], energy[2],
+    energy, counts = in_blocks(block, last - first, mapper)
+    absorbed, sent = out.energy[:, run].sum(axis=0)
+    return Paths(floats[:, S_DX:S_DZ + 1], floats[:, O_W:], ints[:, O_ORDER],
+                 energy[0], energy[1] + sent, energy[2] + absorbed,
                  dict(zip(FATES, map(int, counts), strict=True)))

@@ -28,6 +28,7 @@ from typing import TypeVar
 import numpy as np
 
 from microsim.kernel import slots as ks
+from microsim.kernel.beam import Runs
 from microsim.kernel.embree import Scene, rayhit_buffer
 from microsim.kernel.packing import FacetMaterials
 from microsim.kernel.rng import key_of
@@ -85,12 +86,14 @@ class Outcomes:
         into the box), direction, then per channel its weight.
     ints : (n, OUT_INTS) int
         Its fate (``FATES``), bounces, and the last face it hit (-1: none).
-    energy : (energy_blocks(n), 2, C) float
-        Per block of ``ENERGY_BLOCK`` rays (``microsim.kernel.slots``), per channel, the
-        weight its paths lost to absorption and to transmission (1 − F at non-refracting
-        dielectrics).
+    energy : (energy_blocks(n), b, 2, C) float
+        Per block of ``ENERGY_BLOCK`` rays of the beam (``microsim.kernel.slots``) and per
+        run (``Runs``; one without), per channel, the weight its paths lost to absorption
+        and to transmission (1 − F at non-refracting dielectrics).
     vertices : (n, v, 3) float
         Its first v hit points, unwrapped (NaN where it had fewer).
+    starts : (b + 1,) int
+        Run r's rows are ``starts[r]`` … ``starts[r + 1] − 1`` (``Runs.starts``).
     segments : int
         Embree queries made.
     """
@@ -99,6 +102,7 @@ class Outcomes:
     ints: np.ndarray
     energy: np.ndarray
     vertices: np.ndarray
+    starts: np.ndarray
     segments: int
 
 
@@ -111,21 +115,25 @@ class Tracing:
         The scene tracing them (its ``segments`` count grows when they are collected).
     floats, ints, energy, vertices : arrays
         The outcome arrays the chunks fill (``Outcomes``).
+    starts : (b + 1,) int
+        The rows of each run (``Runs.starts``).
     chunks : list of Future of int
         Each chunk's task; its result is the Embree queries it made.
     """
 
     def __init__(self, scene: PeriodicScene, floats: np.ndarray, ints: np.ndarray,
-                 energy: np.ndarray, vertices: np.ndarray, chunks: list[Future[int]]
-                 ) -> None:
+                 energy: np.ndarray, vertices: np.ndarray, starts: np.ndarray,
+                 chunks: list[Future[int]]) -> None:
         self._scene, self._chunks = scene, chunks
-        self._arrays = (floats, ints, energy, vertices)
+        self._arrays = (floats, ints, energy, vertices, starts)
         self._outcomes: Outcomes | None = None
+        self._lock = threading.Lock()
 
     def then(self, fn: Callable[[Outcomes], T]) -> Future[T]:
         """``fn(outcomes)`` on a worker thread, queued when the last chunk has ended (at
         once, in this thread, without workers or chunks); the returned future holds its
-        result, or the error of a chunk or of ``fn``."""
+        result, or the error of a chunk or of ``fn``. Each call queues its own task (a
+        beam's runs are tallied side by side)."""
         pool = self._scene._pool
         out: Future[T] = Future()
         left = [len(self._chunks)]
@@ -153,13 +161,15 @@ class Tracing:
         return out
 
     def result(self) -> Outcomes:
-        """Wait for every chunk; the outcomes (the same object on later calls)."""
-        if self._outcomes is None:
-            segments = sum(chunk.result() for chunk in self._chunks)
-            self._scene.segments += segments
-            self._outcomes = Outcomes(*self._arrays, segments)
-            self._chunks = []  # their callbacks refer to this: no cycle outlives the wait
-        return self._outcomes
+        """Wait for every chunk; the outcomes (the same object on later calls, from any
+        thread)."""
+        with self._lock:
+            if self._outcomes is None:
+                segments = sum(chunk.result() for chunk in self._chunks)
+                self._scene.segments += segments
+                self._outcomes = Outcomes(*self._arrays, segments)
+                self._chunks = []  # their callbacks refer to this: no cycle outlives it
+            return self._outcomes
 
 
 def _done(value: T) -> Future[T]:
@@ -285,14 +295,14 @@ class PeriodicScene:
         return [self._pool.submit(fn, i) for i in starts]
 
     def run(self, origins: np.ndarray, dirs: np.ndarray, materials: FacetMaterials | None,
-            bounces: int, seed: np.random.SeedSequence | None = None,
+            bounces: int, seed: np.random.SeedSequence | Runs | None = None,
             media: np.ndarray | None = None, vertices: int = 0) -> Outcomes:
         """Trace paths with up to ``bounces`` scattering events each and wait for them:
         ``start(...).result()``, with the same parameters."""
         return self.start(origins, dirs, materials, bounces, seed, media, vertices).result()
 
     def start(self, origins: np.ndarray, dirs: np.ndarray, materials: FacetMaterials | None,
-              bounces: int, seed: np.random.SeedSequence | None = None,
+              bounces: int, seed: np.random.SeedSequence | Runs | None = None,
               media: np.ndarray | None = None, vertices: int = 0) -> Tracing:
         """Start tracing paths with up to ``bounces`` scattering events each: the chunks are
         queued on the worker threads and this returns at once, so the caller can queue
@@ -300,7 +310,8 @@ class PeriodicScene:
 
         Ray i draws its random numbers from the counter (i, event, ...) under the key of
         ``seed`` (``microsim.kernel.rng``), so the outcomes depend on neither the number of
-        threads nor the chunk size.
+        threads nor the chunk size. A beam of several runs (``seed`` a ``Runs``) gives
+        each run the outcomes it has traced alone, in its own rows.
 
         Parameters
         ----------
@@ -312,9 +323,10 @@ class PeriodicScene:
             Scattering per face (None: no scattering, ``bounces`` must be 0).
         bounces : int
             Scattering events before a path is ended (0: a first-hit query).
-        seed : numpy.random.SeedSequence or None
+        seed : numpy.random.SeedSequence, Runs or None
             Key of the materials' random numbers (None: zeros; nothing random is drawn
-            without bounces).
+            without bounces), or the runs of the beam: each ray's row, run and key
+            (``origins`` and ``dirs`` then in beam order).
         media : (n,) int or None
             Per ray, the part (material id) whose medium it starts in, -1 for air
             (default): the back faces of that part are hits for it, their fronts leakage.
@@ -337,7 +349,8 @@ class PeriodicScene:
             kind, params, tab_int, tab_f, curved = (materials.kind, materials.params,
                                                     materials.tab_int, materials.tab_f,
                                                     materials.curved)
-        key = np.zeros(2, np.uint64) if seed is None else key_of(seed)
+        runs = seed if isinstance(seed, Runs) else Runs.one(
+            n, np.zeros(2, np.uint64) if seed is None else key_of(seed))
         origins = np.ascontiguousarray(origins, float)
         dirs = np.ascontiguousarray(dirs, float)
         media = np.full(n, -1, np.int64) if media is None else np.ascontiguousarray(
@@ -345,20 +358,21 @@ class PeriodicScene:
         channels = params.shape[2]
         out_f = np.empty((n, ks.out_floats(channels)))  # every ray ends once: fills its row
         out_i = np.full((n, ks.OUT_INTS), ks.NO_FACE, np.int64)
-        energy = np.zeros((ks.energy_blocks(n), 2, channels))
+        energy = np.zeros((ks.energy_blocks(n), len(runs), 2, channels))
         path = np.full((n, vertices, 3), np.nan)
         c = self.chunk
 
         def chunk(a: int) -> int:
             b = min(a + c, n)
             rayhit, slots_f, slots_i, live, near, prim = self._buffers(channels)
-            return trace_chunk(a, origins[a:b], dirs[a:b], media[a:b],
-                                  self._scene.handle, self._scene.intersect, rayhit, slots_f,
-                                  slots_i, live, near, prim, self.box, self._faces, kind,
-                                  params, tab_int, tab_f, bounces, key, out_f, out_i, energy,
-                                  path, curved)
+            return trace_chunk(a, origins[a:b], dirs[a:b], media[a:b], runs.rows[a:b],
+                               runs.run[a:b], runs.starts, self._scene.handle,
+                               self._scene.intersect, rayhit, slots_f, slots_i, live, near,
+                               prim, self.box, self._faces, kind, params, tab_int, tab_f,
+                               bounces, runs.keys, out_f, out_i, energy, path, curved)
 
-        return Tracing(self, out_f, out_i, energy, path, self.submit(chunk, range(0, n, c)))
+        return Tracing(self, out_f, out_i, energy, path, runs.starts,
+                       self.submit(chunk, range(0, n, c)))
 
     def _buffers(self, channels: int) -> tuple[np.ndarray, ...]:
         """The calling thread's ``RTCRayHit`` record, path slots (``CHUNK`` rows, for
