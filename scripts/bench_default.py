@@ -61,8 +61,9 @@ from microsim.bench import (
 )
 from microsim.files import write_section
 from microsim.geometry import direction
-from microsim.kernel.beam import CELLS, beam_origins
+from microsim.kernel.beam import CELLS, Runs, beam_origins
 from microsim.kernel.packing import FacetMaterials
+from microsim.kernel.rng import key_of
 from microsim.measurement.goniometer import Incidences, Measurement
 from microsim.measurement.scene import PeriodicScene
 from microsim.measurement.simulation import Opener, Tiles
@@ -210,26 +211,33 @@ def beam_section() -> str:
     tile = build_tile(recipe.surface)
     facets = FacetMaterials(tile.material, tile.parts, recipe.material, tile.tangents,
                             tile.curved, recipe.table.channels)
-    travel = [-direction(np.radians(t), 0.0) for t in HEAVY_THETA]
+    travel = np.array([-direction(np.radians(t), 0.0) for t in HEAVY_THETA])
     per_direction = 400_000 // 32
     beams = {"one direction, 12,500 rays": (per_direction, False),
-             "five directions in one beam, 62,500 rays": (5 * per_direction, True),
+             "five directions in one beam, 62,500 rays (a realisation of `simulate`)":
+                 (per_direction, True),
              "one direction, 65,536 rays": (65_536, False)}
     spent: dict[str, list[float]] = {name: [] for name in beams}
     with PeriodicScene(tile, THREADS) as scene:
-        def trace(rays: int, dealt: bool, seed: int) -> float:
-            rng = np.random.default_rng(seed)
-            if dealt:
-                origins = beam_origins(rng.random((rays, 2)), scene.period, scene.z_top,
-                                       CELLS)
-                calls = [(origins, np.array(travel)[np.arange(rays) % len(travel)])]
+        def trace(rays: int, together: bool, seed: int) -> float:
+            """CPU per segment of ``rays`` rays per direction, the directions traced in
+            one beam of as many runs (``Runs``, as ``simulate`` does) or one by one."""
+            keys = [key_of(np.random.SeedSequence(seed, spawn_key=(d,)))
+                    for d in range(len(travel))]
+            u = np.random.default_rng(seed).random((rays * len(travel), 2))
+            starts = np.arange(0, len(u) + 1, rays)
+            if together:
+                origins, rows, run = beam_origins(u, starts, scene.period, scene.z_top,
+                                                  CELLS)
+                calls = [(origins, travel[run], Runs(rows, run, starts, np.stack(keys)))]
             else:
-                calls = [(beam_origins(rng.random((rays, 2)), scene.period, scene.z_top,
-                                       CELLS), np.broadcast_to(d, (rays, 3)))
-                         for d in travel]
+                calls = [(beam_origins(u[a:a + rays], starts[:2], scene.period,
+                                       scene.z_top, CELLS)[0],
+                          np.broadcast_to(d, (rays, 3)), Runs.one(rays, key))
+                         for a, d, key in zip(starts, travel, keys, strict=False)]
             before, cpu = scene.segments, time.process_time()
-            for origins, dirs in calls:
-                scene.run(origins, dirs, facets, 16, np.random.SeedSequence(seed))
+            for origins, dirs, runs in calls:
+                scene.run(origins, dirs, facets, 16, runs)
             return (time.process_time() - cpu) / (scene.segments - before)
 
         trace(65_536, False, 0)  # warm: compiled code, caches
@@ -237,10 +245,10 @@ def beam_section() -> str:
             for name, (rays, dealt) in beams.items():
                 spent[name].append(trace(rays, dealt, seed))
     cells = CELLS * CELLS
-    rows = [f"| {name} | {rays / cells:.1f} | "
+    rows = [f"| {name} | {rays * (len(travel) if together else 1) / cells:.1f} | "
             f"{1e9 * statistics.median(spent[name]):.0f} "
             f"({1e9 * min(spent[name]):.0f}–{1e9 * max(spent[name]):.0f}) |"
-            for name, (rays, _) in beams.items()]
+            for name, (rays, together) in beams.items()]
     return "\n".join([
         f"The kernel alone (`PeriodicScene.run`, {THREADS} threads, CPU time per segment, "
         f"median (range) of {BEAM_ROUNDS} interleaved rounds) on the tile-heavy gold tile "

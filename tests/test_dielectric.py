@@ -338,8 +338,9 @@ def test_a_hero_paths_absorbed_weight_is_what_its_hero_lost() -> None:
     with weight F_c / F_h and counts 1 − F_c / F_h as absorbed (an event's loss
     w (1 − F), of either sign here). So the run's absorbed weight in channel c is
     Σ (C − w_final) over the rays that refracted with hero c plus Σ (1 − w_final,c) over
-    those reflected, to rounding (1e-12 of it), and nothing is transmitted: read from the
-    raw outcomes, whose final weights the accounting does not touch. Counting the ended
+    those reflected, to rounding (1e-12 of it), and nothing is transmitted: the paths'
+    sums (``trace_paths``) against the final weights of the raw outcomes of the same rays
+    and key, which the accounting does not touch. Counting the ended
     channels as absorbed, or not crediting the hero's gain, is off by about C times the
     refracted rays."""
     from microsim.kernel.slots import O_W
@@ -356,8 +357,9 @@ def test_a_hero_paths_absorbed_weight_is_what_its_hero_lost() -> None:
     rng = np.random.default_rng(3)
     with PeriodicScene(tile, threads=1) as scene:
         origins = np.column_stack([rng.random((rays, 2)), np.full(rays, scene.z_top)])
-        out = scene.run(origins, np.broadcast_to([0.0, 0.0, -1.0], (rays, 3)), facets, 40,
-                        np.random.SeedSequence(4))
+        down = np.broadcast_to([0.0, 0.0, -1.0], (rays, 3))
+        out = scene.run(origins, down, facets, 40, np.random.SeedSequence(4))
+        paths = trace_paths(scene, facets, origins, down, 40, np.random.SeedSequence(4))
     final = out.floats[:, O_W:]
     hero = np.arange(rays) % count
     others = np.ones((rays, count), bool)
@@ -365,9 +367,8 @@ def test_a_hero_paths_absorbed_weight_is_what_its_hero_lost() -> None:
     refracted = np.all(final[others].reshape(rays, count - 1) == 0.0, axis=1)
     assert 0.8 * rays < refracted.sum() < rays            # F ≈ 4% reflect at the top
     assert np.all(final[~refracted] > 0.0)
-    absorbed, transmitted = out.energy.sum(axis=(0, 1))
     expected = np.array([np.sum(count - final[refracted & (hero == c), c])
                          + np.sum(1.0 - final[~refracted, c]) for c in range(count)])
     assert np.all(expected > 0.1 * rays / count)          # the binder absorbs much
-    np.testing.assert_allclose(absorbed, expected, rtol=1e-12)
-    assert not transmitted.any()
+    np.testing.assert_allclose(paths.absorbed, expected, rtol=1e-12)
+    assert not paths.transmitted.any()

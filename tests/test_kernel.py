@@ -158,27 +158,32 @@ def test_the_beam_is_the_points_drawn_in_cell_order() -> None:
         assert np.array_equal(in_rows[starts[r]:starts[r + 1]], alone)
 
 
-@pytest.mark.parametrize("spectral", [False, True])
+@pytest.mark.parametrize("divided", [False, True], ids=["absorbing", "dividing"])
+@pytest.mark.parametrize("spectral", [False, True], ids=["rgb", "spectral"])
 def test_batches_traced_in_one_beam_give_the_tables_they_give_alone(
-        spectral: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+        spectral: bool, divided: bool, monkeypatch: pytest.MonkeyPatch) -> None:
     """A realisation's batches are traced together, in beams of up to
     ``goniometer.BEAM`` rays (``microsim.kernel.beam.Runs``), each batch in its own rows
     and with its own random numbers: the table is the one that tracing each batch alone
-    (``BEAM`` = 1) gives, bit for bit in every bin and harmonic. Its energies add the
-    same weights in other blocks, so they agree to rounding (1e-13 of their value).
-    Three incidences of 3000 rays (one beam) on the rough tile of three materials; at 16
-    wavelengths the dielectric refracts with BK7's dispersion, so that paths follow their
-    hero channel, the ray's index in its batch modulo C."""
+    (``BEAM`` = 1) gives, bit for bit in every bin, harmonic and energy. Three
+    incidences of 3000 rays on a rough tile of three materials: Lambertian, a conductor
+    and a third that absorbs only (a rougher conductor: one beam), or that divides a
+    path's weight (``FacetMaterials.divides_weight``: a dielectric that transmits 1 − F,
+    or at 16 wavelengths one that refracts with BK7's dispersion, so that paths follow
+    their hero channel), whose batches are then traced each in its own beam."""
     from microsim.measurement import goniometer
 
     tile = random_tile(32, 0.5, seed=2)
     tile.material = np.arange(len(tile.faces), dtype=np.int64) % 3
     tile.parts = ("a", "b", "c")
+    third = ({"kind": "dielectric", "data": "BK7", "refract": True} if spectral else
+             {"kind": "dielectric", "eta": 1.5}) if divided else {
+                 "kind": "conductor", "data": "Cu"} if spectral else {
+                     "kind": "conductor", "eta": [0.27, 0.68, 1.22], "k": [3.6, 2.6, 2.3]}
     materials = {"a": {"kind": "lambertian", "albedo": 0.7 if spectral else [0.9, 0.6, 0.3]},
                  "b": {"kind": "conductor", "data": "Au"} if spectral else {
                      "kind": "conductor", "eta": [0.2, 0.92, 1.1], "k": [3.9, 2.45, 2.14]},
-                 "c": {"kind": "dielectric", "data": "BK7", "refract": True} if spectral
-                 else {"kind": "dielectric", "eta": 1.5}}
+                 "c": third}
     sim = {"theta_i": [0.0, 40.0, 75.0], "phi_i": [0.0], "rays": 3000, "bounces": 8,
            "seed": 5}
     table = {"theta_bins": 6, "phi_bins": 12, "sh_order": 4,
@@ -186,8 +191,8 @@ def test_batches_traced_in_one_beam_give_the_tables_they_give_alone(
     beams, made = [], []
     beams_of = goniometer._beams
 
-    def counted(batches):  # noqa: ANN001, ANN202 (the batches and beams of ``_beams``)
-        for beam in beams_of(batches):
+    def counted(batches, limit):  # noqa: ANN001, ANN202 (as ``_beams``)
+        for beam in beams_of(batches, limit):
             beams.append(len(beam))
             yield beam
 
@@ -196,20 +201,17 @@ def test_batches_traced_in_one_beam_give_the_tables_they_give_alone(
         monkeypatch.setattr(goniometer, "BEAM", beam)
         part = measure_directions(tile, *sections(materials, sim, table), threads=2)
         made.append(assemble_table([part], *sections(materials, sim, table)))
-    assert beams == [3, 1, 1, 1]
+    assert beams == [1] * 6 if divided else [3, 1, 1, 1]
     together, alone = made
     for c in together.components:
         assert np.array_equal(together[c].values, alone[c].values)
         assert np.array_equal(together[c].errors, alone[c].errors, equal_nan=True)
         assert np.array_equal(together[c].sh, alone[c].sh)
         assert np.array_equal(together[c].sh_err, alone[c].sh_err, equal_nan=True)
-    for a, b in zip(together.meta.directions, alone.meta.directions, strict=True):
-        assert a.fates == b.fates
-        for name in ("lost", "transmitted", "absorbed"):
-            np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-13,
-                                       atol=1e-300)
+    assert together.meta.directions == alone.meta.directions
     record = together.meta.directions[2]
-    assert min(record.absorbed) > 0.01 and min(record.transmitted) > 0.01
+    assert min(record.absorbed) > 0.01
+    assert (min(record.transmitted) > 0.01) == divided
 
 
 @pytest.mark.parametrize("with_tangents", [False, True])

@@ -19,6 +19,7 @@ from microsim.kernel.shading import curved_table
 from microsim.kernel.tabulated import TabulatedMaterial
 from microsim.materials import Material, code_of
 from microsim.materials.base import (
+    DISPERSION_NONE,
     KIND_COLUMNS,
     P_ABSORPTION,
     P_DISPERSIVE,
@@ -58,6 +59,12 @@ class FacetMaterials:
         The loaded table of each part whose material samples one (by material id).
     inputs : list of TableInput
         Provenance of those tables.
+    divides_weight : bool
+        Whether some part's event sends part of a path's weight elsewhere than into its
+        absorption or its end: transmits it (a dielectric that does not refract) or ends
+        it (a dispersive part, for every channel but the hero). Only then do the energy
+        blocks of a run depend on which rays share them (``slots.add_energy``), so only
+        then is each batch traced in a beam of its own (``goniometer._beams``).
     kind : (p,) int
         Kernel code per part (``microsim.materials.code_of``).
     params : (p, PARAMS, C) float
@@ -101,6 +108,8 @@ class FacetMaterials:
                                  f"({', '.join(table.table.channels.names)}) are not the "
                                  f"run's ({', '.join(channels.names)})")
         self.channels = channels
+        self.divides_weight = any(s.transmits or s.dispersion(channels) != DISPERSION_NONE
+                                  for s in specs)
         self.kind = np.array([code_of(s) for s in specs], np.int64)
         self.params = np.zeros((len(specs), PARAMS, channels.count))
         for m, spec in enumerate(specs):

@@ -254,20 +254,22 @@ def end(slots_f: np.ndarray, slots_i: np.ndarray, i: int, fate: int, out_f: np.n
 def add_energy(first: int, k: int, slots_f: np.ndarray, slots_i: np.ndarray,
                out: np.ndarray) -> None:
     """Add the weight the paths of slots 0 … k − 1 (the rays at places ``first`` … of the
-    beam, all ended) absorbed and transmitted to the sums of their block of the beam and
-    their run, ray by ray in beam order (``ENERGY_BLOCK``; ``out`` (blocks, runs, 2, C):
-    absorbed, transmitted). A path starts with weight 1 per
-    channel and keeps what it has at its end (escaped or lost), so what it absorbed is
+    beam, all ended) transmitted, and that ended at a dispersive event, to the sums of
+    their block of the beam and their run, ray by ray in beam order (``ENERGY_BLOCK``;
+    ``out`` (blocks, runs, 2, C): transmitted and ended, transmitted). A path starts with
+    weight 1 per channel and keeps what it has at its end (escaped or lost), so what it
+    absorbed is
     1 − its weight − what it transmitted − what ended at a dispersive event: the sum of
     its events' losses w (1 − F − T) and its media's w (1 − e^(−σℓ)) in exact arithmetic,
-    without adding them event by event."""
+    without adding them event by event; 1 − its weight is summed from its outcome
+    (``tally.summarise``), the rest here. Where no part transmits or disperses, these
+    sums are zero whatever rays share a block (``FacetMaterials.divides_weight``)."""
     channels = out.shape[3]
     for j in range(k):
         b, run = (first + j) // ENERGY_BLOCK, slots_i[j, I_RUN]
         for c in range(channels):
             sent = slots_f[j, S_W + 2 * channels + c]
-            out[b, run, 0, c] += (1.0 - slots_f[j, S_W + c] - sent
-                                  - slots_f[j, S_W + channels + c])
+            out[b, run, 0, c] += sent + slots_f[j, S_W + channels + c]
             out[b, run, 1, c] += sent
 
 

@@ -70,9 +70,11 @@ def summarise(out_f: np.ndarray, out_i: np.ndarray, energy: np.ndarray,
         The run's outcomes (``transport``); rewritten for the rays that did not escape.
     energy : (3, C) float
         Running summed weight per channel lost (paths ended by the simulation),
-        transmitted and absorbed; this adds the weight of the paths that ended lost, and
-        of those out through the bottom after a refraction (the weight an event
-        transmitted or absorbed is in the blocks' sums of ``slots.add_energy``).
+        transmitted and absorbed; this adds the weight of the paths that ended lost, of
+        those out through the bottom after a refraction, and 1 − the final weight of
+        every path to the absorbed (less what its events transmitted and what ended at a
+        dispersive event, the blocks' sums of ``slots.add_energy``, it is what the path
+        absorbed).
     counts : (len(FATES),) int
         Running paths per fate.
     """
@@ -80,6 +82,8 @@ def summarise(out_f: np.ndarray, out_i: np.ndarray, energy: np.ndarray,
     for r in range(len(out_i)):
         fate = out_i[r, O_FATE]
         counts[fate] += 1
+        for c in range(channels):
+            energy[2, c] += 1.0 - out_f[r, O_W + c]
         if fate == ESCAPED:
             continue
         for c in range(3):

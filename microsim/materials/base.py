@@ -198,6 +198,12 @@ class Material:
         default."""
         return False
 
+    @property
+    def transmits(self) -> bool:
+        """Whether its event sends part of a path's weight out as transmitted
+        (``TRANSMITTING``); False by default."""
+        return False
+
     def dispersion(self, channels: Channels) -> int:
         """Whether and where the event's direction depends on the channel (η varies with
         the wavelength): ``DISPERSION_NONE`` (by default), ``DISPERSION_ALWAYS`` or

@@ -165,6 +165,11 @@ class Dielectric(Material):
         """A refracting part's faces enclose its medium."""
         return self.refract
 
+    @property
+    def transmits(self) -> bool:
+        """A part that does not refract transmits 1 − F (``TRANSMITTING``)."""
+        return not self.refract
+
     def dispersion(self, channels: Channels) -> int:
         """A refracting part: coated (its reflectance's interference makes the choice
         between reflection and refraction the hero's at every event), or with η varying

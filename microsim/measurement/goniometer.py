@@ -269,13 +269,13 @@ def _batches(work: Mapping[Direction, int], runs: dict[RunKey, Run], new_run: Ca
             yield _Batch(run, number, count, travel, phi_ref, stream, report, realisation)
 
 
-def _beams(batches: Iterable[_Batch]) -> Iterator[list[_Batch]]:
-    """Consecutive batches (of one realisation's tile) in beams of at most ``BEAM`` rays
-    (a batch is never split)."""
+def _beams(batches: Iterable[_Batch], limit: int) -> Iterator[list[_Batch]]:
+    """Consecutive batches (of one realisation's tile) in beams of at most ``limit`` rays
+    (a batch is never split; 0: each batch alone)."""
     beam: list[_Batch] = []
     rays = 0
     for batch in batches:
-        if beam and rays + batch.rays > BEAM:
+        if beam and rays + batch.rays > limit:
             yield beam
             beam, rays = [], 0
         beam.append(batch)
@@ -298,7 +298,7 @@ def _pipeline(beams: Iterator[list[_Batch]], bounces: int, bins: HemisphereBins
     even where one realisation's batches end and the next one's begin. What comes out
     is what tracing and tallying the batches one after the other gives, bit for bit.
     """
-    pending: deque[tuple[_Batch, Future[Tally], bool]] = deque()
+    pending: deque[tuple[_Batch, Future[Tally], bool]] = deque()  # its beam's last?
 
     def queue_next() -> None:
         for beam in itertools.islice(beams, 1):
@@ -315,16 +315,15 @@ def _pipeline(beams: Iterator[list[_Batch]], bounces: int, bins: HemisphereBins
                 pending.append((batch, paths.then(
                     lambda traced, sums=sums, phi_ref=phi_ref: sums.tally(traced, bins,
                                                                           phi_ref), r),
-                    r == 0))
+                    r == len(beam) - 1))
 
     for _ in range(DEPTH):
         queue_next()
     while pending:
-        batch, tally, first = pending.popleft()
-        done = tally.result()
-        if first:
+        batch, tally, last = pending.popleft()
+        yield batch, tally.result()
+        if last:  # once its batches are added (a realisation then lets go of its scene)
             queue_next()
-        yield batch, done
 
 
 @dataclass
@@ -609,7 +608,9 @@ def trace_realisations(parts: Iterable[Part], materials: Mapping[str, Material],
             del tile
             if not items:
                 finish(part.realisation, state)
-            yield from _beams(items)
+            # a run's energy sums are the same in any beam only where no part divides the
+            # weight (``FacetMaterials.divides_weight``): elsewhere each batch alone
+            yield from _beams(items, 0 if facets.divides_weight else BEAM)
 
     def finish(r: int, state: list) -> None:
         del left[r]

@@ -133,8 +133,8 @@ def _summarise(out: Outcomes, run: int, mapper: Callable[..., list[Any]] | None)
     """The paths of run ``run`` of traced outcomes, summarised in blocks (``in_blocks``:
     the same sums whatever ``mapper`` runs them); their directions, weights and orders
     are views of the run's rows of the outcomes, which ``summarise`` zeroes for the rays
-    that did not escape. What the run's paths absorbed and transmitted is the sum of its
-    blocks' sums (``slots.add_energy``)."""
+    that did not escape. What its events transmitted, and what ended at a dispersive
+    event, are the sums of its blocks' (``slots.add_energy``)."""
     first, last = int(out.starts[run]), int(out.starts[run + 1])
     floats, ints = out.floats[first:last], out.ints[first:last]
     channels = floats.shape[1] - O_W
@@ -145,7 +145,7 @@ def _summarise(out: Outcomes, run: int, mapper: Callable[..., list[Any]] | None)
         return energy, counts
 
     energy, counts = in_blocks(block, last - first, mapper)
-    absorbed, sent = out.energy[:, run].sum(axis=0)
+    diverted, sent = out.energy[:, run].sum(axis=0)
     return Paths(floats[:, S_DX:S_DZ + 1], floats[:, O_W:], ints[:, O_ORDER],
-                 energy[0], energy[1] + sent, energy[2] + absorbed,
+                 energy[0], energy[1] + sent, energy[2] - diverted,
                  dict(zip(FATES, map(int, counts), strict=True)))
