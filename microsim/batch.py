@@ -37,6 +37,7 @@ from microsim.files import atomic_path, remove_stale_temporaries, replaceable
 from microsim.measurement.goniometer import Measurement, measure_directions
 from microsim.measurement.scene import PeriodicScene
 from microsim.measurement.simulation import Tiles, assemble_table, measure_ensemble
+from microsim.pages import keep_pages
 from microsim.settings import Recipe
 from microsim.surfaces import Surface, build_tile
 from microsim.surfaces.realisations import realisation as realisation_of
@@ -115,6 +116,7 @@ def run_job(recipe: Recipe, thetas: tuple[int, ...], threads: int = 1,
         Wall-clock time of the job on the worker, building the tiles included.
     """
     start = time.perf_counter()
+    keep_pages()  # as ``measure_ensemble`` does (``microsim.pages``)
     sim = recipe.simulation
     if realisation is None:
         measured = measure_ensemble(Tiles(recipe.surface), recipe.material, sim,

@@ -40,6 +40,7 @@ from microsim.measurement.goniometer import (
     trace_realisations,
 )
 from microsim.measurement.scene import PeriodicScene
+from microsim.pages import keep_pages
 from microsim.settings import Recipe, Simulation, TableSettings
 from microsim.surfaces import Surface, build_tile
 from microsim.surfaces.facts import SurfaceFacts
@@ -121,6 +122,7 @@ def measure_ensemble(tiles: Callable[[int], Tile], materials: Mapping[str, Mater
         The folded (or kept) realisations of every direction, and the directions' stop
         reasons when ``simulation.target_error`` is set.
     """
+    keep_pages()  # each page of the run's peak touched once (``microsim.pages``)
     chosen = list(range(len(simulation.theta_i)) if thetas is None else thetas)
     k0, n0 = simulation.realisations_or_one, simulation.rays_per_realisation
     ensemble = k0 > 1
