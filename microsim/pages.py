@@ -11,8 +11,8 @@ returned to the system in between is such a first touch again. ``keep_pages`` as
 for base pages and glibc's allocator to keep what the process frees (``mallopt``: blocks
 up to ``MMAP_LIMIT`` from its heaps, which it returns to the system only beyond
 ``TRIM_LIMIT`` free at their top), so a run touches each page of its peak once: a
-32-wavelength table's system time 10–11 → 5 s, its wall time 17–18 → 14.5 s
-(docs/performance.md, "Spectral tables against RGB").
+32-wavelength table's system time 9.3–9.7 → 1.7–2.0 s, its own wall time 14.8–15.3 →
+9.7–10.3 s (docs/performance.md, "Spectral tables against RGB").
 
 The price is that a process's resident memory stays near its peak after a run, which a
 command, whose process ends with it, does not notice. Elsewhere (musl, macOS, Windows)
