@@ -96,6 +96,14 @@ def test_tables_do_not_depend_on_threads_or_chunks(spectral: bool) -> None:
             part = measure_directions(tile, *sections(materials, sim, table), scene=scene)
         made.append(assemble_table([part], *sections(materials, sim, table)))
     one, two = made
+    assert_identical_tables(one, two)
+    record = one.meta.directions[1]
+    assert min(record.absorbed) > 0.01 and min(record.transmitted) > 0.01
+
+
+def assert_identical_tables(one, two) -> None:  # noqa: ANN001 (two BRDFTable)
+    """Every component's values, errors, harmonics and their errors, and every
+    direction's record (its energies and fates among them), the same bit for bit."""
     for c in one.components:
         assert np.array_equal(one[c].values, two[c].values)
         assert np.array_equal(one[c].errors, two[c].errors, equal_nan=True)
@@ -103,8 +111,6 @@ def test_tables_do_not_depend_on_threads_or_chunks(spectral: bool) -> None:
         assert np.array_equal(one[c].sh_err, two[c].sh_err, equal_nan=True)
     assert np.array_equal(one.lost_energy, two.lost_energy)
     assert one.meta.directions == two.meta.directions
-    record = one.meta.directions[1]
-    assert min(record.absorbed) > 0.01 and min(record.transmitted) > 0.01
 
 
 def test_kinds_the_transport_reflects_inline_are_perfect_mirrors() -> None:
@@ -203,12 +209,7 @@ def test_batches_traced_in_one_beam_give_the_tables_they_give_alone(
         made.append(assemble_table([part], *sections(materials, sim, table)))
     assert beams == [1] * 6 if divided else [3, 1, 1, 1]
     together, alone = made
-    for c in together.components:
-        assert np.array_equal(together[c].values, alone[c].values)
-        assert np.array_equal(together[c].errors, alone[c].errors, equal_nan=True)
-        assert np.array_equal(together[c].sh, alone[c].sh)
-        assert np.array_equal(together[c].sh_err, alone[c].sh_err, equal_nan=True)
-    assert together.meta.directions == alone.meta.directions
+    assert_identical_tables(together, alone)
     record = together.meta.directions[2]
     assert min(record.absorbed) > 0.01
     assert (min(record.transmitted) > 0.01) == divided
