@@ -207,7 +207,7 @@ def test_batches_traced_in_one_beam_give_the_tables_they_give_alone(
         monkeypatch.setattr(goniometer, "BEAM", beam)
         part = measure_directions(tile, *sections(materials, sim, table), threads=2)
         made.append(assemble_table([part], *sections(materials, sim, table)))
-    assert beams == [1] * 6 if divided else [3, 1, 1, 1]
+    assert beams == ([1] * 6 if divided else [3, 1, 1, 1])
     together, alone = made
     assert_identical_tables(together, alone)
     record = together.meta.directions[2]
