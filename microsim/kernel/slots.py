@@ -4,10 +4,10 @@ the slots that hold every live path, and the outcomes that record how each path 
 A chunk's paths live in slots (``S_*`` float and ``I_*`` integer columns) that
 ``microsim.kernel.transport`` moves on after every Embree query; a path keeps its slot,
 and ``queue`` lists the slots still alive for the next query. Every ended path writes its
-outcome (``O_*`` columns) at its ray's row, and the weight it lost to absorption and
-transmission is added to its block's sums in ray order once the chunk's paths have ended
-(``add_energy``), so the results depend on neither the chunking nor the thread that
-traced it.
+outcome (``O_*`` columns) at its ray's row, and the weight it transmitted, and that ended
+at a dispersive event, is added to its run's sums of its block of the beam in beam order
+once the chunk's paths have ended (``add_energy``), so the results depend on neither the
+chunking nor the thread that traced it.
 """
 
 from __future__ import annotations
@@ -278,12 +278,12 @@ O_W = S_DZ + 1
 """Float columns of an outcome: the slot's position and direction (``S_PX`` … ``S_DZ``)
 when the path ended, then from ``O_W`` on its weight per channel (O_W + c)."""
 ENERGY_BLOCK = 64
-"""Rays per block of a run's absorbed and transmitted sums (``add_energy``), which are kept
-per block, not per ray: two fewer floats of outcome per ray and channel to write and read
-back (two thirds of the outcomes' memory traffic at 32 channels). A block's sums add its
-rays in ray order, so they depend on neither the thread nor the chunking, as long as every
-chunk holds whole blocks (``PeriodicScene`` asks for a chunk that is a multiple of
-this)."""
+"""Rays per block of the beam of a run's sums of transmitted and ended weight
+(``add_energy``), which are kept per block, not per ray: two fewer floats of outcome per
+ray and channel to write and read back (two thirds of the outcomes' memory traffic at 32
+channels). A block's sums add its rays in beam order, so they depend on neither the thread
+nor the chunking, as long as every chunk holds whole blocks (``PeriodicScene`` asks for a
+chunk that is a multiple of this)."""
 
 
 def out_floats(channels: int) -> int:
@@ -292,7 +292,7 @@ def out_floats(channels: int) -> int:
 
 
 def energy_blocks(rays: int) -> int:
-    """Blocks of the absorbed and transmitted sums of a run of ``rays`` rays."""
+    """Blocks of the energy sums of a beam of ``rays`` rays (``ENERGY_BLOCK``)."""
     return -(-rays // ENERGY_BLOCK)
 
 

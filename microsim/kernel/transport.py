@@ -39,11 +39,11 @@ queries), then one step per path:
    a path's state stays in its slot.
 
 Every ended path writes its outcome at its ray's row (``O_*`` columns), and once every
-path of the chunk has ended, the weight each transmitted and absorbed (what it started
-with, 1, less its weight at the end, what it transmitted and what ended at a dispersive
-event) is added to its run's sums of its block in beam order (``slots.add_energy``,
-blocks of ``ENERGY_BLOCK`` rays, never split between chunks), so the results depend on
-neither the chunking nor the thread that traced it. A ray's random numbers are keyed by
+path of the chunk has ended, the weight each transmitted and that ended at a dispersive
+event is added to its run's sums of its block in beam order (``slots.add_energy``, blocks
+of ``ENERGY_BLOCK`` rays, never split between chunks; what it absorbed is what it started
+with, 1, less its weight at the end and those), so the results depend on neither the
+chunking nor the thread that traced it. A ray's random numbers are keyed by
 its run and counted by its index in the run, so a run's paths are the same whether it is
 traced alone or in a beam with others.
 """
@@ -358,7 +358,8 @@ def trace_chunk(first: int, origins: np.ndarray, dirs: np.ndarray, media: np.nda
     out_i : (n, OUT_INTS) int
         Outcomes per ray of the beam, by row.
     energy : (energy_blocks(n), b, 2, C) float
-        Each run's absorbed and transmitted weight per block of ``ENERGY_BLOCK`` places
+        Each run's transmitted and ended weight, and its transmitted weight
+        (``slots.add_energy``), per block of ``ENERGY_BLOCK`` places
         of the beam, added to once every path has ended.
     vertices : (n, v, 3) float
         Unwrapped hit points per ray and bounce (v = 0: not recorded).

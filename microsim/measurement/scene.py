@@ -88,8 +88,10 @@ class Outcomes:
         Its fate (``FATES``), bounces, and the last face it hit (-1: none).
     energy : (energy_blocks(n), b, 2, C) float
         Per block of ``ENERGY_BLOCK`` rays of the beam (``microsim.kernel.slots``) and per
-        run (``Runs``; one without), per channel, the weight its paths lost to absorption
-        and to transmission (1 − F at non-refracting dielectrics).
+        run (``Runs``; one without), per channel, the weight its paths transmitted (1 − F
+        at non-refracting dielectrics) and that ended at a dispersive event (row 0), and
+        the transmitted alone (row 1); what they absorbed is 1 less their final weights
+        and row 0 (``slots.add_energy``).
     vertices : (n, v, 3) float
         Its first v hit points, unwrapped (NaN where it had fewer).
     starts : (b + 1,) int
