@@ -53,11 +53,13 @@ BEAM = 2 * BATCH
 that a realisation's few rays per direction on a large tile share the BVH's nodes and
 the face table's rows in the kernel's chunks as a full batch's do (docs/performance.md,
 "Rays per batch and the kernel")."""
-DEPTH = 3
+DEPTH = 2
 """Beams under way on the worker threads (traced, or their batches summarised, binned and
-projected on the harmonics there) ahead of the one whose sums are being added: the
-workers always have the next beam's chunks to trace while they tally a beam's
-batches."""
+projected on the harmonics there), the one whose sums are being added among them: the
+workers always have the next beam's chunks to trace while they tally a beam's batches.
+A third beam was no faster (the demo, a 32-wavelength table and the 1% run the same
+within their noise, the tile-heavy ensemble 2–4% slower) and, where a beam is a whole
+realisation, kept a fourth scene to build and hold."""
 _ROWS = threading.local()
 """Each tallying thread's arrays of a batch's rays grouped by order row (``Sums.
 _harmonics``), kept from batch to batch: a spectral batch's are 16 MB, whose pages the
