@@ -50,7 +50,7 @@ def keep_pages() -> None:
         _set_madvise_hugepage(False)
     try:
         mallopt = ctypes.CDLL(None).mallopt
-    except (AttributeError, OSError):  # not glibc
+    except (AttributeError, OSError, TypeError):  # not glibc (no mallopt, no C library)
         mallopt = None
     if mallopt is not None:
         mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
