@@ -234,7 +234,7 @@ def beam_section() -> str:
                 calls = [(beam_origins(u[a:a + rays], starts[:2], scene.period,
                                        scene.z_top, CELLS)[0],
                           np.broadcast_to(d, (rays, 3)), Runs.one(rays, key))
-                         for a, d, key in zip(starts, travel, keys, strict=False)]
+                         for a, d, key in zip(starts[:-1], travel, keys, strict=True)]
             before, cpu = scene.segments, time.process_time()
             for origins, dirs, runs in calls:
                 scene.run(origins, dirs, facets, 16, runs)
